@@ -1,0 +1,1 @@
+"""`wbpower diagnose` (see shared/spec/cli.md)."""

@@ -1,0 +1,1 @@
+"""`wbpower energy` (see shared/spec/cli.md)."""

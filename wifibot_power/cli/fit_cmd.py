@@ -1,0 +1,1 @@
+"""`wbpower fit` (see shared/spec/cli.md)."""

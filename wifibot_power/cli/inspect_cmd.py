@@ -1,0 +1,59 @@
+"""`wbpower inspect FILE...` (see shared/spec/cli.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from wifibot_power.cli.app import app
+from wifibot_power.cli.common import (
+    CurrentColumn,
+    JsonFlag,
+    SamplePeriod,
+    SupplyVoltage,
+    VoltageColumn,
+    handles_errors,
+    print_json,
+    progress,
+    read_options,
+    report_skipped,
+    stdout,
+)
+from wifibot_power.inspect import inspect_logs
+
+
+@app.command("inspect")
+@handles_errors
+def inspect_command(
+    paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
+    supply_voltage: SupplyVoltage = None,
+    current_column: CurrentColumn = None,
+    voltage_column: VoltageColumn = None,
+    sample_period: SamplePeriod = None,
+    json_out: JsonFlag = False,
+) -> None:
+    """What is in each log: format, samples, period, duration, mean power, energy, metadata."""
+    options = read_options(supply_voltage, current_column, voltage_column, sample_period)
+    rows, skipped = inspect_logs(paths, options, wrap=lambda s: progress(s, "reading"))
+    if json_out:
+        print_json(rows)
+    else:
+        table = Table(title=f"{len(rows)} log(s)", title_justify="left")
+        for name, justify in [("file", "left"), ("format", "left"), ("run_id", "left"),
+                              ("mode", "left"), ("samples", "right"), ("period ms", "right"),
+                              ("duration s", "right"), ("mean W", "right"), ("energy J", "right"),
+                              ("problems", "left")]:
+            table.add_column(name, justify=justify)
+        for row in rows:
+            meta = row["meta"]
+            table.add_row(
+                Path(str(row["file"])).name, str(row["format"]), str(row["run_id"]),
+                str(meta["mode"]), f"{row['samples']:,}", f"{row['sample_period_s'] * 1e3:.5g}",
+                f"{row['duration_s']:.3f}", f"{row['mean_power_W']:.3f}", f"{row['energy_J']:.1f}",
+                "; ".join(row["problems"]) or "-",
+            )
+        stdout.print(table)
+    raise typer.Exit(report_skipped(skipped))

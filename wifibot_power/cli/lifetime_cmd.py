@@ -1,0 +1,1 @@
+"""`wbpower lifetime` (see shared/spec/cli.md)."""

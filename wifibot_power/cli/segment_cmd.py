@@ -1,0 +1,1 @@
+"""`wbpower segment` (see shared/spec/cli.md)."""

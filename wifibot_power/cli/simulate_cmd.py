@@ -1,0 +1,1 @@
+"""`wbpower simulate -o DIR` (see shared/spec/cli.md)."""

@@ -1,0 +1,31 @@
+"""What is in a log: format, samples, period, duration, mean power, energy, metadata, problems."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from wifibot_power.io import ReadOptions, Skipped
+from wifibot_power.io.batch import map_runs
+from wifibot_power.run import Run
+
+
+def summarize(run: Run) -> dict[str, object]:
+    """The `inspect --json` object of one log (cli.md)."""
+    return {
+        "file": run.file,
+        "format": run.format,
+        "run_id": run.meta.run_id,
+        "samples": run.samples,
+        "sample_period_s": run.sample_period_s,
+        "duration_s": run.duration_s,
+        "mean_power_W": run.mean_power_W,
+        "energy_J": run.energy_J,
+        "meta": run.meta.as_dict(),
+        "problems": [p.message for p in run.problems],
+    }
+
+
+def inspect_logs(
+    paths: list[Path], options: ReadOptions | None = None, **kwargs: object
+) -> tuple[list[dict[str, object]], list[Skipped]]:
+    return map_runs(paths, options or ReadOptions(), summarize, **kwargs)

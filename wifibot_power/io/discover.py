@@ -1,0 +1,77 @@
+"""Find the logs under the paths a command is given, with their manifest metadata."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from wifibot_power.errors import LogError
+from wifibot_power.io.manifest import MANIFEST_NAME, is_manifest, read_manifest
+from wifibot_power.io.reader import is_log_name
+
+
+@dataclass(frozen=True)
+class LogSource:
+    """A log to read: its path and the manifest values that override its own metadata."""
+
+    path: Path
+    overrides: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Skipped:
+    """An input left out of a batch, and why (cli.md: `skipped`)."""
+
+    file: str
+    reason: str
+
+    def as_dict(self) -> dict[str, str]:
+        return {"file": self.file, "reason": self.reason}
+
+
+def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
+    """Every log under `paths` (folders recursively), in a stable order, with manifest overrides.
+
+    A manifest applies to the files it names; files it does not name are still read with
+    their own metadata; a row naming a missing file becomes a `Skipped` entry.
+    """
+    files: list[Path] = []
+    manifests: list[Path] = []
+    skipped: list[Skipped] = []
+    for path in paths:
+        if path.is_dir():
+            for found in sorted(path.rglob("*")):
+                if found.is_file():
+                    (manifests if is_manifest(found) else files).append(found)
+        elif path.is_file() or not path.exists():
+            if is_manifest(path):
+                manifests.append(path)
+                continue
+            files.append(path)
+            beside = path.parent / MANIFEST_NAME
+            if beside.is_file():
+                manifests.append(beside)
+    overrides: dict[Path, dict[str, str]] = {}
+    wanted = {f.resolve() for f in files}
+    only_files = all(not p.is_dir() for p in paths)
+    for manifest in dict.fromkeys(manifests):
+        try:
+            rows = read_manifest(manifest)
+        except LogError as exc:
+            skipped.append(Skipped(str(manifest), exc.one_line()))
+            continue
+        for row in rows:
+            if row.file.is_file():
+                overrides[row.file] = row.values
+            elif not only_files or row.file in wanted:
+                # a manifest found beside a single file only matters for that file
+                skipped.append(Skipped(
+                    str(manifest),
+                    f"{manifest}: line {row.line}: names '{row.file.name}', which does not "
+                    "exist (fix the row or restore the file)",
+                ))
+    sources = []
+    for file in dict.fromkeys(files):
+        if not file.exists() or is_log_name(file) or file.resolve() in overrides:
+            sources.append(LogSource(file, overrides.get(file.resolve(), {})))
+    return sources, skipped

@@ -1,0 +1,57 @@
+"""The run manifest (`runs.csv` in a logs folder): metadata attached to files by name."""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+from wifibot_power.errors import LogError
+
+MANIFEST_NAME = "runs.csv"
+MANIFEST_KEYS = ("run_id", "mode", "speed_mps", "distance_m", "steps", "payload_kg", "started_at")
+
+
+@dataclass(frozen=True)
+class ManifestRow:
+    """One manifest row: the file it names (absolute) and the metadata it sets."""
+
+    manifest: Path
+    line: int
+    file: Path
+    values: dict[str, str]
+
+
+def is_manifest(path: Path) -> bool:
+    return path.name.lower() == MANIFEST_NAME
+
+
+def read_manifest(path: Path) -> list[ManifestRow]:
+    """Rows of a manifest; empty cells set nothing. A row naming a missing file is kept:
+    the caller reports it (log-format.md: "a manifest row whose file does not exist")."""
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise LogError(
+            f"cannot read the manifest ({exc.__class__.__name__})",
+            file=path,
+            fix="check the file is a UTF-8 CSV with a 'file' column",
+        ) from None
+    reader = csv.DictReader(text.splitlines())
+    fields = [f.strip().lower() for f in (reader.fieldnames or [])]
+    if "file" not in fields:
+        raise LogError(
+            "manifest has no 'file' column",
+            file=path,
+            where="line 1",
+            fix="the header must start with: file,run_id,mode,speed_mps,...",
+        )
+    rows: list[ManifestRow] = []
+    for line_no, raw in enumerate(reader, start=2):
+        row = {(k or "").strip().lower(): (v or "").strip() for k, v in raw.items()}
+        name = row.pop("file", "")
+        if not name:
+            continue
+        values = {k: v for k, v in row.items() if v != "" and k}
+        rows.append(ManifestRow(path, line_no, (path.parent / name).resolve(), values))
+    return rows

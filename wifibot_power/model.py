@@ -1,0 +1,138 @@
+"""The fitted power model of a robot: what `fit` writes and `energy`, `lifetime`, `diagnose` read.
+
+`PowerModel` holds the paper's linear models (Eq. 1-4 of [1]) and, once `diagnose` has
+extended it, the extra terms of the named causes (shared/spec/causes.md), keyed by cause.
+`model.json` carries a format version and loads back to an equal object.
+
+References
+----------
+[1] D. Zorbas, T. Razafindralambo, "Modeling the power consumption of a Wifibot and
+    studying the role of communication cost in operation time", arXiv:1512.04380.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+from wifibot_power.errors import UsageError
+
+MODEL_FORMAT = "wbpower-model"
+MODEL_FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class LinearFit:
+    """`y = intercept + slope * speed_mps`, with 95% intervals and R² (NaN where not fitted)."""
+
+    intercept: float
+    slope: float
+    intercept_ci95: tuple[float, float] = (float("nan"), float("nan"))
+    slope_ci95: tuple[float, float] = (float("nan"), float("nan"))
+    r2: float = float("nan")
+    n_runs: int = 0
+
+    def at(self, speed_mps: float) -> float:
+        return self.intercept + self.slope * speed_mps
+
+
+@dataclass(frozen=True)
+class PowerModel:
+    """Power of the robot by phase, as functions of speed (units in every name).
+
+    - acceleration power `P_acc(v) = accel.intercept [W] + accel.slope [W/(m/s)] * v` (paper Eq. 1-2)
+    - cruise power `P_v(v) = cruise.intercept [W] + cruise.slope [W/(m/s)] * v` (paper Eq. 3-4)
+    - acceleration time `t_acc(v) = t_acc.intercept [s] + t_acc.slope [s/(m/s)] * v`
+    - idle power `idle_W` and component powers net of idle (paper Table 1)
+    - `extensions`: cause name -> its parameters (causes.md), added by `diagnose`
+    """
+
+    accel: LinearFit
+    cruise: LinearFit
+    idle_W: float
+    t_acc: LinearFit
+    components_W: dict[str, float | None] = field(default_factory=dict)
+    extensions: dict[str, dict[str, float]] = field(default_factory=dict)
+    source: str = "fit"
+
+    def accel_power_W(self, speed_mps: float) -> float:
+        """Mean power over the acceleration phase [W] (paper: 23.9 + 14.8 v)."""
+        return self.accel.at(speed_mps)
+
+    def cruise_power_W(self, speed_mps: float) -> float:
+        """Mean power at constant speed [W] (paper: 23.9 + 11.2 v)."""
+        return self.cruise.at(speed_mps)
+
+    def t_acc_s(self, speed_mps: float) -> float:
+        """Acceleration time to reach `speed_mps` [s]."""
+        return max(self.t_acc.at(speed_mps), 0.0)
+
+    def with_extensions(self, extensions: dict[str, dict[str, float]], source: str) -> PowerModel:
+        return replace(self, extensions=dict(extensions), source=source)
+
+    def to_json(self) -> dict[str, object]:
+        out = asdict(self)
+        return {"format": MODEL_FORMAT, "format_version": MODEL_FORMAT_VERSION, **out}
+
+    @classmethod
+    def from_json(cls, data: dict[str, object], *, file: str = "model.json") -> PowerModel:
+        if data.get("format") != MODEL_FORMAT:
+            raise UsageError("not a wbpower model file", file=file,
+                             fix="give a model.json written by 'wbpower fit -o' or 'diagnose -o'")
+        version = data.get("format_version")
+        if version != MODEL_FORMAT_VERSION:
+            raise UsageError(f"model format version {version}, this wbpower reads {MODEL_FORMAT_VERSION}",
+                             file=file, fix="re-run 'wbpower fit -o' with this version")
+        try:
+            def linear(d: dict) -> LinearFit:
+                return LinearFit(
+                    intercept=float(d["intercept"]), slope=float(d["slope"]),
+                    intercept_ci95=tuple(d.get("intercept_ci95", (float("nan"),) * 2)),
+                    slope_ci95=tuple(d.get("slope_ci95", (float("nan"),) * 2)),
+                    r2=float(d.get("r2", float("nan"))), n_runs=int(d.get("n_runs", 0)),
+                )
+            return cls(
+                accel=linear(data["accel"]), cruise=linear(data["cruise"]),
+                idle_W=float(data["idle_W"]), t_acc=linear(data["t_acc"]),
+                components_W=dict(data.get("components_W") or {}),
+                extensions={k: dict(v) for k, v in (data.get("extensions") or {}).items()},
+                source=str(data.get("source", "fit")),
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise UsageError(f"model file is incomplete ({exc})", file=file,
+                             fix="re-run 'wbpower fit -o'") from None
+
+
+def paper_model() -> PowerModel:
+    """The paper's coefficients [1]: P_acc = 23.9 + 14.8 v, P_v = 23.9 + 11.2 v, idle 23.3 W,
+    Table 1 components (network 4.4 W, video 2.5 W, CPU 2.1 W net of idle).
+
+    The paper gives no t_acc(v) table we could use; wbpower assumes t_acc = 1 s at every
+    speed for `--model paper` (override with `--t-acc`). See docs/paper-reproduction.md.
+    """
+    return PowerModel(
+        accel=LinearFit(23.9, 14.8),
+        cruise=LinearFit(23.9, 11.2),
+        idle_W=23.3,
+        t_acc=LinearFit(1.0, 0.0),
+        components_W={"network": 4.4, "video": 2.5, "cpu": 2.1},
+        source="paper",
+    )
+
+
+def load_model(spec: str | Path) -> PowerModel:
+    """`paper` -> the paper's model; otherwise a model.json path."""
+    if str(spec) == "paper":
+        return paper_model()
+    path = Path(spec)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise UsageError("no such model file", file=path, fix="give 'paper' or a model.json from 'wbpower fit -o'") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise UsageError(f"cannot read the model ({exc.__class__.__name__})", file=path,
+                         fix="give 'paper' or a model.json from 'wbpower fit -o'") from None
+    if not isinstance(data, dict):
+        raise UsageError("not a wbpower model file", file=path, fix="give a model.json from 'wbpower fit -o'")
+    return PowerModel.from_json(data, file=str(path))

@@ -1,0 +1,69 @@
+"""Typed result of segmentation: the phases of one run (shared by segment, fit, diagnose).
+
+Phase names: `idle`, `accel`, `cruise`, `decel` for motion runs (steps numbered from 1;
+an idle phase carries the number of the step it follows, 0 before the first step), and
+`level` for steady segments of a log without motion metadata (step = level index from 1).
+Sample ranges are half-open `[i_start, i_end)`; phases cover every sample exactly once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pandas as pd
+
+PHASE_NAMES = ("idle", "accel", "cruise", "decel", "level")
+
+
+@dataclass(frozen=True)
+class Phase:
+    step: int
+    phase: str
+    i_start: int
+    i_end: int
+    t_start_s: float
+    t_end_s: float
+    mean_power_W: float
+    energy_J: float
+
+    @property
+    def duration_s(self) -> float:
+        return self.t_end_s - self.t_start_s
+
+    def as_dict(self) -> dict[str, object]:
+        """The `segment --json` object of a phase (cli.md)."""
+        return {
+            "step": self.step,
+            "phase": self.phase,
+            "t_start_s": self.t_start_s,
+            "t_end_s": self.t_end_s,
+            "duration_s": self.duration_s,
+            "mean_power_W": self.mean_power_W,
+            "energy_J": self.energy_J,
+        }
+
+
+@dataclass(frozen=True)
+class Spike:
+    """A short start-up spike (inrush, overshoot) kept inside the phase it starts."""
+
+    t_start_s: float
+    duration_s: float
+    peak_W: float
+    energy_above_level_J: float
+
+
+@dataclass(frozen=True)
+class Segmentation:
+    run_id: str
+    phases: tuple[Phase, ...]
+    spikes: tuple[Spike, ...] = ()
+
+    def of(self, name: str) -> list[Phase]:
+        return [p for p in self.phases if p.phase == name]
+
+    def frame(self) -> pd.DataFrame:
+        """A row per phase: the `segment` columns plus `run_id` (phases.parquet)."""
+        rows = [{"run_id": self.run_id, **p.as_dict()} for p in self.phases]
+        return pd.DataFrame(rows, columns=["run_id", "step", "phase", "t_start_s", "t_end_s",
+                                           "duration_s", "mean_power_W", "energy_J"])

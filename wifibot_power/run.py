@@ -1,0 +1,105 @@
+"""The one in-memory form of a run that every stage after reading uses.
+
+A `Run` is the samples of one log (time and power, SI units) plus its metadata.
+Readers in `wifibot_power.io` build it; nothing after them knows file formats.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+
+#: Run modes of log-format.md ("Metadata keys").
+MODES = ("motion", "idle", "network", "video", "cpu", "unknown")
+
+#: The reference analyser's sample period: one value every 0.1024 ms.
+PAPER_SAMPLE_PERIOD_S = 0.1024e-3
+
+
+@dataclass(frozen=True)
+class RunMeta:
+    """Metadata of a run, with units in the names (log-format.md, "Metadata keys")."""
+
+    run_id: str
+    mode: str = "unknown"
+    speed_mps: float | None = None
+    distance_m: float | None = None
+    steps: int = 1
+    payload_kg: float = 0.0
+    started_at: datetime | None = None
+    sample_period_s: float = PAPER_SAMPLE_PERIOD_S
+    extra: dict[str, str] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, object]:
+        """JSON-safe form (for `inspect --json`)."""
+        out: dict[str, object] = {
+            "run_id": self.run_id,
+            "mode": self.mode,
+            "speed_mps": self.speed_mps,
+            "distance_m": self.distance_m,
+            "steps": self.steps,
+            "payload_kg": self.payload_kg,
+            "started_at": self.started_at.isoformat() if self.started_at else None,
+            "sample_period_s": self.sample_period_s,
+        }
+        out.update(self.extra)
+        return out
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Something odd found in a log that did not stop it being read (a short gap, a spike)."""
+
+    kind: str
+    message: str
+    t_start_s: float | None = None
+    duration_s: float | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Run:
+    """Samples of one log: `power_W[i]` is the mean power over sample i, which starts at `time_s[i]`."""
+
+    file: str
+    format: str
+    meta: RunMeta
+    time_s: np.ndarray
+    power_W: np.ndarray
+    problems: tuple[Problem, ...] = ()
+
+    @property
+    def samples(self) -> int:
+        return int(self.power_W.size)
+
+    @property
+    def sample_period_s(self) -> float:
+        return self.meta.sample_period_s
+
+    @property
+    def duration_s(self) -> float:
+        return self.samples * self.sample_period_s
+
+    @property
+    def mean_power_W(self) -> float:
+        return float(self.power_W.mean()) if self.samples else float("nan")
+
+    @property
+    def energy_J(self) -> float:
+        return energy_J(self.power_W, self.sample_period_s)
+
+
+def energy_J(power_W: np.ndarray, sample_period_s: float) -> float:
+    """Energy of evenly spaced samples, each the mean power over its period [J].
+
+    The rectangle rule keeps energy exactly additive over any split into phases,
+    which is what the per-phase tables rely on.
+    """
+    return float(np.sum(power_W, dtype=np.float64) * sample_period_s)
+
+
+def source_name(path: str | Path) -> str:
+    """How a file is named in messages and tables."""
+    return str(path)
