@@ -1,1 +1,152 @@
 """`wbpower energy` (see shared/spec/cli.md)."""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated
+
+import pandas as pd
+import typer
+from rich.table import Table
+
+from wifibot_power.cli.app import app
+from wifibot_power.cli.common import JsonFlag, ModelSpec, OutDir, handles_errors, print_json, stdout
+from wifibot_power.energy import EnergyReport, energy_report, speed_sweep
+from wifibot_power.errors import UsageError
+from wifibot_power.model import load_model
+from wifibot_power.outputs import write_parquet
+
+Speed = Annotated[float | None, typer.Option("--speed", help="Cruise speed [m/s].")]
+Dist = Annotated[float | None, typer.Option("--dist", help="Trip distance [m].")]
+Steps = Annotated[int, typer.Option("--steps", help="Number of equal stop-and-go steps.")]
+TAcc = Annotated[
+    float | None,
+    typer.Option("--t-acc", help="Acceleration time [s], overriding the model's t_acc(v)."),
+]
+Payload = Annotated[
+    float, typer.Option("--payload", help="Payload carried [kg] (used by accel_inertial).")
+]
+Sweep = Annotated[
+    str | None,
+    typer.Option("--sweep", help="'speed': the paper's Figure 5 (2 m and 10 m, 0.1-0.9 m/s)."),
+]
+
+
+def _fmt(value: float, spec: str) -> str:
+    return "-" if value is None or not math.isfinite(value) else format(value, spec)
+
+
+def _report_table(report: EnergyReport) -> Table:
+    trip, one = report.trip, report.one_step
+    title = (
+        f"{trip.distance_m:g} m at {trip.speed_mps:g} m/s in {trip.steps} step(s) of "
+        f"{trip.step.step_m:g} m (t_acc {trip.t_acc_s:g} s, model {report.model_source})"
+    )
+    table = Table(title=title, title_justify="left")
+    for name in ("phase", "time s", "mean W", "energy J", "1-step time s", "1-step energy J"):
+        table.add_column(name, justify="left" if name == "phase" else "right")
+    one_by_phase = {p.phase: p for p in one.phases}
+    for p in trip.phases:
+        q = one_by_phase[p.phase]
+        table.add_row(
+            p.phase,
+            _fmt(p.time_s, ".3f") if p.time_s else "-",
+            _fmt(p.mean_power_W, ".3f"),
+            _fmt(p.energy_J, ".2f"),
+            _fmt(q.time_s, ".3f") if q.time_s else "-",
+            _fmt(q.energy_J, ".2f"),
+        )
+    table.add_row(
+        "total",
+        _fmt(trip.time_s, ".3f"),
+        _fmt(trip.energy_J / trip.time_s, ".3f"),
+        _fmt(trip.energy_J, ".2f"),
+        _fmt(one.time_s, ".3f"),
+        _fmt(one.energy_J, ".2f"),
+        style="bold",
+    )
+    notes = [f"stop-and-go overhead: {report.overhead_pct:.2f} %"]
+    if not trip.step.reaches_speed:
+        notes.append(
+            f"steps too short to reach {trip.speed_mps:g} m/s: triangular profile, "
+            f"peak {trip.step.peak_speed_mps:.3f} m/s, no cruise"
+        )
+    if report.ignored_extensions:
+        notes.append(f"ignored unknown extensions: {', '.join(report.ignored_extensions)}")
+    table.caption = "; ".join(notes)
+    table.caption_justify = "left"
+    return table
+
+
+def _sweep_table(rows: list[EnergyReport]) -> Table:
+    table = Table(title="Figure 5: trip energy against speed", title_justify="left")
+    for name in (
+        "distance m",
+        "speed m/s",
+        "1 step J",
+        "steps",
+        "stop-and-go J",
+        "overhead %",
+        "1 step J/m",
+        "note",
+    ):
+        table.add_column(name, justify="left" if name == "note" else "right")
+    for row in rows:
+        trip = row.trip
+        table.add_row(
+            f"{trip.distance_m:g}",
+            f"{trip.speed_mps:g}",
+            f"{row.one_step.energy_J:.1f}",
+            str(trip.steps),
+            f"{trip.energy_J:.1f}",
+            f"{row.overhead_pct:.1f}",
+            f"{row.one_step.energy_J / trip.distance_m:.2f}",
+            "" if trip.step.reaches_speed else f"triangular (peak {trip.step.peak_speed_mps:.2f})",
+        )
+    return table
+
+
+def _flat(summary: dict[str, object]) -> dict[str, object]:
+    return {k: v for k, v in summary.items() if not isinstance(v, list | dict)}
+
+
+@app.command("energy")
+@handles_errors
+def energy_command(
+    speed: Speed = None,
+    dist: Dist = None,
+    steps: Steps = 1,
+    model: ModelSpec = "paper",
+    t_acc: TAcc = None,
+    payload: Payload = 0.0,
+    sweep: Sweep = None,
+    json_out: JsonFlag = False,
+    out: OutDir = None,
+) -> None:
+    """Energy of a trip in N stop-and-go steps (paper Eq. 5/6), beside the one-step trip."""
+    power_model = load_model(model)
+    if sweep is not None:
+        if sweep != "speed":
+            raise UsageError(f"unknown sweep '{sweep}'", fix="give --sweep speed")
+        rows = speed_sweep(power_model, t_acc_s=t_acc, payload_kg=payload)
+        summaries = [r.summary() for r in rows]
+        if out is not None:
+            write_parquet(out / "energy_sweep_speed.parquet", pd.DataFrame(map(_flat, summaries)))
+        if json_out:
+            print_json({"sweep": "speed", "rows": summaries})
+        else:
+            stdout.print(_sweep_table(rows))
+        return
+    if speed is None or dist is None:
+        raise UsageError(
+            "--speed and --dist are needed", fix="e.g. --speed 0.8 --dist 10 --steps 10"
+        )
+    report = energy_report(power_model, speed, dist, steps, t_acc_s=t_acc, payload_kg=payload)
+    summary = report.summary()
+    if out is not None:
+        write_parquet(out / "energy_phases.parquet", pd.DataFrame(summary["phases"]))
+        write_parquet(out / "energy.parquet", pd.DataFrame([_flat(summary)]))
+    if json_out:
+        print_json(summary)
+    else:
+        stdout.print(_report_table(report))
