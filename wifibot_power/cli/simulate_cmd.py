@@ -1,1 +1,103 @@
 """`wbpower simulate -o DIR` (see shared/spec/cli.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from wifibot_power.cli.app import app
+from wifibot_power.cli.common import JsonFlag, handles_errors, print_json, stdout
+from wifibot_power.simulate import EFFECTS, SimConfig, WriteOptions, parse_effects, write_simulation
+
+
+def _floats(text: str, option: str) -> tuple[float, ...]:
+    try:
+        return tuple(float(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise typer.BadParameter(f"{option} takes numbers separated by commas") from None
+
+
+def _trips(text: str) -> tuple[tuple[float, int], ...]:
+    trips = []
+    for item in text.split(","):
+        distance, _, steps = item.strip().partition("x")
+        try:
+            trips.append((float(distance), int(steps or 1)))
+        except ValueError:
+            raise typer.BadParameter(
+                "--trips takes DISTANCExSTEPS items, e.g. 2x1,10x1,10x10"
+            ) from None
+    return tuple(trips)
+
+
+@app.command("simulate")
+@handles_errors
+def simulate_command(
+    out: Annotated[Path, typer.Option("-o", "--out", help="Folder to write the logs into.")],
+    effect: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--effect", help=f"NAME[=SIZE], repeatable: {', '.join(EFFECTS)} (causes.md)."
+        ),
+    ] = None,
+    seed: Annotated[int, typer.Option(help="Random seed: same seed, same logs.")] = 0,
+    speeds: Annotated[
+        str, typer.Option(help="Speeds [m/s], comma-separated.")
+    ] = "0.1,0.2,0.3,0.4,0.5,0.6,0.7,0.8,0.9",
+    trips: Annotated[
+        str, typer.Option(help="Trips as DISTANCExSTEPS [m], comma-separated.")
+    ] = "2x1,10x1,10x10",
+    repeats: Annotated[int, typer.Option(min=1, help="Repeats of each motion run.")] = 3,
+    payloads: Annotated[
+        str | None,
+        typer.Option(help="Payloads [kg], comma-separated (default 0; 0,2,4 with accel_inertial)."),
+    ] = None,
+    modes: Annotated[
+        str, typer.Option(help="Non-motion mode logs (idle,network,video,cpu), or ''.")
+    ] = "idle,network,video,cpu",
+    mode_repeats: Annotated[int, typer.Option(min=0, help="Repeats of each mode log.")] = 2,
+    sample_period: Annotated[
+        float, typer.Option("--sample-period", min=1e-6, help="Sample period [s].")
+    ] = 0.1024e-3,
+    noise: Annotated[
+        float, typer.Option("--noise", min=0.0, help="Analyser noise per 0.1024 ms sample [W].")
+    ] = 0.3,
+    columns: Annotated[
+        str, typer.Option(help="'full' (time, voltage, current, power) or 'power'.")
+    ] = "full",
+    compress: Annotated[str, typer.Option(help="'none' or 'gz'.")] = "none",
+    decimals: Annotated[
+        int, typer.Option(min=1, max=9, help="Decimals written for power [W].")
+    ] = 4,
+    json_out: JsonFlag = False,
+) -> None:
+    """Write synthetic logs of a physical Wifibot model, with runs.csv and truth.json."""
+    if columns not in ("full", "power") or compress not in ("none", "gz"):
+        raise typer.BadParameter("--columns is full|power and --compress is none|gz")
+    config = SimConfig(
+        speeds_mps=_floats(speeds, "--speeds"),
+        trips=_trips(trips),
+        repeats=repeats,
+        payloads_kg=_floats(payloads, "--payloads") if payloads else None,
+        modes=tuple(m.strip() for m in modes.split(",") if m.strip()),
+        mode_repeats=mode_repeats,
+        sample_period_s=sample_period,
+        noise_W=noise,
+        effects=parse_effects(effect or []),
+        seed=seed,
+    )
+    summary = write_simulation(
+        config, out, WriteOptions(columns=columns, compress=compress, decimals=decimals)
+    )
+    if json_out:
+        print_json(summary)
+        return
+    table = Table(title="simulated", title_justify="left")
+    table.add_column("what")
+    table.add_column("value")
+    for key, value in summary.items():
+        table.add_row(key, str(value))
+    stdout.print(table)
