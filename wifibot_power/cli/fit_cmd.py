@@ -1,1 +1,99 @@
-"""`wbpower fit` (see shared/spec/cli.md)."""
+"""`wbpower fit PATH...` (see shared/spec/cli.md)."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from wifibot_power.cli.app import app
+from wifibot_power.cli.common import (
+    CurrentColumn,
+    JsonFlag,
+    OutDir,
+    SamplePeriod,
+    SupplyVoltage,
+    VoltageColumn,
+    handles_errors,
+    print_json,
+    progress,
+    read_options,
+    report_skipped,
+    stdout,
+    warn,
+)
+from wifibot_power.fit import FitResult, fit_logs, write_fit
+
+
+def _num(value: object, digits: int = 3) -> str:
+    return "-" if value is None or not math.isfinite(float(value)) else f"{value:.{digits}f}"
+
+
+def render_table(result: FitResult) -> Table:
+    """The paper table: coefficients, 95% intervals, R², the paper's values, n runs."""
+    table = Table(
+        title=f"Power model fitted over {result.n_runs} run(s) (95% CI: OLS t intervals by run)",
+        title_justify="left",
+    )
+    for name, justify in [
+        ("parameter", "left"),
+        ("unit", "left"),
+        ("fitted", "right"),
+        ("95% CI", "center"),
+        ("R²", "right"),
+        ("paper", "right"),
+        ("n runs", "right"),
+    ]:
+        table.add_column(name, justify=justify)
+    for row in result.table_rows():
+        low, high = row["ci95_low"], row["ci95_high"]
+        ci = f"[{_num(low)}, {_num(high)}]" if math.isfinite(low) else "-"
+        table.add_row(
+            str(row["parameter"]),
+            str(row["unit"]),
+            _num(row["value"]),
+            ci,
+            _num(row["r2"], 4),
+            _num(row["paper"], 1),
+            str(row["n_runs"]),
+        )
+    table.caption = f"idle from {result.idle_source}"
+    return table
+
+
+@app.command("fit")
+@handles_errors
+def fit_command(
+    paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
+    supply_voltage: SupplyVoltage = None,
+    current_column: CurrentColumn = None,
+    voltage_column: VoltageColumn = None,
+    sample_period: SamplePeriod = None,
+    json_out: JsonFlag = False,
+    markdown: Annotated[
+        bool, typer.Option("--markdown", help="Print the table as Markdown (for a paper).")
+    ] = False,
+    out: OutDir = None,
+) -> None:
+    """Segment every run and fit the paper's power models by least squares over runs."""
+    options = read_options(supply_voltage, current_column, voltage_column, sample_period)
+    result = fit_logs(paths, options, wrap=lambda s: progress(s, "fitting"))
+    if out is not None:
+        written = write_fit(result, out)
+        if not result.model_complete:
+            warn(f"model.json not written: the model is incomplete ({'; '.join(result.notes)})")
+        for path in written:
+            print(f"wbpower: wrote {path}", file=sys.stderr)
+    if json_out:
+        print_json(result.summary())
+    elif markdown:
+        stdout.print(result.to_markdown(), markup=False, highlight=False, end="")
+    else:
+        stdout.print(render_table(result))
+    for note in result.notes:
+        warn(note)
+    raise typer.Exit(report_skipped(list(result.skipped)))

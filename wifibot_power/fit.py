@@ -1,0 +1,432 @@
+"""Fit the paper's power models over runs: what `wbpower fit` computes.
+
+One point per run (the per-run table of `wifibot_power.runtable`), ordinary least squares:
+
+- acceleration power `P_acc(v) = a0 + a1 v` [W] (paper Eq. 1-2; paper: 23.9 + 14.8 v),
+- cruise power `P_v(v) = c0 + c1 v` [W] (paper Eq. 3-4; paper: 23.9 + 11.2 v),
+- acceleration time `t_acc(v) = t0 + t1 v` [s] (used by paper Eq. 5-6),
+- idle power [W] (paper: 23.3 W): mean of idle-mode runs, else of the idle phases of
+  motion runs (`idle_source` says which),
+- component powers net of idle [W] (paper Table 1: network 4.4, video 2.5, CPU 2.1):
+  mean power of the mode's runs minus idle power.
+
+Intervals are the regression's own 95% t intervals with runs as the unit
+(`t_{0.975, n-2} * standard error`), see docs/fit.md.
+
+References
+----------
+[1] D. Zorbas, T. Razafindralambo, "Modeling the power consumption of a Wifibot and
+    studying the role of communication cost in operation time", arXiv:1512.04380.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from wifibot_power.errors import LogError, WbpowerError
+from wifibot_power.io import LogSource, ReadOptions, Skipped
+from wifibot_power.io.batch import map_runs
+from wifibot_power.model import LinearFit, PowerModel, paper_model
+from wifibot_power.outputs import json_safe, write_json, write_parquet
+from wifibot_power.phases import Segmentation
+from wifibot_power.run import Run
+from wifibot_power.runtable import COMPONENT_MODES, run_row, runs_frame
+
+Segmenter = Callable[[Run], Segmentation]
+NAN_PAIR = (float("nan"), float("nan"))
+
+
+def fit_line(speed_mps: np.ndarray, values: np.ndarray) -> LinearFit:
+    """Ordinary least squares `y = intercept + slope * v` with 95% t intervals and R².
+
+    Standard simple linear regression (e.g. Montgomery & Runger, Applied Statistics,
+    Eq. 11-7/11-8 and §11-5): slope = S_xy / S_xx, intercept = ȳ - slope x̄,
+    s² = SSE / (n - 2), se(slope) = s / sqrt(S_xx),
+    se(intercept) = s sqrt(1/n + x̄² / S_xx), CI = estimate ± t_{0.975, n-2} se.
+    Non-finite points are dropped. Fewer than 2 distinct speeds: NaN line. Exactly 2
+    points: the line through them, NaN intervals and R² (no degrees of freedom left).
+    """
+    x = np.asarray(speed_mps, dtype=np.float64)
+    y = np.asarray(values, dtype=np.float64)
+    keep = np.isfinite(x) & np.isfinite(y)
+    x, y = x[keep], y[keep]
+    n = int(x.size)
+    if n < 2 or np.unique(x).size < 2:
+        return LinearFit(float("nan"), float("nan"), n_runs=n)
+    x_mean, y_mean = x.mean(), y.mean()
+    s_xx = float(np.sum((x - x_mean) ** 2))
+    slope = float(np.sum((x - x_mean) * (y - y_mean)) / s_xx)
+    intercept = float(y_mean - slope * x_mean)
+    if n == 2:
+        return LinearFit(intercept, slope, n_runs=n)
+    residual = y - (intercept + slope * x)
+    sse = float(np.sum(residual**2))
+    sst = float(np.sum((y - y_mean) ** 2))
+    s = math.sqrt(sse / (n - 2))
+    t = float(stats.t.ppf(0.975, n - 2))
+    se_slope = s / math.sqrt(s_xx)
+    se_intercept = s * math.sqrt(1.0 / n + x_mean**2 / s_xx)
+    return LinearFit(
+        intercept=intercept,
+        slope=slope,
+        intercept_ci95=(intercept - t * se_intercept, intercept + t * se_intercept),
+        slope_ci95=(slope - t * se_slope, slope + t * se_slope),
+        r2=1.0 - sse / sst if sst > 0 else float("nan"),
+        n_runs=n,
+    )
+
+
+@dataclass(frozen=True)
+class MeanEstimate:
+    """A mean over runs [W] with its 95% t interval (NaN interval with one run)."""
+
+    value_W: float
+    ci95: tuple[float, float]
+    n_runs: int
+    se_W: float = float("nan")
+
+    @classmethod
+    def of(cls, values_W: np.ndarray) -> MeanEstimate:
+        """Sample mean and `mean ± t_{0.975, n-1} s / sqrt(n)` (Student's t interval)."""
+        values = np.asarray(values_W, dtype=np.float64)
+        values = values[np.isfinite(values)]
+        n = int(values.size)
+        if n == 0:
+            return cls(float("nan"), NAN_PAIR, 0)
+        mean = float(values.mean())
+        if n == 1:
+            return cls(mean, NAN_PAIR, 1)
+        se = float(values.std(ddof=1) / math.sqrt(n))
+        t = float(stats.t.ppf(0.975, n - 1))
+        return cls(mean, (mean - t * se, mean + t * se), n, se)
+
+
+def net_of_idle(mode: MeanEstimate, idle: MeanEstimate) -> MeanEstimate:
+    """Component power net of idle: `P_mode - P_idle` [W] (paper Table 1).
+
+    Interval by Welch's t: se = sqrt(se_mode² + se_idle²), degrees of freedom by the
+    Welch-Satterthwaite equation; NaN when either side has a single run.
+    """
+    value = mode.value_W - idle.value_W
+    if not (mode.n_runs >= 2 and idle.n_runs >= 2):
+        return MeanEstimate(value, NAN_PAIR, mode.n_runs)
+    var_mode, var_idle = mode.se_W**2, idle.se_W**2
+    se = math.sqrt(var_mode + var_idle)
+    if se == 0:
+        return MeanEstimate(value, (value, value), mode.n_runs, 0.0)
+    dof = (var_mode + var_idle) ** 2 / (
+        var_mode**2 / (mode.n_runs - 1) + var_idle**2 / (idle.n_runs - 1)
+    )
+    t = float(stats.t.ppf(0.975, dof))
+    return MeanEstimate(value, (value - t * se, value + t * se), mode.n_runs, se)
+
+
+@dataclass(frozen=True, eq=False)
+class FitResult:
+    """What `fit` found: the model, its uncertainty, the tables and what was left out.
+
+    `runs` holds a row per readable run (`usable` says whether the fit used it), `phases`
+    a row per phase (phases.parquet). `skipped` lists unreadable and unusable inputs.
+    """
+
+    model: PowerModel
+    idle: MeanEstimate
+    idle_source: str
+    components: dict[str, MeanEstimate | None]
+    runs: pd.DataFrame
+    phases: pd.DataFrame
+    skipped: tuple[Skipped, ...] = ()
+    notes: tuple[str, ...] = ()
+    paper: PowerModel = field(default_factory=paper_model)
+
+    @property
+    def model_complete(self) -> bool:
+        """Whether every coefficient `energy`/`lifetime` need was fitted (model.json loads)."""
+        model = self.model
+        return all(
+            math.isfinite(v)
+            for v in (
+                model.accel.intercept,
+                model.accel.slope,
+                model.cruise.intercept,
+                model.cruise.slope,
+                model.t_acc.intercept,
+                model.t_acc.slope,
+                model.idle_W,
+            )
+        )
+
+    @property
+    def n_runs(self) -> int:
+        """Runs used by the fit."""
+        return int(self.runs["usable"].sum()) if len(self.runs) else 0
+
+    def summary(self) -> dict[str, object]:
+        """The `fit --json` document (cli.md), JSON-safe (NaN -> null)."""
+
+        def linear(fit: LinearFit, paper: LinearFit, unit: str, slope_unit: str) -> dict:
+            return {
+                f"intercept_{unit}": fit.intercept,
+                f"slope_{slope_unit}": fit.slope,
+                "intercept_ci95": list(fit.intercept_ci95),
+                "slope_ci95": list(fit.slope_ci95),
+                "r2": fit.r2,
+                "n_runs": fit.n_runs,
+                "paper": {f"intercept_{unit}": paper.intercept, f"slope_{slope_unit}": paper.slope},
+            }
+
+        model, paper = self.model, self.paper
+        out = {
+            "n_runs": self.n_runs,
+            "accel": linear(model.accel, paper.accel, "W", "W_per_mps"),
+            "cruise": linear(model.cruise, paper.cruise, "W", "W_per_mps"),
+            "t_acc": linear(model.t_acc, LinearFit(math.nan, math.nan), "s", "s_per_mps"),
+            "idle_W": model.idle_W,
+            "idle_ci95": list(self.idle.ci95),
+            "idle_n_runs": self.idle.n_runs,
+            "idle_source": self.idle_source,
+            "components_W": {m: model.components_W.get(m) for m in COMPONENT_MODES},
+            "components_ci95": {m: list(c.ci95) if c else None for m, c in self.components.items()},
+            "components_n_runs": {m: c.n_runs if c else 0 for m, c in self.components.items()},
+            "paper": {"idle_W": paper.idle_W, "components_W": dict(paper.components_W)},
+            "skipped": [s.as_dict() for s in self.skipped],
+            "notes": list(self.notes),
+        }
+        del out["t_acc"]["paper"]
+        return json_safe(out)  # type: ignore[return-value]
+
+    def table_rows(self) -> list[dict[str, object]]:
+        """The paper table: a row per coefficient, with its interval, R², the paper's value
+        and the runs it rests on (what the CLI renders, and `to_markdown` prints)."""
+        model, paper = self.model, self.paper
+        rows: list[dict[str, object]] = []
+
+        def add(name, unit, value, ci, r2, paper_value, n) -> None:
+            rows.append(
+                {
+                    "parameter": name,
+                    "unit": unit,
+                    "value": value,
+                    "ci95_low": ci[0],
+                    "ci95_high": ci[1],
+                    "r2": r2,
+                    "paper": paper_value,
+                    "n_runs": n,
+                }
+            )
+
+        for label, fit, ref in (
+            ("P_acc", model.accel, paper.accel),
+            ("P_v", model.cruise, paper.cruise),
+        ):
+            add(
+                f"{label} intercept",
+                "W",
+                fit.intercept,
+                fit.intercept_ci95,
+                fit.r2,
+                ref.intercept,
+                fit.n_runs,
+            )
+            add(
+                f"{label} slope",
+                "W/(m/s)",
+                fit.slope,
+                fit.slope_ci95,
+                fit.r2,
+                ref.slope,
+                fit.n_runs,
+            )
+        t_acc = model.t_acc
+        add(
+            "t_acc intercept",
+            "s",
+            t_acc.intercept,
+            t_acc.intercept_ci95,
+            t_acc.r2,
+            math.nan,
+            t_acc.n_runs,
+        )
+        add(
+            "t_acc slope",
+            "s/(m/s)",
+            t_acc.slope,
+            t_acc.slope_ci95,
+            t_acc.r2,
+            math.nan,
+            t_acc.n_runs,
+        )
+        add(
+            "idle", "W", self.idle.value_W, self.idle.ci95, math.nan, paper.idle_W, self.idle.n_runs
+        )
+        for mode in COMPONENT_MODES:
+            estimate = self.components.get(mode)
+            add(
+                f"{mode} (net of idle)",
+                "W",
+                estimate.value_W if estimate else math.nan,
+                estimate.ci95 if estimate else NAN_PAIR,
+                math.nan,
+                paper.components_W.get(mode, math.nan),
+                estimate.n_runs if estimate else 0,
+            )
+        return rows
+
+    def to_markdown(self) -> str:
+        """The paper table as Markdown (paste into a report)."""
+
+        def num(value: object, digits: int = 3) -> str:
+            return "–" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
+
+        lines = [
+            "| parameter | unit | fitted | 95% CI | R² | paper | n runs |",
+            "| --- | --- | ---: | :---: | ---: | ---: | ---: |",
+        ]
+        for r in self.table_rows():
+            ci = (
+                f"[{num(r['ci95_low'])}, {num(r['ci95_high'])}]"
+                if math.isfinite(r["ci95_low"])
+                else "–"
+            )
+            lines.append(
+                f"| {r['parameter']} | {r['unit']} | {num(r['value'])} | {ci} | "
+                f"{num(r['r2'], 4)} | {num(r['paper'], 1)} | {r['n_runs']} |"
+            )
+        return "\n".join(lines) + "\n"
+
+
+def fit_table(
+    runs: pd.DataFrame,
+    phases: pd.DataFrame | None = None,
+    skipped: tuple[Skipped, ...] = (),
+) -> FitResult:
+    """Fit the models over the usable rows of a per-run table (`runtable.runs_frame`).
+
+    Callable on any subset of runs (e.g. `diagnose` fitting on the runs it does not hold out).
+    """
+    used = runs[runs["usable"]] if len(runs) else runs
+    motion = used[used["mode"] == "motion"]
+    speed = motion["speed_mps"].to_numpy(dtype=np.float64)
+    accel = fit_line(speed, motion["accel_mean_power_W"].to_numpy(dtype=np.float64))
+    cruise = fit_line(speed, motion["cruise_mean_power_W"].to_numpy(dtype=np.float64))
+    t_acc = fit_line(speed, motion["t_acc_s"].to_numpy(dtype=np.float64))
+    notes: list[str] = []
+    if len(motion) and not math.isfinite(accel.slope):
+        notes.append("fewer than 2 distinct speeds among motion runs: P_acc, P_v not fitted")
+
+    idle_runs = used[used["mode"] == "idle"]
+    if len(idle_runs):
+        idle = MeanEstimate.of(idle_runs["mean_power_W"].to_numpy(dtype=np.float64))
+        idle_source = "idle runs"
+    else:
+        idle = MeanEstimate.of(motion["idle_mean_power_W"].to_numpy(dtype=np.float64))
+        idle_source = "idle phases of motion runs" if idle.n_runs else "none"
+        if idle.n_runs:
+            notes.append("no idle-mode runs: idle power is the mean of motion runs' idle phases")
+
+    components: dict[str, MeanEstimate | None] = {}
+    for mode in COMPONENT_MODES:
+        mode_runs = used[used["mode"] == mode]
+        if len(mode_runs) == 0:
+            components[mode] = None
+            continue
+        components[mode] = net_of_idle(
+            MeanEstimate.of(mode_runs["mean_power_W"].to_numpy(dtype=np.float64)), idle
+        )
+    model = PowerModel(
+        accel=accel,
+        cruise=cruise,
+        idle_W=idle.value_W,
+        t_acc=t_acc,
+        components_W={m: (c.value_W if c else None) for m, c in components.items()},
+        source="fit",
+    )
+    return FitResult(
+        model=model,
+        idle=idle,
+        idle_source=idle_source,
+        components=components,
+        runs=runs,
+        phases=phases if phases is not None else pd.DataFrame(),
+        skipped=tuple(skipped),
+        notes=tuple(notes),
+    )
+
+
+def _default_segmenter() -> Segmenter:
+    from wifibot_power.segment import segment_run  # imported late: segment is its own stage
+
+    return segment_run
+
+
+def fit_logs(
+    paths: list[Path] | list[str],
+    options: ReadOptions | None = None,
+    *,
+    wrap: Callable[[list[LogSource]], Iterator[LogSource]] | None = None,
+    segmenter: Segmenter | None = None,
+) -> FitResult:
+    """Read every log under `paths` (one file in memory at a time), segment it, build the
+    per-run table and fit the paper's models over the usable runs (see module docstring).
+
+    Unreadable logs and runs the fit cannot use are listed in `FitResult.skipped` with the
+    reason. Raises `LogError` when no run at all can be used (nothing to fit).
+    """
+    segment = segmenter or _default_segmenter()
+
+    def work(run: Run) -> tuple[dict[str, object], pd.DataFrame]:
+        try:
+            segmentation = segment(run)
+        except WbpowerError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - one run the segmenter fails on must not end the batch
+            raise LogError(
+                f"segmentation failed ({exc.__class__.__name__}: {exc})",
+                file=run.file,
+                fix="check the log with 'wbpower segment'",
+            ) from None
+        return run_row(run, segmentation), segmentation.frame()
+
+    results, read_skipped = map_runs(
+        [Path(p) for p in paths], options or ReadOptions(), work, wrap=wrap
+    )
+    runs = runs_frame([row for row, _ in results])
+    frames = [frame for _, frame in results if len(frame)]
+    phases = pd.concat(frames, ignore_index=True) if frames else Segmentation("", ()).frame()
+    unusable = [
+        Skipped(str(row["file"]), f"{row['file']}: {row['skip_reason']}")
+        for row in runs.to_dict("records")
+        if not row["usable"]
+    ]
+    skipped = tuple(read_skipped) + tuple(unusable)
+    if not runs["usable"].any():
+        first = skipped[0].reason if skipped else "no logs"
+        raise LogError(
+            f"no usable run among {len(runs) + len(read_skipped)} input(s); first: {first}",
+            file=", ".join(map(str, paths)),
+            fix="see 'wbpower inspect' for what each log holds",
+        )
+    return fit_table(runs, phases, skipped)
+
+
+def write_fit(result: FitResult, out_dir: Path) -> list[Path]:
+    """`fit -o DIR`: runs.parquet, phases.parquet, model.json (atomic writes).
+
+    model.json is written only when the model is complete (`FitResult.model_complete`):
+    a model with unfitted coefficients would only fail later, in `energy --model`.
+    """
+    out_dir = Path(out_dir)
+    written = [
+        write_parquet(out_dir / "runs.parquet", result.runs),
+        write_parquet(out_dir / "phases.parquet", result.phases),
+    ]
+    if result.model_complete:
+        written.append(write_json(out_dir / "model.json", result.model.to_json()))
+    return written

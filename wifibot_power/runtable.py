@@ -1,0 +1,198 @@
+"""The per-run table: one row per run, from its samples and its segmentation.
+
+This is what `fit` fits over (one point per run) and what `fit -o` writes as
+`runs.parquet` (cli.md). Phase means and energies are recomputed here from the run's
+own samples over each phase's sample range, so the table does not depend on how the
+segmenter rounded its own numbers, and energies stay exactly additive (rectangle rule,
+`wifibot_power.run.energy_J`): `motion_energy_J + idle energy == energy_J`.
+
+Column meanings (units in the names):
+
+- `motion_energy_J`: energy over the `accel`, `cruise` and `decel` phases (idle excluded).
+- `t_acc_s`: mean duration of the `accel` phases over the steps.
+- `accel_mean_power_W`, `cruise_mean_power_W`, `decel_mean_power_W`, `idle_mean_power_W`:
+  time-weighted mean power over all phases of that name in the run (energy / duration).
+- `decel_duration_s`: mean `decel` duration per step (0 when no stopping phase was found).
+- `steps_found`: steps the segmentation found (motion runs), to check against `steps`.
+- `spike_energy_J`: energy of the start-up spikes above their phase's level.
+- `usable`, `skip_reason`: whether `fit` can use the run, and why not.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+
+from wifibot_power.phases import Phase, Segmentation
+from wifibot_power.run import Run
+
+#: Phases whose energy is motion energy (cli.md `fit`: idle excluded).
+MOTION_PHASES = ("accel", "cruise", "decel")
+
+#: Modes whose mean power, net of idle, is a component power (paper Table 1).
+COMPONENT_MODES = ("network", "video", "cpu")
+
+#: Columns of runs.parquet, in order.
+RUN_COLUMNS = (
+    "run_id",
+    "file",
+    "mode",
+    "speed_mps",
+    "distance_m",
+    "steps",
+    "payload_kg",
+    "started_at",
+    "samples",
+    "sample_period_s",
+    "duration_s",
+    "energy_J",
+    "mean_power_W",
+    "motion_energy_J",
+    "steps_found",
+    "t_acc_s",
+    "accel_mean_power_W",
+    "accel_energy_J",
+    "cruise_mean_power_W",
+    "cruise_duration_s",
+    "cruise_energy_J",
+    "decel_duration_s",
+    "decel_mean_power_W",
+    "decel_energy_J",
+    "idle_mean_power_W",
+    "idle_duration_s",
+    "spike_energy_J",
+    "usable",
+    "skip_reason",
+)
+
+
+def _phase_sums(run: Run, phases: Sequence[Phase]) -> tuple[np.ndarray, np.ndarray]:
+    """Energy [J] and duration [s] of each phase, from the run's samples (vectorised)."""
+    period_s = run.sample_period_s
+    if not phases:
+        return np.zeros(0), np.zeros(0)
+    starts = np.array([p.i_start for p in phases], dtype=np.int64)
+    ends = np.array([p.i_end for p in phases], dtype=np.int64)
+    cumulative_J = np.concatenate(([0.0], np.cumsum(run.power_W, dtype=np.float64))) * period_s
+    return cumulative_J[ends] - cumulative_J[starts], (ends - starts) * period_s
+
+
+def _check_cover(run: Run, segmentation: Segmentation) -> str | None:
+    """Why the phases do not cover the run's samples exactly once in order, or None."""
+    if not segmentation.phases:
+        return "segmentation found no phases"
+    starts = np.array([p.i_start for p in segmentation.phases])
+    ends = np.array([p.i_end for p in segmentation.phases])
+    if starts[0] != 0 or ends[-1] != run.samples or np.any(starts[1:] != ends[:-1]):
+        return (
+            f"phases do not cover the {run.samples} samples exactly once "
+            f"(first {starts[0]}, last {ends[-1]})"
+        )
+    if np.any(ends <= starts):
+        return "segmentation returned an empty phase"
+    return None
+
+
+def run_row(run: Run, segmentation: Segmentation) -> dict[str, object]:
+    """One row of the per-run table (the columns of `RUN_COLUMNS`).
+
+    Means are time-weighted over phases: `sum(E_phase) / sum(t_phase)`; a phase kind the
+    run does not have gives NaN. Whether `fit` can use the run is decided here
+    (`usable`, `skip_reason`), from metadata and from what the segmentation found.
+    """
+    meta = run.meta
+    period_s = run.sample_period_s
+    row: dict[str, object] = {
+        "run_id": meta.run_id,
+        "file": run.file,
+        "mode": meta.mode,
+        "speed_mps": meta.speed_mps if meta.speed_mps is not None else np.nan,
+        "distance_m": meta.distance_m if meta.distance_m is not None else np.nan,
+        "steps": int(meta.steps),
+        "payload_kg": float(meta.payload_kg),
+        "started_at": meta.started_at,
+        "samples": run.samples,
+        "sample_period_s": period_s,
+        "duration_s": run.duration_s,
+        "energy_J": run.energy_J,
+        "mean_power_W": run.mean_power_W,
+        "spike_energy_J": float(sum(s.energy_above_level_J for s in segmentation.spikes)),
+    }
+    cover_problem = _check_cover(run, segmentation)
+    phases = segmentation.phases if cover_problem is None else ()
+    energies_J, durations_s = _phase_sums(run, phases)
+    names = np.array([p.phase for p in phases], dtype=object)
+    step_numbers = np.array([p.step for p in phases], dtype=np.int64)
+
+    def total(name: str) -> tuple[float, float]:
+        mask = names == name
+        return float(energies_J[mask].sum()), float(durations_s[mask].sum())
+
+    def mean_W(name: str) -> float:
+        energy, duration = total(name)
+        return energy / duration if duration > 0 else float("nan")
+
+    is_motion = np.isin(names, MOTION_PHASES)
+    steps_found = int(np.unique(step_numbers[is_motion & (step_numbers >= 1)]).size)
+    accel_mask = names == "accel"
+    accel_steps = max(int(np.unique(step_numbers[accel_mask]).size), 1)
+    decel_energy_J, decel_total_s = total("decel")
+    row.update(
+        motion_energy_J=float(energies_J[is_motion].sum()),
+        steps_found=steps_found,
+        # a step's accel may be cut in pieces by a segmenter; its time is the pieces' sum
+        t_acc_s=float(durations_s[accel_mask].sum()) / accel_steps
+        if accel_mask.any()
+        else float("nan"),
+        accel_mean_power_W=mean_W("accel"),
+        accel_energy_J=total("accel")[0],
+        cruise_mean_power_W=mean_W("cruise"),
+        cruise_duration_s=total("cruise")[1],
+        cruise_energy_J=total("cruise")[0],
+        decel_duration_s=decel_total_s / steps_found if steps_found else 0.0,
+        decel_mean_power_W=mean_W("decel"),
+        decel_energy_J=decel_energy_J,
+        idle_mean_power_W=mean_W("idle") if meta.mode != "idle" else run.mean_power_W,
+        idle_duration_s=total("idle")[1] if meta.mode != "idle" else run.duration_s,
+    )
+    reason = cover_problem if meta.mode == "motion" else None
+    reason = reason or usability(row)
+    row["usable"] = reason is None
+    row["skip_reason"] = reason or ""
+    return row
+
+
+def usability(row: dict[str, object]) -> str | None:
+    """Why `fit` cannot use this run (one line that says what to do), or None."""
+    mode = row["mode"]
+    if mode == "unknown":
+        return (
+            "no mode or speed in its metadata, so it cannot be fitted "
+            "(add mode/speed_mps/distance_m/steps to the file's '#' lines or to runs.csv)"
+        )
+    if mode != "motion":
+        return None
+    if not np.isfinite(row["speed_mps"]) or row["speed_mps"] <= 0:
+        return "motion run without a speed (set speed_mps in its metadata or runs.csv)"
+    if not np.isfinite(row["distance_m"]) or row["distance_m"] <= 0:
+        return "motion run without a distance (set distance_m in its metadata or runs.csv)"
+    if row["steps_found"] != row["steps"]:
+        return (
+            f"segmentation found {row['steps_found']} step(s), metadata says {row['steps']} "
+            "(check the steps value, or the log is not one clean stop-and-go run)"
+        )
+    if not np.isfinite(row["accel_mean_power_W"]):
+        return "no acceleration phase found (check the log holds motion)"
+    return None
+
+
+def runs_frame(rows: Sequence[dict[str, object]]) -> pd.DataFrame:
+    """The per-run table (runs.parquet) from `run_row` rows, columns in `RUN_COLUMNS` order."""
+    frame = pd.DataFrame(list(rows), columns=list(RUN_COLUMNS))
+    frame["started_at"] = pd.to_datetime(frame["started_at"], utc=True)
+    frame["usable"] = frame["usable"].astype(bool)
+    for column in ("steps", "samples", "steps_found"):
+        frame[column] = frame[column].astype(np.int64)
+    return frame
