@@ -43,8 +43,8 @@ def test_no_effect_phase_averages_follow_the_paper(tmp_path):
         accel, _ = _phase_power(run, truth_run, "accel")
         cruise, _ = _phase_power(run, truth_run, "cruise")
         idle, _ = _phase_power(run, truth_run, "idle")
-        # paper Eq. 2 and 4: 23.9 + 14.8 v and 23.9 + 11.2 v; idle 23.3 W.  0.1 W is the issue's bound;
-        # the noise on a phase mean (0.3 W / sqrt(>= 1900 samples)) is < 0.01 W.
+        # paper Eq. 2 and 4: 23.9 + 14.8 v and 23.9 + 11.2 v; idle 23.3 W. 0.1 W is the
+        # issue's bound; noise on a phase mean (0.3 W / sqrt(>= 1900 samples)) is < 0.01 W.
         assert_allclose(accel.mean(), 23.9 + 14.8 * v, atol=0.1)
         assert_allclose(cruise.mean(), 23.9 + 11.2 * v, atol=0.1)
         assert_allclose(idle.mean(), 23.3, atol=0.1)
@@ -63,7 +63,7 @@ def test_mode_logs_carry_table1_powers(tmp_path):
 
 
 def _paired(tmp_path, effect, size, **grid):
-    """The same seed with and without one effect: noise is identical, the difference is the effect."""
+    """Same seed with and without one effect: identical noise, so the difference is the effect."""
     base, _ = _write(tmp_path, "base", **grid)
     with_effect, truth = _write(tmp_path, effect, effects={effect: size}, **grid)
     return base, with_effect, truth

@@ -85,7 +85,7 @@ class SimConfig:
     mode_repeats: int = 2
     mode_duration_s: float = 10.0
     sample_period_s: float = PAPER_SAMPLE_PERIOD_S
-    #: white analyser noise, standard deviation per 0.1024 ms sample [W]; averaged over longer periods
+    #: white analyser noise, standard deviation per 0.1024 ms sample [W] (averaged over longer ones)
     noise_W: float = 0.3
     effects: dict[str, float] = field(default_factory=dict)
     seed: int = 0
