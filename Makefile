@@ -29,7 +29,10 @@ bench: $(VENV)/.installed
 
 # Regenerates sample_logs/ exactly as committed (see sample_logs/README.md).
 sample-logs: $(VENV)/.installed
-	$(WBPOWER) simulate -o sample_logs --sample-logs
+	rm -rf sample_logs.tmp && $(WBPOWER) simulate -o sample_logs.tmp --sample-period 0.001024 \
+	  --columns power --compress gz --decimals 2 \
+	  --effect decel_phase=0.3 --effect cruise_ripple=1.0 --seed 2015
+	cp sample_logs/README.md sample_logs.tmp/ && rm -rf sample_logs && mv sample_logs.tmp sample_logs
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache .hypothesis
