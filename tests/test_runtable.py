@@ -1,0 +1,195 @@
+"""The per-run table: hand-built runs with phases whose means and energies are known exactly.
+
+Phases are built here by hand (not by the segmenter), so these tests check the table alone.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+
+from wifibot_power.phases import Phase, Segmentation
+from wifibot_power.run import Run, RunMeta
+from wifibot_power.runtable import RUN_COLUMNS, run_row, runs_frame
+
+PERIOD_S = 0.01
+
+
+def build(pieces, *, mode="motion", speed_mps=0.5, distance_m=4.0, steps=2, period_s=PERIOD_S):
+    """A run and its segmentation from (phase, step, samples) pieces."""
+    power = np.concatenate([np.asarray(values, dtype=float) for _, _, values in pieces])
+    phases, start = [], 0
+    for name, step, values in pieces:
+        end = start + len(values)
+        mean = float(np.mean(values))
+        phases.append(
+            Phase(
+                step,
+                name,
+                start,
+                end,
+                start * period_s,
+                end * period_s,
+                mean,
+                mean * len(values) * period_s,
+            )
+        )
+        start = end
+    meta = RunMeta(
+        run_id="r1",
+        mode=mode,
+        speed_mps=speed_mps,
+        distance_m=distance_m,
+        steps=steps,
+        sample_period_s=period_s,
+    )
+    run = Run("r1.csv", "wbpower-csv", meta, np.arange(power.size) * period_s, power)
+    return run, Segmentation("r1", tuple(phases))
+
+
+# Two steps: idle 20 W, accel ramping 30->40 W (mean exactly 35 W), cruise 30 W, a decel
+# at 25 W after step 1 only, idle 20 W between and after.
+TWO_STEPS = [
+    ("idle", 0, np.full(100, 20.0)),
+    ("accel", 1, np.linspace(30.0, 40.0, 50)),
+    ("cruise", 1, np.full(200, 30.0)),
+    ("decel", 1, np.full(20, 25.0)),
+    ("idle", 1, np.full(100, 20.0)),
+    ("accel", 2, np.linspace(30.0, 40.0, 50)),
+    ("cruise", 2, np.full(200, 30.0)),
+    ("idle", 2, np.full(100, 20.0)),
+]
+
+
+def test_row_of_a_two_step_run_matches_hand_values():
+    run, segmentation = build(TWO_STEPS)
+    row = run_row(run, segmentation)
+    # by hand, at 0.01 s per sample:
+    #   accel 2 x 50 x 35 W x 0.01 s = 35 J; cruise 2 x 200 x 30 x 0.01 = 120 J;
+    #   decel 20 x 25 x 0.01 = 5 J -> motion 160 J; idle 300 x 20 x 0.01 = 60 J -> total 220 J
+    #   duration 820 samples = 8.2 s; t_acc = 50 samples = 0.5 s; decel 0.2 s over 2 steps
+    expected = {
+        "motion_energy_J": 160.0,
+        "energy_J": 220.0,
+        "duration_s": 8.2,
+        "t_acc_s": 0.5,
+        "accel_mean_power_W": 35.0,
+        "accel_energy_J": 35.0,
+        "cruise_mean_power_W": 30.0,
+        "cruise_duration_s": 4.0,
+        "decel_duration_s": 0.1,
+        "decel_mean_power_W": 25.0,
+        "idle_mean_power_W": 20.0,
+        "idle_duration_s": 3.0,
+        "mean_power_W": 220.0 / 8.2,
+    }
+    for key, value in expected.items():
+        # only float rounding separates these from the hand values
+        assert_allclose(row[key], value, rtol=1e-12, err_msg=key)
+    assert row["steps_found"] == 2
+    assert row["usable"] and row["skip_reason"] == ""
+
+
+def test_phase_means_are_time_weighted():
+    # cruise split in two pieces (e.g. a segmenter cut it): 100 samples at 30 W and 300 at 34 W.
+    # time-weighted mean = (100*30 + 300*34) / 400 = 33 W; the mean of means would be 32 W.
+    pieces = [
+        ("idle", 0, np.full(50, 20.0)),
+        ("accel", 1, np.full(30, 36.0)),
+        ("cruise", 1, np.full(100, 30.0)),
+        ("cruise", 1, np.full(300, 34.0)),
+        ("idle", 1, np.full(50, 20.0)),
+    ]
+    run, segmentation = build(pieces, steps=1)
+    row = run_row(run, segmentation)
+    assert_allclose(row["cruise_mean_power_W"], 33.0, rtol=1e-12)
+    assert row["decel_duration_s"] == 0.0 and np.isnan(row["decel_mean_power_W"])
+
+
+def test_table_recomputes_from_samples_not_from_the_segmenters_numbers():
+    run, segmentation = build(TWO_STEPS)
+    wrong = Segmentation(
+        "r1",
+        tuple(
+            Phase(p.step, p.phase, p.i_start, p.i_end, p.t_start_s, p.t_end_s, 999.0, 999.0)
+            for p in segmentation.phases
+        ),
+    )
+    assert_allclose(run_row(run, wrong)["accel_mean_power_W"], 35.0, rtol=1e-12)
+
+
+def test_step_count_mismatch_is_unusable_with_reason():
+    run, segmentation = build(TWO_STEPS, steps=3)
+    row = run_row(run, segmentation)
+    assert not row["usable"]
+    assert "found 2 step(s), metadata says 3" in row["skip_reason"]
+
+
+def test_motion_run_without_distance_is_unusable():
+    run, segmentation = build(TWO_STEPS, distance_m=None)
+    row = run_row(run, segmentation)
+    assert not row["usable"] and "without a distance" in row["skip_reason"]
+
+
+def test_unknown_mode_is_unusable_and_mode_runs_are_usable():
+    pieces = [("level", 1, np.full(100, 25.0))]
+    run, segmentation = build(pieces, mode="unknown", speed_mps=None, distance_m=None, steps=1)
+    assert not run_row(run, segmentation)["usable"]
+    run, segmentation = build(pieces, mode="network", speed_mps=None, distance_m=None, steps=1)
+    row = run_row(run, segmentation)
+    assert row["usable"] and row["mean_power_W"] == 25.0
+    assert np.isnan(row["idle_mean_power_W"])  # a network run's level is not idle
+
+
+def test_phases_that_do_not_cover_the_run_are_reported():
+    run, segmentation = build(TWO_STEPS)
+    gap = Segmentation("r1", segmentation.phases[:3] + segmentation.phases[4:])
+    row = run_row(run, gap)
+    assert not row["usable"] and "cover" in row["skip_reason"]
+
+
+def test_frame_has_the_contract_columns_and_survives_parquet(tmp_path):
+    run, segmentation = build(TWO_STEPS)
+    frame = runs_frame([run_row(run, segmentation)])
+    required = [
+        "run_id",
+        "file",
+        "mode",
+        "speed_mps",
+        "distance_m",
+        "steps",
+        "duration_s",
+        "energy_J",
+        "motion_energy_J",
+        "t_acc_s",
+        "accel_mean_power_W",
+        "cruise_mean_power_W",
+    ]
+    assert set(required) <= set(frame.columns)
+    assert list(frame.columns) == list(RUN_COLUMNS)
+    frame.to_parquet(tmp_path / "runs.parquet", index=False)
+    back = pd.read_parquet(tmp_path / "runs.parquet")
+    assert_allclose(back["motion_energy_J"], [160.0], rtol=1e-12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    lengths=st.lists(st.integers(1, 40), min_size=1, max_size=12),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_energy_is_additive_over_phases(lengths, seed):
+    """Whatever the phase labels and lengths, motion + idle energy is the run's energy and
+    the per-phase energies add up to the motion energy."""
+    rng = np.random.default_rng(seed)
+    names = rng.choice(["idle", "accel", "cruise", "decel"], size=len(lengths))
+    pieces = [(str(n), 1, rng.uniform(0.0, 60.0, k)) for n, k in zip(names, lengths, strict=True)]
+    run, segmentation = build(pieces, steps=1)
+    row = run_row(run, segmentation)
+    idle_J = row["idle_mean_power_W"] * row["idle_duration_s"] if "idle" in names else 0.0
+    # sums of <= 480 terms of <= 60 W x 0.01 s: float error far below 1e-9 J
+    assert_allclose(row["motion_energy_J"] + idle_J, row["energy_J"], rtol=0, atol=1e-9)
+    parts = sum(row[f"{p}_energy_J"] for p in ("accel", "cruise", "decel"))
+    assert_allclose(parts, row["motion_energy_J"], rtol=0, atol=1e-9)
