@@ -382,6 +382,8 @@ def fit_logs(
     segment = segmenter or _default_segmenter()
 
     def work(run: Run) -> tuple[dict[str, object], pd.DataFrame]:
+        if run.meta.mode == "unknown":  # nothing to fit it to: not worth segmenting
+            return run_row(run, Segmentation(run.meta.run_id, ())), Segmentation("", ()).frame()
         try:
             segmentation = segment(run)
         except WbpowerError:
