@@ -318,3 +318,11 @@ def test_fit_logs_with_the_segmenter_recovers_truth(tmp_path, seed, noise_W):
     result = fit_logs([tmp_path])
     assert result.skipped == ()
     assert_recovers_truth(result)
+
+
+def test_table_numbers_never_show_negative_zero_or_nan():
+    from wifibot_power.fit import format_number
+
+    assert format_number(-0.0001) == "0.000"
+    assert format_number(-0.0006) == "-0.001"
+    assert format_number(float("nan")) == "-" and format_number(None) == "-"

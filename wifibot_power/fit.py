@@ -22,7 +22,7 @@ References
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -282,9 +282,7 @@ class FitResult:
     def to_markdown(self) -> str:
         """The paper table as Markdown (paste into a report)."""
 
-        def num(value: object, digits: int = 3) -> str:
-            return "–" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
-
+        num = format_number
         lines = [
             "| parameter | unit | fitted | 95% CI | R² | paper | n runs |",
             "| --- | --- | ---: | :---: | ---: | ---: | ---: |",
@@ -293,13 +291,21 @@ class FitResult:
             ci = (
                 f"[{num(r['ci95_low'])}, {num(r['ci95_high'])}]"
                 if math.isfinite(r["ci95_low"])
-                else "–"
+                else "-"
             )
             lines.append(
                 f"| {r['parameter']} | {r['unit']} | {num(r['value'])} | {ci} | "
                 f"{num(r['r2'], 4)} | {num(r['paper'], 1)} | {r['n_runs']} |"
             )
         return "\n".join(lines) + "\n"
+
+
+def format_number(value: float | None, digits: int = 3) -> str:
+    """A table cell: fixed digits, "-" for a missing value, no "-0.000"."""
+    if value is None or not math.isfinite(value):
+        return "-"
+    text = f"{value:.{digits}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0 else text
 
 
 def fit_table(
@@ -367,7 +373,7 @@ def _default_segmenter() -> Segmenter:
 
 
 def fit_logs(
-    paths: list[Path] | list[str],
+    paths: str | Path | Sequence[str | Path],
     options: ReadOptions | None = None,
     *,
     wrap: Callable[[list[LogSource]], Iterator[LogSource]] | None = None,
@@ -379,6 +385,7 @@ def fit_logs(
     Unreadable logs and runs the fit cannot use are listed in `FitResult.skipped` with the
     reason. Raises `LogError` when no run at all can be used (nothing to fit).
     """
+    paths = [paths] if isinstance(paths, str | Path) else list(paths)
     segment = segmenter or _default_segmenter()
 
     def work(run: Run) -> tuple[dict[str, object], pd.DataFrame]:

@@ -26,11 +26,7 @@ from wifibot_power.cli.common import (
     stdout,
     warn,
 )
-from wifibot_power.fit import FitResult, fit_logs, write_fit
-
-
-def _num(value: object, digits: int = 3) -> str:
-    return "-" if value is None or not math.isfinite(float(value)) else f"{value:.{digits}f}"
+from wifibot_power.fit import FitResult, fit_logs, format_number, write_fit
 
 
 def render_table(result: FitResult) -> Table:
@@ -51,14 +47,14 @@ def render_table(result: FitResult) -> Table:
         table.add_column(name, justify=justify)
     for row in result.table_rows():
         low, high = row["ci95_low"], row["ci95_high"]
-        ci = f"[{_num(low)}, {_num(high)}]" if math.isfinite(low) else "-"
+        ci = f"[{format_number(low)}, {format_number(high)}]" if math.isfinite(low) else "-"
         table.add_row(
             str(row["parameter"]),
             str(row["unit"]),
-            _num(row["value"]),
+            format_number(row["value"]),
             ci,
-            _num(row["r2"], 4),
-            _num(row["paper"], 1),
+            format_number(row["r2"], 4),
+            format_number(row["paper"], 1),
             str(row["n_runs"]),
         )
     table.caption = f"idle from {result.idle_source}"
