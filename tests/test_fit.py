@@ -308,15 +308,27 @@ def test_segmenter_failure_on_one_run_skips_it_only(sim_dir):
 
 
 # -- end to end with the real segmenter --------------------------------------------------
+# Logs at 1.024 ms (the sample_logs/ period: each value the mean of ten 0.1024 ms analyser
+# samples), written to disk and read back, then one run set at the paper's full 0.1024 ms
+# rate in memory. "Noisier analyser": 2 W per 0.1024 ms sample, ~7x the default 0.3 W.
 
 
-@pytest.mark.parametrize("seed,noise_W", [(11, 0.3), (12, 0.3), (13, 2.0)])
+@pytest.mark.parametrize("seed,noise_W", [(11, 0.3), (12, 0.3), (13, 2.0), (14, 2.0)])
 def test_fit_logs_with_the_segmenter_recovers_truth(tmp_path, seed, noise_W):
     pytest.importorskip("wifibot_power.segment")
-    config = SimConfig(**{**SMALL, "sample_period_s": 0.002}, seed=seed, noise_W=noise_W)
+    config = SimConfig(**{**SMALL, "sample_period_s": 0.001024}, seed=seed, noise_W=noise_W)
     write_simulation(config, tmp_path)
     result = fit_logs([tmp_path])
     assert result.skipped == ()
+    assert_recovers_truth(result)
+
+
+def test_segmenter_and_fit_at_the_paper_sample_rate():
+    segment = pytest.importorskip("wifibot_power.segment")
+    sims = simulate_runs(SimConfig(**{**SMALL, "sample_period_s": 0.1024e-3}, seed=15))
+    rows = [run_row(s.run, segment.segment_run(s.run)) for s in sims]
+    result = fit_table(runs_frame(rows))
+    assert result.n_runs == len(sims)
     assert_recovers_truth(result)
 
 
