@@ -13,6 +13,7 @@ References
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
@@ -22,7 +23,7 @@ MODEL_FORMAT = "wbpower-model"
 MODEL_FORMAT_VERSION = 1
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class LinearFit:
     """`y = intercept + slope * speed_mps`, with 95% intervals and R² (NaN where not fitted)."""
 
@@ -35,6 +36,20 @@ class LinearFit:
 
     def at(self, speed_mps: float) -> float:
         return self.intercept + self.slope * speed_mps
+
+    def _key(self) -> tuple[object, ...]:
+        # NaN marks "not fitted": two unfitted intervals are the same interval
+        return tuple(
+            "nan" if isinstance(x, float) and math.isnan(x) else x
+            for x in (self.intercept, self.slope, *self.intercept_ci95, *self.slope_ci95, self.r2,
+                      self.n_runs)
+        )
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, LinearFit) and self._key() == other._key()
+
+    def __hash__(self) -> int:
+        return hash(self._key())
 
 
 @dataclass(frozen=True)
@@ -85,23 +100,47 @@ class PowerModel:
             raise UsageError(f"model format version {version}, this wbpower reads {MODEL_FORMAT_VERSION}",
                              file=file, fix="re-run 'wbpower fit -o' with this version")
         try:
-            def linear(d: dict) -> LinearFit:
-                return LinearFit(
-                    intercept=float(d["intercept"]), slope=float(d["slope"]),
-                    intercept_ci95=tuple(d.get("intercept_ci95", (float("nan"),) * 2)),
-                    slope_ci95=tuple(d.get("slope_ci95", (float("nan"),) * 2)),
-                    r2=float(d.get("r2", float("nan"))), n_runs=int(d.get("n_runs", 0)),
-                )
             return cls(
-                accel=linear(data["accel"]), cruise=linear(data["cruise"]),
-                idle_W=float(data["idle_W"]), t_acc=linear(data["t_acc"]),
-                components_W=dict(data.get("components_W") or {}),
-                extensions={k: dict(v) for k, v in (data.get("extensions") or {}).items()},
+                accel=_linear(data["accel"]),
+                cruise=_linear(data["cruise"]),
+                idle_W=_number(data["idle_W"]),
+                t_acc=_linear(data["t_acc"]),
+                components_W={
+                    k: (None if v is None else float(v))
+                    for k, v in (data.get("components_W") or {}).items()
+                },
+                extensions={
+                    k: {p: float(x) for p, x in v.items()}
+                    for k, v in (data.get("extensions") or {}).items()
+                },
                 source=str(data.get("source", "fit")),
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise UsageError(f"model file is incomplete ({exc})", file=file,
                              fix="re-run 'wbpower fit -o'") from None
+
+
+def _number(value: object) -> float:
+    """A float from JSON, where NaN was written as null."""
+    return float("nan") if value is None else float(value)
+
+
+def _pair(value: object) -> tuple[float, float]:
+    if value is None:
+        return (float("nan"), float("nan"))
+    low, high = value
+    return (_number(low), _number(high))
+
+
+def _linear(d: dict) -> LinearFit:
+    return LinearFit(
+        intercept=_number(d["intercept"]),
+        slope=_number(d["slope"]),
+        intercept_ci95=_pair(d.get("intercept_ci95")),
+        slope_ci95=_pair(d.get("slope_ci95")),
+        r2=_number(d.get("r2")),
+        n_runs=int(d.get("n_runs") or 0),
+    )
 
 
 def paper_model() -> PowerModel:
