@@ -1,0 +1,403 @@
+"""Generic change-point layer: steady levels and the jumps between them, on any power trace.
+
+Everything here works on *block means* (the trace averaged over blocks of a few ms), so the
+cost is linear in the number of samples and independent of the analyser's sample rate:
+
+- `block_means`: the trace averaged over blocks of `block` samples.
+- `robust_sigma_W`: the noise of a series from the median absolute first difference
+  (a slow ripple or a few jumps do not move it).
+- `jump_statistic_W`: at every block boundary, the difference between straight lines fitted
+  just after and just before it, both extrapolated to the boundary. A step of height h gives
+  h; a straight trend or any symmetric curvature (a slow ripple near its crest) gives ~0.
+- `best_split`: where one least-squares polynomial piece ends and the next begins inside a
+  window (prefix sums: every candidate split in O(1)); the fine locator of every boundary.
+- `detect_levels`: steady levels of any trace (e.g. a load switching between levels):
+  jumps above a noise threshold, then short start-up spikes (inrush, overshoot) merged into
+  the level they start, then changes too small to matter merged.
+
+References
+----------
+[1] C. Truong, L. Oudre, N. Vayatis, "Selective review of offline change point detection
+    methods", Signal Processing 167 (2020): piecewise-polynomial costs, window methods.
+[2] J. Bai, P. Perron, "Estimating and testing linear models with multiple structural
+    changes", Econometrica 66 (1998): least-squares break location in segmented regression.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import pairwise
+
+import numpy as np
+from scipy.ndimage import maximum_filter1d
+
+#: 1.4826 * MAD estimates the standard deviation of normal noise.
+MAD_TO_SIGMA = 1.4826
+
+
+def block_means(values: np.ndarray, block: int) -> np.ndarray:
+    """Means of consecutive blocks of `block` samples; a partial last block is dropped."""
+    values = np.asarray(values, dtype=np.float64)
+    block = max(1, int(block))
+    n_blocks = values.size // block
+    return values[: n_blocks * block].reshape(n_blocks, block).mean(axis=1)
+
+
+def robust_sigma_W(y: np.ndarray) -> float:
+    """Noise standard deviation of a series from its first differences [same unit as y].
+
+    sigma = 1.4826 * median(|d - median(d)|) / sqrt(2), d = diff(y): white noise of sd sigma
+    gives differences of sd sigma*sqrt(2); the median ignores the few jumps.
+    """
+    y = np.asarray(y, dtype=np.float64)
+    if y.size < 3:
+        return 0.0
+    d = np.diff(y)
+    return float(MAD_TO_SIGMA * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
+
+
+def jump_statistic_W(y: np.ndarray, half_width: int) -> np.ndarray:
+    """Jump at each block boundary: right line minus left line, both at the boundary [W].
+
+    `J[k]` is for the boundary just before block k (k = 0..n); NaN where a window of
+    `half_width` blocks does not fit on both sides. Lines are least-squares fits over
+    [k - w, k) and [k, k + w), evaluated at the boundary position k - 1/2.
+    """
+    y = np.asarray(y, dtype=np.float64)
+    n = y.size
+    w = int(half_width)
+    out = np.full(n + 1, np.nan)
+    if w < 2 or n < 2 * w:
+        return out
+    yc = y - np.median(y)  # centred: keeps the prefix sums small (no cancellation)
+    j = np.arange(n, dtype=np.float64)
+    s0 = np.concatenate(([0.0], np.cumsum(yc)))
+    s1 = np.concatenate(([0.0], np.cumsum(j * yc)))
+    k = np.arange(w, n - w + 1)
+    s_xx = w * (w * w - 1) / 12.0
+
+    def line_at_boundary(start: np.ndarray) -> np.ndarray:
+        sum_y = s0[start + w] - s0[start]
+        sum_jy = s1[start + w] - s1[start]
+        mean_j = start + (w - 1) / 2.0
+        slope = (sum_jy - mean_j * sum_y) / s_xx
+        return sum_y / w + slope * (k - 0.5 - mean_j)
+
+    out[k] = line_at_boundary(k) - line_at_boundary(k - w)
+    return out
+
+
+def jump_sd_factor(half_width: int) -> float:
+    """sd(J) / sigma for white noise of sd sigma per block (line fits over w blocks each).
+
+    The variance of a line fitted to w points, evaluated half a point beyond its last one,
+    is sigma^2 (1/w + (w/2)^2 / S_xx) with S_xx = w (w^2 - 1) / 12; J is the difference of two
+    independent such values.
+    """
+    w = int(half_width)
+    return float(np.sqrt(2.0 * (1.0 / w + 3.0 * w / (w * w - 1.0))))
+
+
+def peaks(score: np.ndarray, threshold: float, separation: int) -> np.ndarray:
+    """Indices of local maxima of `score` above `threshold`, at least `separation` apart
+    (greedy from the largest)."""
+    s = np.nan_to_num(np.asarray(score, dtype=np.float64), nan=-np.inf)
+    size = 2 * max(1, int(separation)) + 1
+    local = (s == maximum_filter1d(s, size=size, mode="constant", cval=-np.inf)) & (s > threshold)
+    candidates = np.flatnonzero(local)
+    kept: list[int] = []
+    for idx in candidates[np.argsort(-s[candidates], kind="stable")]:
+        if all(abs(int(idx) - k) >= separation for k in kept):
+            kept.append(int(idx))
+    return np.array(sorted(kept), dtype=np.int64)
+
+
+@dataclass(frozen=True)
+class Split:
+    """Result of `best_split`: the first index of the right piece, and the costs."""
+
+    index: int
+    sse: float
+    sse_one_piece: float
+    left_end_W: float
+    right_start_W: float
+    left_coef: tuple[float, ...] = ()
+    right_coef: tuple[float, ...] = ()
+
+    @property
+    def jump_W(self) -> float:
+        """Right piece minus left piece, both at the split."""
+        return self.right_start_W - self.left_end_W
+
+
+class _PolyCost:
+    """Least-squares cost of polynomial pieces over [i, j) of a window, each in O(1).
+
+    Prefix sums of x^p (p <= 2 deg) and x^p y (p <= deg) make the normal equations of any
+    piece a difference of two rows: SSE = sum y^2 - b^T G^-1 b (ordinary least squares).
+    x is the position scaled to [0, 1] and y is centred, to keep the sums well conditioned.
+    """
+
+    def __init__(self, y: np.ndarray, max_deg: int) -> None:
+        n = y.size
+        self.n = n
+        self.offset = float(np.mean(y)) if n else 0.0
+        yc = y - self.offset
+        x = np.arange(n, dtype=np.float64) / max(n - 1, 1)
+        self.x_scale = max(n - 1, 1)
+        powers = [np.ones(n)]
+        for _ in range(2 * max_deg):
+            powers.append(powers[-1] * x)
+        self.px = [np.concatenate(([0.0], np.cumsum(p))) for p in powers]
+        self.pxy = [np.concatenate(([0.0], np.cumsum(p * yc))) for p in powers[: max_deg + 1]]
+        self.py2 = np.concatenate(([0.0], np.cumsum(yc * yc)))
+
+    def fit(self, i: np.ndarray, j: np.ndarray, deg: int) -> tuple[np.ndarray, np.ndarray]:
+        """SSE and coefficients (in the scaled x) of a degree-`deg` fit over each [i, j)."""
+        i = np.atleast_1d(i)
+        j = np.atleast_1d(j)
+        m = deg + 1
+        gram = np.empty(i.shape + (m, m))
+        rhs = np.empty(i.shape + (m,))
+        for p in range(m):
+            rhs[..., p] = self.pxy[p][j] - self.pxy[p][i]
+            for q in range(m):
+                gram[..., p, q] = self.px[p + q][j] - self.px[p + q][i]
+        ridge = 1e-12 * np.trace(gram, axis1=-2, axis2=-1)[..., None, None] * np.eye(m)
+        coef = np.linalg.solve(gram + ridge, rhs[..., None])[..., 0]
+        sse = (self.py2[j] - self.py2[i]) - np.sum(coef * rhs, axis=-1)
+        return np.maximum(sse, 0.0), coef
+
+    def value(self, coef: np.ndarray, index: float) -> float:
+        x = index / self.x_scale
+        return float(sum(c * x**p for p, c in enumerate(coef)) + self.offset)
+
+
+def best_split(
+    y: np.ndarray,
+    lo: int,
+    hi: int,
+    deg_left: int,
+    deg_right: int,
+    min_len: int = 5,
+) -> Split | None:
+    """Least-squares split of y[lo:hi] into a degree-`deg_left` then a degree-`deg_right`
+    polynomial piece (a segmented regression with one break, [2]).
+
+    Returns the first index of the right piece (in y's indices), or None when the window is
+    too short for two pieces of `min_len` points.
+    """
+    lo = max(0, int(lo))
+    hi = min(int(hi), np.asarray(y).size)
+    min_len = max(int(min_len), deg_left + 2, deg_right + 2)
+    if hi - lo < 2 * min_len:
+        return None
+    window = np.asarray(y[lo:hi], dtype=np.float64)
+    cost = _PolyCost(window, max(deg_left, deg_right))
+    n = window.size
+    splits = np.arange(min_len, n - min_len + 1)
+    sse_left, coef_left = cost.fit(np.zeros_like(splits), splits, deg_left)
+    sse_right, coef_right = cost.fit(splits, np.full_like(splits, n), deg_right)
+    total = sse_left + sse_right
+    best = int(np.argmin(total))
+    k = int(splits[best])
+    sse_one, _ = cost.fit(np.array([0]), np.array([n]), max(deg_left, deg_right))
+    return Split(
+        index=lo + k,
+        sse=float(total[best]),
+        sse_one_piece=float(sse_one[0]),
+        left_end_W=cost.value(coef_left[best], k - 0.5),
+        right_start_W=cost.value(coef_right[best], k - 0.5),
+        left_coef=tuple(float(c) for c in coef_left[best]),
+        right_coef=tuple(float(c) for c in coef_right[best]),
+    )
+
+
+def piece_sse(y: np.ndarray, deg: int) -> float:
+    """Residual sum of squares of one least-squares polynomial of degree `deg` over y."""
+    y = np.asarray(y, dtype=np.float64)
+    if y.size <= deg + 1:
+        return 0.0
+    cost = _PolyCost(y, deg)
+    sse, _ = cost.fit(np.array([0]), np.array([y.size]), deg)
+    return float(sse[0])
+
+
+@dataclass(frozen=True)
+class LevelSpike:
+    """A short start-up excursion at the start of a level, in samples."""
+
+    i_start: int
+    i_end: int
+    peak_W: float
+    energy_above_level_J: float
+
+
+@dataclass(frozen=True)
+class Levels:
+    """Steady levels of a trace: `bounds` are sample indices (0, ..., n), one more than levels."""
+
+    bounds: tuple[int, ...]
+    levels_W: tuple[float, ...]
+    spikes: tuple[LevelSpike, ...]
+    block: int
+    noise_W: float
+    min_step_W: float
+
+
+@dataclass(frozen=True)
+class LevelParams:
+    """Parameters of `detect_levels` (docs/segmentation.md)."""
+
+    #: block length [s] of the block means everything works on
+    block_s: float = 0.005
+    #: each line of the jump statistic is fitted over this long [s]
+    half_width_s: float = 0.05
+    #: a jump must exceed z times its noise sd
+    z: float = 6.0
+    #: smallest change between levels that counts [W]; None: 2% of the trace's 1-99% range
+    min_step_W: float | None = None
+    #: longest start-up spike [s]; a level must last longer than this
+    spike_max_s: float = 0.3
+
+
+def detect_levels(
+    power_W: np.ndarray, sample_period_s: float, params: LevelParams | None = None
+) -> Levels:
+    """Steady levels of a power trace and the sample indices of the changes between them.
+
+    1. block means over `block_s`; noise sd from `robust_sigma_W`;
+    2. candidate changes: peaks of |J| (`jump_statistic_W`) above max(z sd(J), min_step_W);
+       each is put on the sample where a two-mean split of the +-1 block around it is best;
+    3. a level shorter than `spike_max_s` that overshoots the level after it (in the
+       direction of the change that started it) is a start-up spike: merged into that level;
+    4. neighbouring levels closer than `min_step_W` are merged.
+    """
+    params = params or LevelParams()
+    power_W = np.asarray(power_W, dtype=np.float64)
+    n = power_W.size
+    block = max(1, round(params.block_s / sample_period_s))
+    y = block_means(power_W, block)
+    w = max(2, round(params.half_width_s / (block * sample_period_s)))
+    sigma = robust_sigma_W(y)
+    if params.min_step_W is not None:
+        min_step = float(params.min_step_W)
+    elif y.size:
+        lo_W, hi_W = np.percentile(y, [1, 99])
+        min_step = 0.02 * float(hi_W - lo_W)
+    else:
+        min_step = 0.0
+    bounds = [0]
+    if y.size >= 2 * w + 1:
+        jump = jump_statistic_W(y, w)
+        threshold = max(params.z * jump_sd_factor(w) * sigma, min_step, 1e-12)
+        for k in peaks(np.abs(jump), threshold, w):
+            bounds.append(_refine_to_sample(power_W, int(k) * block, block))
+    bounds.append(n)
+    bounds = sorted(set(b for b in bounds if 0 <= b <= n))
+    spike_max = max(1, round(params.spike_max_s / sample_period_s))
+    bounds = _merge_spikes(power_W, bounds, spike_max)
+    bounds = _merge_small(power_W, bounds, min_step)
+    levels = tuple(float(np.median(power_W[a:b])) for a, b in pairwise(bounds))
+    spikes = _find_spikes(
+        power_W, sample_period_s, bounds, levels, block, spike_max, sigma, params.z
+    )
+    return Levels(tuple(bounds), levels, spikes, block, sigma, min_step)
+
+
+def _refine_to_sample(power_W: np.ndarray, i_guess: int, block: int) -> int:
+    """The sample where a two-mean split of [i_guess - block, i_guess + block) is best."""
+    lo = max(0, i_guess - block)
+    hi = min(power_W.size, i_guess + block)
+    if hi - lo < 2:
+        return i_guess
+    seg = power_W[lo:hi] - power_W[lo:hi].mean()
+    c = np.cumsum(seg)
+    m = seg.size
+    k = np.arange(1, m)
+    # between-class sum of squares of a split at k (maximal where SSE is minimal)
+    score = c[k - 1] ** 2 / k + c[k - 1] ** 2 / (m - k)
+    return lo + int(k[np.argmax(score)])
+
+
+def _level(power_W: np.ndarray, a: int, b: int) -> float:
+    return float(np.median(power_W[a:b]))
+
+
+def _merge_spikes(power_W: np.ndarray, bounds: list[int], spike_max: int) -> list[int]:
+    """Merge a short segment that overshoots the segment after it into that segment."""
+    changed = True
+    while changed and len(bounds) > 3:
+        changed = False
+        for s in range(1, len(bounds) - 2):  # segment s = [bounds[s], bounds[s+1]), not the first
+            a, b, c = bounds[s], bounds[s + 1], bounds[s + 2]
+            if b - a >= spike_max:
+                continue
+            before = _level(power_W, bounds[s - 1], a)
+            here = float(np.mean(power_W[a:b]))
+            after = _level(power_W, b, c)
+            rise = after - before
+            overshoot = here - after
+            if rise != 0 and np.sign(overshoot) == np.sign(rise):
+                # a spike that settles to a new level belongs to that level
+                del bounds[s + 1]
+                changed = True
+                break
+            if abs(after - before) < abs(here - before) * 0.25 and c - a < spike_max:
+                # a short excursion that returns (a glitch): one level with its neighbours
+                del bounds[s + 1]
+                changed = True
+                break
+    return bounds
+
+
+def _merge_small(power_W: np.ndarray, bounds: list[int], min_step: float) -> list[int]:
+    """Merge neighbouring levels closer than `min_step`, the closest pair first."""
+    while len(bounds) > 2:
+        levels = [_level(power_W, a, b) for a, b in pairwise(bounds)]
+        diffs = np.abs(np.diff(levels))
+        k = int(np.argmin(diffs))
+        if diffs[k] >= min_step:
+            break
+        del bounds[k + 1]
+    return bounds
+
+
+def _find_spikes(
+    power_W: np.ndarray,
+    sample_period_s: float,
+    bounds: list[int],
+    levels: tuple[float, ...],
+    block: int,
+    spike_max: int,
+    sigma_W: float,
+    z: float,
+) -> tuple[LevelSpike, ...]:
+    """The leading run of blocks of each level (after the first) that stands out from it."""
+    spikes = []
+    for s in range(1, len(levels)):
+        a, b = bounds[s], bounds[s + 1]
+        step_W = levels[s] - levels[s - 1]
+        stop = min(b, a + spike_max)
+        head = block_means(power_W[a:stop], block)
+        if head.size == 0 or step_W == 0:
+            continue
+        # excursions beyond the level in the direction of the step (overshoot)
+        excess = (head - levels[s]) * np.sign(step_W)
+        threshold = max(z * sigma_W, 0.05 * abs(step_W))
+        out = excess > threshold
+        if not out[: min(2, out.size)].any():
+            continue
+        first_in = np.flatnonzero(~out[np.argmax(out) :])
+        n_out = int(first_in[0]) + int(np.argmax(out)) if first_in.size else out.size
+        i_end = min(b, a + n_out * block)
+        seg = power_W[a:i_end]
+        spikes.append(
+            LevelSpike(
+                i_start=a,
+                i_end=i_end,
+                peak_W=float(seg.max() if step_W > 0 else seg.min()),
+                energy_above_level_J=float(np.sum(seg - levels[s]) * sample_period_s),
+            )
+        )
+    return tuple(spikes)

@@ -1,0 +1,402 @@
+"""Segmentation of a run into phases: what `wbpower segment` computes (and `fit` uses).
+
+A motion run (`meta.mode == "motion"`, `meta.steps = N`) is cut into: idle, then for each
+step `accel`, `cruise`, `decel` (only when the data shows one), idle between steps. Any
+other log is cut into steady `level` segments by the generic layer
+(`wifibot_power.changepoint.detect_levels`).
+
+Motion runs, on 1 ms block means (docs/segmentation.md has the details and figures):
+
+1. Idle level: the lower of the medians of the first and last `idle_probe_s` (runs start
+   and end idle). Motion is where 10 ms means stand `motion_threshold` above idle; of the
+   stretches found, gaps are closed (the shortest first) until N remain, so a cruise ripple
+   dipping towards idle does not cut a step in two.
+2. Acceleration start t0: a least-squares split of the window around the coarse start into
+   a flat idle piece and a quadratic piece (the drive-on step, the linear ramp of constant
+   acceleration, a start transient) [Bai & Perron 1998]: the true start, not a crossing.
+3. Acceleration end t1: the strongest drop of the jump statistic (power falls from the
+   ramp's peak P = P_idle + P_drive + (c_roll + kI m a) v to the cruise level when the
+   acceleration stops, the mean of that ramp being the paper's Eq. 2), then a split of a
+   quadratic ramp piece from a quadratic cruise piece around it.
+4. Motion end t3: a split into a quadratic piece (cruise or stopping) and a flat idle piece.
+5. Stopping (decel) start t2: a split of [.., t3) into a quadratic cruise piece and a linear
+   ramp-down piece, kept only when the data shows a stop phase: a significant drop at t2,
+   a falling ramp that ends near idle (closer to idle than to the cruise level), and
+   at least `min_decel_s` long; the paper's Eq. 6 has no such phase (causes.md
+   `decel_phase`).
+
+Phases cover every sample exactly once; boundaries fall on block edges (1 ms).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import pairwise
+from pathlib import Path
+
+import numpy as np
+
+from wifibot_power.changepoint import (
+    LevelParams,
+    best_split,
+    block_means,
+    detect_levels,
+    jump_sd_factor,
+    jump_statistic_W,
+    peaks,
+    robust_sigma_W,
+)
+from wifibot_power.errors import LogError
+from wifibot_power.io import ReadOptions, read_log
+from wifibot_power.phases import Phase, Segmentation, Spike
+from wifibot_power.run import Run
+
+
+@dataclass(frozen=True)
+class MotionParams:
+    """Parameters of motion segmentation (docs/segmentation.md)."""
+
+    #: block length [s] every fit works on
+    block_s: float = 0.001
+    #: leading and trailing stretch assumed idle [s]
+    idle_probe_s: float = 0.5
+    #: motion is where 10 ms means exceed idle by this many noise sd, and at least `min_excess_W`
+    motion_z: float = 5.0
+    min_excess_W: float = 0.25
+    #: motion stretches shorter than this are noise [s]
+    min_motion_s: float = 0.05
+    #: the longest acceleration looked for [s] and the shortest
+    max_accel_s: float = 2.5
+    min_accel_s: float = 0.03
+    #: half width of the lines of the jump statistic that finds the end of acceleration [s]
+    jump_half_width_s: float = 0.025
+    #: a drop at the end of acceleration must exceed this many sd of the jump statistic
+    jump_z: float = 5.0
+    #: the acceleration start is fitted on at most this much of the ramp [s]
+    accel_probe_s: float = 0.3
+    #: without a clear drop, the end of acceleration is looked for this far from its start [s]
+    kink_probe_s: float = 0.5
+    #: half width of the window of each fine split [s]
+    refine_s: float = 0.06
+    #: how far before / after the coarse motion end the end is looked for [s]
+    end_back_s: float = 0.4
+    end_forward_s: float = 1.6
+    #: the longest stop phase looked for [s] and the shortest kept
+    max_decel_s: float = 1.5
+    min_decel_s: float = 0.1
+    #: a stop phase must start with a drop of this many noise sd
+    decel_z: float = 5.0
+
+
+@dataclass(frozen=True)
+class _Step:
+    t0: int  # accel start (block index)
+    t1: int  # accel end = cruise start
+    t2: int  # cruise end (= t3 without a stop phase)
+    t3: int  # motion end
+
+
+def segment_run(
+    run: Run,
+    motion: MotionParams | None = None,
+    levels: LevelParams | None = None,
+) -> Segmentation:
+    """Phases of one run: motion phases for a motion run, steady levels otherwise.
+
+    Raises `LogError` (naming the file) when a motion run shows no motion.
+    """
+    if run.samples == 0:
+        raise LogError("the log holds no samples", file=run.file, fix="check the file")
+    if run.meta.mode == "motion":
+        return _segment_motion(run, motion or MotionParams())
+    return _segment_levels(run, levels or LevelParams())
+
+
+def segment_file(path: str | Path, options: ReadOptions | None = None) -> tuple[Run, Segmentation]:
+    """Read one log and segment it (what `wbpower segment FILE` does)."""
+    run = read_log(path, options or ReadOptions())
+    try:
+        return run, segment_run(run)
+    except LogError as exc:
+        raise exc.with_file(path) from None
+
+
+# -- level logs ----------------------------------------------------------------------------
+
+
+def _segment_levels(run: Run, params: LevelParams) -> Segmentation:
+    found = detect_levels(run.power_W, run.sample_period_s, params)
+    bounds = list(found.bounds)
+    phases = [
+        _phase(run, level, "level", a, b) for level, (a, b) in enumerate(pairwise(bounds), start=1)
+    ]
+    spikes = tuple(
+        Spike(
+            t_start_s=_time_at(run, s.i_start),
+            duration_s=_time_at(run, s.i_end) - _time_at(run, s.i_start),
+            peak_W=s.peak_W,
+            energy_above_level_J=s.energy_above_level_J,
+        )
+        for s in found.spikes
+    )
+    return Segmentation(run.meta.run_id, tuple(phases), spikes)
+
+
+# -- motion runs ---------------------------------------------------------------------------
+
+
+def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
+    dt = run.sample_period_s
+    block = max(1, round(params.block_s / dt))
+    y = block_means(run.power_W, block)
+    block_dt = block * dt
+    n_blocks = y.size
+    if n_blocks < 50:
+        raise LogError(
+            f"too short to segment ({run.samples} samples)",
+            file=run.file,
+            fix="a motion run needs idle before and after the motion",
+        )
+    coarse = _coarse_motion(y, block_dt, max(1, run.meta.steps), params)
+    if not coarse:
+        raise LogError(
+            "no motion found: power never rises clearly above the idle level",
+            file=run.file,
+            fix="check the run's mode, or the reading options (--supply-voltage)",
+        )
+    sigma_b = robust_sigma_W(y)
+    steps: list[_Step] = []
+    for i, (a, b) in enumerate(coarse):
+        prev_end = steps[-1].t3 if steps else 0
+        next_start = coarse[i + 1][0] if i + 1 < len(coarse) else n_blocks
+        steps.append(_locate_step(y, block_dt, sigma_b, a, b, prev_end, next_start, params))
+
+    bounds: list[tuple[int, int, str, int]] = []  # (start block, end block, phase, step)
+    cursor = 0
+    for number, st in enumerate(steps, start=1):
+        bounds.append((cursor, st.t0, "idle", number - 1))
+        bounds.append((st.t0, st.t1, "accel", number))
+        bounds.append((st.t1, st.t2, "cruise", number))
+        if st.t3 > st.t2:
+            bounds.append((st.t2, st.t3, "decel", number))
+        cursor = st.t3
+    bounds.append((cursor, n_blocks, "idle", len(steps)))
+    phases = []
+    for a, b, name, number in bounds:
+        i_start = a * block
+        i_end = run.samples if b >= n_blocks else b * block
+        if i_end > i_start:
+            phases.append(_phase(run, number, name, i_start, i_end))
+    spikes = tuple(_start_spikes(run, y, block, sigma_b, steps))
+    return Segmentation(run.meta.run_id, tuple(phases), spikes)
+
+
+def _coarse_motion(
+    y: np.ndarray, block_dt: float, steps: int, params: MotionParams
+) -> list[tuple[int, int]]:
+    """Motion stretches [a, b) in block indices: 10 ms means above idle, N of them."""
+    group = max(1, round(0.01 / block_dt))
+    y10 = block_means(y, group)
+    probe = max(3, round(params.idle_probe_s / (group * block_dt)))
+    probe = min(probe, max(3, y10.size // 10))
+    idle_W = min(float(np.median(y10[:probe])), float(np.median(y10[-probe:])))
+    sigma10 = robust_sigma_W(y10)
+    threshold = idle_W + max(params.motion_z * sigma10, params.min_excess_W)
+    above = np.concatenate(([False], y10 > threshold, [False]))
+    edges = np.flatnonzero(np.diff(above.astype(np.int8)))
+    stretches = [(int(s), int(e)) for s, e in zip(edges[::2], edges[1::2], strict=True)]
+    min_len = max(1, round(params.min_motion_s / (group * block_dt)))
+    stretches = [(s, e) for s, e in stretches if e - s >= min_len]
+    while len(stretches) > steps:
+        gaps = [stretches[k + 1][0] - stretches[k][1] for k in range(len(stretches) - 1)]
+        k = int(np.argmin(gaps))
+        stretches[k : k + 2] = [(stretches[k][0], stretches[k + 1][1])]
+    return [(s * group, min(e * group, y.size)) for s, e in stretches]
+
+
+def _locate_step(
+    y: np.ndarray,
+    block_dt: float,
+    sigma_b: float,
+    a: int,
+    b: int,
+    prev_end: int,
+    next_start: int,
+    params: MotionParams,
+) -> _Step:
+    """Fine boundaries of one step whose motion was coarsely found in [a, b)."""
+
+    def blocks(seconds: float) -> int:
+        return max(1, round(seconds / block_dt))
+
+    refine = blocks(params.refine_s)
+    min_len = max(5, blocks(0.005))
+    # 2a. acceleration start: flat idle, then the drive-on step and the ramp (a line)
+    lo = max(prev_end + 1, a - blocks(params.idle_probe_s))
+    split = best_split(y, lo, min(a + blocks(0.04), b), 0, 1, min_len)
+    t0 = split.index if split else a
+    # 3a. acceleration end, coarse: the first clear drop of the jump statistic (its lines
+    # start after t0, clear of the step at the start)
+    w = blocks(params.jump_half_width_s)
+    first = t0 + max(blocks(params.min_accel_s), w + 2)
+    last = min(t0 + blocks(params.max_accel_s), b - min_len)
+    t1c = None
+    if last > first:
+        lo_j = max(0, first - w)
+        hi_j = min(y.size, last + w)
+        jump = jump_statistic_W(y[lo_j:hi_j], w)[first - lo_j : last - lo_j + 1]
+        if np.isfinite(jump).any():
+            threshold = params.jump_z * jump_sd_factor(w) * sigma_b
+            found = _first_strong_drop(y, first, jump, threshold, w)
+            t1c = None if found is None else first + found
+    # 2b. acceleration start again, the line fitted on more of the ramp (up to
+    # `accel_probe_s`, clear of the end of acceleration)
+    hi = min(t0 + blocks(params.accel_probe_s), (t1c if t1c else b) - min_len, b)
+    if hi > t0 + 4 * min_len:
+        split = best_split(y, lo, hi, 0, 1, min_len)
+        t0 = split.index if split else t0
+    # 3b. acceleration end, fine: a quadratic ramp (with any transient) then a quadratic
+    # cruise (with any ripple); without a clear drop (a ripple can cancel it at low speed)
+    # the split of a ramp line from a smooth cruise over the first `kink_probe_s`
+    if t1c is not None:
+        split = best_split(y, max(t0 + min_len, t1c - refine), min(t1c + refine, b), 2, 2, min_len)
+        t1 = split.index if split else t1c
+    else:
+        split = best_split(y, t0 + 1, min(t0 + blocks(params.kink_probe_s), b), 1, 2, min_len)
+        t1 = split.index if split else min(t0 + blocks(params.min_accel_s), b - 1)
+    t1 = max(t1, t0 + 1)
+    # 4. motion end: a quadratic piece (cruise or stop), then flat idle
+    lo = max(t1 + blocks(0.05), b - blocks(params.end_back_s))
+    hi = min(next_start - blocks(0.05), b + blocks(params.end_forward_s), y.size)
+    split = best_split(y, lo, hi, 2, 0, min_len)
+    t3 = split.index if split else b
+    t3 = max(t3, t1 + 1)
+    # 5. a stop phase, when the data shows one
+    t2 = _decel_start(y, sigma_b, t1, t3, blocks, params, min_len)
+    if t2 < t3:
+        # the stop phase found, its end is re-fitted as a falling line then flat idle (the
+        # quadratic of step 4 straddled the drop at t2), then its start once more
+        split = best_split(y, t2 + min_len, min(t3 + refine, hi), 1, 0, min_len)
+        t3 = split.index if split else t3
+        t2 = _decel_start(y, sigma_b, t1, t3, blocks, params, min_len)
+    return _Step(t0=t0, t1=t1, t2=t2, t3=t3)
+
+
+def _first_strong_drop(
+    y: np.ndarray, first: int, jump_W: np.ndarray, threshold_W: float, separation: int
+) -> int | None:
+    """Index (into `jump_W`) of the drop that ends the acceleration, None without a clear one.
+
+    Among the clear drops at least half the strongest, the first one after rising power (the
+    ramp), else the first: the end of cruise, or the end of a start transient, can drop
+    further than the end of a short acceleration at low speed.
+    """
+    drops = peaks(-jump_W, threshold_W, separation)
+    if drops.size == 0:
+        return None
+    sizes = -jump_W[drops]
+    strong = drops[sizes >= 0.5 * sizes.max()]
+    for k in strong:
+        # the blocks just before the drop may straddle it: left out of the slope
+        before = y[first + k - separation : first + k - 2]
+        if before.size >= 3 and _line(before)[0] > 0:
+            return int(k)
+    return int(strong[0])
+
+
+def _decel_start(
+    y: np.ndarray,
+    sigma_b: float,
+    t1: int,
+    t3: int,
+    blocks,
+    params: MotionParams,
+    min_len: int,
+) -> int:
+    """Start of the stop phase before `t3`, or `t3` when the data shows none."""
+    lo = max(t1 + blocks(0.05), t3 - blocks(params.max_decel_s) - blocks(0.5))
+    split = best_split(y, lo, t3, 2, 1, min_len)
+    if split is None:
+        return t3
+    t2 = split.index
+    if t3 - t2 < blocks(params.min_decel_s) or t2 - lo < blocks(0.05):
+        return t3
+    # level of the idle after the run, and of the stop piece at its end
+    idle_W = float(np.median(y[t3 : min(y.size, t3 + blocks(0.3))]))
+    slope, intercept = _line(y[t2:t3])
+    end_W = intercept + slope * (t3 - t2 - 0.5)
+    cruise_W = split.left_end_W
+    drop_sd = sigma_b * np.sqrt(1.0 / max(t2 - lo, 1) * 4 + 4.0 / max(t3 - t2, 1))
+    if (
+        split.jump_W < -params.decel_z * drop_sd
+        and slope < 0
+        and (end_W - idle_W) < 0.5 * (cruise_W - idle_W)
+    ):
+        return t2
+    return t3
+
+
+def _line(y: np.ndarray) -> tuple[float, float]:
+    """Least-squares slope (per block) and intercept (at the first block)."""
+    x = np.arange(y.size, dtype=np.float64)
+    slope, intercept = np.polyfit(x, y, 1)
+    return float(slope), float(intercept)
+
+
+def _start_spikes(
+    run: Run, y: np.ndarray, block: int, sigma_b: float, steps: list[_Step]
+) -> list[Spike]:
+    """Start-up transients: the first blocks of an acceleration that stand out above the
+    line fitted to the rest of that acceleration."""
+    spikes = []
+    dt = run.sample_period_s
+    for st in steps:
+        seg = y[st.t0 : st.t1]
+        if seg.size < 20:
+            continue
+        tail = seg[seg.size // 2 :]
+        x = np.arange(seg.size, dtype=np.float64)
+        slope, intercept = np.polyfit(x[seg.size // 2 :], tail, 1)
+        excess = seg - (intercept + slope * x)
+        out = excess > 6.0 * sigma_b + 0.5
+        if not out[0]:
+            continue
+        n_out = int(np.argmin(out)) if not out.all() else out.size
+        i0, i1 = st.t0 * block, (st.t0 + n_out) * block
+        spikes.append(
+            Spike(
+                t_start_s=_time_at(run, i0),
+                duration_s=(i1 - i0) * dt,
+                peak_W=float(run.power_W[i0:i1].max()),
+                energy_above_level_J=float(np.sum(excess[:n_out]) * block * dt),
+            )
+        )
+    return spikes
+
+
+# -- shared --------------------------------------------------------------------------------
+
+
+def _time_at(run: Run, index: int) -> float:
+    """Start time of sample `index`; the end of the run for index == samples."""
+    if index < run.samples:
+        return float(run.time_s[index])
+    return float(run.time_s[-1] + run.sample_period_s)
+
+
+def _phase(run: Run, step: int, name: str, i_start: int, i_end: int) -> Phase:
+    power = run.power_W[i_start:i_end]
+    energy = float(np.sum(power, dtype=np.float64) * run.sample_period_s)
+    return Phase(
+        step=step,
+        phase=name,
+        i_start=i_start,
+        i_end=i_end,
+        t_start_s=_time_at(run, i_start),
+        t_end_s=_time_at(run, i_end),
+        mean_power_W=float(power.mean()),
+        energy_J=energy,
+    )
+
+
+__all__ = ["MotionParams", "jump_sd_factor", "segment_file", "segment_run"]
