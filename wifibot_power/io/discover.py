@@ -16,6 +16,8 @@ class LogSource:
 
     path: Path
     overrides: dict[str, str] = field(default_factory=dict)
+    #: where the overrides come from ("runs.csv line 4"), for messages that name the row
+    origin: str | None = None
 
 
 @dataclass(frozen=True)
@@ -33,25 +35,27 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
     """Every log under `paths` (folders recursively), in a stable order, with manifest overrides.
 
     A manifest applies to the files it names; files it does not name are still read with
-    their own metadata; a row naming a missing file becomes a `Skipped` entry.
+    their own metadata; a manifest named on the command line brings the files it lists; a
+    row naming a missing file becomes a `Skipped` entry that names the row.
     """
     files: list[Path] = []
     manifests: list[Path] = []
+    named_manifests: set[Path] = set()
     skipped: list[Skipped] = []
     for path in paths:
         if path.is_dir():
             for found in sorted(path.rglob("*")):
                 if found.is_file():
                     (manifests if is_manifest(found) else files).append(found)
-        elif path.is_file() or not path.exists():
-            if is_manifest(path):
-                manifests.append(path)
-                continue
+        elif is_manifest(path) and path.is_file():
+            manifests.append(path)
+            named_manifests.add(path)
+        else:
             files.append(path)
             beside = path.parent / MANIFEST_NAME
             if beside.is_file():
                 manifests.append(beside)
-    overrides: dict[Path, dict[str, str]] = {}
+    overrides: dict[Path, tuple[dict[str, str], str]] = {}
     wanted = {f.resolve() for f in files}
     only_files = all(not p.is_dir() for p in paths)
     for manifest in dict.fromkeys(manifests):
@@ -61,17 +65,26 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
             skipped.append(Skipped(str(manifest), exc.one_line()))
             continue
         for row in rows:
+            if manifest in named_manifests and row.file not in wanted:
+                files.append(row.file)
+                wanted.add(row.file)
             if row.file.is_file():
-                overrides[row.file] = row.values
-            elif not only_files or row.file in wanted:
+                overrides[row.file] = (row.values, f"{manifest} line {row.line}")
+            elif manifest in named_manifests or not only_files or row.file in wanted:
                 # a manifest found beside a single file only matters for that file
-                skipped.append(Skipped(
-                    str(manifest),
-                    f"{manifest}: line {row.line}: names '{row.file.name}', which does not "
-                    "exist (fix the row or restore the file)",
-                ))
+                skipped.append(
+                    Skipped(
+                        str(row.file),
+                        f"{manifest}: line {row.line}: names '{row.file.name}', which does not "
+                        "exist (fix the row or restore the file)",
+                    )
+                )
     sources = []
+    missing = {Path(s.file) for s in skipped}
     for file in dict.fromkeys(files):
+        if file in missing:
+            continue  # already listed, naming the manifest row
         if not file.exists() or is_log_name(file) or file.resolve() in overrides:
-            sources.append(LogSource(file, overrides.get(file.resolve(), {})))
+            values, origin = overrides.get(file.resolve(), ({}, None))
+            sources.append(LogSource(file, values, origin))
     return sources, skipped

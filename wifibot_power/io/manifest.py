@@ -37,7 +37,10 @@ def read_manifest(path: Path) -> list[ManifestRow]:
             file=path,
             fix="check the file is a UTF-8 CSV with a 'file' column",
         ) from None
-    reader = csv.DictReader(text.splitlines())
+    lines = text.splitlines()
+    header = next((ln for ln in lines if ln.strip()), "")
+    delimiter = ";" if header.count(";") > header.count(",") else ","
+    reader = csv.DictReader(lines, delimiter=delimiter)
     fields = [f.strip().lower() for f in (reader.fieldnames or [])]
     if "file" not in fields:
         raise LogError(
@@ -47,11 +50,29 @@ def read_manifest(path: Path) -> list[ManifestRow]:
             fix="the header must start with: file,run_id,mode,speed_mps,...",
         )
     rows: list[ManifestRow] = []
-    for line_no, raw in enumerate(reader, start=2):
+    seen: dict[Path, int] = {}
+    for raw in reader:
+        line_no = reader.line_num
         row = {(k or "").strip().lower(): (v or "").strip() for k, v in raw.items()}
         name = row.pop("file", "")
-        if not name:
-            continue
         values = {k: v for k, v in row.items() if v != "" and k}
-        rows.append(ManifestRow(path, line_no, (path.parent / name).resolve(), values))
+        if not name:
+            if values:
+                raise LogError(
+                    "a row with values but no file",
+                    file=path,
+                    where=f"line {line_no}",
+                    fix="name the log file in the 'file' column, or delete the row",
+                )
+            continue
+        file = (path.parent / name).resolve()
+        if file in seen:
+            raise LogError(
+                f"'{name}' is named twice (lines {seen[file]} and {line_no})",
+                file=path,
+                where=f"line {line_no}",
+                fix="keep one row per file",
+            )
+        seen[file] = line_no
+        rows.append(ManifestRow(path, line_no, file, values))
     return rows

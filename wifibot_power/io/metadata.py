@@ -21,56 +21,98 @@ KNOWN_KEYS = (
 
 
 def _number(values: dict[str, str], key: str, file: str, where: str) -> float | None:
+    """The value of `key` as a float (a lone decimal comma is accepted), or None if unset."""
     text = values.get(key)
     if text is None or text == "":
         return None
     try:
-        value = float(text.replace(",", ".")) if text.count(",") == 1 and "." not in text else float(text)
+        value = (
+            float(text.replace(",", "."))
+            if text.count(",") == 1 and "." not in text
+            else float(text)
+        )
     except ValueError:
         raise LogError(
-            f"metadata '{key}' is '{text}', not a number", file=file, where=where,
+            f"metadata '{key}' is '{text}', not a number",
+            file=file,
+            where=where,
             fix=f"write {key} as a plain number in SI units",
         ) from None
     if not math.isfinite(value):
-        raise LogError(f"metadata '{key}' is {text}", file=file, where=where, fix="give a finite number")
+        raise LogError(
+            f"metadata '{key}' is {text}", file=file, where=where, fix="give a finite number"
+        )
     return value
 
 
-def build_meta(values: dict[str, str], *, file: str, stem: str, where: str) -> RunMeta:
-    """A checked `RunMeta` from `key: value` strings (file metadata with manifest overrides)."""
-    speed = _number(values, "speed_mps", file, where)
-    distance = _number(values, "distance_m", file, where)
-    steps_f = _number(values, "steps", file, where)
-    payload = _number(values, "payload_kg", file, where)
-    period = _number(values, "sample_period_s", file, where)
+def build_meta(
+    values: dict[str, str],
+    *,
+    file: str,
+    stem: str,
+    where: str,
+    origins: dict[str, str] | None = None,
+) -> RunMeta:
+    """A checked `RunMeta` from `key: value` strings (file metadata with manifest overrides).
+
+    `origins` maps a key to where its value was set ("metadata line 3", "runs.csv line 4"),
+    so an error names the row at fault; `where` is the fallback.
+    """
+    origins = origins or {}
+
+    def at(*keys: str) -> str:
+        found = [origins[k] for k in keys if k in origins]
+        return ", ".join(dict.fromkeys(found)) or where
+
+    speed = _number(values, "speed_mps", file, at("speed_mps"))
+    distance = _number(values, "distance_m", file, at("distance_m"))
+    steps_f = _number(values, "steps", file, at("steps"))
+    payload = _number(values, "payload_kg", file, at("payload_kg"))
+    period = _number(values, "sample_period_s", file, at("sample_period_s"))
 
     mode = values.get("mode", "").strip().lower() or ("motion" if speed is not None else "unknown")
     if mode not in MODES:
         raise LogError(
-            f"unknown mode '{values.get('mode')}'", file=file, where=where,
+            f"unknown mode '{values.get('mode')}'",
+            file=file,
+            where=at("mode"),
             fix=f"use one of: {', '.join(MODES)}",
         )
     if steps_f is not None and (steps_f < 1 or steps_f != int(steps_f)):
         raise LogError(
-            f"steps is {values.get('steps')}", file=file, where=where,
+            f"steps is {values.get('steps')}",
+            file=file,
+            where=at("steps"),
             fix="steps must be a whole number >= 1",
         )
     if mode == "motion":
         if speed is None or speed <= 0:
             raise LogError(
-                f"a motion run with speed_mps {values.get('speed_mps', 'missing')}", file=file,
-                where=where, fix="give the commanded speed (> 0 m/s), or set the mode",
+                f"a motion run with speed_mps {values.get('speed_mps', 'missing')}",
+                file=file,
+                where=at("speed_mps") if "speed_mps" in values else at("mode"),
+                fix="give the commanded speed (> 0 m/s), or set the mode",
             )
         if distance is not None and distance <= 0:
             raise LogError(
-                f"a motion run with distance_m {values.get('distance_m')}", file=file,
-                where=where, fix="give the distance travelled (> 0 m)",
+                f"a motion run with distance_m {values.get('distance_m')}",
+                file=file,
+                where=at("distance_m"),
+                fix="give the distance travelled (> 0 m)",
             )
     if payload is not None and payload < 0:
-        raise LogError(f"payload_kg is {payload}", file=file, where=where, fix="payload must be >= 0")
+        raise LogError(
+            f"payload_kg is {payload}",
+            file=file,
+            where=at("payload_kg"),
+            fix="payload must be >= 0",
+        )
     if period is not None and period <= 0:
         raise LogError(
-            f"sample_period_s is {period}", file=file, where=where, fix="give the sample spacing in s (> 0)"
+            f"sample_period_s is {period}",
+            file=file,
+            where=at("sample_period_s"),
+            fix="give the sample spacing in s (> 0)",
         )
     started = None
     if values.get("started_at"):
@@ -78,8 +120,10 @@ def build_meta(values: dict[str, str], *, file: str, stem: str, where: str) -> R
             started = datetime.fromisoformat(values["started_at"].replace("Z", "+00:00"))
         except ValueError:
             raise LogError(
-                f"started_at '{values['started_at']}' is not an ISO 8601 time", file=file,
-                where=where, fix="write e.g. 2015-06-01T10:00:00Z",
+                f"started_at '{values['started_at']}' is not an ISO 8601 time",
+                file=file,
+                where=at("started_at"),
+                fix="write e.g. 2015-06-01T10:00:00Z",
             ) from None
     extra = {k: v for k, v in values.items() if k not in KNOWN_KEYS}
     return RunMeta(

@@ -1,19 +1,23 @@
 """Read one log (canonical wbpower CSV or Keysight N6705 datalog) into a `Run`.
 
 Parsing goes through pyarrow's multi-threaded CSV reader; per-sample work is
-vectorised. The preamble (metadata lines, N6705 header) is parsed in Python:
-it is a handful of lines.
+vectorised. The preamble (metadata lines, N6705 header, the first data lines) is
+parsed in Python: it is a handful of lines. Line numbers for error messages are
+worked out only when there is an error to report.
+
+What is read where the spec is silent is described in docs/log-format.md.
 """
 
 from __future__ import annotations
 
+import csv
 import re
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 
 from wifibot_power.errors import LogError
@@ -27,14 +31,22 @@ from wifibot_power.io.columns import (
 )
 from wifibot_power.io.metadata import build_meta
 from wifibot_power.io.validate import check_samples
-from wifibot_power.run import Run
+from wifibot_power.run import Problem, Run
 
 FORMAT_CANONICAL = "wbpower-csv"
 FORMAT_N6705 = "n6705"
 LOG_SUFFIXES = (".csv", ".csv.gz", ".csv.zst")
+#: The canonical format versions this reader knows (`# wbpower-log: 1`).
+KNOWN_VERSIONS = ("1",)
 _HEAD_BYTES = 1 << 16
-_ROW_IN_MESSAGE = re.compile(r"Row #(\d+)")
+#: Data lines of the head looked at to tell the decimal mark and the field count.
+_SNIFF_LINES = 50
+_LINE_END = re.compile(r"\r\n|\r|\n")
+_LINE_END_BYTES = re.compile(rb"\r\n|\r|\n")
 _COLUMN_IN_MESSAGE = re.compile(r"column #(\d+)")
+_INVALID_VALUE = re.compile(r"invalid value '(.*)'")
+_DECIMAL_COMMA_CELL = re.compile(r"^\s*[+-]?\d*,\d+(?:[eE][+-]?\d+)?\s*$")
+_DECIMAL_POINT_CELL = re.compile(r"^\s*[+-]?\d*\.\d+(?:[eE][+-]?\d+)?\s*$")
 
 
 @dataclass(frozen=True)
@@ -55,6 +67,8 @@ class _Preamble:
     metadata: dict[str, str]
     delimiter: str
     decimal_comma: bool
+    #: metadata key -> where it was set ("line 3"), for messages
+    metadata_where: dict[str, str] = field(default_factory=dict)
 
 
 def is_log_name(path: Path) -> bool:
@@ -74,9 +88,12 @@ def read_bytes(path: Path) -> bytes:
         raise LogError("no such file", file=path, fix="check the path") from None
     except IsADirectoryError:
         raise LogError("is a folder, not a log", file=path, fix="name a log file") from None
+    except PermissionError:
+        raise LogError("permission denied", file=path, fix="check the file's permissions") from None
     except (OSError, pa.ArrowException) as exc:
+        first = (str(exc).splitlines() or [exc.__class__.__name__])[0][:80]
         raise LogError(
-            f"cannot read or decompress ({str(exc).splitlines()[0][:80]})",
+            f"cannot read or decompress ({first})",
             file=path,
             fix="check the file is complete and its extension matches its compression",
         ) from None
@@ -88,35 +105,57 @@ def read_log(
     overrides: dict[str, str] | None = None,
     *,
     data: bytes | None = None,
+    origin: str | None = None,
 ) -> Run:
     """Read a log file into a `Run`; `overrides` (manifest values) win over the file's metadata.
 
+    `data` gives the (decompressed) bytes instead of reading `path`; `origin` says where the
+    overrides come from (e.g. "runs.csv line 4"), so a contradiction names that row.
     Raises `LogError` with a one-line message for anything it cannot read honestly.
     """
     options = options or ReadOptions()
     path = Path(path)
-    raw = read_bytes(path) if data is None else data
-    if raw.startswith(b"\xef\xbb\xbf"):
-        raw = raw[3:]
-    pre = _parse_preamble(path, raw)
-    table = _read_table(path, raw, pre)
+    named = tuple(c for c in (options.current_column, options.voltage_column) if c)
+    raw = _decode(path, read_bytes(path) if data is None else data)
+    pre = _parse_preamble(path, raw, named)
+    raw, cut_problem = _drop_unterminated_last_line(raw, pre)
+    lines = _LineMap(raw, pre.header_line)
+    table = _read_table(path, raw, pre, lines, named)
     source = _power_source(path, pre, table.column_names, options)
-    power_W = _power(path, pre, table, source)
     values = dict(pre.metadata)
-    values.update(overrides or {})
-    if options.sample_period_s is not None and "time_s" not in _lower(table.column_names):
+    where = {k: f"metadata {w}" for k, w in pre.metadata_where.items()}
+    for key, value in (overrides or {}).items():
+        values[key] = value
+        where[key] = origin or "manifest"
+    time_name = "time_s" if pre.format == FORMAT_CANONICAL else "Sample"
+    has_time = find_column(table.column_names, time_name) is not None
+    if options.sample_period_s is not None and (pre.format == FORMAT_N6705 or not has_time):
         values["sample_period_s"] = repr(options.sample_period_s)
-    meta = build_meta(values, file=str(path), stem=_stem(path), where="metadata")
+        where["sample_period_s"] = "--sample-period"
+    if pre.format == FORMAT_N6705 and "sample_period_s" not in values:
+        raise LogError(
+            "N6705 export without a 'Sample interval' line",
+            file=path,
+            fix="give the sample spacing with --sample-period S, or re-export the datalog",
+        )
+    meta = build_meta(values, file=str(path), stem=_stem(path), where="metadata", origins=where)
+    power_W, measured = _power(path, table, source)
     time_s = _time(path, pre, table, meta.sample_period_s)
     period_s, problems = check_samples(
-        str(path), time_s, power_W, first_data_line=pre.header_line + 2,
+        str(path),
+        time_s,
+        power_W,
+        line_of=lines.line_of,
         default_period_s=meta.sample_period_s,
+        measured=measured,
     )
+    if cut_problem is not None:
+        problems.insert(0, cut_problem)
     if time_s is None:
         time_s = np.arange(power_W.size) * period_s
     elif period_s != meta.sample_period_s:
         values["sample_period_s"] = repr(period_s)
-        meta = build_meta(values, file=str(path), stem=_stem(path), where="metadata")
+        meta = build_meta(values, file=str(path), stem=_stem(path), where="metadata", origins=where)
     return Run(
         file=str(path),
         format=pre.format,
@@ -135,19 +174,67 @@ def _stem(path: Path) -> str:
     return path.stem
 
 
-def _lower(names: list[str]) -> list[str]:
-    return [n.strip().strip('"').lower() for n in names]
-
-
-def _not_a_log(path: Path, why: str) -> LogError:
+def _not_a_log(path: Path, why: str, where: str | None = None) -> LogError:
     return LogError(
         f"not a power log ({why})",
         file=path,
+        where=where,
         fix="give a wbpower CSV (see docs/log-format.md) or a Keysight N6705 datalog export",
     )
 
 
-def _parse_preamble(path: Path, raw: bytes) -> _Preamble:
+def _decode(path: Path, raw: bytes) -> bytes:
+    """UTF-8 bytes without a byte-order mark: a UTF-8 BOM is dropped, UTF-16 (with its BOM,
+    as spreadsheets save "Unicode text") is converted. Both are unambiguous."""
+    if raw.startswith(b"\xef\xbb\xbf"):
+        return raw[3:]
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        try:
+            return raw.decode("utf-16").lstrip("\ufeff").encode("utf-8")
+        except UnicodeDecodeError:
+            raise _not_a_log(path, "broken UTF-16 text") from None
+    return raw
+
+
+class _LineMap:
+    """File line numbers (1-based) of data rows, worked out only when a message needs one."""
+
+    def __init__(self, raw: bytes, header_line: int) -> None:
+        self._raw = raw
+        self._header_line = header_line
+        self._rows: list[int] | None = None
+        self._lines: list[bytes] | None = None
+
+    def lines(self) -> list[bytes]:
+        if self._lines is None:
+            self._lines = _LINE_END_BYTES.split(self._raw)
+        return self._lines
+
+    def line_of(self, row: int) -> int:
+        """Line of data row `row` (pyarrow skips empty lines, so they are skipped here too)."""
+        if self._rows is None:
+            lines = self.lines()
+            start = self._header_line + 1
+            self._rows = [k + 1 for k in range(start, len(lines)) if lines[k]]
+        if not self._rows:
+            return self._header_line + 2
+        return self._rows[min(max(row, 0), len(self._rows) - 1)]
+
+    def find(self, match: Callable[[bytes], bool]) -> int | None:
+        """First data line (1-based) for which `match(line bytes)` holds."""
+        lines = self.lines()
+        for k in range(self._header_line + 1, len(lines)):
+            if lines[k] and match(lines[k]):
+                return k + 1
+        return None
+
+
+def _split_lines(text: str) -> list[str]:
+    # the same line ends pyarrow knows (\r\n, \r, \n); str.splitlines knows more
+    return _LINE_END.split(text)
+
+
+def _parse_preamble(path: Path, raw: bytes, extra_columns: tuple[str, ...] = ()) -> _Preamble:
     if not raw.strip():
         raise LogError("the file is empty", file=path, fix="re-export the log")
     head = raw[:_HEAD_BYTES]
@@ -157,17 +244,32 @@ def _parse_preamble(path: Path, raw: bytes) -> _Preamble:
         text = head.decode("utf-8")
     except UnicodeDecodeError as exc:
         if exc.start < len(head) - 4:  # not just a multi-byte char cut by the head limit
-            raise _not_a_log(path, f"not UTF-8 text at byte {exc.start}") from None
+            line = head[: exc.start].count(b"\n") + 1
+            raise LogError(
+                f"not UTF-8 text (byte {exc.start})",
+                file=path,
+                where=f"line {line}",
+                fix="save the file as UTF-8 (or plain ASCII) text",
+            ) from None
         text = head[: exc.start].decode("utf-8")
-    lines = text.splitlines()
+    lines = _split_lines(text)
+    if len(raw) > len(head):
+        lines = lines[:-1]  # the last line of the head may be cut by the head limit
     first = next((ln.strip() for ln in lines if ln.strip()), "")
     if re.match(r"^N6705[ABC]?\b", first, re.IGNORECASE):
         return _n6705_preamble(path, lines)
-    return _canonical_preamble(path, lines)
+    return _canonical_preamble(path, lines, extra_columns)
 
 
-def _canonical_preamble(path: Path, lines: list[str]) -> _Preamble:
+def _header_cells(line: str, delimiter: str) -> list[str]:
+    cells = next(csv.reader([line], delimiter=delimiter), [])
+    return [c.strip() for c in cells]
+
+
+def _canonical_preamble(path: Path, lines: list[str], extra_columns: tuple[str, ...]) -> _Preamble:
     metadata: dict[str, str] = {}
+    where: dict[str, str] = {}
+    wanted = set(CANONICAL_COLUMNS) | {c.strip().lower() for c in extra_columns}
     for index, line in enumerate(lines):
         stripped = line.strip()
         if not stripped:
@@ -177,25 +279,33 @@ def _canonical_preamble(path: Path, lines: list[str]) -> _Preamble:
             if ":" in body:
                 key, _, value = body.partition(":")
                 metadata[key.strip().lower()] = value.strip()
+                where[key.strip().lower()] = f"line {index + 1}"
             continue
         delimiter = _delimiter(stripped)
-        header = [h.strip().strip('"') for h in stripped.split(delimiter)]
-        known = [h for h in header if h.lower() in CANONICAL_COLUMNS]
-        if not known:
+        header = _header_cells(stripped, delimiter)
+        if not any(h.lower() in wanted for h in header):
             if any(ch.isdigit() for ch in stripped) and not any(ch.isalpha() for ch in stripped):
-                raise _not_a_log(path, f"line {index + 1} is data but there is no header row")
-            raise _not_a_log(path, f"line {index + 1} is not a header with power_W/voltage_V/current_A")
-        data_line = next((ln for ln in lines[index + 1 :] if ln.strip()), None)
-        if data_line is None and index + 1 >= len(lines):
-            raise LogError(
-                "header only: no samples", file=path, where=f"line {index + 1}",
-                fix="the log holds no data; re-export it",
+                raise _not_a_log(path, "data but no header row", where=f"line {index + 1}")
+            raise _not_a_log(
+                path,
+                "no header row with power_W, voltage_V x current_A or current_A",
+                where=f"line {index + 1}",
             )
-        decimal_comma = _decimal_comma(path, delimiter, data_line, index + 2)
-        return _Preamble(FORMAT_CANONICAL, index, header, metadata, delimiter, decimal_comma)
+        version = metadata.get("wbpower-log")
+        if version is not None and version not in KNOWN_VERSIONS:
+            raise LogError(
+                f"wbpower-log version '{version}' is not one this wbpower reads",
+                file=path,
+                where=where["wbpower-log"],
+                fix="update wbpower, or re-export as version 1",
+            )
+        _check_header(path, header, index)
+        decimal_comma = _sniff_data(path, lines, index, header, delimiter)
+        return _Preamble(FORMAT_CANONICAL, index, header, metadata, delimiter, decimal_comma, where)
     if metadata:
         raise LogError(
-            "metadata only: no header row and no samples", file=path,
+            "metadata only: no header row and no samples",
+            file=path,
             fix="the log holds no data; re-export it",
         )
     raise _not_a_log(path, "no header row")
@@ -203,30 +313,44 @@ def _canonical_preamble(path: Path, lines: list[str]) -> _Preamble:
 
 def _n6705_preamble(path: Path, lines: list[str]) -> _Preamble:
     metadata: dict[str, str] = {"instrument": lines[0].split()[0] if lines else "N6705"}
+    where: dict[str, str] = {}
     for index, line in enumerate(lines):
         stripped = line.strip().strip('"')
         lowered = stripped.lower()
-        if lowered.startswith("sample interval:"):
-            metadata["sample_period_s"] = stripped.split(":", 1)[1].strip()
-        elif lowered.startswith("trigger sample:"):
-            metadata["trigger_sample"] = stripped.split(":", 1)[1].strip()
-        elif lowered.startswith("date:"):
-            metadata["date"] = stripped.split(":", 1)[1].strip()
-        elif lowered.startswith("sample") and ("," in stripped or ";" in stripped or "\t" in stripped):
+        for prefix, key in (
+            ("sample interval:", "sample_period_s"),
+            ("trigger sample:", "trigger_sample"),
+            ("date:", "date"),
+        ):
+            if lowered.startswith(prefix):
+                metadata[key] = stripped.split(":", 1)[1].strip()
+                where[key] = f"line {index + 1}"
+        if lowered.startswith("sample") and any(d in stripped for d in ",;\t"):
             delimiter = _delimiter(line.strip())
-            header = [h.strip().strip('"') for h in line.strip().split(delimiter)]
-            data_line = next((ln for ln in lines[index + 1 :] if ln.strip()), None)
-            if data_line is None and index + 1 >= len(lines):
-                raise LogError(
-                    "header only: no samples", file=path, where=f"line {index + 1}",
-                    fix="the datalog holds no data; re-export it",
-                )
-            decimal_comma = _decimal_comma(path, delimiter, data_line, index + 2)
-            return _Preamble(FORMAT_N6705, index, header, metadata, delimiter, decimal_comma)
+            header = _header_cells(line.strip(), delimiter)
+            _check_header(path, header, index)
+            decimal_comma = _sniff_data(path, lines, index, header, delimiter)
+            return _Preamble(FORMAT_N6705, index, header, metadata, delimiter, decimal_comma, where)
     raise LogError(
-        "N6705 export without a 'Sample,...' header row", file=path,
+        "N6705 export without a 'Sample,...' header row",
+        file=path,
         fix="re-export the datalog as CSV from the analyser",
     )
+
+
+def _check_header(path: Path, header: list[str], index: int) -> None:
+    seen: dict[str, int] = {}
+    for position, name in enumerate(header):
+        key = name.lower()
+        if key in seen and key:
+            raise LogError(
+                f"column '{name}' appears twice in the header (columns {seen[key] + 1} and "
+                f"{position + 1})",
+                file=path,
+                where=f"line {index + 1}",
+                fix="rename or delete one of them",
+            )
+        seen[key] = position
 
 
 def _delimiter(header: str) -> str:
@@ -235,88 +359,164 @@ def _delimiter(header: str) -> str:
     return best if counts[best] else ","
 
 
-def _decimal_comma(path: Path, delimiter: str, data_line: str | None, line_no: int) -> bool:
-    if data_line is None or delimiter == ",":
+def _sniff_data(
+    path: Path, lines: list[str], header_index: int, header: list[str], delimiter: str
+) -> bool:
+    """Whether numbers use a decimal comma; a first data line whose field count does not match
+    the header (e.g. decimal commas in a ','-separated file) is an error here, with a hint."""
+    data = [(k, ln) for k, ln in enumerate(lines[header_index + 1 :], start=header_index + 2) if ln]
+    data = data[:_SNIFF_LINES]
+    if not data:
         return False
-    cells = data_line.strip().split(delimiter)
-    has_comma = any("," in c for c in cells)
-    has_point = any("." in c for c in cells)
-    if has_comma and has_point:
+    line_no, first = data[0]
+    cells = next(csv.reader([first], delimiter=delimiter), [])
+    if len(cells) != len(header):
+        hint = ""
+        if delimiter == "," and any(
+            _DECIMAL_COMMA_CELL.match(f"{a},{b}") for a, b in zip(cells, cells[1:], strict=False)
+        ):
+            hint = "; decimal commas in a ','-separated file are ambiguous"
         raise LogError(
-            "both ',' and '.' appear in numbers", file=path, where=f"line {line_no}",
-            fix="export with one decimal separator",
+            f"{len(cells)} fields where the header has {len(header)}{hint}",
+            file=path,
+            where=f"line {line_no}",
+            fix="export with ';' as the separator (or '.' as the decimal mark) so fields and "
+            "header match",
         )
-    return has_comma
+    commas = points = None
+    for line_no, line in data:
+        for cell in next(csv.reader([line], delimiter=delimiter), []):
+            if _DECIMAL_COMMA_CELL.match(cell) and commas is None:
+                commas = line_no
+            elif _DECIMAL_POINT_CELL.match(cell) and points is None:
+                points = line_no
+    if commas is not None and points is not None:
+        raise LogError(
+            "both ',' and '.' are used as the decimal mark",
+            file=path,
+            where=f"lines {min(commas, points)} and {max(commas, points)}",
+            fix="export with one decimal mark",
+        )
+    return commas is not None
 
 
-def _read_table(path: Path, raw: bytes, pre: _Preamble) -> pa.Table:
-    column_types = None if pre.decimal_comma else {
-        name: pa.float64() for name in pre.header if name.lower() in CANONICAL_COLUMNS
-        or N6705_COLUMN.match(name)
-    }
+def _drop_unterminated_last_line(raw: bytes, pre: _Preamble) -> tuple[bytes, Problem | None]:
+    """A last data line with no line end is what a full disk or a cut copy leaves: it may hold a
+    shortened number (23.3102 -> 23.3), so it is dropped and reported, never read."""
+    if not raw or raw.endswith((b"\n", b"\r")):
+        return raw, None
+    cut = max(raw.rfind(b"\n"), raw.rfind(b"\r"))
+    last = raw[cut + 1 :]
+    if not last.strip():
+        return raw, None
+    head = raw[: cut + 1]
+    line_no = head.count(b"\n") + head.count(b"\r") - head.count(b"\r\n") + 1
+    if line_no - 1 <= pre.header_line:
+        return raw, None  # the header itself: "header only" follows
+    return head, Problem(
+        "cut",
+        f"line {line_no} has no line end (file cut short?): dropped, not read",
+    )
+
+
+def _float_columns(pre: _Preamble, extra_columns: tuple[str, ...]) -> list[str]:
+    wanted = {c.strip().lower() for c in extra_columns}
+    out = []
+    for name in pre.header:
+        lowered = name.lower()
+        if (
+            lowered in CANONICAL_COLUMNS
+            or lowered in wanted
+            or N6705_COLUMN.match(name)
+            or (pre.format == FORMAT_N6705 and lowered == "sample")
+        ):
+            out.append(name)
+    return out
+
+
+def _read_table(
+    path: Path, raw: bytes, pre: _Preamble, lines: _LineMap, extra_columns: tuple[str, ...] = ()
+) -> pa.Table:
     try:
         table = pacsv.read_csv(
             pa.BufferReader(raw),
-            read_options=pacsv.ReadOptions(skip_rows=pre.header_line, block_size=1 << 24),
+            read_options=pacsv.ReadOptions(
+                skip_rows=pre.header_line + 1, column_names=pre.header, block_size=1 << 24
+            ),
             parse_options=pacsv.ParseOptions(delimiter=pre.delimiter),
             convert_options=pacsv.ConvertOptions(
-                column_types=column_types,
+                column_types={name: pa.float64() for name in _float_columns(pre, extra_columns)},
+                decimal_point="," if pre.decimal_comma else ".",
                 strings_can_be_null=False,
                 quoted_strings_can_be_null=False,
             ),
         )
     except pa.ArrowInvalid as exc:
-        raise _parse_error(path, pre, str(exc)) from None
+        raise _parse_error(path, pre, str(exc), lines) from None
+    except pa.ArrowException as exc:
+        raise LogError(
+            f"cannot parse the CSV ({str(exc)[:100]})",
+            file=path,
+            fix="check the delimiter and quoting",
+        ) from None
     if table.num_rows == 0:
         raise LogError(
-            "header only: no samples", file=path, where=f"line {pre.header_line + 1}",
+            "header only: no samples",
+            file=path,
+            where=f"line {pre.header_line + 1}",
             fix="the log holds no data; re-export it",
         )
-    if pre.decimal_comma:
-        table = _decimal_comma_to_float(path, pre, table)
     return table
 
 
-def _parse_error(path: Path, pre: _Preamble, message: str) -> LogError:
-    first = message.splitlines()[0]
-    row = _ROW_IN_MESSAGE.search(first)
-    where = f"line {pre.header_line + 1 + int(row.group(1))}" if row else None
+def _parse_error(path: Path, pre: _Preamble, message: str, lines: _LineMap) -> LogError:
+    first = (message.splitlines() or [""])[0]
     col = _COLUMN_IN_MESSAGE.search(first)
-    if col and int(col.group(1)) < len(pre.header):
-        name = pre.header[int(col.group(1))]
-        where = f"{where}, column '{name}'" if where else f"column '{name}'"
-    if "conversion error" in first or "invalid value" in first:
-        value = first.rsplit("invalid value", 1)[-1].strip(" '")
+    value = _INVALID_VALUE.search(first)
+    if col and value and int(col.group(1)) < len(pre.header):
+        index, text = int(col.group(1)), value.group(1)
+        name = pre.header[index]
+
+        def holds(line: bytes) -> bool:
+            cells = _cells(line, pre.delimiter)
+            return index < len(cells) and cells[index].strip() == text.strip()
+
+        line_no = lines.find(holds)
+        where = f"line {line_no}, column '{name}'" if line_no else f"column '{name}'"
         return LogError(
-            f"'{value}' where a number belongs", file=path, where=where,
+            f"'{text[:40]}' where a number belongs",
+            file=path,
+            where=where,
             fix="fix or delete that line",
         )
     if "Expected" in first and "columns" in first:
+        expected = len(pre.header)
+        line_no = lines.find(lambda line: len(_cells(line, pre.delimiter)) != expected)
+        got = len(_cells(lines.lines()[line_no - 1], pre.delimiter)) if line_no else None
+        what = (
+            f"{got} field(s) where the header has {expected}"
+            if got is not None
+            else ("a line with the wrong number of fields")
+        )
         return LogError(
-            f"wrong number of fields ({first.split(':')[0].strip()})", file=path, where=where,
+            what,
+            file=path,
+            where=f"line {line_no}" if line_no else None,
             fix="the line is truncated or malformed; delete it or re-export the log",
         )
-    return LogError(f"cannot parse the CSV ({first[:100]})", file=path, where=where,
-                    fix="check the delimiter and quoting")
+    return LogError(
+        f"cannot parse the CSV ({first[:100]})", file=path, fix="check the delimiter and quoting"
+    )
 
 
-def _decimal_comma_to_float(path: Path, pre: _Preamble, table: pa.Table) -> pa.Table:
-    columns = {}
-    for name in table.column_names:
-        col = table[name]
-        if pa.types.is_string(col.type) or pa.types.is_large_string(col.type):
-            col = pc.replace_substring(col, ",", ".")
-        try:
-            columns[name] = pc.cast(col, pa.float64())
-        except pa.ArrowInvalid:
-            raise LogError(
-                f"column '{name}' has text where a number belongs", file=path,
-                where=f"column '{name}'", fix="fix or delete the offending lines",
-            ) from None
-    return pa.table(columns)
+def _cells(line: bytes, delimiter: str) -> list[str]:
+    text = line.decode("utf-8", "replace")
+    return next(csv.reader([text], delimiter=delimiter), [""])
 
 
-def _power_source(path: Path, pre: _Preamble, names: list[str], options: ReadOptions) -> PowerSource:
+def _power_source(
+    path: Path, pre: _Preamble, names: list[str], options: ReadOptions
+) -> PowerSource:
     if options.current_column or options.voltage_column:
         return _named_source(path, names, options)
     if pre.format == FORMAT_CANONICAL:
@@ -324,26 +524,45 @@ def _power_source(path: Path, pre: _Preamble, names: list[str], options: ReadOpt
         for key in ("power_w", "power_mw"):
             if key in lowered:
                 return PowerSource(power=(lowered[key], CANONICAL_COLUMNS[key][1]))
-        current = next(((lowered[k], CANONICAL_COLUMNS[k][1]) for k in ("current_a", "current_ma") if k in lowered), None)
-        voltage = next(((lowered[k], CANONICAL_COLUMNS[k][1]) for k in ("voltage_v", "voltage_mv") if k in lowered), None)
+        current = next(
+            (
+                (lowered[k], CANONICAL_COLUMNS[k][1])
+                for k in ("current_a", "current_ma")
+                if k in lowered
+            ),
+            None,
+        )
+        voltage = next(
+            (
+                (lowered[k], CANONICAL_COLUMNS[k][1])
+                for k in ("voltage_v", "voltage_mv")
+                if k in lowered
+            ),
+            None,
+        )
         if current and voltage:
             return PowerSource(current=current, voltage=voltage)
         if current and options.supply_voltage_V:
             return PowerSource(current=current, supply_voltage_V=options.supply_voltage_V)
         if current:
             raise LogError(
-                "current only, no power or voltage column", file=path,
+                "current only, no power or voltage column",
+                file=path,
                 fix="give --supply-voltage V, or name the voltage column with --voltage-column",
             )
         raise LogError(
-            "no power_W, power_mW, or voltage_V x current_A columns", file=path,
+            "no power_W, power_mW, or voltage_V x current_A columns",
+            file=path,
             where=f"line {pre.header_line + 1}",
-            fix="name the columns as in docs/log-format.md, or use --current-column/--voltage-column",
+            fix="name the columns as in docs/log-format.md, or use --current-column and "
+            "--voltage-column",
         )
     return _n6705_source(path, pre, names, options)
 
 
-def _n6705_source(path: Path, pre: _Preamble, names: list[str], options: ReadOptions) -> PowerSource:
+def _n6705_source(
+    path: Path, pre: _Preamble, names: list[str], options: ReadOptions
+) -> PowerSource:
     outputs: dict[str, dict[str, str]] = {}
     for name in names:
         match = N6705_COLUMN.match(name)
@@ -354,24 +573,32 @@ def _n6705_source(path: Path, pre: _Preamble, names: list[str], options: ReadOpt
     currents = [k for k, q in outputs.items() if "current" in q]
     if options.supply_voltage_V is not None:
         if len(currents) == 1:
-            return PowerSource(current=(outputs[currents[0]]["current"], 1.0),
-                               supply_voltage_V=options.supply_voltage_V)
+            return PowerSource(
+                current=(outputs[currents[0]]["current"], 1.0),
+                supply_voltage_V=options.supply_voltage_V,
+            )
         if len(currents) > 1:
             raise LogError(
                 f"several current columns ({', '.join(outputs[k]['current'] for k in currents)})",
-                file=path, fix="name the one to use with --current-column",
+                file=path,
+                fix="name the one to use with --current-column",
             )
     for candidates, build in (
         (with_power, lambda k: PowerSource(power=(outputs[k]["power"], 1.0))),
-        (with_both, lambda k: PowerSource(current=(outputs[k]["current"], 1.0),
-                                          voltage=(outputs[k]["voltage"], 1.0))),
+        (
+            with_both,
+            lambda k: PowerSource(
+                current=(outputs[k]["current"], 1.0), voltage=(outputs[k]["voltage"], 1.0)
+            ),
+        ),
     ):
         if len(candidates) == 1:
             return build(candidates[0])
         if len(candidates) > 1:
             raise LogError(
                 f"several analyser outputs log power (outputs {', '.join(sorted(candidates))})",
-                file=path, fix="name the columns to use with --current-column and --voltage-column",
+                file=path,
+                fix="name the columns to use with --current-column and --voltage-column",
             )
     if currents:
         have = ", ".join(f"'{n}'" for q in outputs.values() for n in q.values())
@@ -381,8 +608,12 @@ def _n6705_source(path: Path, pre: _Preamble, names: list[str], options: ReadOpt
             fix="give --supply-voltage V (power = current x V), or name the columns with "
             "--current-column and --voltage-column",
         )
-    raise LogError("no 'Curr avg K' or 'Power avg K' column", file=path,
-                   where=f"line {pre.header_line + 1}", fix="export the datalog with current logged")
+    raise LogError(
+        "no 'Curr avg K' or 'Power avg K' column",
+        file=path,
+        where=f"line {pre.header_line + 1}",
+        fix="export the datalog with current logged",
+    )
 
 
 def _named_source(path: Path, names: list[str], options: ReadOptions) -> PowerSource:
@@ -390,20 +621,27 @@ def _named_source(path: Path, names: list[str], options: ReadOptions) -> PowerSo
         found = find_column(names, wanted)
         if found is None:
             raise LogError(
-                f"no column '{wanted}' (columns: {', '.join(names)})", file=path,
+                f"no column '{wanted}' (columns: {', '.join(names)})",
+                file=path,
                 fix=f"check {option}",
             )
         return found, unit_scale(found)
 
     if not options.current_column:
-        raise LogError("--voltage-column needs --current-column too", file=path,
-                       fix="name both columns")
+        raise LogError(
+            "--voltage-column needs --current-column too", file=path, fix="name both columns"
+        )
     current = lookup(options.current_column, "--current-column")
     if options.voltage_column:
-        return PowerSource(current=current, voltage=lookup(options.voltage_column, "--voltage-column"))
+        return PowerSource(
+            current=current, voltage=lookup(options.voltage_column, "--voltage-column")
+        )
     if options.supply_voltage_V is None:
-        raise LogError("--current-column needs a voltage", file=path,
-                       fix="give --voltage-column or --supply-voltage")
+        raise LogError(
+            "--current-column needs a voltage",
+            file=path,
+            fix="give --voltage-column or --supply-voltage",
+        )
     return PowerSource(current=current, supply_voltage_V=options.supply_voltage_V)
 
 
@@ -411,19 +649,30 @@ def _column(path: Path, table: pa.Table, spec: tuple[str, float]) -> np.ndarray:
     name, scale = spec
     col = table[name]
     if not pa.types.is_floating(col.type) and not pa.types.is_integer(col.type):
-        raise LogError(f"column '{name}' holds text, not numbers", file=path,
-                       where=f"column '{name}'", fix="fix the column or re-export")
+        raise LogError(
+            f"column '{name}' holds text, not numbers",
+            file=path,
+            where=f"column '{name}'",
+            fix="fix the column or re-export",
+        )
     values = col.to_numpy().astype(np.float64, copy=False)
     return values * scale if scale != 1.0 else values
 
 
-def _power(path: Path, pre: _Preamble, table: pa.Table, source: PowerSource) -> np.ndarray:
+def _power(
+    path: Path, table: pa.Table, source: PowerSource
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Power [W] and the measured columns it comes from (checked for clipping)."""
     if source.power:
-        return _column(path, table, source.power)
-    current = _column(path, table, source.current)
+        power_W = _column(path, table, source.power)
+        return power_W, {source.power[0]: power_W}
+    current_A = _column(path, table, source.current)
+    measured = {source.current[0]: current_A}
     if source.voltage:
-        return current * _column(path, table, source.voltage)
-    return current * float(source.supply_voltage_V)
+        voltage_V = _column(path, table, source.voltage)
+        measured[source.voltage[0]] = voltage_V
+        return current_A * voltage_V, measured
+    return current_A * float(source.supply_voltage_V), measured
 
 
 def _time(path: Path, pre: _Preamble, table: pa.Table, period_s: float) -> np.ndarray | None:

@@ -1,10 +1,14 @@
 """Checks on the samples of a log: the numbers must be ones we can trust.
 
-Vectorised over samples. Errors name the file and the line; short gaps are kept
-as reported problems, everything that would make a number quietly wrong is an error.
+Vectorised over samples. Errors name the file and the line. What is harmless and
+reported (a short gap, a short clipped stretch) is returned as a `Problem`; what
+would make a number quietly wrong is an error. The thresholds are documented in
+docs/log-format.md ("What wbpower checks").
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 
@@ -15,10 +19,21 @@ from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem
 ABSURD_POWER_W = 1000.0
 #: Below this a reading is negative, not an offset around zero.
 NEGATIVE_POWER_W = -1.0
-#: A dropped-sample gap longer than this (or gaps adding up to more) stops the analysis.
+#: A single dropped-sample gap longer than this stops the analysis [s].
 MAX_GAP_S = 0.05
-#: Consecutive identical readings at the trace's maximum that mean the range clipped.
+#: Dropped samples adding up to more than this share of the log stop the analysis [%].
+MAX_GAP_PCT = 1.0
+#: A step between time stamps above this many sample periods is a gap (jitter stays below).
+GAP_FACTOR = 1.5
+#: Consecutive identical readings at a column's maximum that mean the range clipped.
 SATURATION_SAMPLES = 10
+#: The maximum must stand this far above the median for a flat top to be clipping, not a level.
+SATURATION_ABOVE_MEDIAN = 1.05
+#: Clipped stretches adding up to more than this stop the analysis [s] (energy unknowable there).
+MAX_SATURATED_S = 0.01
+#: A trace with more repeated consecutive values than this share is quantised or noise-free:
+#: a flat top there is a level, not clipping, and is not reported.
+QUANTISED_SHARE = 0.5
 
 
 def check_samples(
@@ -26,92 +41,167 @@ def check_samples(
     time_s: np.ndarray | None,
     power_W: np.ndarray,
     *,
-    first_data_line: int,
+    line_of: Callable[[int], int] | None = None,
+    first_data_line: int = 2,
     default_period_s: float = PAPER_SAMPLE_PERIOD_S,
+    measured: dict[str, np.ndarray] | None = None,
 ) -> tuple[float, list[Problem]]:
-    """Validate samples; return the sample period [s] and the problems that did not stop reading."""
-    problems: list[Problem] = []
-    _check_power(file, power_W, first_data_line)
+    """Validate samples; return the sample period [s] and the problems that did not stop reading.
+
+    `line_of(i)` is the file line of sample i (for messages); `measured` holds the columns the
+    power was computed from (clipping shows in a current column, not always in the product).
+    """
+    if line_of is None:
+        line_of = lambda index: first_data_line + index  # noqa: E731
+    _check_power(file, power_W, line_of)
     if time_s is None:
-        return default_period_s, problems
+        period_s = default_period_s
+        problems: list[Problem] = []
+    else:
+        period_s, problems = _check_time(file, time_s, line_of, default_period_s)
+    for name, values in (measured or {"power": power_W}).items():
+        problems += _check_saturation(file, name, values, time_s, period_s, line_of)
+    return period_s, problems
+
+
+def _check_time(
+    file: str, time_s: np.ndarray, line_of: Callable[[int], int], default_period_s: float
+) -> tuple[float, list[Problem]]:
     bad = ~np.isfinite(time_s)
     if bad.any():
         index = int(np.argmax(bad))
-        raise LogError("time is NaN or inf", file=file, where=f"line {first_data_line + index}",
-                       fix="fix or delete that line")
+        raise LogError(
+            "time is missing, NaN or inf",
+            file=file,
+            where=f"line {line_of(index)}",
+            fix="fix or delete that line",
+        )
     if time_s.size < 2:
-        return default_period_s, problems
+        return default_period_s, []
     step_s = np.diff(time_s)
     nonpositive = step_s <= 0
     if nonpositive.any():
         index = int(np.argmax(nonpositive))
-        what = "duplicated" if step_s[index] == 0 else "goes backwards"
+        what = "is duplicated" if step_s[index] == 0 else "goes backwards"
         raise LogError(
-            f"time {what} (t = {time_s[index + 1]:.7g} s)", file=file,
-            where=f"line {first_data_line + index + 1}",
+            f"time {what} (t = {time_s[index + 1]:.7g} s after {time_s[index]:.7g} s)",
+            file=file,
+            where=f"line {line_of(index + 1)}",
             fix="the log is out of order or two logs were joined; sort or split it",
         )
     period_s = float(np.median(step_s))
     if abs(period_s - default_period_s) <= 1e-6 * default_period_s:
         period_s = default_period_s  # the stated period, not its float-rounded echo
-    gaps = np.flatnonzero(step_s > 1.5 * period_s)
-    if gaps.size:
-        missing_s = step_s[gaps] - period_s
-        longest = int(gaps[np.argmax(missing_s)])
-        where = f"line {first_data_line + longest + 1}"
-        summary = (
-            f"{gaps.size} gap(s) of dropped samples, {missing_s.sum():.4g} s in all, longest "
-            f"{missing_s.max():.4g} s at t = {time_s[longest]:.6g} s"
+    gaps = np.flatnonzero(step_s > GAP_FACTOR * period_s)
+    if not gaps.size:
+        return period_s, []
+    missing_s = step_s[gaps] - period_s
+    longest = int(np.argmax(missing_s))
+    span_s = float(time_s[-1] - time_s[0]) + period_s
+    missing_pct = 100.0 * float(missing_s.sum()) / (span_s if span_s > 0 else 1.0)
+    summary = (
+        f"{gaps.size} gap(s) of dropped samples, {missing_s.sum():.4g} s in all "
+        f"({missing_pct:.2g}% of the log), longest {missing_s[longest]:.4g} s after "
+        f"t = {time_s[gaps[longest]]:.6g} s"
+    )
+    if missing_s[longest] > MAX_GAP_S or missing_pct > MAX_GAP_PCT:
+        raise LogError(
+            summary,
+            file=file,
+            where=f"line {line_of(int(gaps[longest]) + 1)}",
+            fix=f"a gap over {MAX_GAP_S:g} s, or gaps over {MAX_GAP_PCT:g}% of the log, make "
+            "energies wrong; re-record, or cut the log at the gap",
         )
-        if missing_s.sum() > MAX_GAP_S:
-            raise LogError(
-                summary, file=file, where=where,
-                fix=f"gaps over {MAX_GAP_S} s in all make energies wrong; re-record or cut the log there",
-            )
-        for index, missing in zip(gaps, missing_s, strict=True):
-            problems.append(Problem("gap", f"dropped samples: {missing:.4g} s", float(time_s[index]),
-                                    float(missing)))
+    problems = [
+        Problem(
+            "gap",
+            f"line {line_of(int(index) + 1)}: {missing * 1e3:.4g} ms of samples dropped after "
+            f"t = {time_s[index]:.6g} s",
+            float(time_s[index]) + period_s,
+            float(missing),
+        )
+        for index, missing in zip(gaps, missing_s, strict=True)
+    ]
     return period_s, problems
 
 
-def _check_power(file: str, power_W: np.ndarray, first_data_line: int) -> None:
+def _check_power(file: str, power_W: np.ndarray, line_of: Callable[[int], int]) -> None:
     finite = np.isfinite(power_W)
     if not finite.all():
         index = int(np.argmax(~finite))
-        raise LogError(f"power is {power_W[index]}", file=file,
-                       where=f"line {first_data_line + index}", fix="fix or delete that line")
+        raise LogError(
+            f"power is missing, NaN or inf ({power_W[index]})",
+            file=file,
+            where=f"line {line_of(index)}",
+            fix="fix or delete that line",
+        )
     negative = power_W < NEGATIVE_POWER_W
     if negative.any():
         index = int(np.argmax(negative))
         raise LogError(
-            f"negative power ({power_W[index]:.4g} W)", file=file,
-            where=f"line {first_data_line + index}",
+            f"negative power ({power_W[index]:.4g} W)",
+            file=file,
+            where=f"line {line_of(index)}",
             fix="check the current sign and the columns used (--current-column/--voltage-column)",
         )
     absurd = power_W > ABSURD_POWER_W
     if absurd.any():
         index = int(np.argmax(absurd))
         raise LogError(
-            f"absurd power ({power_W[index]:.4g} W, over {ABSURD_POWER_W:g} W)", file=file,
-            where=f"line {first_data_line + index}",
+            f"absurd power ({power_W[index]:.4g} W, over {ABSURD_POWER_W:g} W)",
+            file=file,
+            where=f"line {line_of(index)}",
             fix="check the units (mA vs A, mW vs W) and the columns used",
         )
-    _check_saturation(file, power_W, first_data_line)
 
 
-def _check_saturation(file: str, power_W: np.ndarray, first_data_line: int) -> None:
-    peak = power_W.max()
-    at_peak = power_W == peak
-    if at_peak.sum() < SATURATION_SAMPLES or peak <= np.median(power_W) * 1.05:
-        return
-    # longest run of consecutive samples at the peak
+def _check_saturation(
+    file: str,
+    name: str,
+    values: np.ndarray,
+    time_s: np.ndarray | None,
+    period_s: float,
+    line_of: Callable[[int], int],
+) -> list[Problem]:
+    """Flat stretches at the column's maximum: the analyser range clipped there."""
+    if values.size < SATURATION_SAMPLES:
+        return []
+    peak = values.max()
+    at_peak = values == peak
+    if at_peak.sum() < SATURATION_SAMPLES or not peak > SATURATION_ABOVE_MEDIAN * np.median(values):
+        return []
+    if np.mean(np.diff(values[~at_peak]) == 0) > QUANTISED_SHARE:
+        return []  # noise-free or coarsely quantised: a flat top is a level, not clipping
     edges = np.diff(np.concatenate(([0], at_peak.view(np.int8), [0])))
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
     lengths = ends - starts
+    keep = lengths >= SATURATION_SAMPLES
+    if not keep.any():
+        return []
+    starts, lengths = starts[keep], lengths[keep]
+    durations_s = lengths * period_s
     longest = int(np.argmax(lengths))
-    if lengths[longest] >= SATURATION_SAMPLES:
+
+    def t_at(index: int) -> float:
+        return float(time_s[index]) if time_s is not None else index * period_s
+
+    if durations_s.sum() > MAX_SATURATED_S:
         raise LogError(
-            f"saturated readings: {lengths[longest]} samples flat at the maximum {peak:.6g} W",
-            file=file, where=f"line {first_data_line + int(starts[longest])}",
-            fix="the analyser range clipped; re-record with a higher current range",
+            f"'{name}' clipped: {lengths.sum()} samples ({durations_s.sum():.4g} s) flat at its "
+            f"maximum {peak:.6g} in {lengths.size} stretch(es), longest {lengths[longest]} "
+            f"samples from t = {t_at(int(starts[longest])):.6g} s",
+            file=file,
+            where=f"line {line_of(int(starts[longest]))}",
+            fix="the analyser range clipped, so energy there is unknown; re-record with a "
+            "higher range",
         )
+    return [
+        Problem(
+            "saturated",
+            f"line {line_of(int(start))}: '{name}' flat at its maximum {peak:.6g} for {length} "
+            f"samples ({duration * 1e3:.3g} ms) from t = {t_at(int(start)):.6g} s (clipped?)",
+            t_at(int(start)),
+            float(duration),
+        )
+        for start, length, duration in zip(starts, lengths, durations_s, strict=True)
+    ]
