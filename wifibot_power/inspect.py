@@ -22,10 +22,20 @@ def summarize(run: Run) -> dict[str, object]:
         "energy_J": run.energy_J,
         "meta": run.meta.as_dict(),
         "problems": [p.message for p in run.problems],
+        "problem_details": [
+            {
+                "kind": p.kind,
+                "message": p.message,
+                "t_start_s": p.t_start_s,
+                "duration_s": p.duration_s,
+            }
+            for p in run.problems
+        ],
     }
 
 
 def inspect_logs(
     paths: list[Path], options: ReadOptions | None = None, **kwargs: object
 ) -> tuple[list[dict[str, object]], list[Skipped]]:
+    """One `summarize` row per readable log under `paths`, and the inputs skipped (and why)."""
     return map_runs(paths, options or ReadOptions(), summarize, **kwargs)

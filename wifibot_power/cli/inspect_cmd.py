@@ -21,6 +21,7 @@ from wifibot_power.cli.common import (
     read_options,
     report_skipped,
     stdout,
+    warn,
 )
 from wifibot_power.inspect import inspect_logs
 
@@ -38,22 +39,47 @@ def inspect_command(
     """What is in each log: format, samples, period, duration, mean power, energy, metadata."""
     options = read_options(supply_voltage, current_column, voltage_column, sample_period)
     rows, skipped = inspect_logs(paths, options, wrap=lambda s: progress(s, "reading"))
+    for row in rows:
+        for problem in row["problems"]:
+            warn(f"{row['file']}: {problem}")
     if json_out:
+        # the JSON document stays the list of cli.md; skipped inputs go to stderr (and exit 1)
         print_json(rows)
     else:
         table = Table(title=f"{len(rows)} log(s)", title_justify="left")
-        for name, justify in [("file", "left"), ("format", "left"), ("run_id", "left"),
-                              ("mode", "left"), ("samples", "right"), ("period ms", "right"),
-                              ("duration s", "right"), ("mean W", "right"), ("energy J", "right"),
-                              ("problems", "left")]:
+        for name, justify in [
+            ("file", "left"),
+            ("format", "left"),
+            ("run_id", "left"),
+            ("mode", "left"),
+            ("samples", "right"),
+            ("period ms", "right"),
+            ("duration s", "right"),
+            ("mean W", "right"),
+            ("energy J", "right"),
+            ("problems", "left"),
+        ]:
             table.add_column(name, justify=justify)
         for row in rows:
             meta = row["meta"]
             table.add_row(
-                Path(str(row["file"])).name, str(row["format"]), str(row["run_id"]),
-                str(meta["mode"]), f"{row['samples']:,}", f"{row['sample_period_s'] * 1e3:.5g}",
-                f"{row['duration_s']:.3f}", f"{row['mean_power_W']:.3f}", f"{row['energy_J']:.1f}",
-                "; ".join(row["problems"]) or "-",
+                Path(str(row["file"])).name,
+                str(row["format"]),
+                str(row["run_id"]),
+                str(meta["mode"]),
+                f"{row['samples']:,}",
+                f"{row['sample_period_s'] * 1e3:.5g}",
+                f"{row['duration_s']:.3f}",
+                f"{row['mean_power_W']:.3f}",
+                f"{row['energy_J']:.1f}",
+                _problems_cell(row["problems"]),
             )
         stdout.print(table)
     raise typer.Exit(report_skipped(skipped))
+
+
+def _problems_cell(problems: list[str], shown: int = 2) -> str:
+    if not problems:
+        return "-"
+    more = f"; and {len(problems) - shown} more (see stderr)" if len(problems) > shown else ""
+    return "; ".join(problems[:shown]) + more
