@@ -1,1 +1,153 @@
-"""`wbpower diagnose` (see shared/spec/cli.md)."""
+"""`wbpower diagnose PATH...` (see shared/spec/cli.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.table import Table
+
+from wifibot_power.cli.app import app
+from wifibot_power.cli.common import (
+    EXIT_OK,
+    EXIT_SKIPPED,
+    CurrentColumn,
+    JsonFlag,
+    OutDir,
+    SamplePeriod,
+    SupplyVoltage,
+    VoltageColumn,
+    handles_errors,
+    print_json,
+    progress,
+    read_options,
+    report_skipped,
+    stdout,
+)
+from wifibot_power.diagnose import Diagnosis, diagnose_logs, write_diagnosis
+
+
+def _by_configuration(result: Diagnosis) -> Table:
+    table = Table(
+        title="Measured vs simulated motion energy (held-out), mean over repeats",
+        title_justify="left",
+    )
+    for name in (
+        "speed m/s",
+        "dist m",
+        "steps",
+        "payload kg",
+        "runs",
+        "measured J",
+        "paper-form J",
+        "error %",
+        "extended J",
+        "error %",
+    ):
+        table.add_column(name, justify="right")
+    keys = ["speed_mps", "distance_m", "steps", "payload_kg"]
+    grouped = result.runs.groupby(keys, sort=True).agg(
+        runs=("run_id", "size"),
+        measured=("measured_energy_J", "mean"),
+        baseline=("baseline_energy_J", "mean"),
+        baseline_err=("baseline_error_pct", "mean"),
+        extended=("extended_energy_J", "mean"),
+        extended_err=("extended_error_pct", "mean"),
+    )
+    for (speed, dist, steps, payload), row in grouped.iterrows():
+        table.add_row(
+            f"{speed:.2f}",
+            f"{dist:g}",
+            str(steps),
+            f"{payload:g}",
+            str(row.runs),
+            f"{row.measured:.1f}",
+            f"{row.baseline:.1f}",
+            f"{row.baseline_err:+.2f}",
+            f"{row.extended:.1f}",
+            f"{row.extended_err:+.2f}",
+        )
+    return table
+
+
+def _patterns(result: Diagnosis) -> Table:
+    table = Table(
+        title="Pattern of the paper-form model's error (Spearman rank correlation)",
+        title_justify="left",
+    )
+    for name in ("error of", "against", "rho", "p"):
+        table.add_column(name, justify="left" if name in ("error of", "against") else "right")
+    for key, value in result.patterns.items():
+        model = key.split("_error_vs_")[0]
+        table.add_row(
+            model, value["label"], f"{value['spearman_rho']:+.2f}", f"{value['p_value']:.2g}"
+        )
+    return table
+
+
+def _findings(result: Diagnosis) -> Table:
+    table = Table(title="Findings: named causes (shared/spec/causes.md)", title_justify="left")
+    for name in ("cause", "estimate", "95% CI", "p", "gain %", "metric", "evidence"):
+        table.add_column(
+            name, justify="right" if name in ("p", "gain %") else "left", overflow="fold"
+        )
+    for f in result.findings:
+        est = f.estimate
+        low, high = est["ci95"]
+        ci = f"[{low:.3g}, {high:.3g}]" if np.isfinite(low) else "-"
+        table.add_row(
+            f.cause,
+            f"{est['value']:.3g} {est['unit']}",
+            ci,
+            f"{f.p_value:.2g}",
+            f"{f.gain_pct:.1f}",
+            f.metric,
+            f.summary,
+        )
+    if not result.findings:
+        table.add_row("(none)", "", "", "", "", "", "the paper's model explains these runs")
+    return table
+
+
+@app.command("diagnose")
+@handles_errors
+def diagnose_command(
+    paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
+    supply_voltage: SupplyVoltage = None,
+    current_column: CurrentColumn = None,
+    voltage_column: VoltageColumn = None,
+    sample_period: SamplePeriod = None,
+    json_out: JsonFlag = False,
+    out: OutDir = None,
+    fail_on_discrepancy: Annotated[
+        bool, typer.Option("--fail-on-discrepancy", help="Exit 1 when any finding is made (CI).")
+    ] = False,
+) -> None:
+    """What the paper's model gets wrong on these logs, the named cause, the held-out gain."""
+    options = read_options(supply_voltage, current_column, voltage_column, sample_period)
+    result = diagnose_logs(paths, options, wrap=lambda s: progress(s, "diagnosing"))
+    if out is not None:
+        write_diagnosis(result, out)
+    if json_out:
+        print_json(result.summary())
+    else:
+        stdout.print(_by_configuration(result))
+        stdout.print(_patterns(result))
+        stdout.print(_findings(result))
+        stdout.print(
+            f"{result.n_runs} motion runs, K-fold held out by run. Paper-form model: RMSE "
+            f"{result.baseline_rmse_J:.3g} J, MAPE {result.baseline_mape_pct:.3g}%. Extended "
+            f"({', '.join(f.cause for f in result.findings) or 'nothing added'}): RMSE "
+            f"{result.extended_rmse_J:.3g} J, MAPE {result.extended_mape_pct:.3g}%. "
+            f"Gain {result.gain_pct:.1f}%."
+        )
+        for reason in result.unexplained_reasons:
+            stdout.print(f"[bold]unexplained:[/bold] {reason}")
+        for note in result.notes:
+            stdout.print(f"note: {note}")
+    code = report_skipped(list(result.skipped))
+    if fail_on_discrepancy and result.findings:
+        code = EXIT_SKIPPED
+    raise typer.Exit(code or EXIT_OK)

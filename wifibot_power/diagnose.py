@@ -1,0 +1,489 @@
+"""What the paper's simulation gets wrong on measured logs, why, and how much a fix gains.
+
+1. Every log is read, segmented and reduced to its per-run row (`runtable.run_row`) and
+   trace statistics (`traces.trace_stats`): one run in memory at a time.
+2. The baseline is the paper's model (Eq. 1-6) fitted to these logs; it simulates each run's
+   motion energy from (speed, distance, steps, payload) alone.
+3. Each named cause (`causes.CAUSES`, shared/spec/causes.md) runs its evidence test on all
+   runs. A cause is a candidate when its test is significant (p < 1e-3) and its estimated
+   size is worth naming; it becomes a finding when adding it to the model also improves
+   predictions of runs held out of the fit (>= 5% lower RMSE of run energy, or >= 10% on the
+   cruise power trace for the ripple).
+4. The extended model holds every finding; its gain is measured on held-out runs the same way.
+   Held-out means K-fold by run: a run is predicted by a model fitted without it.
+5. Structure that remains in the extended model's held-out errors, or a periodic signal that
+   does not scale with speed, is reported as `unexplained` rather than forced onto a name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from wifibot_power.causes import ALPHA, CAUSES, Evidence, fit_model, predict_motion_energy_J
+from wifibot_power.errors import LogError, WbpowerError
+from wifibot_power.fit import _default_segmenter
+from wifibot_power.io import LogSource, ReadOptions, Skipped
+from wifibot_power.io.batch import map_runs
+from wifibot_power.model import PowerModel
+from wifibot_power.outputs import write_json, write_parquet
+from wifibot_power.phases import Segmentation
+from wifibot_power.run import Run
+from wifibot_power.runtable import run_row, runs_frame
+from wifibot_power.traces import EMPTY, TraceStats, ripple_trace_rmse_W, trace_stats
+
+#: Smallest held-out gain that makes a significant cause a finding [%].
+MIN_GAIN_PCT = {"run_energy": 5.0, "power_trace": 10.0}
+#: Held-out relative error of run energy [%] above which structure is not mere noise.
+UNEXPLAINED_RMS_PCT = 1.0
+#: ...and above which the extended model is not good enough whatever the structure [%].
+UNEXPLAINED_ANY_PCT = 5.0
+#: A gap longer than this between one run's end and the next's start ends a session [s].
+SESSION_GAP_S = 30 * 60.0
+FOLDS = 5
+
+Segmenter = Callable[[Run], Segmentation]
+
+
+@dataclass(frozen=True, eq=False)
+class RunSummary:
+    row: dict[str, object]
+    trace: TraceStats
+
+
+@dataclass(frozen=True)
+class Finding:
+    cause: str
+    summary: str
+    metric: str
+    gain_pct: float
+    p_value: float
+    estimate: dict[str, object]
+
+    def as_dict(self) -> dict[str, object]:
+        return {
+            "cause": self.cause,
+            "summary": self.summary,
+            "metric": self.metric,
+            "gain_pct": self.gain_pct,
+            "p_value": self.p_value,
+            "estimate": self.estimate,
+        }
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """The result of `diagnose`: a JSON summary (cli.md) plus the tables behind it."""
+
+    n_runs: int
+    baseline_model: PowerModel
+    extended_model: PowerModel
+    runs: pd.DataFrame  # a row per motion run: measured, baseline and extended energy
+    findings: tuple[Finding, ...]
+    evidence: tuple[Evidence, ...]
+    baseline_rmse_J: float
+    baseline_mape_pct: float
+    extended_rmse_J: float
+    extended_mape_pct: float
+    unexplained: bool
+    unexplained_reasons: tuple[str, ...]
+    patterns: dict[str, object]
+    skipped: tuple[Skipped, ...] = ()
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def gain_pct(self) -> float:
+        return gain_pct(self.baseline_rmse_J, self.extended_rmse_J)
+
+    def summary(self) -> dict[str, object]:
+        """The `diagnose --json` document (cli.md)."""
+        return {
+            "n_runs": self.n_runs,
+            "baseline": {
+                "model": "paper (Eq. 1-6) fitted to these logs",
+                "heldout_rmse_J": self.baseline_rmse_J,
+                "heldout_mape_pct": self.baseline_mape_pct,
+            },
+            "findings": [f.as_dict() for f in self.findings],
+            "extended": {
+                "causes": [f.cause for f in self.findings],
+                "heldout_rmse_J": self.extended_rmse_J,
+                "heldout_mape_pct": self.extended_mape_pct,
+            },
+            "gain_pct": self.gain_pct,
+            "unexplained": self.unexplained,
+            "unexplained_reasons": list(self.unexplained_reasons),
+            "candidates": [_evidence_dict(e) for e in self.evidence],
+            "patterns": self.patterns,
+            "notes": list(self.notes),
+            "skipped": [s.as_dict() for s in self.skipped],
+        }
+
+
+def _evidence_dict(e: Evidence) -> dict[str, object]:
+    return {
+        "cause": e.cause,
+        "testable": e.testable,
+        "p_value": e.p_value,
+        "estimate": e.estimate,
+        "ci95": list(e.ci95),
+        "significant": e.significant,
+        "summary": e.summary,
+    }
+
+
+def gain_pct(baseline: float, extended: float) -> float:
+    """100 × (1 − extended / baseline) (cli.md `gain_pct`)."""
+    return 100.0 * (1.0 - extended / baseline) if baseline > 0 else 0.0
+
+
+# -- reading ---------------------------------------------------------------------------
+def summarize_run(run: Run, segmenter: Segmenter | None = None) -> RunSummary:
+    """Segment a run and keep only its row and trace statistics."""
+    if run.meta.mode != "motion":
+        return RunSummary(run_row(run, Segmentation(run.meta.run_id, ())), EMPTY)
+    segment = segmenter or _default_segmenter()
+    try:
+        segmentation = segment(run)
+    except WbpowerError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - one run the segmenter fails on must not end the batch
+        raise LogError(
+            f"segmentation failed ({exc.__class__.__name__}: {exc})",
+            file=run.file,
+            fix="check the log with 'wbpower segment'",
+        ) from None
+    return RunSummary(run_row(run, segmentation), trace_stats(run, segmentation))
+
+
+def diagnose_logs(
+    paths: list[Path] | list[str],
+    options: ReadOptions | None = None,
+    *,
+    wrap: Callable[[list[LogSource]], Iterator[LogSource]] | None = None,
+    segmenter: Segmenter | None = None,
+) -> Diagnosis:
+    summaries, skipped = map_runs(
+        [Path(p) for p in paths],
+        options or ReadOptions(),
+        lambda run: summarize_run(run, segmenter),
+        wrap=wrap,
+    )
+    return diagnose_summaries(summaries, skipped)
+
+
+def diagnose_runs(runs: Iterable[Run], *, segmenter: Segmenter | None = None) -> Diagnosis:
+    """Diagnose runs already in memory (e.g. simulated); same result as from their logs."""
+    return diagnose_summaries([summarize_run(run, segmenter) for run in runs])
+
+
+# -- the diagnosis ---------------------------------------------------------------------
+def session_clock(runs: pd.DataFrame) -> pd.DataFrame:
+    """Motor-on minutes accumulated in the session before each run and at its middle.
+
+    Runs are ordered by `started_at`; a gap of over 30 min ends a session (motors cool).
+    Runs without `started_at` get NaN (thermal drift is then not testable)."""
+    runs = runs.copy()
+    motion_s = np.where(
+        runs["mode"] == "motion",
+        runs["t_acc_s"].fillna(0) * runs["steps_found"]
+        + runs["cruise_duration_s"].fillna(0)
+        + runs["decel_duration_s"].fillna(0) * runs["steps_found"],
+        0.0,
+    )
+    runs["motion_s"] = motion_s
+    runs["tau_before_min"] = np.nan
+    runs["tau_mid_min"] = np.nan
+    runs["session_order"] = -1
+    timed = runs["started_at"].notna()
+    if not timed.any():
+        return runs
+    order = runs[timed].sort_values("started_at").index
+    start = runs.loc[order, "started_at"]
+    end = start + pd.to_timedelta(runs.loc[order, "duration_s"], unit="s")
+    new_session = (start - end.shift()).dt.total_seconds().fillna(np.inf) > SESSION_GAP_S
+    session = new_session.cumsum()
+    before = runs.loc[order, "motion_s"].groupby(session).cumsum() - runs.loc[order, "motion_s"]
+    runs.loc[order, "tau_before_min"] = before.to_numpy() / 60.0
+    runs.loc[order, "tau_mid_min"] = (before + runs.loc[order, "motion_s"] / 2).to_numpy() / 60.0
+    runs.loc[order, "session_order"] = np.arange(len(order))
+    return runs
+
+
+def assign_folds(run_ids: pd.Series, folds: int = FOLDS) -> np.ndarray:
+    """K folds by run: a seeded permutation of the sorted run ids, dealt round-robin."""
+    k = max(2, min(folds, len(run_ids)))
+    order = np.argsort(np.argsort(run_ids.to_numpy().astype(str)))
+    permuted = np.random.default_rng(0).permutation(len(run_ids))[order]
+    return permuted % k
+
+
+def heldout_energy_J(
+    all_runs: pd.DataFrame, motion: pd.DataFrame, folds: np.ndarray, causes: Iterable[str]
+) -> np.ndarray:
+    """Motion energy of each motion run predicted by a model fitted without its fold."""
+    causes = list(causes)
+    others = all_runs[all_runs["mode"] != "motion"]
+    predicted = np.full(len(motion), np.nan)
+    for k in np.unique(folds):
+        train = pd.concat([others, motion[folds != k]])
+        model = fit_model(train, causes)
+        predicted[folds == k] = predict_motion_energy_J(model, motion[folds == k])
+    return predicted
+
+
+def heldout_trace_gain_pct(
+    motion: pd.DataFrame, folds: np.ndarray, blocks: dict[str, tuple[np.ndarray, float]]
+) -> float:
+    """Held-out gain of the ripple term on the cruise power trace: amplitude and Hz per m/s
+    from the training folds, only the phase fitted to each held-out cruise."""
+    base_sq, ext_sq, count = 0.0, 0.0, 0
+    for k in np.unique(folds):
+        train, test = motion[folds != k], motion[folds == k]
+        evidence = CAUSES["cruise_ripple"].test(train, None)
+        if evidence.estimate <= 0:
+            continue
+        amplitude_W = evidence.parameters["amplitude_W"]
+        hz_per_mps = evidence.parameters["hz_per_mps"]
+        for row in test.itertuples(index=False):
+            x, block_s = blocks.get(row.run_id, (np.zeros(0), 0.0))
+            if x.size == 0:
+                continue
+            rmse = ripple_trace_rmse_W(x, block_s, hz_per_mps * row.speed_mps, amplitude_W)
+            base_sq += float(np.mean(x**2)) * x.size
+            ext_sq += rmse**2 * x.size
+            count += x.size
+    if count == 0:
+        return 0.0
+    return gain_pct(np.sqrt(base_sq / count), np.sqrt(ext_sq / count))
+
+
+def select_causes(
+    runs: pd.DataFrame,
+    motion: pd.DataFrame,
+    folds: np.ndarray,
+    measured: np.ndarray,
+    evidence: tuple[Evidence, ...],
+    baseline_rmse: float,
+    blocks: dict[str, tuple[np.ndarray, float]],
+    notes: list[str],
+) -> tuple[dict[str, float], dict[frozenset, float]]:
+    """Forward selection on held-out error among the causes whose evidence passes: add the
+    run-energy cause that lowers the held-out RMSE most, while it lowers it by >= 5%.
+    A trace cause (ripple) is judged on its own held-out trace gain (>= 10%).
+    Returns {cause: gain when selected [%]} and the RMSE of every cause set tried."""
+    passing = [e for e in evidence if e.passes]
+    selected: dict[str, float] = {}
+    rmse_of: dict[frozenset, float] = {frozenset(): baseline_rmse}
+    for e in passing:
+        if CAUSES[e.cause].metric == "power_trace":
+            gain = heldout_trace_gain_pct(motion, folds, blocks)
+            if gain >= MIN_GAIN_PCT["power_trace"]:
+                selected[e.cause] = gain
+            else:
+                notes.append(
+                    f"{e.cause}: significant (p = {e.p_value:.2g}) but held-out trace "
+                    f"gain {gain:.1f}% is below {MIN_GAIN_PCT['power_trace']:g}%: not named"
+                )
+    remaining = [e.cause for e in passing if CAUSES[e.cause].metric == "run_energy"]
+    current: frozenset = frozenset()
+    while remaining:
+        for cause in remaining:
+            trial = current | {cause}
+            if trial not in rmse_of:
+                pred = heldout_energy_J(runs, motion, folds, sorted(trial))
+                rmse_of[trial] = _rmse_mape(measured, pred)[0]
+        best = min(remaining, key=lambda c: rmse_of[current | {c}])
+        gain = gain_pct(rmse_of[current], rmse_of[current | {best}])
+        if gain < MIN_GAIN_PCT["run_energy"]:
+            for cause in remaining:
+                e = next(x for x in evidence if x.cause == cause)
+                notes.append(
+                    f"{cause}: significant (p = {e.p_value:.2g}) but adding it gains "
+                    f"{gain_pct(rmse_of[current], rmse_of[current | {cause}]):.1f}% "
+                    f"held out (< {MIN_GAIN_PCT['run_energy']:g}%): not named"
+                )
+            break
+        selected[best] = gain
+        current = current | {best}
+        remaining.remove(best)
+    return selected, rmse_of
+
+
+def _rmse_mape(measured: np.ndarray, predicted: np.ndarray) -> tuple[float, float]:
+    error = predicted - measured
+    return float(np.sqrt(np.mean(error**2))), float(100 * np.mean(np.abs(error) / measured))
+
+
+def diagnose_summaries(summaries: list[RunSummary], skipped: Iterable[Skipped] = ()) -> Diagnosis:
+    skipped = list(skipped)
+    if not summaries:
+        raise LogError("no readable logs", fix="see 'wbpower inspect' for what each log holds")
+    runs = runs_frame([s.row for s in summaries])
+    traces = pd.DataFrame([s.trace.as_row() for s in summaries], index=runs.index)
+    runs = session_clock(pd.concat([runs, traces], axis=1))
+    blocks = {s.row["run_id"]: (s.trace.cruise_blocks_W, s.trace.block_s) for s in summaries}
+    for row in runs[~runs["usable"]].itertuples():
+        skipped.append(Skipped(str(row.file), f"{row.file}: {row.skip_reason}"))
+    runs = runs[runs["usable"]]
+    motion = runs[runs["mode"] == "motion"].sort_values("run_id").reset_index(drop=True)
+    if len(motion) < 6 or motion["speed_mps"].nunique() < 2:
+        raise LogError(
+            f"{len(motion)} usable motion run(s) at {motion['speed_mps'].nunique()} speed(s)",
+            file="input",
+            fix="diagnose needs at least 6 motion runs at 2 or more speeds",
+        )
+    notes: list[str] = []
+    baseline_model = fit_model(runs)
+    evidence = tuple(CAUSES[name].test(motion, baseline_model) for name in CAUSES)
+    folds = assign_folds(motion["run_id"])
+    measured = motion["motion_energy_J"].to_numpy(np.float64)
+    baseline_pred = heldout_energy_J(runs, motion, folds, [])
+    baseline_rmse, baseline_mape = _rmse_mape(measured, baseline_pred)
+
+    selected, energy_rmse = select_causes(
+        runs, motion, folds, measured, evidence, baseline_rmse, blocks, notes
+    )
+    causes = list(selected)
+    extended_pred = heldout_energy_J(runs, motion, folds, causes)
+    extended_rmse, extended_mape = _rmse_mape(measured, extended_pred)
+    findings = []
+    for e in evidence:
+        if e.cause not in selected:
+            continue
+        cause = CAUSES[e.cause]
+        if cause.metric == "run_energy":
+            # its own gain: how much worse the extended model predicts without it
+            without = energy_rmse.get(frozenset(causes) - {e.cause})
+            if without is None:
+                pred = heldout_energy_J(runs, motion, folds, [c for c in causes if c != e.cause])
+                without = _rmse_mape(measured, pred)[0]
+            gain = gain_pct(without, extended_rmse)
+        else:
+            gain = selected[e.cause]
+        findings.append(
+            Finding(
+                e.cause,
+                f"{e.summary} ({cause.evidence}, p = {e.p_value:.2g})",
+                cause.metric,
+                float(gain),
+                e.p_value,
+                {
+                    "parameter": cause.parameter,
+                    "value": e.estimate,
+                    "ci95": list(e.ci95),
+                    "unit": cause.unit,
+                    **{k: v for k, v in e.parameters.items() if k != cause.parameter},
+                },
+            )
+        )
+    extended_model = fit_model(runs, causes)
+
+    table = motion[
+        [
+            "run_id",
+            "file",
+            "speed_mps",
+            "distance_m",
+            "steps",
+            "payload_kg",
+            "session_order",
+            "tau_before_min",
+        ]
+    ].copy()
+    table["fold"] = folds
+    table["measured_energy_J"] = measured
+    table["baseline_energy_J"] = baseline_pred
+    table["extended_energy_J"] = extended_pred
+    table["baseline_error_pct"] = 100 * (baseline_pred - measured) / measured
+    table["extended_error_pct"] = 100 * (extended_pred - measured) / measured
+    reasons = unexplained_reasons(table, evidence, causes)
+    return Diagnosis(
+        n_runs=len(motion),
+        baseline_model=baseline_model,
+        extended_model=extended_model,
+        runs=table,
+        findings=tuple(findings),
+        evidence=evidence,
+        baseline_rmse_J=baseline_rmse,
+        baseline_mape_pct=baseline_mape,
+        extended_rmse_J=extended_rmse,
+        extended_mape_pct=extended_mape,
+        unexplained=bool(reasons),
+        unexplained_reasons=tuple(reasons),
+        patterns=error_patterns(table),
+        skipped=tuple(skipped),
+        notes=tuple(notes),
+    )
+
+
+COVARIATES = {
+    "speed_mps": "speed",
+    "steps": "step count",
+    "distance_m": "distance",
+    "payload_kg": "payload",
+    "session_order": "session order",
+}
+
+
+def error_patterns(table: pd.DataFrame) -> dict[str, object]:
+    """How the baseline's held-out error goes with each covariate (Spearman rank correlation)."""
+    out: dict[str, object] = {}
+    for column, label in COVARIATES.items():
+        x = table[column].to_numpy(np.float64)
+        if np.unique(x).size < 2:
+            continue
+        for model in ("baseline", "extended"):
+            rho, p = stats.spearmanr(x, table[f"{model}_error_pct"])
+            out[f"{model}_error_vs_{column}"] = {
+                "label": label,
+                "spearman_rho": float(rho),
+                "p_value": float(p),
+            }
+    return out
+
+
+def unexplained_reasons(
+    table: pd.DataFrame, evidence: tuple[Evidence, ...], named: list[str]
+) -> list[str]:
+    """Structure the named causes leave in the held-out errors of the extended model."""
+    reasons = []
+    error = table["extended_error_pct"].to_numpy(np.float64)
+    rms = float(np.sqrt(np.mean(error**2)))
+    if rms > UNEXPLAINED_ANY_PCT:
+        reasons.append(f"held-out error of run energy is {rms:.2g}% RMS after the named causes")
+    elif rms > UNEXPLAINED_RMS_PCT:
+        columns = [c for c in COVARIATES if table[c].nunique() > 1]
+        x = np.column_stack(
+            [np.ones(len(table))] + [table[c].to_numpy(np.float64) for c in columns]
+        )
+        coef, *_ = np.linalg.lstsq(x, error, rcond=None)
+        sse = float(np.sum((error - x @ coef) ** 2))
+        sst = float(np.sum((error - error.mean()) ** 2))
+        df1, df2 = x.shape[1] - 1, len(error) - x.shape[1]
+        if df1 > 0 and df2 > 0 and sse > 0:
+            p = float(stats.f.sf(((sst - sse) / df1) / (sse / df2), df1, df2))
+            if p < ALPHA:
+                reasons.append(
+                    f"held-out error ({rms:.2g}% RMS) still depends on "
+                    f"{', '.join(COVARIATES[c] for c in columns)} (F-test p = {p:.2g})"
+                )
+    ripple = next(e for e in evidence if e.cause == "cruise_ripple")
+    if "cruise_ripple" not in named and ripple.significant and ripple.parameters:
+        reasons.append(ripple.summary)
+    return reasons
+
+
+def write_diagnosis(result: Diagnosis, out_dir: Path) -> list[Path]:
+    """`diagnose -o DIR`: discrepancy.parquet, findings.json, model.json (atomic writes)."""
+    out_dir = Path(out_dir)
+    return [
+        write_parquet(out_dir / "discrepancy.parquet", result.runs),
+        write_json(out_dir / "findings.json", result.summary()),
+        write_json(out_dir / "model.json", result.extended_model.to_json()),
+    ]

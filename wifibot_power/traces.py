@@ -1,0 +1,163 @@
+"""Per-run statistics of the power trace that `diagnose` needs, computed at sample level
+while the run is in memory (so diagnosis holds only these small summaries, not traces).
+
+- Start and end windows of each step (where a start transient or a stopping phase puts
+  its energy), as sufficient statistics that are linear in the model's coefficients.
+- The spectrum of the cruise power (where a wheel-eccentricity ripple shows), with a
+  Fisher g-test of its highest peak, and the cruise trace in 10 ms blocks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from wifibot_power.phases import Segmentation
+from wifibot_power.run import Run
+
+#: Length of the window after each acceleration start where a start transient sits [s].
+START_WINDOW_S = 0.25
+#: Length of the window after each cruise end where a stopping phase sits [s].
+END_WINDOW_S = 1.0
+#: Block length for spectra and trace comparisons [s]; ripple is at most a few Hz.
+BLOCK_S = 0.01
+#: Shortest cruise phase whose spectrum is analysed [s].
+MIN_CRUISE_S = 3.0
+#: Frequencies searched for a ripple peak [Hz].
+RIPPLE_BAND_HZ = (0.1, 20.0)
+
+
+@dataclass(frozen=True, eq=False)
+class TraceStats:
+    """Window sums (J, s) over all steps of a run, and the cruise spectrum's peak."""
+
+    steps: int
+    start_measured_J: float
+    start_accel_s: float
+    start_ramp_s: float  # sum over accel samples in the window of u = (t - t_a0) / t_acc, times dt
+    start_cruise_s: float
+    end_measured_J: float
+    end_s: float
+    ripple_hz: float
+    ripple_amplitude_W: float
+    ripple_p_value: float
+    cruise_blocks_W: np.ndarray  # detrended 10 ms block means of the longest cruise
+    block_s: float
+
+    def as_row(self) -> dict[str, float]:
+        return {
+            "start_measured_J": self.start_measured_J,
+            "start_accel_s": self.start_accel_s,
+            "start_ramp_s": self.start_ramp_s,
+            "start_cruise_s": self.start_cruise_s,
+            "end_measured_J": self.end_measured_J,
+            "end_s": self.end_s,
+            "ripple_hz": self.ripple_hz,
+            "ripple_amplitude_W": self.ripple_amplitude_W,
+            "ripple_p_value": self.ripple_p_value,
+        }
+
+
+EMPTY = TraceStats(0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.nan, np.nan, np.nan, np.zeros(0), BLOCK_S)
+
+
+def trace_stats(run: Run, segmentation: Segmentation) -> TraceStats:
+    """Window sums and cruise spectrum of a motion run (EMPTY for other runs)."""
+    if run.meta.mode != "motion" or not segmentation.phases:
+        return EMPTY
+    dt = run.sample_period_s
+    cumulative_J = np.concatenate(([0.0], np.cumsum(run.power_W, dtype=np.float64))) * dt
+    by_step: dict[int, dict[str, list]] = {}
+    for phase in segmentation.phases:
+        if phase.phase in ("accel", "cruise", "decel") and phase.step >= 1:
+            by_step.setdefault(phase.step, {}).setdefault(phase.phase, []).append(phase)
+    steps = sorted(s for s, kinds in by_step.items() if "accel" in kinds and "cruise" in kinds)
+    starts_next = [min(p.i_start for p in by_step[s]["accel"]) for s in steps[1:]] + [run.samples]
+    sums = np.zeros(6)
+    w_start = max(1, round(START_WINDOW_S / dt))
+    w_end = max(1, round(END_WINDOW_S / dt))
+    for step, next_start in zip(steps, starts_next, strict=True):
+        accel = by_step[step]["accel"]
+        ia0, ia1 = min(p.i_start for p in accel), max(p.i_end for p in accel)
+        ic1 = max(p.i_end for p in by_step[step]["cruise"])
+        i_stop = min(ia0 + w_start, ic1)
+        n_acc = min(i_stop, ia1) - ia0
+        # u at the middle of each accel sample in the window: closed-form sum of an arithmetic series
+        sum_u = (n_acc * n_acc / 2.0) / (ia1 - ia0)
+        j_stop = min(ic1 + w_end, next_start)
+        sums += [
+            cumulative_J[i_stop] - cumulative_J[ia0],
+            n_acc * dt,
+            sum_u * dt,
+            max(i_stop - ia1, 0) * dt,
+            cumulative_J[j_stop] - cumulative_J[ic1],
+            (j_stop - ic1) * dt,
+        ]
+    hz, amplitude_W, p_value, blocks, block_s = _cruise_spectrum(run, segmentation)
+    return TraceStats(len(steps), *map(float, sums), hz, amplitude_W, p_value, blocks, block_s)
+
+
+def _cruise_spectrum(run: Run, segmentation: Segmentation):
+    dt = run.sample_period_s
+    cruises = [p for p in segmentation.phases if p.phase == "cruise"]
+    if not cruises:
+        return np.nan, np.nan, np.nan, np.zeros(0), BLOCK_S
+    longest = max(cruises, key=lambda p: p.i_end - p.i_start)
+    per_block = max(1, round(BLOCK_S / dt))
+    block_s = per_block * dt
+    n_blocks = (longest.i_end - longest.i_start) // per_block
+    if n_blocks * block_s < MIN_CRUISE_S:
+        return np.nan, np.nan, np.nan, np.zeros(0), block_s
+    x = run.power_W[longest.i_start : longest.i_start + n_blocks * per_block]
+    x = x.reshape(n_blocks, per_block).mean(axis=1)
+    t = np.arange(n_blocks) * block_s
+    x = x - np.polyval(np.polyfit(t, x, 1), t)  # drift within a cruise is not ripple
+    hz, amplitude_W, p_value = ripple_peak(x, block_s)
+    return hz, amplitude_W, p_value, x, block_s
+
+
+def ripple_peak(x: np.ndarray, block_s: float) -> tuple[float, float, float]:
+    """Highest spectral peak of a zero-mean series in RIPPLE_BAND_HZ: frequency [Hz],
+    amplitude of the best-fitting sinusoid [W], and Fisher's g-test p-value.
+
+    Fisher's test (Fisher 1929; Brockwell & Davis, Time Series, §10.2): with periodogram
+    ordinates I_k, g = max I_k / sum I_k; under white noise P(g > x) ~= m (1 - x)^(m-1).
+    """
+    n = x.size
+    spectrum = np.abs(np.fft.rfft(x)) ** 2
+    freqs = np.fft.rfftfreq(n, block_s)
+    band = (freqs >= RIPPLE_BAND_HZ[0]) & (freqs <= min(RIPPLE_BAND_HZ[1], 0.5 / block_s))
+    if band.sum() < 3:
+        return np.nan, np.nan, np.nan
+    ordinates = spectrum[1:-1] if n % 2 == 0 else spectrum[1:]
+    m = ordinates.size
+    k = int(np.flatnonzero(band)[np.argmax(spectrum[band])])
+    g = spectrum[k] / ordinates.sum()
+    p_value = float(min(1.0, m * (1.0 - g) ** (m - 1)))
+    # refine the frequency on a 8x finer grid around the peak, then fit the sinusoid there
+    t = np.arange(n) * block_s
+    grid = freqs[k] + np.linspace(-1, 1, 17) * (freqs[1] - freqs[0])
+    grid = grid[grid > 0]
+    best = max(grid, key=lambda f: _sinusoid(x, t, f)[1])
+    amplitude_W, _ = _sinusoid(x, t, best)
+    return float(best), float(amplitude_W), p_value
+
+
+def _sinusoid(x: np.ndarray, t: np.ndarray, hz: float) -> tuple[float, float]:
+    """Least-squares sinusoid at `hz`: its amplitude [W] and the variance it explains."""
+    basis = np.column_stack([np.sin(2 * np.pi * hz * t), np.cos(2 * np.pi * hz * t)])
+    coef, *_ = np.linalg.lstsq(basis, x, rcond=None)
+    fitted = basis @ coef
+    return float(np.hypot(*coef)), float(fitted @ fitted)
+
+
+def ripple_trace_rmse_W(x: np.ndarray, block_s: float, hz: float, amplitude_W: float) -> float:
+    """RMS of a cruise trace after removing a sinusoid of given frequency and amplitude;
+    only the phase is fitted to the trace (the run's own start time is arbitrary)."""
+    t = np.arange(x.size) * block_s
+    basis = np.column_stack([np.sin(2 * np.pi * hz * t), np.cos(2 * np.pi * hz * t)])
+    coef, *_ = np.linalg.lstsq(basis, x, rcond=None)
+    norm = np.hypot(*coef)
+    predicted = basis @ (coef / norm * amplitude_W) if norm > 0 else np.zeros_like(x)
+    return float(np.sqrt(np.mean((x - predicted) ** 2)))
