@@ -394,7 +394,9 @@ def _sniff_data(
         raise LogError(
             "both ',' and '.' are used as the decimal mark",
             file=path,
-            where=f"lines {min(commas, points)} and {max(commas, points)}",
+            where=f"line {commas}"
+            if commas == points
+            else f"lines {min(commas, points)} and {max(commas, points)}",
             fix="export with one decimal mark",
         )
     return commas is not None
