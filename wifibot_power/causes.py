@@ -62,7 +62,7 @@ class Cause:
     metric: str  # "run_energy" or "power_trace"
     min_size: float
     evidence: str
-    test: Callable[[pd.DataFrame, PowerModel], Evidence]
+    test: Callable[..., Evidence]
 
 
 # -- helpers ---------------------------------------------------------------------------
@@ -107,73 +107,117 @@ def stacked_design(
     return X, np.concatenate([y_acc, y_cr]), names
 
 
-def _coefficient_evidence(
-    cause: str, runs: pd.DataFrame, base: PowerModel, name: str, what: str
-) -> Evidence:
-    X, y, names = stacked_design(runs, [cause], base.idle_W)
+def _coef(runs: pd.DataFrame, causes: Iterable[str], model: PowerModel) -> tuple[dict, object]:
+    """The stacked fit with the given causes' columns; thermal drift from the model."""
+    causes = list(causes)
+    alpha = model.extensions.get("thermal_drift", {}).get("alpha_per_min", 0.0)
+    X, y, names = stacked_design(runs, causes, model.idle_W, alpha)
     fit = ols(X, y)
+    return dict(zip(names, map(float, fit.coef), strict=True)), (fit, names)
+
+
+def _coefficient_evidence(
+    cause: str,
+    runs: pd.DataFrame,
+    model: PowerModel,
+    given: tuple[str, ...],
+    name: str,
+    what: str,
+) -> Evidence:
+    _, (fit, names) = _coef(runs, [*given, cause], model)
     j = names.index(name)
     estimate = float(fit.coef[j])
+    parameter = CAUSES[cause].parameter
     return Evidence(
         cause,
         True,
         fit.p_greater(j),
         estimate,
         fit.ci95(j),
-        {CAUSES[cause].parameter: estimate},
-        f"{what}: {CAUSES[cause].parameter} = {estimate:.3g} {CAUSES[cause].unit}",
+        {parameter: estimate},
+        f"{what}: {parameter} = {estimate:.3g} {CAUSES[cause].unit}",
     )
 
 
-def measured_duration_prediction_J(runs: pd.DataFrame, model: PowerModel) -> np.ndarray:
-    """Acceleration + cruise energy the model gives for each run's measured phase times [J]."""
+def phase_power_terms(runs: pd.DataFrame, coef: dict[str, float]) -> dict[str, np.ndarray]:
+    """Per-run modelled mean powers [W] from stacked-fit coefficients: the acceleration
+    ramp's start level and slope in u = t / t_acc (constant acceleration, paper Eq. 5),
+    and the cruise level, with the causes' terms the coefficients hold."""
     v = _v(runs)
-    accel_s = runs["t_acc_s"].to_numpy(np.float64) * runs["steps_found"].to_numpy(np.float64)
+    payload = runs["payload_kg"].to_numpy(np.float64)
+    accel_mps2 = v / runs["t_acc_s"].to_numpy(np.float64)
+    k2 = coef.get("k2", 0.0)
+    return {
+        "ramp0": np.full_like(v, coef["a0"]),
+        # P(u) = a0 + (2 a1 v + kI payload a v) u + k2 v² u²: means a0 + a1 v + ... over u in [0, 1]
+        "ramp1": 2 * coef["a1"] * v + coef.get("kI", 0.0) * payload * accel_mps2 * v,
+        "ramp2": k2 * v**2,
+        "cruise": coef["c0"] + coef["c1"] * v + k2 * v**2,
+    }
+
+
+def measured_duration_prediction_J(
+    runs: pd.DataFrame,
+    coef: dict[str, float],
+    alpha_per_min: float = 0.0,
+    idle_W: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Acceleration + cruise energy the coefficients give for each run's measured phase
+    times [J], and those times [s]."""
+    terms = phase_power_terms(runs, coef)
+    steps = runs["steps_found"].to_numpy(np.float64)
+    accel_s = runs["t_acc_s"].to_numpy(np.float64) * steps
     cruise_s = runs["cruise_duration_s"].to_numpy(np.float64)
-    return model.accel.at(v) * accel_s + model.cruise.at(v) * cruise_s, accel_s + cruise_s
+    energy_J = (
+        (terms["ramp0"] + terms["ramp1"] / 2 + terms["ramp2"] / 3) * accel_s
+        + terms["cruise"] * cruise_s
+        + coef.get("E_start", 0.0) * steps
+    )
+    if alpha_per_min:
+        factor = 1.0 + alpha_per_min * runs["tau_mid_min"].to_numpy(np.float64)
+        energy_J = (
+            idle_W * (accel_s + cruise_s) + (energy_J - idle_W * (accel_s + cruise_s)) * factor
+        )
+    return energy_J, accel_s + cruise_s
 
 
 # -- evidence tests, one per cause -----------------------------------------------------
-def speed_quadratic_evidence(runs: pd.DataFrame, base: PowerModel) -> Evidence:
+# Each test takes the runs, the model fitted with the causes already found (`given`), and
+# tests its own cause on top of them.
+def speed_quadratic_evidence(runs: pd.DataFrame, model: PowerModel, given=()) -> Evidence:
     """Residual curvature against speed: the k2 v² column of the stacked fit, one-sided t-test."""
     if np.unique(_v(runs)).size < 3:
         return Evidence("speed_quadratic", False, summary="needs runs at 3 or more speeds")
     return _coefficient_evidence(
-        "speed_quadratic", runs, base, "k2", "phase power curves upward with speed"
+        "speed_quadratic", runs, model, tuple(given), "k2", "phase power curves upward with speed"
     )
 
 
-def accel_inertial_evidence(runs: pd.DataFrame, base: PowerModel) -> Evidence:
+def accel_inertial_evidence(runs: pd.DataFrame, model: PowerModel, given=()) -> Evidence:
     """Residual against payload: acceleration power rises with payload · a · v."""
     if np.unique(runs["payload_kg"].to_numpy(np.float64)).size < 2:
         return Evidence("accel_inertial", False, summary="needs runs with different payloads")
     return _coefficient_evidence(
         "accel_inertial",
         runs,
-        base,
+        model,
+        tuple(given),
         "kI",
         "acceleration power rises with payload x acceleration x speed",
     )
 
 
-def start_transient_evidence(runs: pd.DataFrame, base: PowerModel) -> Evidence:
+def start_transient_evidence(runs: pd.DataFrame, model: PowerModel, given=()) -> Evidence:
     """A fixed energy per step, located in the first 0.25 s of each acceleration.
 
     Two tests must both hold: the per-step energy column of the stacked fit (residual per
-    step count), and the excess over the model's ramp in the start window (where it sits).
+    step count), and the excess over the modelled ramp in the start window (where it sits).
     The ramp is that of the lines fitted together with the per-step term, so it is not
     inflated by the transient it is meant to reveal.
     """
-    X, y, names = stacked_design(runs, ["start_transient"], base.idle_W)
-    fit = ols(X, y)
-    coef = dict(zip(names, map(float, fit.coef), strict=True))
-    clean = replace(
-        base,
-        accel=replace(base.accel, intercept=coef["a0"], slope=coef["a1"]),
-        cruise=replace(base.cruise, intercept=coef["c0"], slope=coef["c1"]),
-    )
+    coef, (fit, names) = _coef(runs, [*given, "start_transient"], model)
     j = names.index("E_start")
-    excess_J = start_window_excess_J(runs, clean)
+    excess_J = start_window_excess_J(runs, coef, model)
     mean_J, _, p_window = one_sample_p_greater(excess_J)
     estimate = float(fit.coef[j])
     return Evidence(
@@ -188,26 +232,34 @@ def start_transient_evidence(runs: pd.DataFrame, base: PowerModel) -> Evidence:
     )
 
 
-def start_window_excess_J(runs: pd.DataFrame, model: PowerModel) -> np.ndarray:
-    """Measured minus modelled energy in the start window, per step [J]. The model's
-    acceleration power is a linear ramp from a0 to a0 + 2 a1 v (mean P_acc, constant
-    acceleration as in paper Eq. 5), then the cruise power."""
-    v = _v(runs)
+def start_window_excess_J(
+    runs: pd.DataFrame, coef: dict[str, float], model: PowerModel
+) -> np.ndarray:
+    """Measured minus modelled energy in the start window, per step [J] (E_start not in the
+    model: it is what the window should reveal)."""
+    terms = phase_power_terms(runs, coef)
     predicted = (
-        model.accel.intercept * runs["start_accel_s"]
-        + 2 * model.accel.slope * v * runs["start_ramp_s"]
-        + model.cruise.at(v) * runs["start_cruise_s"]
+        terms["ramp0"] * runs["start_accel_s"].to_numpy(np.float64)
+        + terms["ramp1"] * runs["start_ramp_s"].to_numpy(np.float64)
+        + terms["ramp2"] * runs["start_ramp2_s"].to_numpy(np.float64)
+        + terms["cruise"] * runs["start_cruise_s"].to_numpy(np.float64)
     )
-    steps = runs["steps_found"].clip(lower=1)
-    return ((runs["start_measured_J"] - predicted) / steps).to_numpy(np.float64)
+    alpha = model.extensions.get("thermal_drift", {}).get("alpha_per_min", 0.0)
+    if alpha:
+        window_s = (runs["start_accel_s"] + runs["start_cruise_s"]).to_numpy(np.float64)
+        factor = 1.0 + alpha * runs["tau_mid_min"].to_numpy(np.float64)
+        predicted = model.idle_W * window_s + (predicted - model.idle_W * window_s) * factor
+    steps = runs["steps_found"].clip(lower=1).to_numpy(np.float64)
+    return (runs["start_measured_J"].to_numpy(np.float64) - predicted) / steps
 
 
-def decel_phase_evidence(runs: pd.DataFrame, base: PowerModel) -> Evidence:
+def decel_phase_evidence(runs: pd.DataFrame, model: PowerModel, given=()) -> Evidence:
     """Energy above idle in the second after each cruise ends, where the paper's robot
     has already stopped (paper Eq. 6 has no stopping phase)."""
-    excess_J = end_window_excess_J(runs, base)
+    del given
+    excess_J = end_window_excess_J(runs, model)
     mean_J, _, p_value = one_sample_p_greater(excess_J)
-    params = decel_parameters(runs, base)
+    params = decel_parameters(runs, model)
     t_dec = params["t_dec_s"]
     return Evidence(
         "decel_phase",
@@ -260,7 +312,7 @@ def decel_parameters(
     }
 
 
-def thermal_drift_evidence(runs: pd.DataFrame, base: PowerModel) -> Evidence:
+def thermal_drift_evidence(runs: pd.DataFrame, model: PowerModel, given=()) -> Evidence:
     """Residual trend in session order: motion power above idle, relative to the model,
     grows with the motor-on minutes accumulated before it."""
     tau = runs["tau_mid_min"].to_numpy(np.float64)
@@ -270,7 +322,10 @@ def thermal_drift_evidence(runs: pd.DataFrame, base: PowerModel) -> Evidence:
             False,
             summary="needs started_at on every run and a session over a minute of motion",
         )
-    alpha, ci, p_value = thermal_alpha(runs, base)
+    coef, _ = _coef(
+        runs, [c for c in given if c != "thermal_drift"], model.with_extensions({}, model.source)
+    )
+    alpha, ci, p_value = thermal_alpha(runs, coef, model.idle_W)
     return Evidence(
         "thermal_drift",
         True,
@@ -283,14 +338,14 @@ def thermal_drift_evidence(runs: pd.DataFrame, base: PowerModel) -> Evidence:
 
 
 def thermal_alpha(
-    runs: pd.DataFrame, model: PowerModel
+    runs: pd.DataFrame, coef: dict[str, float], idle_W: float
 ) -> tuple[float, tuple[float, float], float]:
     """Slope of (measured/modelled power above idle - 1) against tau_mid [1/min]."""
-    predicted_J, seconds = measured_duration_prediction_J(runs, model)
+    predicted_J, seconds = measured_duration_prediction_J(runs, coef)
     measured_J = runs["accel_energy_J"].to_numpy(np.float64) + runs["cruise_energy_J"].to_numpy(
         np.float64
     )
-    ratio = (measured_J - model.idle_W * seconds) / (predicted_J - model.idle_W * seconds) - 1.0
+    ratio = (measured_J - idle_W * seconds) / (predicted_J - idle_W * seconds) - 1.0
     tau = runs["tau_mid_min"].to_numpy(np.float64)
     fit = ols(np.column_stack([np.ones_like(tau), tau]), ratio)
     # the fitted lines absorb the mean drift: ratio ~ α (τ - τ̄) / (1 + α τ̄), so the
@@ -301,9 +356,11 @@ def thermal_alpha(
     return alpha, (lo * scale, hi * scale), fit.p_greater(1)
 
 
-def cruise_ripple_evidence(runs: pd.DataFrame, base: PowerModel) -> Evidence:
+def cruise_ripple_evidence(
+    runs: pd.DataFrame, model: PowerModel | None = None, given=()
+) -> Evidence:
     """A spectral peak in the cruise power whose frequency scales with speed."""
-    del base
+    del model, given
     analysed = runs[np.isfinite(runs["ripple_p_value"].to_numpy(np.float64))]
     if len(analysed) < 3:
         return Evidence("cruise_ripple", False, summary="needs 3 or more cruises of 3 s or more")
@@ -456,21 +513,22 @@ CAUSES: dict[str, Cause] = {
 def fit_model(runs: pd.DataFrame, causes: Iterable[str] = ()) -> PowerModel:
     """The paper's model fitted on `runs` (fit.fit_table: paper Eq. 1-4 by least squares
     over runs), extended jointly by `causes`: their columns enter one stacked least-squares
-    fit of the phase means; thermal drift first corrects the means; the decel and ripple
-    terms come from their own phases and spectra."""
+    fit of the phase means; thermal drift is estimated against the other terms and then
+    divides the means above idle by (1 + α τ); the decel and ripple terms come from their
+    own phases and spectra."""
     base = fit_table(runs).model
     causes = [c for c in CAUSES if c in set(causes)]
     if not causes:
         return base
     motion = runs[(runs["mode"] == "motion") & runs["usable"]]
     extensions: dict[str, dict[str, float]] = {}
+    columns = [c for c in causes if c in ("speed_quadratic", "accel_inertial", "start_transient")]
     alpha = 0.0
     if "thermal_drift" in causes:
-        alpha = thermal_alpha(motion, base)[0]
+        coef, _ = _coef(motion, columns, base)
+        alpha = thermal_alpha(motion, coef, base.idle_W)[0]
         extensions["thermal_drift"] = {"alpha_per_min": alpha}
-    X, y, names = stacked_design(motion, causes, base.idle_W, alpha)
-    fit = ols(X, y)
-    coef = dict(zip(names, map(float, fit.coef), strict=True))
+    coef, _ = _coef(motion, columns, base.with_extensions(extensions, "diagnose"))
     accel = replace(base.accel, intercept=coef["a0"], slope=coef["a1"])
     cruise = replace(base.cruise, intercept=coef["c0"], slope=coef["c1"])
     if "k2" in coef:
@@ -486,7 +544,7 @@ def fit_model(runs: pd.DataFrame, causes: Iterable[str] = ()) -> PowerModel:
         params.pop("t_dec_ci95")
         extensions["decel_phase"] = params
     if "cruise_ripple" in causes:
-        evidence = cruise_ripple_evidence(motion, model)
+        evidence = cruise_ripple_evidence(motion)
         if evidence.estimate > 0:
             extensions["cruise_ripple"] = {
                 "amplitude_W": evidence.parameters["amplitude_W"],

@@ -245,7 +245,7 @@ def heldout_trace_gain_pct(
     base_sq, ext_sq, count = 0.0, 0.0, 0
     for k in np.unique(folds):
         train, test = motion[folds != k], motion[folds == k]
-        evidence = CAUSES["cruise_ripple"].test(train, None)
+        evidence = CAUSES["cruise_ripple"].test(train)
         if evidence.estimate <= 0:
             continue
         amplitude_W = evidence.parameters["amplitude_W"]
@@ -268,51 +268,60 @@ def select_causes(
     motion: pd.DataFrame,
     folds: np.ndarray,
     measured: np.ndarray,
-    evidence: tuple[Evidence, ...],
     baseline_rmse: float,
     blocks: dict[str, tuple[np.ndarray, float]],
     notes: list[str],
-) -> tuple[dict[str, float], dict[frozenset, float]]:
-    """Forward selection on held-out error among the causes whose evidence passes: add the
-    run-energy cause that lowers the held-out RMSE most, while it lowers it by >= 5%.
-    A trace cause (ripple) is judged on its own held-out trace gain (>= 10%).
-    Returns {cause: gain when selected [%]} and the RMSE of every cause set tried."""
-    passing = [e for e in evidence if e.passes]
+) -> tuple[dict[str, float], dict[frozenset, float], tuple[Evidence, ...]]:
+    """Forward selection on held-out error. At each round every cause not yet in the model
+    runs its evidence test on top of the model holding the causes found so far; among those
+    that pass, the one that lowers the held-out RMSE of run energy most is added, while it
+    lowers it by >= 5%. The ripple (a trace cause) is judged on its held-out trace gain.
+    Returns {cause: gain when added [%]}, the RMSE of every cause set tried, and the
+    evidence of every cause as last tested."""
     selected: dict[str, float] = {}
     rmse_of: dict[frozenset, float] = {frozenset(): baseline_rmse}
-    for e in passing:
-        if CAUSES[e.cause].metric == "power_trace":
-            gain = heldout_trace_gain_pct(motion, folds, blocks)
-            if gain >= MIN_GAIN_PCT["power_trace"]:
-                selected[e.cause] = gain
-            else:
-                notes.append(
-                    f"{e.cause}: significant (p = {e.p_value:.2g}) but held-out trace "
-                    f"gain {gain:.1f}% is below {MIN_GAIN_PCT['power_trace']:g}%: not named"
-                )
-    remaining = [e.cause for e in passing if CAUSES[e.cause].metric == "run_energy"]
-    current: frozenset = frozenset()
-    while remaining:
-        for cause in remaining:
-            trial = current | {cause}
+    ripple = CAUSES["cruise_ripple"].test(motion)
+    if ripple.passes:
+        gain = heldout_trace_gain_pct(motion, folds, blocks)
+        if gain >= MIN_GAIN_PCT["power_trace"]:
+            selected["cruise_ripple"] = gain
+        else:
+            notes.append(
+                f"cruise_ripple: significant (p = {ripple.p_value:.2g}) but held-out "
+                f"trace gain {gain:.1f}% is below {MIN_GAIN_PCT['power_trace']:g}%"
+            )
+    latest: dict[str, Evidence] = {"cruise_ripple": ripple}
+    current: tuple[str, ...] = ()
+    energy_causes = [c for c in CAUSES if CAUSES[c].metric == "run_energy"]
+    while True:
+        model = fit_model(runs, current)
+        for cause in energy_causes:
+            if cause not in current:
+                latest[cause] = CAUSES[cause].test(motion, model, current)
+        passing = [c for c in energy_causes if c not in current and latest[c].passes]
+        if not passing:
+            break
+        for cause in passing:
+            trial = frozenset(current) | {cause}
             if trial not in rmse_of:
                 pred = heldout_energy_J(runs, motion, folds, sorted(trial))
                 rmse_of[trial] = _rmse_mape(measured, pred)[0]
-        best = min(remaining, key=lambda c: rmse_of[current | {c}])
-        gain = gain_pct(rmse_of[current], rmse_of[current | {best}])
+        now = rmse_of[frozenset(current)]
+        best = min(passing, key=lambda c: rmse_of[frozenset(current) | {c}])
+        gain = gain_pct(now, rmse_of[frozenset(current) | {best}])
         if gain < MIN_GAIN_PCT["run_energy"]:
-            for cause in remaining:
-                e = next(x for x in evidence if x.cause == cause)
+            for cause in passing:
+                trial_gain = gain_pct(now, rmse_of[frozenset(current) | {cause}])
                 notes.append(
-                    f"{cause}: significant (p = {e.p_value:.2g}) but adding it gains "
-                    f"{gain_pct(rmse_of[current], rmse_of[current | {cause}]):.1f}% "
-                    f"held out (< {MIN_GAIN_PCT['run_energy']:g}%): not named"
+                    f"{cause}: significant (p = {latest[cause].p_value:.2g}) but adding "
+                    f"it gains {trial_gain:.1f}% held out "
+                    f"(< {MIN_GAIN_PCT['run_energy']:g}%): not named"
                 )
             break
         selected[best] = gain
-        current = current | {best}
-        remaining.remove(best)
-    return selected, rmse_of
+        current = (*current, best)
+    evidence = tuple(latest[c] for c in CAUSES)
+    return selected, rmse_of, evidence
 
 
 def _rmse_mape(measured: np.ndarray, predicted: np.ndarray) -> tuple[float, float]:
@@ -340,14 +349,13 @@ def diagnose_summaries(summaries: list[RunSummary], skipped: Iterable[Skipped] =
         )
     notes: list[str] = []
     baseline_model = fit_model(runs)
-    evidence = tuple(CAUSES[name].test(motion, baseline_model) for name in CAUSES)
     folds = assign_folds(motion["run_id"])
     measured = motion["motion_energy_J"].to_numpy(np.float64)
     baseline_pred = heldout_energy_J(runs, motion, folds, [])
     baseline_rmse, baseline_mape = _rmse_mape(measured, baseline_pred)
 
-    selected, energy_rmse = select_causes(
-        runs, motion, folds, measured, evidence, baseline_rmse, blocks, notes
+    selected, energy_rmse, evidence = select_causes(
+        runs, motion, folds, measured, baseline_rmse, blocks, notes
     )
     causes = list(selected)
     extended_pred = heldout_energy_J(runs, motion, folds, causes)

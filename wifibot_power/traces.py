@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import optimize
 
 from wifibot_power.phases import Segmentation
 from wifibot_power.run import Run
@@ -36,6 +37,7 @@ class TraceStats:
     start_measured_J: float
     start_accel_s: float
     start_ramp_s: float  # sum over accel samples in the window of u = (t - t_a0) / t_acc, times dt
+    start_ramp2_s: float  # the same sum of u², times dt
     start_cruise_s: float
     end_measured_J: float
     end_s: float
@@ -50,6 +52,7 @@ class TraceStats:
             "start_measured_J": self.start_measured_J,
             "start_accel_s": self.start_accel_s,
             "start_ramp_s": self.start_ramp_s,
+            "start_ramp2_s": self.start_ramp2_s,
             "start_cruise_s": self.start_cruise_s,
             "end_measured_J": self.end_measured_J,
             "end_s": self.end_s,
@@ -59,7 +62,9 @@ class TraceStats:
         }
 
 
-EMPTY = TraceStats(0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.nan, np.nan, np.nan, np.zeros(0), BLOCK_S)
+EMPTY = TraceStats(
+    0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.nan, np.nan, np.nan, np.zeros(0), BLOCK_S
+)
 
 
 def trace_stats(run: Run, segmentation: Segmentation) -> TraceStats:
@@ -74,7 +79,7 @@ def trace_stats(run: Run, segmentation: Segmentation) -> TraceStats:
             by_step.setdefault(phase.step, {}).setdefault(phase.phase, []).append(phase)
     steps = sorted(s for s, kinds in by_step.items() if "accel" in kinds and "cruise" in kinds)
     starts_next = [min(p.i_start for p in by_step[s]["accel"]) for s in steps[1:]] + [run.samples]
-    sums = np.zeros(6)
+    sums = np.zeros(7)
     w_start = max(1, round(START_WINDOW_S / dt))
     w_end = max(1, round(END_WINDOW_S / dt))
     for step, next_start in zip(steps, starts_next, strict=True):
@@ -83,13 +88,17 @@ def trace_stats(run: Run, segmentation: Segmentation) -> TraceStats:
         ic1 = max(p.i_end for p in by_step[step]["cruise"])
         i_stop = min(ia0 + w_start, ic1)
         n_acc = min(i_stop, ia1) - ia0
-        # u at the middle of each accel sample in the window: closed-form sum of an arithmetic series
-        sum_u = (n_acc * n_acc / 2.0) / (ia1 - ia0)
+        # u at the middle of each accel sample in the window (an arithmetic series)
+        n_ramp = ia1 - ia0
+        sum_u = (n_acc * n_acc / 2.0) / n_ramp
+        # sum of ((j + 0.5) / n)² for j < m: (m³/3 - m/12) / n²
+        sum_u2 = (n_acc**3 / 3.0 - n_acc / 12.0) / n_ramp**2
         j_stop = min(ic1 + w_end, next_start)
         sums += [
             cumulative_J[i_stop] - cumulative_J[ia0],
             n_acc * dt,
             sum_u * dt,
+            sum_u2 * dt,
             max(i_stop - ia1, 0) * dt,
             cumulative_J[j_stop] - cumulative_J[ic1],
             (j_stop - ic1) * dt,
@@ -135,11 +144,17 @@ def ripple_peak(x: np.ndarray, block_s: float) -> tuple[float, float, float]:
     k = int(np.flatnonzero(band)[np.argmax(spectrum[band])])
     g = spectrum[k] / ordinates.sum()
     p_value = float(min(1.0, m * (1.0 - g) ** (m - 1)))
-    # refine the frequency on a 8x finer grid around the peak, then fit the sinusoid there
+    # refine the frequency between the neighbouring bins (the periodogram's grid is 1/T),
+    # then fit the sinusoid there: least squares in frequency, amplitude and phase
     t = np.arange(n) * block_s
-    grid = freqs[k] + np.linspace(-1, 1, 17) * (freqs[1] - freqs[0])
-    grid = grid[grid > 0]
-    best = max(grid, key=lambda f: _sinusoid(x, t, f)[1])
+    step = freqs[1] - freqs[0]
+    refined = optimize.minimize_scalar(
+        lambda f: -_sinusoid(x, t, f)[1],
+        bounds=(max(freqs[k] - step, step / 4), freqs[k] + step),
+        method="bounded",
+        options={"xatol": step * 1e-4},
+    )
+    best = float(refined.x)
     amplitude_W, _ = _sinusoid(x, t, best)
     return float(best), float(amplitude_W), p_value
 
