@@ -84,8 +84,14 @@ class MotionParams:
     #: the longest stop phase looked for [s] and the shortest kept
     max_decel_s: float = 1.5
     min_decel_s: float = 0.1
-    #: a stop phase must start with a drop of this many noise sd
-    decel_z: float = 5.0
+    #: a stop phase must start with a drop of this many sd of the jump statistic, whose
+    #: lines are this long [s] (longer than at the end of acceleration: the drop is smaller)
+    decel_z: float = 4.0
+    #: a stop phase ends closer to idle than this fraction of the cruise power above idle
+    decel_end_fraction: float = 0.45
+    decel_half_widths_s: tuple[float, ...] = (0.025, 0.08, 0.2)
+    #: the largest of those scales used when the cruise is wavy (a ripple) [s]
+    wavy_max_half_width_s: float = 0.08
 
 
 @dataclass(frozen=True)
@@ -276,7 +282,8 @@ def _locate_step(
     if t2 < t3:
         # the stop phase found, its end is re-fitted as a falling line then flat idle (the
         # quadratic of step 4 straddled the drop at t2), then its start once more
-        split = best_split(y, t2 + min_len, min(t3 + refine, hi), 1, 0, min_len)
+        stop = min(max(t3, t2 + blocks(params.max_decel_s)) + refine, hi)
+        split = best_split(y, t2 + min_len, stop, 1, 0, min_len)
         t3 = split.index if split else t3
         t2 = _decel_start(y, sigma_b, t1, t3, blocks, params, min_len)
     return _Step(t0=t0, t1=t1, t2=t2, t3=t3)
@@ -313,27 +320,58 @@ def _decel_start(
     params: MotionParams,
     min_len: int,
 ) -> int:
-    """Start of the stop phase before `t3`, or `t3` when the data shows none."""
-    lo = max(t1 + blocks(0.05), t3 - blocks(params.max_decel_s) - blocks(0.5))
-    split = best_split(y, lo, t3, 2, 1, min_len)
-    if split is None:
+    """Start of the stop phase before `t3`, or `t3` when the data shows none.
+
+    Coarse: the strongest drop of the jump statistic in the last `max_decel_s` before t3
+    (local lines, so a cruise ripple does not matter); fine: a split of a quadratic cruise
+    from a falling line around it. Kept when the drop is clear (`decel_z` sd), the line
+    falls, and it ends closer to idle than to the cruise level.
+    """
+    refine = blocks(params.refine_s)
+    # a wavy cruise (a ripple) bends the long lines of the coarser scales: fine scales only
+    wavy = _wavy(y, sigma_b, t1, t3, blocks(0.01))
+    best: tuple[float, int] | None = None  # (drop in sd, block) over the scales
+    for half_width_s in params.decel_half_widths_s:
+        if wavy and half_width_s > params.wavy_max_half_width_s:
+            continue
+        w = blocks(half_width_s)
+        first = max(t1 + w + 2 + blocks(0.02), t3 - blocks(params.max_decel_s))
+        last = t3 - max(blocks(params.min_decel_s), w)
+        if last <= first:
+            continue
+        jump = jump_statistic_W(y[first - w : last + w], w)[w : last - first + w + 1]
+        if not np.isfinite(jump).any():
+            continue
+        i = int(np.nanargmin(jump))
+        score = -float(jump[i]) / (jump_sd_factor(w) * sigma_b + 1e-12)
+        if best is None or score > best[0]:
+            best = (score, first + i)
+    if best is None or best[0] < params.decel_z:
         return t3
-    t2 = split.index
-    if t3 - t2 < blocks(params.min_decel_s) or t2 - lo < blocks(0.05):
+    k = best[1]
+    split = best_split(y, max(t1 + min_len, k - refine), min(k + refine, t3), 2, 1, min_len)
+    t2 = split.index if split else k
+    if t3 - t2 < blocks(params.min_decel_s):
         return t3
-    # level of the idle after the run, and of the stop piece at its end
     idle_W = float(np.median(y[t3 : min(y.size, t3 + blocks(0.3))]))
     slope, intercept = _line(y[t2:t3])
     end_W = intercept + slope * (t3 - t2 - 0.5)
-    cruise_W = split.left_end_W
-    drop_sd = sigma_b * np.sqrt(1.0 / max(t2 - lo, 1) * 4 + 4.0 / max(t3 - t2, 1))
-    if (
-        split.jump_W < -params.decel_z * drop_sd
-        and slope < 0
-        and (end_W - idle_W) < 0.5 * (cruise_W - idle_W)
-    ):
+    # the mean over the whole cruise: a ripple averages out of it
+    cruise_W = float(np.mean(y[t1 + 2 : t2 - 1])) if t2 - t1 > 4 else float(y[t2 - 1])
+    if slope < 0 and (end_W - idle_W) < params.decel_end_fraction * (cruise_W - idle_W):
         return t2
     return t3
+
+
+def _wavy(y: np.ndarray, sigma_b: float, t1: int, t3: int, group: int) -> bool:
+    """Whether power between t1 and t3 wanders around its trend line more than noise (10 ms
+    means off a straight line by more than max(3 sd of noise, 0.1 W) rms)."""
+    means = block_means(y[t1 + 2 : t3 - 2], group)
+    if means.size < 10:
+        return False
+    x = np.arange(means.size, dtype=np.float64)
+    residual = means - np.polyval(np.polyfit(x, means, 1), x)
+    return float(np.std(residual)) > max(3.0 * sigma_b / np.sqrt(group), 0.1)
 
 
 def _line(y: np.ndarray) -> tuple[float, float]:
