@@ -235,7 +235,7 @@ def _split_lines(text: str) -> list[str]:
 
 
 def _parse_preamble(path: Path, raw: bytes, extra_columns: tuple[str, ...] = ()) -> _Preamble:
-    if not raw.strip():
+    if not raw or raw.isspace():  # no .strip(): it would copy the whole file
         raise LogError("the file is empty", file=path, fix="re-export the log")
     head = raw[:_HEAD_BYTES]
     if b"\x00" in head:
