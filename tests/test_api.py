@@ -1,0 +1,69 @@
+"""The library gives what the command line gives, and every command has help."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+from typer.testing import CliRunner
+
+import wifibot_power as wb
+from wifibot_power.cli import app
+from wifibot_power.outputs import json_safe
+from wifibot_power.simulate import SimConfig, write_simulation
+
+COMMANDS = ["inspect", "segment", "fit", "energy", "lifetime", "diagnose", "simulate"]
+
+
+@pytest.fixture(scope="module")
+def small_logs(tmp_path_factory):
+    out = tmp_path_factory.mktemp("logs")
+    config = SimConfig(
+        speeds_mps=(0.3, 0.6, 0.9),
+        trips=((2.0, 1), (3.0, 3)),
+        repeats=2,
+        mode_repeats=1,
+        mode_duration_s=2.0,
+        sample_period_s=0.001024,
+        effects={"decel_phase": 0.4},
+        seed=4,
+    )
+    write_simulation(config, out)
+    return out
+
+
+def _cli_json(*args: str) -> dict:
+    done = subprocess.run(
+        [sys.executable, "-m", "wifibot_power.cli", *args, "--json"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout)
+
+
+def test_fit_from_python_equals_the_command(small_logs):
+    from_python = json_safe(wb.fit_logs([small_logs]).summary())
+    assert from_python == _cli_json("fit", str(small_logs))
+
+
+def test_diagnose_from_python_equals_the_command(small_logs):
+    from_python = json_safe(wb.diagnose_logs([small_logs]).summary())
+    from_cli = _cli_json("diagnose", str(small_logs))
+    assert from_python == from_cli
+    assert [f["cause"] for f in from_cli["findings"]] == ["decel_phase"]
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_every_command_has_help(command):
+    result = CliRunner().invoke(app, [command, "--help"])
+    assert result.exit_code == 0
+    assert "Usage" in result.output and "--help" in result.output
+
+
+def test_version():
+    result = CliRunner().invoke(app, ["--version"])
+    assert result.exit_code == 0 and result.output.strip() == f"wbpower {wb.__version__}"
