@@ -89,7 +89,8 @@ def _check_time(
             where=f"line {line_of(index + 1)}",
             fix="the log is out of order or two logs were joined; sort or split it",
         )
-    period_s = float(np.median(step_s))
+    # time stamps carry far fewer than 10 significant digits: drop the float noise of the diff
+    period_s = float(f"{float(np.median(step_s)):.10g}")
     if abs(period_s - default_period_s) <= 1e-6 * default_period_s:
         period_s = default_period_s  # the stated period, not its float-rounded echo
     gaps = np.flatnonzero(step_s > GAP_FACTOR * period_s)
