@@ -180,10 +180,13 @@ def best_split(
     deg_left: int,
     deg_right: int,
     min_len: int = 5,
+    jump_sign: int = 0,
 ) -> Split | None:
     """Least-squares split of y[lo:hi] into a degree-`deg_left` then a degree-`deg_right`
     polynomial piece (a segmented regression with one break, [2]).
 
+    `jump_sign` = +1 (-1) keeps only splits where the right piece starts above (below) where
+    the left piece ends, when the physics says which way the power jumps.
     Returns the first index of the right piece (in y's indices), or None when the window is
     too short for two pieces of `min_len` points.
     """
@@ -199,6 +202,11 @@ def best_split(
     sse_left, coef_left = cost.fit(np.zeros_like(splits), splits, deg_left)
     sse_right, coef_right = cost.fit(splits, np.full_like(splits, n), deg_right)
     total = sse_left + sse_right
+    x_split = (splits - 0.5) / cost.x_scale
+    left_end = sum(coef_left[:, p] * x_split**p for p in range(deg_left + 1))
+    right_start = sum(coef_right[:, p] * x_split**p for p in range(deg_right + 1))
+    if jump_sign and np.any(np.sign(right_start - left_end) * jump_sign >= 0):
+        total = np.where(np.sign(right_start - left_end) * jump_sign >= 0, total, np.inf)
     best = int(np.argmin(total))
     k = int(splits[best])
     sse_one, _ = cost.fit(np.array([0]), np.array([n]), max(deg_left, deg_right))

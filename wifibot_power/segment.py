@@ -84,14 +84,17 @@ class MotionParams:
     #: the longest stop phase looked for [s] and the shortest kept
     max_decel_s: float = 1.5
     min_decel_s: float = 0.1
-    #: a stop phase must start with a drop of this many sd of the jump statistic, whose
-    #: lines are this long [s] (longer than at the end of acceleration: the drop is smaller)
+    #: a stop phase after a steady cruise must start with a drop of this many sd; the flat
+    #: cruise before it is fitted over up to this long [s]
+    decel_split_z: float = 6.0
+    decel_cruise_s: float = 1.0
+    #: after a wavy cruise (a ripple): a drop of this many sd of the jump statistic, whose
+    #: lines are this long [s] (short: a slow ripple hardly bends them)
     decel_z: float = 4.0
+    decel_half_widths_s: tuple[float, ...] = (0.025, 0.08)
     #: a stop phase ends closer to idle than this fraction of the cruise power above idle
     decel_end_fraction: float = 0.45
     decel_half_widths_s: tuple[float, ...] = (0.025, 0.08, 0.2)
-    #: the largest of those scales used when the cruise is wavy (a ripple) [s]
-    wavy_max_half_width_s: float = 0.08
 
 
 @dataclass(frozen=True)
@@ -239,7 +242,7 @@ def _locate_step(
     min_len = max(5, blocks(0.005))
     # 2a. acceleration start: flat idle, then the drive-on step and the ramp (a line)
     lo = max(prev_end + 1, a - blocks(params.idle_probe_s))
-    split = best_split(y, lo, min(a + blocks(0.04), b), 0, 1, min_len)
+    split = best_split(y, lo, min(a + blocks(0.04), b), 0, 1, min_len, jump_sign=1)
     t0 = split.index if split else a
     # 3a. acceleration end, coarse: the first clear drop of the jump statistic (its lines
     # start after t0, clear of the step at the start)
@@ -253,19 +256,21 @@ def _locate_step(
         jump = jump_statistic_W(y[lo_j:hi_j], w)[first - lo_j : last - lo_j + 1]
         if np.isfinite(jump).any():
             threshold = params.jump_z * jump_sd_factor(w) * sigma_b
-            found = _first_strong_drop(y, first, jump, threshold, w)
+            found = _first_strong_drop(y, t0, first, jump, threshold, w, blocks(0.1))
             t1c = None if found is None else first + found
     # 2b. acceleration start again, the line fitted on more of the ramp (up to
     # `accel_probe_s`, clear of the end of acceleration)
     hi = min(t0 + blocks(params.accel_probe_s), (t1c if t1c else b) - min_len, b)
     if hi > t0 + 4 * min_len:
-        split = best_split(y, lo, hi, 0, 1, min_len)
+        split = best_split(y, lo, hi, 0, 1, min_len, jump_sign=1)
         t0 = split.index if split else t0
     # 3b. acceleration end, fine: a quadratic ramp (with any transient) then a quadratic
     # cruise (with any ripple); without a clear drop (a ripple can cancel it at low speed)
     # the split of a ramp line from a smooth cruise over the first `kink_probe_s`
     if t1c is not None:
-        split = best_split(y, max(t0 + min_len, t1c - refine), min(t1c + refine, b), 2, 2, min_len)
+        split = best_split(
+            y, max(t0 + min_len, t1c - refine), min(t1c + refine, b), 2, 2, min_len, jump_sign=-1
+        )
         t1 = split.index if split else t1c
     else:
         split = best_split(y, t0 + 1, min(t0 + blocks(params.kink_probe_s), b), 1, 2, min_len)
@@ -274,29 +279,38 @@ def _locate_step(
     # 4. motion end: a quadratic piece (cruise or stop), then flat idle
     lo = max(t1 + blocks(0.05), b - blocks(params.end_back_s))
     hi = min(next_start - blocks(0.05), b + blocks(params.end_forward_s), y.size)
-    split = best_split(y, lo, hi, 2, 0, min_len)
+    # power drops to idle at the end, unless a wavy cruise (ripple) happens to be low there
+    wavy = _wavy(y, sigma_b, t1, b, blocks(0.01))
+    split = best_split(y, lo, hi, 3 if wavy else 2, 0, min_len, jump_sign=0 if wavy else -1)
     t3 = split.index if split else b
     t3 = max(t3, t1 + 1)
     # 5. a stop phase, when the data shows one
-    t2 = _decel_start(y, sigma_b, t1, t3, blocks, params, min_len)
+    t2 = _decel_start(y, sigma_b, t1, t3, wavy, blocks, params, min_len)
     if t2 < t3:
         # the stop phase found, its end is re-fitted as a falling line then flat idle (the
         # quadratic of step 4 straddled the drop at t2), then its start once more
         stop = min(max(t3, t2 + blocks(params.max_decel_s)) + refine, hi)
-        split = best_split(y, t2 + min_len, stop, 1, 0, min_len)
+        split = best_split(y, t2 + min_len, stop, 1, 0, min_len, jump_sign=-1)
         t3 = split.index if split else t3
-        t2 = _decel_start(y, sigma_b, t1, t3, blocks, params, min_len)
+        t2 = _decel_start(y, sigma_b, t1, t3, wavy, blocks, params, min_len)
     return _Step(t0=t0, t1=t1, t2=t2, t3=t3)
 
 
 def _first_strong_drop(
-    y: np.ndarray, first: int, jump_W: np.ndarray, threshold_W: float, separation: int
+    y: np.ndarray,
+    t0: int,
+    first: int,
+    jump_W: np.ndarray,
+    threshold_W: float,
+    separation: int,
+    rise_window: int,
 ) -> int | None:
     """Index (into `jump_W`) of the drop that ends the acceleration, None without a clear one.
 
-    Among the clear drops at least half the strongest, the first one after rising power (the
-    ramp), else the first: the end of cruise, or the end of a start transient, can drop
-    further than the end of a short acceleration at low speed.
+    Among the clear drops at least half the strongest, the first one after clearly rising
+    power (the ramp: slope above 2 sd over up to 0.1 s), else the first: the end of cruise,
+    or the end of a start transient, can drop further than the end of a short acceleration
+    at low speed.
     """
     drops = peaks(-jump_W, threshold_W, separation)
     if drops.size == 0:
@@ -304,10 +318,17 @@ def _first_strong_drop(
     sizes = -jump_W[drops]
     strong = drops[sizes >= 0.5 * sizes.max()]
     for k in strong:
-        # the blocks just before the drop may straddle it: left out of the slope
-        before = y[first + k - separation : first + k - 2]
-        if before.size >= 3 and _line(before)[0] > 0:
-            return int(k)
+        # over up to `rise_window` blocks after t0; the blocks just before the drop may
+        # straddle it, so they are left out
+        before = y[max(t0 + 2, first + k - rise_window) : first + k - 2]
+        if before.size >= 5:
+            slope, intercept = _line(before)
+            x = np.arange(before.size, dtype=np.float64)
+            resid = before - (intercept + slope * x)
+            s_xx = before.size * (before.size**2 - 1) / 12.0
+            slope_sd = float(np.std(resid)) / np.sqrt(s_xx)
+            if slope > 2.0 * slope_sd:
+                return int(k)
     return int(strong[0])
 
 
@@ -316,41 +337,51 @@ def _decel_start(
     sigma_b: float,
     t1: int,
     t3: int,
+    wavy: bool,
     blocks,
     params: MotionParams,
     min_len: int,
 ) -> int:
     """Start of the stop phase before `t3`, or `t3` when the data shows none.
 
-    Coarse: the strongest drop of the jump statistic in the last `max_decel_s` before t3
-    (local lines, so a cruise ripple does not matter); fine: a split of a quadratic cruise
-    from a falling line around it. Kept when the drop is clear (`decel_z` sd), the line
-    falls, and it ends closer to idle than to the cruise level.
+    A steady cruise: the least-squares split of [.., t3) into a flat cruise and a falling
+    line (the onset is a drop: the drive stops pushing), its drop tested against its own
+    sd, sigma sqrt(1/n_cruise + 4/n_stop). A wavy cruise (a ripple): the strongest drop of
+    the jump statistic at the fine scales (local lines, which a slow ripple does not bend),
+    then a split of a quadratic cruise from a falling line around it. Either way the stop
+    phase is kept only when the line falls and ends closer to idle than
+    `decel_end_fraction` of the cruise power above idle, and lasts `min_decel_s`.
     """
     refine = blocks(params.refine_s)
-    # a wavy cruise (a ripple) bends the long lines of the coarser scales: fine scales only
-    wavy = _wavy(y, sigma_b, t1, t3, blocks(0.01))
-    best: tuple[float, int] | None = None  # (drop in sd, block) over the scales
-    for half_width_s in params.decel_half_widths_s:
-        if wavy and half_width_s > params.wavy_max_half_width_s:
-            continue
-        w = blocks(half_width_s)
-        first = max(t1 + w + 2 + blocks(0.02), t3 - blocks(params.max_decel_s))
-        last = t3 - max(blocks(params.min_decel_s), w)
-        if last <= first:
-            continue
-        jump = jump_statistic_W(y[first - w : last + w], w)[w : last - first + w + 1]
-        if not np.isfinite(jump).any():
-            continue
-        i = int(np.nanargmin(jump))
-        score = -float(jump[i]) / (jump_sd_factor(w) * sigma_b + 1e-12)
-        if best is None or score > best[0]:
-            best = (score, first + i)
-    if best is None or best[0] < params.decel_z:
-        return t3
-    k = best[1]
-    split = best_split(y, max(t1 + min_len, k - refine), min(k + refine, t3), 2, 1, min_len)
-    t2 = split.index if split else k
+    if not wavy:
+        lo = max(t1 + min_len, t3 - blocks(params.max_decel_s) - blocks(params.decel_cruise_s))
+        split = best_split(y, lo, t3, 0, 1, min_len, jump_sign=-1)
+        if split is None:
+            return t3
+        t2 = split.index
+        drop_sd = sigma_b * np.sqrt(1.0 / (t2 - lo) + 4.0 / (t3 - t2))
+        if -split.jump_W < params.decel_split_z * drop_sd:
+            return t3
+    else:
+        best: tuple[float, int] | None = None  # (drop in sd, block) over the scales
+        for half_width_s in params.decel_half_widths_s:
+            w = blocks(half_width_s)
+            first = max(t1 + w + 2 + blocks(0.02), t3 - blocks(params.max_decel_s))
+            last = t3 - max(blocks(params.min_decel_s), w)
+            if last <= first:
+                continue
+            jump = jump_statistic_W(y[first - w : last + w], w)[w : last - first + w + 1]
+            if not np.isfinite(jump).any():
+                continue
+            i = int(np.nanargmin(jump))
+            score = -float(jump[i]) / (jump_sd_factor(w) * sigma_b + 1e-12)
+            if best is None or score > best[0]:
+                best = (score, first + i)
+        if best is None or best[0] < params.decel_z:
+            return t3
+        k = best[1]
+        split = best_split(y, max(t1 + min_len, k - refine), min(k + refine, t3), 2, 1, min_len)
+        t2 = split.index if split else k
     if t3 - t2 < blocks(params.min_decel_s):
         return t3
     idle_W = float(np.median(y[t3 : min(y.size, t3 + blocks(0.3))]))

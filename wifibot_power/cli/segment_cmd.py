@@ -1,1 +1,80 @@
-"""`wbpower segment` (see shared/spec/cli.md)."""
+"""`wbpower segment FILE` (see shared/spec/cli.md)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from wifibot_power.cli.app import app
+from wifibot_power.cli.common import (
+    CurrentColumn,
+    JsonFlag,
+    SamplePeriod,
+    SupplyVoltage,
+    VoltageColumn,
+    handles_errors,
+    print_json,
+    read_options,
+    stdout,
+)
+from wifibot_power.segment import segment_file
+
+
+@app.command("segment")
+@handles_errors
+def segment_command(
+    path: Annotated[Path, typer.Argument(help="One log file.")],
+    supply_voltage: SupplyVoltage = None,
+    current_column: CurrentColumn = None,
+    voltage_column: VoltageColumn = None,
+    sample_period: SamplePeriod = None,
+    json_out: JsonFlag = False,
+) -> None:
+    """Split one log into phases: idle/accel/cruise/decel per step for a motion run, steady
+    levels otherwise. Short start-up spikes stay in the phase they start and are listed."""
+    options = read_options(supply_voltage, current_column, voltage_column, sample_period)
+    run, segmentation = segment_file(path, options)
+    if json_out:
+        print_json(
+            {
+                "run_id": segmentation.run_id,
+                "file": run.file,
+                "mode": run.meta.mode,
+                "phases": [p.as_dict() for p in segmentation.phases],
+                "spikes": [asdict(s) for s in segmentation.spikes],
+            }
+        )
+        return
+    table = Table(
+        title=f"{segmentation.run_id} ({run.meta.mode}): {len(segmentation.phases)} phase(s)",
+        title_justify="left",
+    )
+    for name in ("step", "phase", "start s", "end s", "duration s", "mean W", "energy J"):
+        table.add_column(name, justify="left" if name == "phase" else "right")
+    for p in segmentation.phases:
+        table.add_row(
+            str(p.step),
+            p.phase,
+            f"{p.t_start_s:.4f}",
+            f"{p.t_end_s:.4f}",
+            f"{p.duration_s:.4f}",
+            f"{p.mean_power_W:.3f}",
+            f"{p.energy_J:.2f}",
+        )
+    stdout.print(table)
+    if segmentation.spikes:
+        spikes = Table(title=f"{len(segmentation.spikes)} start-up spike(s)", title_justify="left")
+        for name in ("start s", "duration s", "peak W", "energy above level J"):
+            spikes.add_column(name, justify="right")
+        for s in segmentation.spikes:
+            spikes.add_row(
+                f"{s.t_start_s:.4f}",
+                f"{s.duration_s:.4f}",
+                f"{s.peak_W:.3f}",
+                f"{s.energy_above_level_J:.4f}",
+            )
+        stdout.print(spikes)
