@@ -6,14 +6,22 @@ import functools
 import json
 import os
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Annotated, TypeVar
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    Progress,
+    TaskID,
+    TextColumn,
+    TimeElapsedColumn,
+    TransferSpeedColumn,
+)
 
+from wifibot_power.cache import ParseCache
 from wifibot_power.errors import WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
 from wifibot_power.outputs import json_safe
@@ -22,7 +30,11 @@ EXIT_OK = 0
 EXIT_SKIPPED = 1
 EXIT_USAGE = 2
 
-stdout = Console(soft_wrap=False, width=None if sys.stdout.isatty() else 200)
+# a pipe gets wide tables (not rich's 80 columns) unless COLUMNS says otherwise
+stdout = Console(
+    soft_wrap=False,
+    width=None if sys.stdout.isatty() or "COLUMNS" in os.environ else 200,
+)
 stderr = Console(stderr=True, soft_wrap=True)
 
 # -- reading options: every command that reads logs takes these (cli.md) --------------
@@ -85,8 +97,10 @@ def handles_errors(command: F) -> F:
         except Exception as exc:  # noqa: BLE001 - the promise is: no traceback, ever
             if os.environ.get("WBPOWER_DEBUG"):
                 raise
-            fail(f"internal error: {exc.__class__.__name__}: {exc} (please report it; "
-                 "WBPOWER_DEBUG=1 shows the traceback)")
+            fail(
+                f"internal error: {exc.__class__.__name__}: {exc} (please report it; "
+                "WBPOWER_DEBUG=1 shows the traceback)"
+            )
         return None
 
     return wrapper  # type: ignore[return-value]
@@ -118,14 +132,95 @@ def report_skipped(skipped: list[Skipped]) -> int:
 T = TypeVar("T")
 
 
-def progress(items: list[T], label: str, total_bytes: int | None = None) -> Iterable[T]:
-    """A rich progress bar on stderr (files done, MB/s); silent when stderr is not a terminal."""
+class FileProgress:
+    """A rich progress bar on stderr: files done, MB/s, elapsed time.
+
+    Files finish in any order when they run in parallel, so `done(item)` advances the bar by
+    that file (its bytes on disk); iterating over it instead advances as the loop goes on.
+    """
+
+    def __init__(self, items: list[T], label: str) -> None:
+        self.items = items
+        self.sizes = {id(item): _size_bytes(item) for item in items}
+        self.total_bytes = sum(self.sizes.values())
+        self.label = label
+        self.files_done = 0
+        self._bar: Progress | None = None
+        self._task: TaskID | None = None
+
+    def _start(self) -> None:
+        self._bar = Progress(
+            TextColumn(f"[bold]{self.label}"),
+            BarColumn(),
+            TextColumn("{task.fields[files]}/" + f"{len(self.items)} files"),
+            TransferSpeedColumn(),
+            TimeElapsedColumn(),
+            console=stderr,
+            transient=True,
+        )
+        self._bar.start()
+        self._task = self._bar.add_task(
+            self.label, total=self.total_bytes or len(self.items), files=0
+        )
+
+    def done(self, item: T) -> None:
+        """One more file finished."""
+        if self._bar is None:
+            self._start()
+        self.files_done += 1
+        advance = self.sizes.get(id(item), 0) if self.total_bytes else 1
+        self._bar.update(self._task, advance=advance, files=self.files_done)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.stop()
+            self._bar = None
+
+    def __iter__(self) -> Iterator[T]:
+        try:
+            for item in self.items:
+                yield item
+                self.done(item)
+        finally:
+            self.close()
+
+
+def _size_bytes(item: object) -> int:
+    path = getattr(item, "path", item)
+    try:
+        return Path(path).stat().st_size if isinstance(path, str | Path) else 0
+    except OSError:
+        return 0
+
+
+def progress(items: list[T], label: str) -> Iterable[T]:
+    """A progress bar over files (files done, MB/s) on stderr, for `map_runs(wrap=...)`;
+    silent (a plain list) when stderr is not a terminal or there is a single file."""
     if not sys.stderr.isatty() or len(items) < 2:
-        yield from items
-        return
-    columns = [TextColumn(f"[bold]{label}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn()]
-    with Progress(*columns, console=stderr, transient=True) as bar:
-        task = bar.add_task(label, total=len(items))
-        for item in items:
-            yield item
-            bar.advance(task)
+        return items
+    return FileProgress(items, label)
+
+
+# -- batch options: parallel files and the parse cache ----------------------------------
+Jobs = Annotated[
+    int,
+    typer.Option(
+        "--jobs",
+        "-j",
+        min=0,
+        help="Files processed in parallel (worker processes); 0 = all cores.",
+    ),
+]
+CacheDir = Annotated[
+    Path | None,
+    typer.Option(
+        "--cache",
+        help="Keep parsed logs as Parquet in DIR so a second run skips parsing unchanged "
+        "files (keyed by content; see docs/benchmarks.md).",
+    ),
+]
+
+
+def parse_cache(directory: Path | None) -> ParseCache | None:
+    """The `--cache DIR` cache (None without the option)."""
+    return ParseCache(directory) if directory is not None else None
