@@ -1,0 +1,209 @@
+"""Files in parallel: same result for any --jobs, worker errors become skipped entries,
+results in input order, only small rows back to the parent, progress per file."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from wifibot_power import parallel
+from wifibot_power.cli import common
+from wifibot_power.errors import WbpowerError
+from wifibot_power.fit import fit_logs
+from wifibot_power.io import ReadOptions
+from wifibot_power.io.batch import map_runs
+from wifibot_power.simulate import SimConfig, WriteOptions, write_simulation
+
+needs_fork = pytest.mark.skipif(not parallel.can_fork(), reason="workers are forked (POSIX)")
+
+#: a corpus the fit can use: 3 speeds x 2 m in one step, an idle log, at 1.024 ms (small files)
+SMALL = SimConfig(
+    speeds_mps=(0.3, 0.6, 0.9),
+    trips=((2.0, 1),),
+    repeats=1,
+    modes=("idle", "network"),
+    mode_repeats=1,
+    mode_duration_s=2.0,
+    sample_period_s=1.024e-3,
+    noise_W=0.3,
+    seed=11,
+)
+
+
+@pytest.fixture(scope="module")
+def corpus(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("corpus")
+    write_simulation(SMALL, folder, WriteOptions(columns="power", decimals=3))
+    # two broken inputs: text where a number belongs, and a header with no power column
+    (folder / "broken_text.csv").write_text("# mode: idle\npower_W\n23.1\nabc\n23.2\n")
+    (folder / "broken_header.csv").write_text("time_s,speed\n0,1\n")
+    return folder
+
+
+# -- map_ordered ---------------------------------------------------------------------------
+def test_resolve_jobs() -> None:
+    cores = parallel.available_cores()
+    assert cores >= 1
+    assert parallel.resolve_jobs(0) == cores
+    assert parallel.resolve_jobs(None) == cores
+    assert parallel.resolve_jobs(3) == 3
+
+
+def _slow_square(x: int) -> int:
+    # later items finish first, so completion order is the reverse of input order
+    time.sleep(0.02 * (5 - x))
+    return x * x
+
+
+@needs_fork
+def test_results_in_input_order_whatever_finishes_first() -> None:
+    done: list[int] = []
+    results = parallel.map_ordered(list(range(6)), _slow_square, jobs=3, on_done=done.append)
+    assert results == [0, 1, 4, 9, 16, 25]
+    assert sorted(done) == list(range(6))  # each item reported done exactly once
+
+
+@needs_fork
+def test_work_runs_in_other_processes_and_needs_no_pickling() -> None:
+    parent = os.getpid()
+    offset = 7
+    # a closure (not picklable) over a local: workers are forked, they inherit it
+    pids = parallel.map_ordered([1, 2, 3, 4], lambda x: (os.getpid(), x + offset), jobs=2)
+    assert [x for _, x in pids] == [8, 9, 10, 11]
+    assert all(pid != parent for pid, _ in pids)
+
+
+def test_jobs_1_runs_here() -> None:
+    parent = os.getpid()
+    assert parallel.map_ordered([1, 2], lambda x: os.getpid(), jobs=1) == [parent, parent]
+
+
+@needs_fork
+def test_a_worker_that_dies_is_a_one_line_error() -> None:
+    def die(x: int) -> int:
+        if x == 2:
+            os._exit(3)  # what the kernel's OOM killer leaves: no exception, no result
+        return x
+
+    with pytest.raises(WbpowerError) as info:
+        parallel.map_ordered([1, 2, 3], die, jobs=2)
+    assert "worker process died" in info.value.one_line()
+    assert "--jobs 1" in info.value.one_line()
+    assert "\n" not in info.value.one_line()
+
+
+# -- the batch: same result for any jobs, errors become skipped entries ---------------------
+
+
+@needs_fork
+def test_fit_same_result_with_jobs_1_and_jobs_2(corpus: Path) -> None:
+    one = fit_logs([corpus], jobs=1)
+    two = fit_logs([corpus], jobs=2)
+    # identical, not close: the same code runs on the same bytes, only in another process
+    assert one.summary() == two.summary()
+    pd.testing.assert_frame_equal(one.runs, two.runs)
+    pd.testing.assert_frame_equal(one.phases, two.phases)
+    assert one.skipped == two.skipped
+    # the corpus: 3 motion runs, idle, network; the two broken files are skipped, named
+    assert one.n_runs == 5
+    skipped_files = sorted(Path(s.file).name for s in one.skipped)
+    assert skipped_files == ["broken_header.csv", "broken_text.csv"]
+
+
+@needs_fork
+def test_errors_in_workers_become_skipped_entries(corpus: Path) -> None:
+    def segmenter_that_fails_on_one_run(run):
+        if run.meta.speed_mps == 0.6:
+            raise ZeroDivisionError("boom")  # a bug in the segmenter, inside a worker
+        from wifibot_power.segment import segment_run
+
+        return segment_run(run)
+
+    results = {
+        jobs: fit_logs([corpus], jobs=jobs, segmenter=segmenter_that_fails_on_one_run)
+        for jobs in (1, 2)
+    }
+    assert results[1].skipped == results[2].skipped
+    reasons = [s.reason for s in results[2].skipped]
+    failed = [r for r in reasons if "segmentation failed" in r]
+    assert len(failed) == 1 and "ZeroDivisionError: boom" in failed[0]
+    assert "v0.60" in failed[0]  # names the file
+    assert all("\n" not in r for r in reasons)
+    text = [r for r in reasons if "broken_text.csv" in r][0]
+    assert "'abc' where a number belongs" in text and "line 4" in text
+    assert results[2].n_runs == 4  # the other runs still fitted
+
+
+@needs_fork
+def test_cli_fit_jobs_2_exit_codes(corpus: Path, wbpower, tmp_path: Path) -> None:
+    result = wbpower("fit", corpus, "--json", "--jobs", "2")
+    assert result.exit_code == 1  # done, some input skipped (cli.md)
+    assert "broken_text.csv" in result.stderr and "Traceback" not in result.stderr
+    single = wbpower("fit", corpus / "broken_text.csv", "--jobs", "2")
+    assert single.exit_code == 2
+    assert single.stderr.count("\n") == 1 and "broken_text.csv" in single.stderr
+
+
+def test_rows_sent_back_are_small_not_samples(corpus: Path, monkeypatch) -> None:
+    """What a worker returns is pickled to the parent: it must be a row, not the samples."""
+    seen: list[object] = []
+    real = parallel.map_ordered
+
+    def spy(items, task, **kwargs):
+        results = real(items, task, **kwargs)
+        seen.extend(results)
+        return results
+
+    monkeypatch.setattr("wifibot_power.io.batch.map_ordered", spy)
+    result = fit_logs([corpus], jobs=1)
+    samples = int(result.runs["samples"].max())
+    assert samples > 1500  # a 2 m run at 0.3 m/s at 1.024 ms: ~10 s, ~10k samples
+    for outcome in seen:
+        size = len(pickle.dumps(outcome))
+        # the samples alone would be 8 bytes x samples; a row and a few phases are ~ kB
+        assert size < 8 * samples / 4, size
+
+
+def test_map_runs_keeps_file_order_and_skips(corpus: Path) -> None:
+    rows, skipped = map_runs([corpus], ReadOptions(), lambda run: Path(run.file).name, jobs=1)
+    assert rows == sorted(rows)  # find_logs sorts paths; results keep that order
+    assert len(skipped) == 2
+
+
+# -- progress ------------------------------------------------------------------------------
+def test_progress_is_silent_without_a_terminal(corpus: Path) -> None:
+    items = sorted(corpus.glob("*.csv"))
+    # pytest captures stderr: not a TTY, so no bar, just the items
+    assert common.progress(items, "fitting") is items
+
+
+def test_file_progress_counts_files_and_bytes(corpus: Path) -> None:
+    items = sorted(corpus.glob("v*.csv"))
+    bar = common.FileProgress(items, "fitting")
+    assert bar.total_bytes == sum(p.stat().st_size for p in items)
+    for item in reversed(items):  # files finish in any order
+        bar.done(item)
+    task = bar._bar.tasks[0]
+    assert task.fields["files"] == len(items)
+    assert task.completed == bar.total_bytes
+    bar.close()
+
+
+def test_generator_wrap_still_advances_once_per_file(corpus: Path) -> None:
+    """The older hook (a generator over the sources) advances as each file is done."""
+    advanced: list[str] = []
+
+    def wrap(sources):
+        for source in sources:
+            yield source
+            advanced.append(source.path.name)
+
+    rows, _ = map_runs([corpus], ReadOptions(), lambda run: run.samples, wrap=wrap, jobs=1)
+    assert len(advanced) == len(rows) + 2  # every file, the two skipped included
+    assert np.all(np.asarray(rows) > 0)
