@@ -1,0 +1,157 @@
+"""Outputs are written atomically: a crash or a SIGKILL mid-write leaves the previous file intact.
+
+The kill tests run a child process that rewrites one output over and over (each version
+self-consistent: every value equals the version number) and SIGKILL it at random moments;
+after every kill the file must be one complete version, never a mixture or a stub.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import stat
+import subprocess
+import sys
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from wifibot_power.outputs import json_safe, write_atomic, write_json, write_parquet
+
+CHILD = r"""
+import os, sys, time
+from pathlib import Path
+import numpy as np, pandas as pd
+from wifibot_power.outputs import write_atomic, write_json, write_parquet
+
+kind, path = sys.argv[1], Path(sys.argv[2])
+rows = 200_000
+version = 1
+while True:
+    if kind == "json":
+        write_json(path, {"version": version, "values": [version] * rows})
+    elif kind == "parquet":
+        write_parquet(path, pd.DataFrame({"version": np.full(rows, version, dtype=np.int64)}))
+    else:  # raw write_atomic in chunks, saying when it is half-way, so the kill lands mid-write
+        def write(tmp, version=version):
+            with open(tmp, "w") as out:
+                out.write(f"{version}\n" * rows)
+                out.flush()
+                print("half", flush=True)
+                time.sleep(0.02)
+                out.write(f"{version}\n" * rows)
+        write_atomic(path, write)
+    print("done", version, flush=True)
+    version += 1
+"""
+
+
+def _check_complete(kind: str, path: Path) -> int:
+    """The version held by the file, asserting it is one complete, self-consistent version."""
+    if kind == "json":
+        data = json.loads(path.read_text())
+        assert len(data["values"]) == 200_000 and set(data["values"]) == {data["version"]}
+        return data["version"]
+    if kind == "parquet":
+        versions = pd.read_parquet(path)["version"]
+        assert len(versions) == 200_000 and versions.nunique() == 1
+        return int(versions.iloc[0])
+    lines = path.read_text().splitlines()
+    assert len(lines) == 400_000 and len(set(lines)) == 1
+    return int(lines[0])
+
+
+def _wait_for(child: subprocess.Popen, word: str) -> None:
+    while True:
+        line = child.stdout.readline()
+        assert line, "the writer died on its own"
+        if line.startswith(word):
+            return
+
+
+@pytest.mark.parametrize(("kind", "kills"), [("raw", 6), ("json", 4), ("parquet", 4)])
+def test_sigkill_mid_write_leaves_the_previous_output_intact(tmp_path, kind, kills):
+    rng = np.random.default_rng(7)
+    path = tmp_path / f"out.{kind}"
+    seen = 0
+    for _ in range(kills):
+        child = subprocess.Popen(
+            [sys.executable, "-c", CHILD, kind, str(path)],
+            stdout=subprocess.PIPE,
+            text=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )
+        try:
+            _wait_for(child, "done")  # at least one complete version exists
+            if kind == "raw":
+                _wait_for(child, "half")  # mid-write for sure
+                time.sleep(rng.uniform(0.0, 0.015))
+            else:
+                time.sleep(rng.uniform(0.0, 0.3))  # anywhere in the write loop
+            child.send_signal(signal.SIGKILL)
+        finally:
+            child.kill()
+            child.wait(timeout=30)
+            child.stdout.close()
+        version = _check_complete(kind, path)
+        assert version >= 1
+        seen += 1
+    assert seen == kills
+    if kind == "raw":
+        # the kills did land mid-write: their temporary files are what is left beside the output
+        assert list(tmp_path.glob(".out.raw.*.tmp"))
+
+
+def test_a_failing_write_keeps_the_old_file_and_leaves_no_temp(tmp_path):
+    path = write_json(tmp_path / "model.json", {"version": 1})
+
+    def half_then_crash(tmp: Path) -> None:
+        tmp.write_text('{"version": 2, "trunc')
+        raise RuntimeError("disk full")
+
+    with pytest.raises(RuntimeError, match="disk full"):
+        write_atomic(path, half_then_crash)
+    assert json.loads(path.read_text()) == {"version": 1}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.json"]
+
+
+def test_outputs_get_ordinary_permissions(tmp_path):
+    path = write_json(tmp_path / "a.json", {"a": 1})
+    mask = os.umask(0)
+    os.umask(mask)
+    # what open() would have made: 0666 less the umask (mkstemp alone would give 0600)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~mask
+
+
+def test_parquet_and_json_round_trip(tmp_path):
+    frame = pd.DataFrame({"run_id": ["a", "b"], "energy_J": [1.5, np.nan]})
+    back = pd.read_parquet(write_parquet(tmp_path / "runs.parquet", frame))
+    pd.testing.assert_frame_equal(back, frame)
+    data = {
+        "x_W": np.float64(2.5),
+        "n": np.int64(3),
+        "bad": float("inf"),
+        "arr": np.array([1, 2]),
+        "when": datetime(2015, 6, 1, tzinfo=UTC),
+        "file": Path("a/b.csv"),
+        "t": (1, 2),
+    }
+    written = json.loads(write_json(tmp_path / "d.json", data).read_text())
+    assert written == {
+        "x_W": 2.5,
+        "n": 3,
+        "bad": None,
+        "arr": [1, 2],
+        "when": "2015-06-01T00:00:00+00:00",
+        "file": "a/b.csv",
+        "t": [1, 2],
+    }
+
+
+def test_json_safe_nested_nan_becomes_null():
+    assert json_safe({"a": [np.nan, {"b": np.float32(1.5)}]}) == {"a": [None, {"b": 1.5}]}
