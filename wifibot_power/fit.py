@@ -30,6 +30,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from wifibot_power.cache import ParseCache
 from wifibot_power.errors import LogError, WbpowerError
 from wifibot_power.io import LogSource, ReadOptions, Skipped
 from wifibot_power.io.batch import map_runs
@@ -378,9 +379,16 @@ def fit_logs(
     *,
     wrap: Callable[[list[LogSource]], Iterator[LogSource]] | None = None,
     segmenter: Segmenter | None = None,
+    jobs: int | None = 1,
+    cache: ParseCache | None = None,
 ) -> FitResult:
-    """Read every log under `paths` (one file in memory at a time), segment it, build the
-    per-run table and fit the paper's models over the usable runs (see module docstring).
+    """Read every log under `paths` (one file in memory at a time per worker), segment it,
+    build the per-run table and fit the paper's models over the usable runs (see module
+    docstring).
+
+    `jobs` worker processes (None or 0: all cores) read and segment files in parallel; only
+    each run's row and phases come back, and the result is the same for any `jobs`.
+    `cache` (`wifibot_power.cache.ParseCache`) skips parsing files parsed before.
 
     Unreadable logs and runs the fit cannot use are listed in `FitResult.skipped` with the
     reason. Raises `LogError` when no run at all can be used (nothing to fit).
@@ -404,7 +412,7 @@ def fit_logs(
         return run_row(run, segmentation), segmentation.frame()
 
     results, read_skipped = map_runs(
-        [Path(p) for p in paths], options or ReadOptions(), work, wrap=wrap
+        [Path(p) for p in paths], options or ReadOptions(), work, wrap=wrap, jobs=jobs, cache=cache
     )
     runs = runs_frame([row for row, _ in results])
     frames = [frame for _, frame in results if len(frame)]

@@ -12,13 +12,16 @@ from rich.table import Table
 
 from wifibot_power.cli.app import app
 from wifibot_power.cli.common import (
+    CacheDir,
     CurrentColumn,
+    Jobs,
     JsonFlag,
     OutDir,
     SamplePeriod,
     SupplyVoltage,
     VoltageColumn,
     handles_errors,
+    parse_cache,
     print_json,
     progress,
     read_options,
@@ -74,10 +77,18 @@ def fit_command(
         bool, typer.Option("--markdown", help="Print the table as Markdown (for a paper).")
     ] = False,
     out: OutDir = None,
+    jobs: Jobs = 0,
+    cache: CacheDir = None,
 ) -> None:
     """Segment every run and fit the paper's power models by least squares over runs."""
     options = read_options(supply_voltage, current_column, voltage_column, sample_period)
-    result = fit_logs(paths, options, wrap=lambda s: progress(s, "fitting"))
+    result = fit_logs(
+        paths,
+        options,
+        wrap=lambda s: progress(s, "fitting"),
+        jobs=jobs,
+        cache=parse_cache(cache),
+    )
     if out is not None:
         written = write_fit(result, out)
         if not result.model_complete:

@@ -1,0 +1,269 @@
+"""The parse cache: a hit gives exactly the `Run` a parse gives, skips the parse, and a changed
+file never hits (content hash; stat taken as proof of no change only once it has settled)."""
+
+from __future__ import annotations
+
+import gzip
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from wifibot_power import cache as cache_module
+from wifibot_power.cache import ParseCache
+from wifibot_power.errors import LogError, UsageError
+from wifibot_power.fit import fit_logs
+from wifibot_power.io import ReadOptions, read_log
+from wifibot_power.run import Run, RunMeta
+
+LOG = """# wbpower-log: 1
+# run_id: r1
+# mode: motion
+# speed_mps: 0.5
+# distance_m: 2
+# steps: 1
+# started_at: 2015-06-01T09:00:00Z
+time_s,voltage_V,current_A,power_W
+0,12.0,2.0,24.0
+0.001,12.0,2.1,25.2
+0.002,12.0,2.2,26.4
+0.003,12.0,2.0,24.0
+"""
+
+
+def assert_same_run(a: Run, b: Run) -> None:
+    """Bitwise: a cached parse is the parse, not an approximation of it."""
+    assert a.file == b.file and a.format == b.format
+    assert a.meta == b.meta and a.problems == b.problems
+    assert a.power_W.dtype == b.power_W.dtype == np.float64
+    np.testing.assert_array_equal(a.power_W, b.power_W)
+    np.testing.assert_array_equal(a.time_s, b.time_s)
+
+
+class Spy:
+    """Counts the parses the cache falls back to."""
+
+    def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        self.calls = 0
+        real = cache_module.read_log
+
+        def counting(*args, **kwargs):
+            self.calls += 1
+            return real(*args, **kwargs)
+
+        monkeypatch.setattr(cache_module, "read_log", counting)
+
+
+@pytest.fixture
+def settled(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Files are taken as settled at once (a test cannot wait for the 2 s settle time)."""
+    monkeypatch.setattr(cache_module, "SETTLE_NS", -(10**9))  # even a ctime 1 s ahead
+
+
+def test_hit_is_the_same_run_and_skips_the_parse(tmp_path: Path, monkeypatch, settled) -> None:
+    log = tmp_path / "r1.csv"
+    log.write_text(LOG)
+    cache = ParseCache(tmp_path / "cache")
+    spy = Spy(monkeypatch)
+    first = cache.read_log(log)
+    assert spy.calls == 1
+    assert_same_run(first, read_log(log))
+    second = cache.read_log(log)
+    assert spy.calls == 1  # served from the cache
+    assert_same_run(second, read_log(log))
+    assert second.meta.started_at is not None and second.meta.speed_mps == 0.5
+    # 4 samples of 24, 25.2, 26.4, 24 W at 1 ms: 99.6 W x 1 ms = 0.0996 J
+    assert second.energy_J == pytest.approx(0.0996, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    "name, text",
+    [
+        # power only, no time column: time is index x period, not stored
+        ("p.csv", "# mode: idle\n# sample_period_s: 0.001\npower_W\n23.1\n23.3\n23.2\n"),
+        # a cut last line (a Problem travels with the run)
+        ("cut.csv", "# mode: idle\ntime_s,power_W\n0,23.1\n0.001,23.3\n0.002,23.2\n0.003,23"),
+        # semicolons and decimal commas
+        ("comma.csv", "# mode: idle\ntime_s;power_W\n0;23,1\n0,001;23,3\n0,002;23,2\n"),
+    ],
+)
+def test_hit_round_trips_every_kind_of_log(tmp_path: Path, name: str, text: str, settled) -> None:
+    log = tmp_path / name
+    log.write_text(text)
+    cache = ParseCache(tmp_path / "cache")
+    cache.read_log(log)
+    assert_same_run(cache.read_log(log), read_log(log))
+
+
+def test_gzip_log(tmp_path: Path, monkeypatch, settled) -> None:
+    log = tmp_path / "r1.csv.gz"
+    log.write_bytes(gzip.compress(LOG.encode()))
+    cache = ParseCache(tmp_path / "cache")
+    spy = Spy(monkeypatch)
+    cache.read_log(log)
+    assert_same_run(cache.read_log(log), read_log(log))
+    assert spy.calls == 1
+
+
+def _rewrite_same_size_same_mtime(log: Path, old: str, new: str) -> None:
+    """Change the content, keep the size and set the mtime back: what defeats a size+mtime key."""
+    stat = log.stat()
+    text = log.read_text()
+    assert len(old) == len(new) and old in text
+    log.write_text(text.replace(old, new))
+    os.utime(log, ns=(stat.st_atime_ns, stat.st_mtime_ns))
+    assert log.stat().st_size == stat.st_size and log.stat().st_mtime_ns == stat.st_mtime_ns
+
+
+def test_changed_file_never_hits_even_with_same_size_and_mtime(tmp_path: Path, settled) -> None:
+    log = tmp_path / "r1.csv"
+    log.write_text(LOG)
+    cache = ParseCache(tmp_path / "cache")
+    assert cache.read_log(log).power_W[1] == 25.2
+    _rewrite_same_size_same_mtime(log, "25.2", "29.9")
+    # the ctime moved (no program can set it back), so the content is hashed again: a miss
+    run = cache.read_log(log)
+    assert run.power_W[1] == 29.9
+    assert_same_run(run, read_log(log))
+
+
+def test_racy_entry_is_hashed_again(tmp_path: Path, monkeypatch) -> None:
+    """A file changed within one timestamp tick keeps its whole stat; the entry written while
+    the file was that fresh is unsettled, so its content is hashed again, and the change seen."""
+    monkeypatch.setattr(cache_module, "_fingerprint", lambda stat: [stat.st_size])  # coarse clock
+    log = tmp_path / "r1.csv"
+    log.write_text(LOG)
+    cache = ParseCache(tmp_path / "cache")
+    cache.read_log(log)  # the file is fresh: the entry is unsettled (real SETTLE_S)
+    log.write_text(LOG.replace("25.2", "29.9"))
+    assert cache.read_log(log).power_W[1] == 29.9
+
+
+def test_settled_entry_trusts_stat_without_reading(tmp_path: Path, monkeypatch, settled) -> None:
+    log = tmp_path / "r1.csv"
+    log.write_text(LOG)
+    cache = ParseCache(tmp_path / "cache")
+    cache.read_log(log)
+    monkeypatch.setattr(Path, "read_bytes", lambda self: pytest.fail("read the file"))
+    assert cache.read_log(log).power_W[1] == 25.2
+
+
+def test_touched_file_same_content_hits_then_is_trusted_again(
+    tmp_path: Path, monkeypatch, settled
+) -> None:
+    log = tmp_path / "r1.csv"
+    log.write_text(LOG)
+    cache = ParseCache(tmp_path / "cache")
+    spy = Spy(monkeypatch)
+    cache.read_log(log)
+    os.utime(log, ns=(10**18, 10**18))  # touched: stat changed, content not
+    cache.read_log(log)
+    assert spy.calls == 1  # content hash matched: no parse
+    monkeypatch.setattr(Path, "read_bytes", lambda self: pytest.fail("hashed again"))
+    cache.read_log(log)  # the new stat was recorded
+
+
+def test_reading_options_and_manifest_values_are_part_of_the_key(tmp_path: Path, settled) -> None:
+    log = tmp_path / "r1.csv"
+    log.write_text(LOG)
+    cache = ParseCache(tmp_path / "cache")
+    cache.read_log(log)
+    # current column x a 10 V supply, instead of the power column: 2.1 A x 10 V = 21 W
+    options = ReadOptions(current_column="current_A", supply_voltage_V=10.0)
+    assert cache.read_log(log, options).power_W[1] == pytest.approx(21.0, rel=1e-12)
+    overridden = cache.read_log(log, overrides={"speed_mps": "0.7"}, origin="runs.csv line 2")
+    assert overridden.meta.speed_mps == 0.7
+    assert cache.read_log(log).meta.speed_mps == 0.5
+    assert_same_run(cache.read_log(log, options), read_log(log, options))
+
+
+def test_a_new_reader_reads_afresh(tmp_path: Path, monkeypatch) -> None:
+    cache = ParseCache(tmp_path / "cache")
+    before = cache.entry_path(tmp_path / "r1.csv", ReadOptions(), None, None)
+    monkeypatch.setattr(cache_module, "reader_digest", lambda: "another reader")
+    assert cache.entry_path(tmp_path / "r1.csv", ReadOptions(), None, None) != before
+
+
+def test_broken_entry_is_a_miss(tmp_path: Path, settled) -> None:
+    log = tmp_path / "r1.csv"
+    log.write_text(LOG)
+    cache = ParseCache(tmp_path / "cache")
+    cache.read_log(log)
+    entry = cache.entry_path(log, ReadOptions(), None, None)
+    entry.write_bytes(entry.read_bytes()[:100])  # cut short
+    assert_same_run(cache.read_log(log), read_log(log))
+
+
+def test_bad_log_same_error_and_not_cached(tmp_path: Path) -> None:
+    log = tmp_path / "bad.csv"
+    log.write_text("# mode: idle\npower_W\n23.1\nabc\n")
+    cache = ParseCache(tmp_path / "cache")
+    with pytest.raises(LogError) as plain:
+        read_log(log)
+    with pytest.raises(LogError) as cached:
+        cache.read_log(log)
+    assert cached.value.one_line() == plain.value.one_line()
+    assert list((tmp_path / "cache").iterdir()) == []
+
+
+def test_cache_folder_that_cannot_be_made_is_a_usage_error(tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    with pytest.raises(UsageError) as info:
+        ParseCache(blocker / "cache")
+    assert "--cache" in info.value.one_line() and str(blocker) in info.value.one_line()
+
+
+def test_fit_with_cache_same_result_cold_and_warm(tmp_path: Path, wbpower) -> None:
+    from wifibot_power.simulate import SimConfig, WriteOptions, write_simulation
+
+    corpus = tmp_path / "logs"
+    config = SimConfig(
+        speeds_mps=(0.3, 0.9),
+        trips=((2.0, 1),),
+        repeats=1,
+        modes=("idle",),
+        mode_repeats=1,
+        mode_duration_s=2.0,
+        sample_period_s=1.024e-3,
+        seed=3,
+    )
+    write_simulation(config, corpus, WriteOptions(columns="full"))
+    plain = fit_logs([corpus], jobs=1).summary()
+    cache = ParseCache(tmp_path / "cache")
+    assert fit_logs([corpus], jobs=2, cache=cache).summary() == plain  # fills it
+    assert len(list((tmp_path / "cache").glob("*.parquet"))) == 3
+    assert fit_logs([corpus], jobs=2, cache=cache).summary() == plain  # served from it
+    cold = wbpower("fit", corpus, "--json", "--cache", tmp_path / "cache")
+    assert cold.exit_code == 0, cold.stderr
+
+
+finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+
+
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    power=hnp.arrays(np.float64, st.integers(1, 200), elements=finite),
+    irregular=st.booleans(),
+    period=st.sampled_from([0.1024e-3, 1e-3, 0.3]),
+)
+def test_entry_round_trip_is_bitwise(
+    tmp_path: Path, power: np.ndarray, irregular: bool, period: float
+) -> None:
+    time_s = np.arange(power.size) * period
+    if irregular:
+        time_s = time_s + 1e-9  # a time column that must be stored
+    meta = RunMeta("r", mode="idle", sample_period_s=period, extra={"k": "v"})
+    run = Run("f.csv", "wbpower-csv", meta, time_s, power)
+    entry = tmp_path / f"e{power.size}{irregular}{period}.parquet"
+    cache_module._store(entry, run, {"fingerprint": [1], "content_sha256": "x", "settled": True})
+    loaded = cache_module._load_run(entry, "x")
+    assert loaded is not None
+    assert_same_run(loaded, run)
+    assert cache_module._load_run(entry, "other content") is None

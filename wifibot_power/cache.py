@@ -1,0 +1,264 @@
+"""A Parquet cache of parsed logs, so a second run over the same files skips the CSV parsing.
+
+An entry is the `Run` a log parses to: `<key>.parquet` (power and time columns; metadata and
+problems in the Parquet key-value metadata) and `<key>.json` beside it (what the entry is
+valid for: the file's stat and content hash). It is looked up by what the parse depends on: the path
+as given, the reading options, the manifest values, and a digest of the reader's own source
+code (a new wbpower reads the logs afresh). It is valid only for the file's content:
+
+- The content key is the SHA-256 of the file's bytes as stored (compressed bytes for .gz/.zst).
+- Hashing a large corpus costs a fair share of parsing it, so, as git does for its index, a
+  file whose `stat` (size, mtime, ctime, inode, device) is what it was when it was hashed is
+  taken as unchanged, without reading it. Any write changes the ctime, which no program can
+  set back. The one hole, a rewrite within the file system's timestamp tick, is closed the way
+  git closes it ("racy git"): when the file's times were less than `SETTLE_S` before the
+  moment it was read, the entry is marked unsettled and its content is hashed again at the
+  next lookup (which marks it settled once it is).
+- A changed file therefore never hits the cache: its stat differs, its bytes are hashed again,
+  the hash differs, and it is parsed and its entry replaced (one entry per input, so a cache
+  does not grow with edits).
+
+What could still fool it: a system clock stepped back by more than `SETTLE_S` between runs, or
+a network file system whose server clock runs more than `SETTLE_S` behind this machine's.
+Delete the cache folder after either. Logs that fail to read are never cached. A cache entry
+that cannot be read (cut short, another format) is a miss; a cache that cannot be written is
+not an error (the result does not depend on it).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import json
+import os
+import time
+from collections.abc import Callable
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from wifibot_power.errors import UsageError
+from wifibot_power.io.reader import ReadOptions, read_log
+from wifibot_power.run import Problem, Run, RunMeta
+
+#: Version of the entry layout; part of every key.
+CACHE_FORMAT = 1
+#: A file whose times are this close to when it was read may still change unseen [s].
+SETTLE_S = 2.0
+SETTLE_NS = int(SETTLE_S * 1e9)
+_METADATA_KEY = b"wbpower.run"
+_COMPRESSED = {".gz": "gzip", ".zst": "zstd"}
+
+
+@functools.lru_cache(maxsize=1)
+def reader_digest() -> str:
+    """SHA-256 of the source of everything a parse depends on (the io package, run.py, this)."""
+    package = Path(__file__).parent
+    digest = hashlib.sha256(f"cache format {CACHE_FORMAT}".encode())
+    for source in sorted(
+        [
+            *package.joinpath("io").glob("*.py"),
+            package / "run.py",
+            package / "errors.py",
+            Path(__file__),
+        ]
+    ):
+        digest.update(source.name.encode())
+        digest.update(source.read_bytes())
+    return digest.hexdigest()
+
+
+def _fingerprint(stat: os.stat_result) -> list[int]:
+    return [stat.st_size, stat.st_mtime_ns, stat.st_ctime_ns, stat.st_ino, stat.st_dev]
+
+
+@dataclasses.dataclass(frozen=True)
+class ParseCache:
+    """A folder of cached parses (`--cache DIR`). Safe to share between concurrent workers:
+    entries are written to a temporary file and renamed into place."""
+
+    directory: Path
+
+    def __post_init__(self) -> None:
+        directory = Path(self.directory)
+        object.__setattr__(self, "directory", directory)
+        try:
+            directory.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise UsageError(
+                f"cannot create the cache folder ({exc.strerror or exc})",
+                file=directory,
+                fix="give a writable folder with --cache",
+            ) from None
+
+    def entry_path(
+        self,
+        path: Path,
+        options: ReadOptions,
+        overrides: dict[str, str] | None,
+        origin: str | None,
+    ) -> Path:
+        """Where the parse of `path` with these reading inputs is kept."""
+        inputs = json.dumps(
+            [
+                reader_digest(),
+                str(path),
+                dataclasses.asdict(options),
+                sorted((overrides or {}).items()),
+                origin,
+            ],
+            sort_keys=True,
+        )
+        return self.directory / f"{hashlib.sha256(inputs.encode()).hexdigest()[:40]}.parquet"
+
+    def read_log(
+        self,
+        path: str | Path,
+        options: ReadOptions | None = None,
+        overrides: dict[str, str] | None = None,
+        *,
+        origin: str | None = None,
+    ) -> Run:
+        """`io.read_log`, from the cache when the file's content has been parsed before."""
+        path = Path(path)
+        options = options or ReadOptions()
+        try:
+            stat = os.stat(path)
+        except OSError:
+            return read_log(path, options, overrides, origin=origin)  # its own one-line error
+        entry = self.entry_path(path, options, overrides, origin)
+        validity = _read_validity(entry)
+        if validity and validity["settled"] and validity["fingerprint"] == _fingerprint(stat):
+            run = _load_run(entry, validity["content_sha256"])
+            if run is not None:
+                return run
+        read_at_ns = time.time_ns()
+        raw = path.read_bytes()
+        content = hashlib.sha256(raw).hexdigest()
+        fresh = {
+            "fingerprint": _fingerprint(stat),
+            "content_sha256": content,
+            "settled": max(stat.st_mtime_ns, stat.st_ctime_ns) < read_at_ns - SETTLE_NS,
+        }
+        if validity and validity["content_sha256"] == content:
+            run = _load_run(entry, content)
+            if run is not None:
+                if fresh != validity:  # touched, or settled since: skip the hash next time
+                    _write_validity(entry, fresh)
+                return run
+        run = read_log(path, options, overrides, data=_decompressed(path, raw), origin=origin)
+        _store(entry, run, fresh)
+        return run
+
+
+def _decompressed(path: Path, raw: bytes) -> bytes | None:
+    """The bytes `read_log` parses (None: let it read the file and name the problem)."""
+    codec = next((c for s, c in _COMPRESSED.items() if path.name.lower().endswith(s)), None)
+    if codec is None:
+        return raw
+    try:
+        with pa.input_stream(pa.BufferReader(raw), compression=codec) as stream:
+            return stream.read()
+    except (OSError, pa.ArrowException):
+        return None
+
+
+def _validity_path(entry: Path) -> Path:
+    return entry.with_suffix(".json")
+
+
+def _read_validity(entry: Path) -> dict | None:
+    """What the entry is valid for: the file's stat fingerprint and content hash (or None)."""
+    try:
+        validity = json.loads(_validity_path(entry).read_text(encoding="utf-8"))
+        return validity if validity.get("cache_format") == CACHE_FORMAT else None
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def _write_validity(entry: Path, validity: dict[str, object]) -> None:
+    _replace(
+        _validity_path(entry),
+        lambda tmp: tmp.write_text(
+            json.dumps({"cache_format": CACHE_FORMAT, **validity}), encoding="utf-8"
+        ),
+    )
+
+
+def _load_run(entry: Path, content_sha256: str) -> Run | None:
+    """The cached `Run`, or None when the entry is missing, unreadable or of other content."""
+    try:
+        table = pq.read_table(entry)
+        stored = json.loads((table.schema.metadata or {})[_METADATA_KEY])
+        if stored["content_sha256"] != content_sha256:
+            return None  # a pair torn by concurrent writers: parse again
+        power_W = table["power_W"].to_numpy()
+        meta_values = dict(stored["meta"])
+        started = meta_values.get("started_at")
+        meta_values["started_at"] = datetime.fromisoformat(started) if started else None
+        meta = RunMeta(**meta_values)
+        if stored["time"] == "column":
+            time_s = table["time_s"].to_numpy()
+        else:
+            time_s = np.arange(power_W.size) * meta.sample_period_s
+        problems = tuple(Problem(**p) for p in stored["problems"])
+    except (OSError, KeyError, TypeError, ValueError, pa.ArrowException):
+        return None
+    return Run(
+        file=stored["file"],
+        format=stored["format"],
+        meta=meta,
+        time_s=time_s,
+        power_W=power_W,
+        problems=problems,
+    )
+
+
+def _store(entry: Path, run: Run, validity: dict[str, object]) -> None:
+    """Write the parse (Parquet), then what it is valid for (JSON beside it)."""
+    meta = dataclasses.asdict(run.meta)
+    meta["started_at"] = run.meta.started_at.isoformat() if run.meta.started_at else None
+    # a time column that is exactly sample index x period need not be stored
+    regular = np.array_equal(run.time_s, np.arange(run.samples) * run.sample_period_s)
+    header = {
+        "content_sha256": validity["content_sha256"],
+        "file": run.file,
+        "format": run.format,
+        "meta": meta,
+        "problems": [dataclasses.asdict(p) for p in run.problems],
+        "time": "arange" if regular else "column",
+    }
+    columns = {"power_W": run.power_W}
+    if not regular:
+        columns["time_s"] = run.time_s
+    table = pa.table(columns).replace_schema_metadata({_METADATA_KEY: json.dumps(header)})
+    # no compression, dictionary or statistics: measured power does not compress, and this is
+    # the fastest layout to read back
+    written = _replace(
+        entry,
+        lambda tmp: pq.write_table(
+            table, tmp, compression="none", use_dictionary=False, write_statistics=False
+        ),
+    )
+    if written:
+        _write_validity(entry, validity)
+
+
+def _replace(path: Path, write: Callable[[Path], object]) -> bool:
+    """Write through a temporary file renamed into place (atomic for concurrent readers).
+
+    No fsync: an entry lost in a crash is only a parse to do again. A write that fails (full
+    disk, read-only folder) costs the next run a parse, nothing else: False is returned.
+    """
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except OSError:
+        tmp.unlink(missing_ok=True)
+        return False
+    return True
