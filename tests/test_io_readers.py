@@ -17,7 +17,9 @@ import numpy as np
 import pyarrow as pa
 import pytest
 from numpy.testing import assert_allclose
+from rich.console import Console
 
+from wifibot_power.cli import inspect_cmd
 from wifibot_power.errors import LogError
 from wifibot_power.io import FORMAT_CANONICAL, FORMAT_N6705, ReadOptions, read_log
 
@@ -216,7 +218,9 @@ def test_manifest_overrides_and_unlisted_files(tmp_path, wbpower):
     assert sorted(r["run_id"] for r in listed) == ["v0.8_d10_s2", "wifi_1"]
 
 
-def test_inspect_table_tells_formats_apart(tmp_path, wbpower):
+def test_inspect_table_tells_formats_apart(tmp_path, wbpower, monkeypatch):
+    # a wide console, whatever the terminal of the test run (the table's content is tested)
+    monkeypatch.setattr(inspect_cmd, "stdout", Console(width=200, soft_wrap=False))
     _write(tmp_path / "canon.csv", CANONICAL)
     _write(tmp_path / "dlog.csv", N6705)
     result = wbpower("inspect", tmp_path)
