@@ -469,3 +469,32 @@ def test_several_named_files_are_a_batch(tmp_path, wbpower):
     assert result.exit_code == 1
     assert [r["run_id"] for r in json.loads(result.stdout)] == ["good"]
     assert f"{bad}: the file is empty" in result.stderr
+
+
+def test_n6705_dropped_samples_show_as_gaps_in_the_sample_index(tmp_path, wbpower):
+    # indices 0-999 at 1 ms with 500-502 missing: 3 ms dropped after sample 499 (t = 0.499 s);
+    # preamble lines 1-6, header line 7, data row r on line 8 + r: sample 503, the first after
+    # the gap, is row 500, on line 508
+    kept = [i for i in range(1000) if not 500 <= i <= 502]
+    body = "".join(f"{i},{23.3 + 0.01 * (i % 7):.4f}\n" for i in kept)
+    path = tmp_path / "dlog.csv"
+    path.write_text(
+        'N6705C exported datalog\n\n"Sample interval: 0.001"\n"Trigger sample: 0"\n'
+        '"Date: Tue Sep  1 16:19:49 2020"\n\nSample,"Power avg 1"\n' + body
+    )
+    result = wbpower("inspect", "--json", path)
+    assert result.exit_code == 0, result.stderr
+    (row,) = json.loads(result.stdout)
+    assert row["samples"] == 997 and row["sample_period_s"] == 0.001
+    assert row["problems"] == ["line 508: 3 ms of samples dropped after t = 0.499 s"]
+
+
+def test_zero_sample_period_option_is_an_error(tmp_path, wbpower):
+    path = tmp_path / "no_time.csv"
+    path.write_text("power_W\n23.3\n23.4\n")
+    assert_one_line_error(
+        wbpower("inspect", "--sample-period", "0", path),
+        path,
+        "--sample-period",
+        "sample_period_s is 0",
+    )
