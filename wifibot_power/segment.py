@@ -30,6 +30,7 @@ Phases cover every sample exactly once; boundaries fall on block edges (1 ms).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import pairwise
 from pathlib import Path
@@ -338,7 +339,7 @@ def _decel_start(
     t1: int,
     t3: int,
     wavy: bool,
-    blocks,
+    blocks: Callable[[float], int],
     params: MotionParams,
     min_len: int,
 ) -> int:
@@ -468,4 +469,4 @@ def _phase(run: Run, step: int, name: str, i_start: int, i_end: int) -> Phase:
     )
 
 
-__all__ = ["MotionParams", "jump_sd_factor", "segment_file", "segment_run"]
+__all__ = ["MotionParams", "segment_file", "segment_run"]
