@@ -30,11 +30,8 @@ EXIT_OK = 0
 EXIT_SKIPPED = 1
 EXIT_USAGE = 2
 
-# a pipe gets wide tables (not rich's 80 columns) unless COLUMNS says otherwise
-stdout = Console(
-    soft_wrap=False,
-    width=None if sys.stdout.isatty() or "COLUMNS" in os.environ else 200,
-)
+# a pipe gets wide tables (not rich's 80 columns), whatever COLUMNS the environment has
+stdout = Console(soft_wrap=False, width=None if sys.stdout.isatty() else 200)
 stderr = Console(stderr=True, soft_wrap=True)
 
 # -- reading options: every command that reads logs takes these (cli.md) --------------
