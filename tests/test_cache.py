@@ -4,10 +4,12 @@ file never hits (content hash; stat taken as proof of no change only once it has
 from __future__ import annotations
 
 import gzip
+import json
 import os
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -218,10 +220,9 @@ def test_cache_folder_that_cannot_be_made_is_a_usage_error(tmp_path: Path) -> No
     assert "--cache" in info.value.one_line() and str(blocker) in info.value.one_line()
 
 
-def test_fit_with_cache_same_result_cold_and_warm(tmp_path: Path, wbpower) -> None:
+def _corpus(folder: Path) -> Path:
     from wifibot_power.simulate import SimConfig, WriteOptions, write_simulation
 
-    corpus = tmp_path / "logs"
     config = SimConfig(
         speeds_mps=(0.3, 0.9),
         trips=((2.0, 1),),
@@ -232,14 +233,56 @@ def test_fit_with_cache_same_result_cold_and_warm(tmp_path: Path, wbpower) -> No
         sample_period_s=1.024e-3,
         seed=3,
     )
-    write_simulation(config, corpus, WriteOptions(columns="full"))
-    plain = fit_logs([corpus], jobs=1).summary()
+    write_simulation(config, folder, WriteOptions(columns="full"))
+    return folder
+
+
+def assert_same_fit(a, b) -> None:
+    assert a.summary() == b.summary()
+    pd.testing.assert_frame_equal(a.runs, b.runs)
+    pd.testing.assert_frame_equal(a.phases, b.phases)
+    assert a.skipped == b.skipped
+
+
+def test_fit_with_cache_same_result_cold_and_warm(tmp_path: Path, wbpower, monkeypatch) -> None:
+    corpus = _corpus(tmp_path / "logs")
+    plain = fit_logs([corpus], jobs=1)
     cache = ParseCache(tmp_path / "cache")
-    assert fit_logs([corpus], jobs=2, cache=cache).summary() == plain  # fills it
-    assert len(list((tmp_path / "cache").glob("*.parquet"))) == 3
-    assert fit_logs([corpus], jobs=2, cache=cache).summary() == plain  # served from it
-    cold = wbpower("fit", corpus, "--json", "--cache", tmp_path / "cache")
-    assert cold.exit_code == 0, cold.stderr
+    assert_same_fit(fit_logs([corpus], jobs=2, cache=cache), plain)  # fills it
+    # 3 logs: 3 parses and 3 kept results (row + phases of each run)
+    assert len(list((tmp_path / "cache").glob("*.result.parquet"))) == 3
+    assert len(list((tmp_path / "cache").glob("*.parquet"))) == 6
+    # warm: neither parsed nor segmented again, and exactly the same result
+    monkeypatch.setattr(cache_module, "read_log", lambda *a, **k: pytest.fail("parsed"))
+    monkeypatch.setattr("wifibot_power.segment.segment_run", lambda run: pytest.fail("segmented"))
+    for jobs in (1, 2):
+        assert_same_fit(fit_logs([corpus], jobs=jobs, cache=cache), plain)
+    warm = wbpower("fit", corpus, "--json", "--cache", tmp_path / "cache")
+    assert warm.exit_code == 0, warm.stderr
+    assert json.loads(warm.stdout) == json.loads(json.dumps(plain.summary()))
+
+
+def test_fit_kept_results_follow_the_content(tmp_path: Path, settled) -> None:
+    corpus = _corpus(tmp_path / "logs")
+    cache = ParseCache(tmp_path / "cache")
+    fit_logs([corpus], jobs=1, cache=cache)
+    # a new content: 1 W more on every sample of the 0.9 m/s run
+    log = corpus / "v0.90_d2_s1_r1.csv"
+    lines = log.read_text().split("\n")
+    header = next(k for k, line in enumerate(lines) if line.startswith("time_s"))
+    bumped = []
+    for line in lines[header + 1 : -1]:
+        t, v, i, p = line.split(",")
+        bumped.append(f"{t},{v},{i},{float(p) + 1:.4f}")
+    text = "\n".join(lines[: header + 1] + bumped) + "\n"
+    log.write_text(text)
+    after = fit_logs([corpus], jobs=1, cache=cache)
+    assert_same_fit(after, fit_logs([corpus], jobs=1))
+    # the 0.9 m/s run's mean power moved by 1 W (every sample +1 W, rounding to 4 decimals)
+    runs = after.runs.set_index("run_id")
+    assert runs.loc["v0.90_d2_s1_r1", "mean_power_W"] == pytest.approx(
+        np.mean([float(x.split(",")[3]) for x in bumped]), abs=1e-9
+    )
 
 
 finite = st.floats(allow_nan=False, allow_infinity=False, width=64)

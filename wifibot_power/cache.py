@@ -18,6 +18,11 @@ code (a new wbpower reads the logs afresh). It is valid only for the file's cont
   the hash differs, and it is parsed and its entry replaced (one entry per input, so a cache
   does not grow with edits).
 
+A batch can also keep what its per-run work made of a run (`ResultMemo`: `fit` keeps each
+run's row and phases), beside the parse and valid for the same content, under a key that
+holds a digest of all of wifibot_power's code and the numeric libraries' versions
+(`code_digest`): a warm `fit --cache` then neither parses nor segments.
+
 What could still fool it: a system clock stepped back by more than `SETTLE_S` between runs, or
 a network file system whose server clock runs more than `SETTLE_S` behind this machine's.
 Delete the cache folder after either. Logs that fail to read are never cached. A cache entry
@@ -36,6 +41,7 @@ import time
 from collections.abc import Callable
 from datetime import datetime
 from pathlib import Path
+from typing import Generic, TypeVar
 
 import numpy as np
 import pyarrow as pa
@@ -51,6 +57,9 @@ CACHE_FORMAT = 1
 SETTLE_S = 2.0
 SETTLE_NS = int(SETTLE_S * 1e9)
 _METADATA_KEY = b"wbpower.run"
+_CONTENT_KEY = b"wbpower.content_sha256"
+_MISSING = object()
+T = TypeVar("T")
 _COMPRESSED = {".gz": "gzip", ".zst": "zstd"}
 
 
@@ -74,6 +83,42 @@ def reader_digest() -> str:
 
 def _fingerprint(stat: os.stat_result) -> list[int]:
     return [stat.st_size, stat.st_mtime_ns, stat.st_ctime_ns, stat.st_ino, stat.st_dev]
+
+
+def _identity(run: Run) -> Run:
+    return run
+
+
+@dataclasses.dataclass(frozen=True)
+class ResultMemo(Generic[T]):
+    """How to keep what a batch's per-run work made of a run, beside the parse.
+
+    `key` names the work and everything its result depends on (e.g. a digest of the code that
+    computes it: `code_digest()`); `to_table` / `from_table` are an exact round trip of the
+    result through a Parquet table. A kept result is valid for the same content as the parse.
+    """
+
+    key: str
+    to_table: Callable[[T], pa.Table]
+    from_table: Callable[[pa.Table], T]
+
+
+@functools.lru_cache(maxsize=1)
+def code_digest() -> str:
+    """SHA-256 of all of wifibot_power's source and the numeric libraries' versions: a result
+    computed by other code, or other numpy/pandas/scipy/pyarrow, is computed again."""
+    import numpy
+    import pandas
+    import scipy
+
+    package = Path(__file__).parent
+    digest = hashlib.sha256(
+        f"{numpy.__version__} {pandas.__version__} {scipy.__version__} {pa.__version__}".encode()
+    )
+    for source in sorted(package.rglob("*.py")):
+        digest.update(str(source.relative_to(package)).encode())
+        digest.update(source.read_bytes())
+    return digest.hexdigest()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -124,35 +169,88 @@ class ParseCache:
         origin: str | None = None,
     ) -> Run:
         """`io.read_log`, from the cache when the file's content has been parsed before."""
+        return self.process(path, options, overrides, origin=origin)
+
+    def process(
+        self,
+        path: str | Path,
+        options: ReadOptions | None = None,
+        overrides: dict[str, str] | None = None,
+        *,
+        origin: str | None = None,
+        work: Callable[[Run], T] = _identity,
+        memo: ResultMemo[T] | None = None,
+    ) -> T:
+        """`work(read_log(path, ...))`, skipping the parse when the content was parsed before,
+        and skipping the work too when `memo` says how to keep its result and it is kept."""
         path = Path(path)
         options = options or ReadOptions()
         try:
             stat = os.stat(path)
         except OSError:
-            return read_log(path, options, overrides, origin=origin)  # its own one-line error
+            return work(read_log(path, options, overrides, origin=origin))  # its own error
         entry = self.entry_path(path, options, overrides, origin)
         validity = _read_validity(entry)
+        raw: bytes | None = None
         if validity and validity["settled"] and validity["fingerprint"] == _fingerprint(stat):
-            run = _load_run(entry, validity["content_sha256"])
-            if run is not None:
-                return run
-        read_at_ns = time.time_ns()
-        raw = path.read_bytes()
-        content = hashlib.sha256(raw).hexdigest()
-        fresh = {
-            "fingerprint": _fingerprint(stat),
-            "content_sha256": content,
-            "settled": max(stat.st_mtime_ns, stat.st_ctime_ns) < read_at_ns - SETTLE_NS,
-        }
-        if validity and validity["content_sha256"] == content:
-            run = _load_run(entry, content)
-            if run is not None:
-                if fresh != validity:  # touched, or settled since: skip the hash next time
+            content, fresh = validity["content_sha256"], validity
+        else:
+            raw, fresh = _hash(path, stat)
+            content = fresh["content_sha256"]
+        known = validity is not None and validity["content_sha256"] == content
+        if memo is not None:
+            kept = _load_result(_result_path(entry, memo), content, memo)
+            if kept is not _MISSING:
+                if known and fresh != validity:  # touched, or settled since: trust stat next
                     _write_validity(entry, fresh)
-                return run
-        run = read_log(path, options, overrides, data=_decompressed(path, raw), origin=origin)
-        _store(entry, run, fresh)
-        return run
+                return kept  # type: ignore[return-value]
+        run = _load_run(entry, content) if known else None
+        if run is None:
+            if raw is None:  # stat was trusted but the entry is gone: read and hash afresh
+                raw, fresh = _hash(path, stat)
+                content = fresh["content_sha256"]
+            run = read_log(path, options, overrides, data=_decompressed(path, raw), origin=origin)
+            _store(entry, run, fresh)
+        elif fresh != validity:
+            _write_validity(entry, fresh)
+        result = work(run)
+        if memo is not None:
+            _store_result(_result_path(entry, memo), memo.to_table(result), content)
+        return result
+
+
+def _hash(path: Path, stat: os.stat_result) -> tuple[bytes, dict[str, object]]:
+    """The file's bytes and what an entry made from them is valid for."""
+    read_at_ns = time.time_ns()
+    raw = path.read_bytes()
+    return raw, {
+        "fingerprint": _fingerprint(stat),
+        "content_sha256": hashlib.sha256(raw).hexdigest(),
+        "settled": max(stat.st_mtime_ns, stat.st_ctime_ns) < read_at_ns - SETTLE_NS,
+    }
+
+
+def _result_path(entry: Path, memo: ResultMemo) -> Path:
+    work = hashlib.sha256(memo.key.encode()).hexdigest()[:16]
+    return entry.with_name(f"{entry.stem}.{work}.result.parquet")
+
+
+def _load_result(path: Path, content_sha256: str, memo: ResultMemo[T]) -> T | object:
+    """The kept result of the work on this content, or `_MISSING`."""
+    try:
+        table = pq.read_table(path)
+        kept_for = (table.schema.metadata or {}).get(_CONTENT_KEY, b"").decode()
+        if kept_for != content_sha256:
+            return _MISSING
+        return memo.from_table(table)
+    except (OSError, KeyError, TypeError, ValueError, pa.ArrowException):
+        return _MISSING
+
+
+def _store_result(path: Path, table: pa.Table, content_sha256: str) -> None:
+    metadata = {**(table.schema.metadata or {}), _CONTENT_KEY: content_sha256.encode()}
+    table = table.replace_schema_metadata(metadata)
+    _replace(path, lambda tmp: pq.write_table(table, tmp, compression="none"))
 
 
 def _decompressed(path: Path, raw: bytes) -> bytes | None:

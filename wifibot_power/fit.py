@@ -21,16 +21,19 @@ References
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
+from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
 from scipy import stats
 
-from wifibot_power.cache import ParseCache
+from wifibot_power.cache import ParseCache, ResultMemo, code_digest
 from wifibot_power.errors import LogError, WbpowerError
 from wifibot_power.io import LogSource, ReadOptions, Skipped
 from wifibot_power.io.batch import map_runs
@@ -373,6 +376,33 @@ def _default_segmenter() -> Segmenter:
     return segment_run
 
 
+def _result_to_table(result: tuple[dict[str, object], pd.DataFrame]) -> pa.Table:
+    """A run's row and phases as one Parquet table (phases; the row in its metadata)."""
+    row, phases = result
+    table = pa.Table.from_pandas(phases, preserve_index=False)
+    dates = [k for k, v in row.items() if isinstance(v, datetime)]
+    encoded = {k: (v.isoformat() if k in dates else v) for k, v in row.items()}
+    row_json = json.dumps({"row": encoded, "datetimes": dates})  # NaN kept as NaN
+    return table.replace_schema_metadata({**table.schema.metadata, _ROW_KEY: row_json.encode()})
+
+
+def _result_from_table(table: pa.Table) -> tuple[dict[str, object], pd.DataFrame]:
+    stored = json.loads(table.schema.metadata[_ROW_KEY])
+    row = stored["row"]
+    for key in stored["datetimes"]:
+        row[key] = datetime.fromisoformat(row[key])
+    return row, table.to_pandas()
+
+
+_ROW_KEY = b"wbpower.fit.row"
+#: How `fit --cache` keeps each run's row and phases (valid for this code only).
+RESULT_MEMO = ResultMemo(
+    key=f"fit.run_row+segment_run {code_digest()}",
+    to_table=_result_to_table,
+    from_table=_result_from_table,
+)
+
+
 def fit_logs(
     paths: str | Path | Sequence[str | Path],
     options: ReadOptions | None = None,
@@ -411,8 +441,17 @@ def fit_logs(
             ) from None
         return run_row(run, segmentation), segmentation.frame()
 
+    # with the default segmenter, what a run gives is a function of its content and of this
+    # code: a cache keeps it (a custom segmenter's is not kept: its code is not known here)
+    memo = RESULT_MEMO if segmenter is None else None
     results, read_skipped = map_runs(
-        [Path(p) for p in paths], options or ReadOptions(), work, wrap=wrap, jobs=jobs, cache=cache
+        [Path(p) for p in paths],
+        options or ReadOptions(),
+        work,
+        wrap=wrap,
+        jobs=jobs,
+        cache=cache,
+        memo=memo,
     )
     runs = runs_frame([row for row, _ in results])
     frames = [frame for _, frame in results if len(frame)]

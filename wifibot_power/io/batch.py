@@ -14,7 +14,7 @@ from wifibot_power.parallel import map_ordered
 from wifibot_power.run import Run
 
 if TYPE_CHECKING:
-    from wifibot_power.cache import ParseCache
+    from wifibot_power.cache import ParseCache, ResultMemo
 
 T = TypeVar("T")
 
@@ -33,13 +33,15 @@ def map_runs(
     wrap: Callable[[list[LogSource]], Iterator[LogSource]] | None = None,
     jobs: int | None = 1,
     cache: ParseCache | None = None,
+    memo: ResultMemo[T] | None = None,
 ) -> tuple[list[T], list[Skipped]]:
     """Read each log under `paths` and apply `work` to it, one file in memory at a time per
     worker; results in the order of the logs.
 
     `jobs` worker processes (None or 0: all cores) each take a file at a time; what `work`
     returns goes back to this process, so it should be small (a row, not the samples).
-    `cache` (`wifibot_power.cache.ParseCache`) skips parsing files parsed before.
+    `cache` (`wifibot_power.cache.ParseCache`) skips parsing files parsed before; with `memo`
+    (how to keep what `work` returns) it skips the work too on content it has seen.
     `wrap(sources)` is a progress hook: an iterator over the sources, advanced as each file
     is done; if it has a `done(source)` method, that is called instead with the file done.
 
@@ -54,11 +56,19 @@ def map_runs(
             fix="give log files or a folder that holds them",
         )
     single = is_single_input([Path(p) for p in paths])
-    read = cache.read_log if cache is not None else read_log
 
     def one(source: LogSource) -> tuple[bool, T | Skipped]:
         try:
-            run = read(source.path, options, source.overrides, origin=source.origin)
+            if cache is not None:
+                return True, cache.process(
+                    source.path,
+                    options,
+                    source.overrides,
+                    origin=source.origin,
+                    work=work,
+                    memo=memo,
+                )
+            run = read_log(source.path, options, source.overrides, origin=source.origin)
             return True, work(run)
         except WbpowerError as exc:
             exc.with_file(source.path)
