@@ -254,6 +254,15 @@ def test_start_transient_is_reported_as_a_spike_inside_accel() -> None:
     assert 3.0 < spike.energy_above_level_J < 6.5
 
 
+def test_wrong_step_count_shows_as_steps_found() -> None:
+    # 10 steps with 2 s of idle between them, but the metadata says 1: the 2 s gaps are idle
+    # (longer than a ripple dip), so 10 steps are found and `fit` can flag the mismatch
+    (sim,) = simulate_runs(replace(FAST, speeds_mps=(0.5,), trips=((10.0, 10),)))
+    run = replace(sim.run, meta=replace(sim.run.meta, steps=1))
+    seg = segment_run(run)
+    assert len(seg.of("accel")) == 10 and len(seg.of("cruise")) == 10
+
+
 def test_mode_log_gives_levels() -> None:
     config = replace(FAST, speeds_mps=(), trips=(), modes=("network",), mode_repeats=1)
     (sim,) = simulate_runs(config)

@@ -8,22 +8,22 @@ other log is cut into steady `level` segments by the generic layer
 Motion runs, on 1 ms block means (docs/segmentation.md has the details and figures):
 
 1. Idle level: the lower of the medians of the first and last `idle_probe_s` (runs start
-   and end idle). Motion is where 10 ms means stand `motion_threshold` above idle; of the
-   stretches found, gaps are closed (the shortest first) until N remain, so a cruise ripple
-   dipping towards idle does not cut a step in two.
-2. Acceleration start t0: a least-squares split of the window around the coarse start into
-   a flat idle piece and a quadratic piece (the drive-on step, the linear ramp of constant
-   acceleration, a start transient) [Bai & Perron 1998]: the true start, not a crossing.
-3. Acceleration end t1: the strongest drop of the jump statistic (power falls from the
-   ramp's peak P = P_idle + P_drive + (c_roll + kI m a) v to the cruise level when the
-   acceleration stops, the mean of that ramp being the paper's Eq. 2), then a split of a
-   quadratic ramp piece from a quadratic cruise piece around it.
-4. Motion end t3: a split into a quadratic piece (cruise or stopping) and a flat idle piece.
-5. Stopping (decel) start t2: a split of [.., t3) into a quadratic cruise piece and a linear
-   ramp-down piece, kept only when the data shows a stop phase: a significant drop at t2,
-   a falling ramp that ends near idle (closer to idle than to the cruise level), and
-   at least `min_decel_s` long; the paper's Eq. 6 has no such phase (causes.md
-   `decel_phase`).
+   and end idle). Motion is where 10 ms means stand `motion_z` noise sd (and at least
+   `min_excess_W`) above idle; of the stretches found, gaps shorter than `max_merge_gap_s`
+   are closed (the shortest first) until N remain, so a cruise ripple dipping towards idle
+   does not cut a step in two (a longer gap is idle between steps: a wrong step count then
+   shows as steps found != metadata).
+2. Acceleration start t0: a least-squares split [Bai & Perron 1998] of the window around
+   the coarse start into a flat idle piece and a line (the drive-on step, then the linear
+   power ramp of constant acceleration), power jumping up: the true start, not a crossing.
+3. Acceleration end t1: power falls from the ramp's peak P_idle + P_drive +
+   (c_roll + kI m a) v (the mean of that ramp is the paper's Eq. 2 line) to the cruise level
+   (Eq. 4) when the acceleration stops: the first clear drop of the jump statistic after
+   rising power, then a split of a quadratic ramp piece from a quadratic cruise piece.
+4. Motion end t3: a split into a quadratic piece (cruise or stop) and a flat idle piece.
+5. Stop phase (decel) start t2, kept only when the data shows one (causes.md
+   `decel_phase`; the paper's Eq. 6 has none): a significant drop into a falling line
+   that ends closer to idle than to the cruise level and lasts `min_decel_s`.
 
 Phases cover every sample exactly once; boundaries fall on block edges (1 ms).
 """
@@ -66,6 +66,9 @@ class MotionParams:
     min_excess_W: float = 0.25
     #: motion stretches shorter than this are noise [s]
     min_motion_s: float = 0.05
+    #: dips towards idle shorter than this are merged while more stretches than steps are
+    #: found (a cruise ripple); longer ones are idle between steps, whatever the metadata
+    max_merge_gap_s: float = 1.5
     #: the longest acceleration looked for [s] and the shortest
     max_accel_s: float = 2.5
     min_accel_s: float = 0.03
@@ -217,9 +220,12 @@ def _coarse_motion(
     stretches = [(int(s), int(e)) for s, e in zip(edges[::2], edges[1::2], strict=True)]
     min_len = max(1, round(params.min_motion_s / (group * block_dt)))
     stretches = [(s, e) for s, e in stretches if e - s >= min_len]
+    max_gap = round(params.max_merge_gap_s / (group * block_dt))
     while len(stretches) > steps:
         gaps = [stretches[k + 1][0] - stretches[k][1] for k in range(len(stretches) - 1)]
         k = int(np.argmin(gaps))
+        if gaps[k] > max_gap:  # real idle between steps: the metadata's step count is off
+            break
         stretches[k : k + 2] = [(stretches[k][0], stretches[k + 1][1])]
     return [(s * group, min(e * group, y.size)) for s, e in stretches]
 
