@@ -231,3 +231,16 @@ def test_inspect_table_tells_formats_apart(tmp_path, wbpower, monkeypatch):
     }
     assert "wbpower-csv" in line_of["canon.csv"] and "n6705" in line_of["dlog.csv"]
     assert "0.1024" in line_of["canon.csv"] and "0.5" in line_of["dlog.csv"]  # period in ms
+
+
+def test_custom_column_names_with_options(tmp_path, wbpower):
+    # a home-made log: no column wbpower knows by name, so the options must name them;
+    # I_mA is in mA (1500 mA = 1.5 A), supply 12 V: 18 W and 24 W
+    path = _write(tmp_path / "home.csv", "t,I_mA\n0,1500\n1,2000\n")
+    result = wbpower(
+        "inspect", "--json", "--current-column", "I_mA", "--supply-voltage", "12", path
+    )
+    assert result.exit_code == 0, result.stderr
+    (row,) = json.loads(result.stdout)
+    assert_allclose(row["mean_power_W"], 21.0, rtol=1e-15)
+    assert "not a power log" in wbpower("inspect", path).stderr  # without the options

@@ -9,9 +9,12 @@ from __future__ import annotations
 
 import os
 import string
+import tempfile
 from datetime import UTC, datetime
+from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -182,3 +185,23 @@ def test_one_corrupted_byte_gives_a_run_or_a_log_error(power_W, data):
     result = _read(bytes(full))
     if isinstance(result, Run):
         _sane(result)
+
+
+@FAST
+@given(st.sampled_from([".csv.gz", ".csv.zst"]), st.binary(max_size=500), st.integers(0, 400))
+def test_broken_compressed_files_give_a_run_or_a_log_error(suffix, noise, cut_at):
+    # a compressed valid log cut short, or followed by noise: decompression errors are LogErrors
+    full = format_log(RunMeta(run_id="z", mode="idle"), np.arange(50) / 10 + 20.0)
+    sink = pa.BufferOutputStream()
+    with pa.CompressedOutputStream(sink, "gzip" if suffix == ".csv.gz" else "zstd") as out:
+        out.write(full)
+    packed = sink.getvalue().to_pybytes()
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / f"log{suffix}"
+        path.write_bytes(packed[:cut_at] + noise)
+        try:
+            run = read_log(path)
+        except LogError as exc:
+            assert str(path) in exc.one_line() and "\n" not in exc.one_line()
+        else:
+            _sane(run)
