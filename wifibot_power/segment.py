@@ -9,10 +9,10 @@ Motion runs, on 1 ms block means (docs/segmentation.md has the details and figur
 
 1. Idle level: the lower of the medians of the first and last `idle_probe_s` (runs start
    and end idle). Motion is where 10 ms means stand `motion_z` noise sd (and at least
-   `min_excess_W`) above idle; of the stretches found, gaps shorter than `max_merge_gap_s`
-   are closed (the shortest first) until N remain, so a cruise ripple dipping towards idle
-   does not cut a step in two (a longer gap is idle between steps: a wrong step count then
-   shows as steps found != metadata).
+   `min_excess_W`) above idle; of the stretches found, gaps where power does not settle at
+   idle are closed (the shortest first) until N remain, so a cruise ripple dipping towards
+   idle does not cut a step in two (settled gaps are idle between steps: a wrong step count
+   then shows as steps found != metadata).
 2. Acceleration start t0: a least-squares split [Bai & Perron 1998] of the window around
    the coarse start into a flat idle piece and a line (the drive-on step, then the linear
    power ramp of constant acceleration), power jumping up: the true start, not a crossing.
@@ -66,9 +66,11 @@ class MotionParams:
     min_excess_W: float = 0.25
     #: motion stretches shorter than this are noise [s]
     min_motion_s: float = 0.05
-    #: dips towards idle shorter than this are merged while more stretches than steps are
-    #: found (a cruise ripple); longer ones are idle between steps, whatever the metadata
-    max_merge_gap_s: float = 1.5
+    #: while more stretches than steps are found, gaps between them where power does not
+    #: settle at idle (10 ms means off idle by more than max(idle_rms_z sd, idle_rms_min_W)
+    #: rms: a cruise ripple dipping) are closed, the shortest first; settled gaps never are
+    idle_rms_z: float = 1.5
+    idle_rms_min_W: float = 0.05
     #: the longest acceleration looked for [s] and the shortest
     max_accel_s: float = 2.5
     min_accel_s: float = 0.03
@@ -220,12 +222,20 @@ def _coarse_motion(
     stretches = [(int(s), int(e)) for s, e in zip(edges[::2], edges[1::2], strict=True)]
     min_len = max(1, round(params.min_motion_s / (group * block_dt)))
     stretches = [(s, e) for s, e in stretches if e - s >= min_len]
-    max_gap = round(params.max_merge_gap_s / (group * block_dt))
+    # a gap where power sits at idle (rms off idle within noise) is idle between steps; a
+    # gap where it wanders below the threshold without settling is a dip of the cruise
+    idle_rms = max(params.idle_rms_z * sigma10, params.idle_rms_min_W)
+
+    def settles(gap: tuple[int, int]) -> bool:
+        values = y10[gap[0] : gap[1]]
+        return bool(np.sqrt(np.mean((values - idle_W) ** 2)) < idle_rms)
+
     while len(stretches) > steps:
-        gaps = [stretches[k + 1][0] - stretches[k][1] for k in range(len(stretches) - 1)]
-        k = int(np.argmin(gaps))
-        if gaps[k] > max_gap:  # real idle between steps: the metadata's step count is off
+        gaps = [(stretches[k][1], stretches[k + 1][0]) for k in range(len(stretches) - 1)]
+        dips = [k for k, gap in enumerate(gaps) if not settles(gap)]
+        if not dips:  # every gap is idle: the metadata's step count is off
             break
+        k = min(dips, key=lambda j: gaps[j][1] - gaps[j][0])
         stretches[k : k + 2] = [(stretches[k][0], stretches[k + 1][1])]
     return [(s * group, min(e * group, y.size)) for s, e in stretches]
 
