@@ -163,7 +163,7 @@ class _PolyCost:
             rhs[..., p] = self.pxy[p][j] - self.pxy[p][i]
             for q in range(m):
                 gram[..., p, q] = self.px[p + q][j] - self.px[p + q][i]
-        ridge = 1e-12 * np.trace(gram, axis1=-2, axis2=-1)[..., None, None] * np.eye(m)
+        ridge = 1e-15 * np.trace(gram, axis1=-2, axis2=-1)[..., None, None] * np.eye(m)
         coef = np.linalg.solve(gram + ridge, rhs[..., None])[..., 0]
         sse = (self.py2[j] - self.py2[i]) - np.sum(coef * rhs, axis=-1)
         return np.maximum(sse, 0.0), coef
