@@ -31,8 +31,9 @@ def test_extended_model_round_trips(tmp_path):
         idle_W=23.3,
         t_acc=LinearFit(0.0, 1.0),
         components_W={"network": 4.4, "video": None, "cpu": 2.1},
-        extensions={"decel_phase": {"t_dec_s": 0.3, "P_dec_intercept_W": 23.9,
-                                    "P_dec_slope_W_per_mps": 5.6}},
+        extensions={
+            "decel_phase": {"t_dec_s": 0.3, "P_dec_intercept_W": 23.9, "P_dec_slope_W_per_mps": 5.6}
+        },
         source="diagnose",
     )
     write_json(tmp_path / "model.json", model.to_json())

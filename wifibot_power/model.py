@@ -41,8 +41,14 @@ class LinearFit:
         # NaN marks "not fitted": two unfitted intervals are the same interval
         return tuple(
             "nan" if isinstance(x, float) and math.isnan(x) else x
-            for x in (self.intercept, self.slope, *self.intercept_ci95, *self.slope_ci95, self.r2,
-                      self.n_runs)
+            for x in (
+                self.intercept,
+                self.slope,
+                *self.intercept_ci95,
+                *self.slope_ci95,
+                self.r2,
+                self.n_runs,
+            )
         )
 
     def __eq__(self, other: object) -> bool:
@@ -56,7 +62,8 @@ class LinearFit:
 class PowerModel:
     """Power of the robot by phase, as functions of speed (units in every name).
 
-    - acceleration power `P_acc(v) = accel.intercept [W] + accel.slope [W/(m/s)] * v` (paper Eq. 1-2)
+    - acceleration power `P_acc(v) = accel.intercept [W] + accel.slope [W/(m/s)] * v`
+      (paper Eq. 1-2)
     - cruise power `P_v(v) = cruise.intercept [W] + cruise.slope [W/(m/s)] * v` (paper Eq. 3-4)
     - acceleration time `t_acc(v) = t_acc.intercept [s] + t_acc.slope [s/(m/s)] * v`
     - idle power `idle_W` and component powers net of idle (paper Table 1)
@@ -93,12 +100,18 @@ class PowerModel:
     @classmethod
     def from_json(cls, data: dict[str, object], *, file: str = "model.json") -> PowerModel:
         if data.get("format") != MODEL_FORMAT:
-            raise UsageError("not a wbpower model file", file=file,
-                             fix="give a model.json written by 'wbpower fit -o' or 'diagnose -o'")
+            raise UsageError(
+                "not a wbpower model file",
+                file=file,
+                fix="give a model.json written by 'wbpower fit -o' or 'diagnose -o'",
+            )
         version = data.get("format_version")
         if version != MODEL_FORMAT_VERSION:
-            raise UsageError(f"model format version {version}, this wbpower reads {MODEL_FORMAT_VERSION}",
-                             file=file, fix="re-run 'wbpower fit -o' with this version")
+            raise UsageError(
+                f"model format version {version}, this wbpower reads {MODEL_FORMAT_VERSION}",
+                file=file,
+                fix="re-run 'wbpower fit -o' with this version",
+            )
         try:
             return cls(
                 accel=_linear(data["accel"]),
@@ -116,8 +129,9 @@ class PowerModel:
                 source=str(data.get("source", "fit")),
             )
         except (KeyError, TypeError, ValueError) as exc:
-            raise UsageError(f"model file is incomplete ({exc})", file=file,
-                             fix="re-run 'wbpower fit -o'") from None
+            raise UsageError(
+                f"model file is incomplete ({exc})", file=file, fix="re-run 'wbpower fit -o'"
+            ) from None
 
 
 def _number(value: object) -> float:
@@ -168,10 +182,19 @@ def load_model(spec: str | Path) -> PowerModel:
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise UsageError("no such model file", file=path, fix="give 'paper' or a model.json from 'wbpower fit -o'") from None
+        raise UsageError(
+            "no such model file",
+            file=path,
+            fix="give 'paper' or a model.json from 'wbpower fit -o'",
+        ) from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise UsageError(f"cannot read the model ({exc.__class__.__name__})", file=path,
-                         fix="give 'paper' or a model.json from 'wbpower fit -o'") from None
+        raise UsageError(
+            f"cannot read the model ({exc.__class__.__name__})",
+            file=path,
+            fix="give 'paper' or a model.json from 'wbpower fit -o'",
+        ) from None
     if not isinstance(data, dict):
-        raise UsageError("not a wbpower model file", file=path, fix="give a model.json from 'wbpower fit -o'")
+        raise UsageError(
+            "not a wbpower model file", file=path, fix="give a model.json from 'wbpower fit -o'"
+        )
     return PowerModel.from_json(data, file=str(path))

@@ -65,5 +65,16 @@ class Segmentation:
     def frame(self) -> pd.DataFrame:
         """A row per phase: the `segment` columns plus `run_id` (phases.parquet)."""
         rows = [{"run_id": self.run_id, **p.as_dict()} for p in self.phases]
-        return pd.DataFrame(rows, columns=["run_id", "step", "phase", "t_start_s", "t_end_s",
-                                           "duration_s", "mean_power_W", "energy_J"])
+        return pd.DataFrame(
+            rows,
+            columns=[
+                "run_id",
+                "step",
+                "phase",
+                "t_start_s",
+                "t_end_s",
+                "duration_s",
+                "mean_power_W",
+                "energy_J",
+            ],
+        )

@@ -61,7 +61,7 @@ class Problem:
 
 @dataclass(frozen=True, eq=False)
 class Run:
-    """Samples of one log: `power_W[i]` is the mean power over sample i, which starts at `time_s[i]`."""
+    """Samples of one log: `power_W[i]` is the mean power over sample i, from `time_s[i]`."""
 
     file: str
     format: str

@@ -23,7 +23,10 @@ def _meta_lines(meta: RunMeta, with_period: bool) -> list[str]:
         ("distance_m", meta.distance_m),
         ("steps", meta.steps if meta.mode == "motion" else None),
         ("payload_kg", meta.payload_kg or None),
-        ("started_at", meta.started_at.isoformat().replace("+00:00", "Z") if meta.started_at else None),
+        (
+            "started_at",
+            meta.started_at.isoformat().replace("+00:00", "Z") if meta.started_at else None,
+        ),
         ("sample_period_s", meta.sample_period_s if with_period else None),
     ):
         if value is not None:
