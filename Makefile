@@ -19,6 +19,7 @@ demo: $(VENV)/.installed
 	$(WBPOWER) fit sample_logs/
 
 test: $(VENV)/.installed
+	$(VENV)/bin/ruff check .
 	$(PY) -m pytest -q -n 2
 
 lint: $(VENV)/.installed
