@@ -269,19 +269,21 @@ def _simulate_one(
         tau = robot.start_transient_tau_s
         window = round(robot.start_transient_window_s / dt)
         t_local = (np.arange(window) + 0.5) * dt
-        pulse = np.exp(-t_local / tau)
+        # a decaying pulse that reaches zero at the window's end (no artificial drop there)
+        pulse = np.clip(np.exp(-t_local / tau) - np.exp(-window * dt / tau), 0.0, None)
         pulse *= effects["start_transient"] / (pulse.sum() * dt)
         for (name, _, _, _, _), start in zip(plan, bounds[:-1], strict=True):
             if name == "accel":
                 stop = min(start + window, n)
                 motion_W[start:stop] += pulse[: stop - start]
-    if "cruise_ripple" in effects:  # wheel eccentricity: f = v/(π d), scales with speed
-        freq_Hz = robot.ripple_hz_per_mps * spec.speed_mps
-        t = np.arange(n) * dt
+    if "cruise_ripple" in effects:
+        # wheel eccentricity: the load oscillates with the wheel angle 2 x(t) / d, so at a
+        # steady speed f = v / (π d); its amplitude follows the speed, so the ripple fades in
+        # and out with the motion instead of switching at the cruise boundaries
+        wheel_angle = 2.0 * np.cumsum(speed) * dt / robot.wheel_diameter_m
         phase0 = rng.uniform(0, 2 * np.pi)
-        motion_W = motion_W + effects["cruise_ripple"] * np.sin(
-            2 * np.pi * freq_Hz * t + phase0
-        ) * (kind == 2)
+        amplitude_W = effects["cruise_ripple"] * speed / spec.speed_mps
+        motion_W = motion_W + amplitude_W * np.sin(wheel_angle + phase0) * moving
     if "thermal_drift" in effects:  # winding resistance rises with accumulated motor-on time
         on_min = motor_on_min + np.cumsum(moving) * dt / 60.0
         motion_W = motion_W * (1.0 + effects["thermal_drift"] * on_min)
