@@ -69,6 +69,24 @@ def test_results_in_input_order_whatever_finishes_first() -> None:
     assert sorted(done) == list(range(6))  # each item reported done exactly once
 
 
+def _start_time(x: int) -> float:
+    started = time.monotonic()  # CLOCK_MONOTONIC: one clock for every process on the machine
+    time.sleep(0.05)
+    return started
+
+
+@needs_fork
+def test_costliest_items_start_first_results_stay_in_order() -> None:
+    items = [1, 5, 2, 9, 3, 7]
+    started = parallel.map_ordered(items, _start_time, jobs=2, cost=float)
+    assert len(started) == len(items)
+    # the two costliest (9 and 7) are the first two handed to the 2 workers; the cheapest
+    # (1) is handed out last, after at least one worker finished a 50 ms item
+    by_item = dict(zip(items, started, strict=True))
+    assert max(by_item[9], by_item[7]) < min(by_item[x] for x in (1, 2, 3))
+    assert by_item[1] == max(started)
+
+
 @needs_fork
 def test_work_runs_in_other_processes_and_needs_no_pickling() -> None:
     parent = os.getpid()

@@ -70,12 +70,16 @@ def map_ordered(
     *,
     jobs: int | None = 1,
     on_done: Callable[[T], None] | None = None,
+    cost: Callable[[T], float] | None = None,
 ) -> list[R]:
     """`[task(item) for item in items]`, run by `jobs` forked workers, in the order of `items`.
 
     `task` should catch what it can handle and return a small value; an exception it raises is
     re-raised here. `on_done(item)` is called in this process as each item finishes (progress).
-    At most `jobs` items are in flight, so at most `jobs` files are in memory at once.
+    At most `2 x jobs` items are queued, and a worker holds one at a time, so at most `jobs`
+    files are in memory at once. With `cost(item)` (e.g. file size), the costliest items are
+    started first, so no large file is left to run alone at the end (longest processing time
+    first scheduling); the results stay in the order of `items`.
     """
     workers = min(resolve_jobs(jobs), len(items))
     if workers <= 1 or not can_fork():
@@ -99,7 +103,10 @@ def map_ordered(
             initargs=(threads,),
         ) as pool:
             pending: dict[object, int] = {}
-            queue = iter(range(len(items)))
+            order = range(len(items))
+            if cost is not None:
+                order = sorted(order, key=lambda index: -cost(items[index]))
+            queue = iter(order)
             # a window of 2 items per worker in flight: workers never wait for work, and the
             # parent holds a few futures, not one per file
             for index in queue:

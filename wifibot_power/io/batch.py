@@ -94,7 +94,7 @@ def map_runs(
             next(iterator, None)
 
     try:
-        outcomes = map_ordered(sources, one, jobs=jobs, on_done=on_done)
+        outcomes = map_ordered(sources, one, jobs=jobs, on_done=on_done, cost=_size_bytes)
     finally:
         close = getattr(tracker, "close", None)
         if close is not None:
@@ -106,3 +106,10 @@ def map_runs(
         else:
             skipped.append(value)  # type: ignore[arg-type]
     return results, skipped
+
+
+def _size_bytes(source: LogSource) -> int:
+    try:
+        return source.path.stat().st_size
+    except OSError:
+        return 0
