@@ -231,6 +231,8 @@ def bench_corpus(folder: Path, repeats: int) -> dict[str, object]:
         same = json.loads(warm[-1].stdout) == fit_json and json.loads(fill.stdout) == fit_json
     finally:
         shutil.rmtree(cache_dir, ignore_errors=True)
+    library = library_times(folder)
+    print(f"  library: {library}", flush=True)
     med = lambda runs, attr="wall_s": statistics.median(getattr(r, attr) for r in runs)  # noqa: E731
     return {
         "corpus": folder.name,
@@ -258,6 +260,10 @@ def bench_corpus(folder: Path, repeats: int) -> dict[str, object]:
         "warm_runs_s": [r.wall_s for r in warm],
         "cache_speedup": med(fit) / med(warm),
         "cache_MB": cache_MB,
+        "lib_cold_s": library["cold_s"],
+        "lib_fill_s": library["fill_s"],
+        "lib_warm_s": library["warm_s"],
+        "lib_speedup": library["cold_s"] / library["warm_s"],
         "warm_max_rss_MB": max(r.max_rss_MB for r in warm),
         "cached_result_identical": same,
         "fit_n_runs": fit_json["n_runs"],
@@ -288,6 +294,39 @@ print(json.dumps({
 """
 
 
+LIBRARY = r"""
+import json, shutil, statistics, sys, tempfile, time
+from pathlib import Path
+from wifibot_power.cache import ParseCache
+from wifibot_power.fit import fit_logs
+folder, scratch = Path(sys.argv[1]), Path(sys.argv[2])
+def timed(**kw):
+    start = time.perf_counter()
+    fit_logs([folder], jobs=0, **kw)
+    return time.perf_counter() - start
+cold = [timed() for _ in range(2)]
+cache = ParseCache(Path(tempfile.mkdtemp(dir=scratch)))
+fill = timed(cache=cache)
+warm = [timed(cache=cache) for _ in range(3)]
+shutil.rmtree(cache.directory)
+print(json.dumps({"cold_s": statistics.median(cold), "fill_s": fill,
+                  "warm_s": statistics.median(warm)}))
+"""
+
+
+def library_times(folder: Path) -> dict[str, float]:
+    """`fit_logs` called from Python, timed after the imports (what a notebook or a CI job
+    that fits several corpora in one process sees): cold, filling the cache, warm."""
+    out = subprocess.run(
+        [sys.executable, "-c", LIBRARY, str(folder), str(CORPUS_ROOT)],
+        check=True,
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    return json.loads(out.stdout)
+
+
 def profile_stages(folder: Path) -> dict[str, float]:
     """Where `fit` spends its time: cProfile of one job over `folder` (cumulative seconds)."""
     out = subprocess.run(
@@ -298,6 +337,36 @@ def profile_stages(folder: Path) -> dict[str, float]:
         cwd=ROOT,
     )
     return json.loads(out.stdout)
+
+
+def memory_vs_files(corpus: Path, counts: tuple[int, ...] = (2, 8, 32)) -> list[dict]:
+    """Peak memory of `fit` over N copies (symlinks) of the corpus's largest log: the largest
+    file is the same whatever N, so any growth with N would be memory held per file."""
+    largest = max(
+        (p for p in corpus.glob("*.csv") if p.name != "runs.csv"), key=lambda p: p.stat().st_size
+    )
+    out = []
+    for count in counts:
+        folder = CORPUS_ROOT / f"copies_{count}"
+        shutil.rmtree(folder, ignore_errors=True)
+        folder.mkdir()
+        for k in range(count):
+            (folder / f"copy_{k:03d}.csv").symlink_to(largest)
+        result = measure([*WBPOWER, "fit", str(folder), "--json", "--jobs", "0"])
+        shutil.rmtree(folder)
+        print(f"  {count} copies: {result.wall_s:.1f} s, max RSS {result.max_rss_MB:.0f} MB, "
+              f"tree PSS {result.peak_tree_pss_MB:.0f} MB", flush=True)  # fmt: skip
+        out.append(
+            {
+                "copies": count,
+                "file": largest.name,
+                "file_MB": largest.stat().st_size / 1e6,
+                "wall_s": result.wall_s,
+                "max_rss_MB": result.max_rss_MB,
+                "tree_pss_MB": result.peak_tree_pss_MB,
+            }
+        )
+    return out
 
 
 def fixed_overhead() -> Measured:
@@ -318,6 +387,7 @@ def write_doc(
     fixed: Measured,
     stages: dict[str, float],
     profiled: str,
+    copies: list[dict],
 ) -> None:
     def num(x: float, d: int = 2) -> str:
         return f"{x:.{d}f}"
@@ -370,6 +440,10 @@ def write_doc(
     row("fit --cache, warm, CPU [s]", "warm_cpu_s")
     row("**cold / warm**", "cache_speedup", lambda x: f"**{x:.1f}x**")
     row("cache size [MB]", "cache_MB", lambda x: f"{x:.0f}")
+    row("`fit_logs()` after imports, cold [s]", "lib_cold_s")
+    row("`fit_logs(cache=...)`, filling [s]", "lib_fill_s")
+    row("`fit_logs(cache=...)`, warm [s]", "lib_warm_s")
+    row("**cold / warm, after imports**", "lib_speedup", lambda x: f"**{x:.0f}x**")
     row("warm result identical to cold", "cached_result_identical", str)
     columns = max(r["largest_file_columns_MB"] for r in rows)
     measured = ", ".join(f"{r['corpus']} {r['fit_max_rss_MB']:.0f} MB" for r in rows)
@@ -382,6 +456,20 @@ def write_doc(
         f"measured largest process RSS: {measured}.",
         "",
     ]
+    if copies:
+        lines += [
+            "Memory against the number of files: `fit --jobs 0` over N copies of the largest log",
+            f"({copies[0]['file']}, {copies[0]['file_MB']:.0f} MB of CSV):",
+            "",
+            "| copies | wall [s] | largest process RSS [MB] | peak PSS, all processes [MB] |",
+            "| ---: | ---: | ---: | ---: |",
+            *[
+                f"| {c['copies']} | {c['wall_s']:.1f} | {c['max_rss_MB']:.0f} | "
+                f"{c['tree_pss_MB']:.0f} |"
+                for c in copies
+            ],
+            "",
+        ]
     whole = stages["fit_logs (whole, 1 job)"]
     lines += [
         f"Where the time goes: cProfile of `fit_logs` with 1 job over the {profiled} corpus",
@@ -399,7 +487,13 @@ def write_doc(
     DOC.write_text(_with_notes("\n".join(lines)))
     (CORPUS_ROOT / "last-bench.json").write_text(
         json.dumps(
-            {"machine": info, "rows": rows, "fixed_MB": fixed.max_rss_MB, "stages": stages},
+            {
+                "machine": info,
+                "rows": rows,
+                "fixed_MB": fixed.max_rss_MB,
+                "stages": stages,
+                "copies": copies,
+            },
             indent=2,
         )
     )
@@ -434,8 +528,9 @@ def main() -> None:
     fixed = fixed_overhead()
     rows = [bench_corpus(folder, args.repeats) for folder in folders]
     stages = profile_stages(folders[0])
+    copies = memory_vs_files(folders[-1])
     info["load average at end"] = " ".join(f"{x:.2f}" for x in os.getloadavg())
-    write_doc(info, rows, fixed, stages, folders[0].name)
+    write_doc(info, rows, fixed, stages, folders[0].name, copies)
 
 
 if __name__ == "__main__":
