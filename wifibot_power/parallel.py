@@ -8,7 +8,8 @@ workers finish in, so `--jobs 1` and `--jobs N` give the same output.
 Workers are forked (POSIX `fork`): they inherit the loaded libraries and the task, so nothing
 has to be importable or picklable but the small results, and starting a worker costs
 milliseconds, not the seconds a fresh interpreter needs to import numpy, pandas and pyarrow.
-Where `fork` does not exist (Windows) the work runs in the calling process.
+Where forking is not safe (not Linux) the work runs in the calling process, one file at a
+time.
 """
 
 from __future__ import annotations
@@ -46,7 +47,9 @@ def resolve_jobs(jobs: int | None) -> int:
 
 
 def can_fork() -> bool:
-    return "fork" in multiprocessing.get_all_start_methods()
+    """Whether workers can be forked safely: on Linux. (macOS has fork, but its system
+    libraries are not fork-safe, which is why Python spawns there by default.)"""
+    return sys.platform.startswith("linux") and "fork" in multiprocessing.get_all_start_methods()
 
 
 def _share_cores(threads: int) -> None:
