@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
-import numpy as np
 import typer
 from rich.table import Table
 
@@ -26,7 +26,9 @@ from wifibot_power.cli.common import (
     report_skipped,
     stdout,
 )
-from wifibot_power.diagnose import Diagnosis, diagnose_logs, write_diagnosis
+
+if TYPE_CHECKING:
+    from wifibot_power.diagnose import Diagnosis
 
 
 def _by_configuration(result: Diagnosis) -> Table:
@@ -96,7 +98,7 @@ def _findings(result: Diagnosis) -> Table:
     for f in result.findings:
         est = f.estimate
         low, high = est["ci95"]
-        ci = f"[{low:.3g}, {high:.3g}]" if np.isfinite(low) else "-"
+        ci = f"[{low:.3g}, {high:.3g}]" if math.isfinite(low) else "-"
         table.add_row(
             f.cause,
             f"{est['value']:.3g} {est['unit']}",
@@ -126,6 +128,9 @@ def diagnose_command(
     ] = False,
 ) -> None:
     """What the paper's model gets wrong on these logs, the named cause, the held-out gain."""
+    # imported here: scipy.stats alone costs a second, which no other command should pay
+    from wifibot_power.diagnose import diagnose_logs, write_diagnosis
+
     options = read_options(supply_voltage, current_column, voltage_column, sample_period)
     result = diagnose_logs(paths, options, wrap=lambda s: progress(s, "diagnosing"))
     if out is not None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 from typing import Annotated
 
-import pandas as pd
 import typer
 from rich.table import Table
 
@@ -131,7 +130,7 @@ def energy_command(
         rows = speed_sweep(power_model, t_acc_s=t_acc, payload_kg=payload)
         summaries = [r.summary() for r in rows]
         if out is not None:
-            write_parquet(out / "energy_sweep_speed.parquet", pd.DataFrame(map(_flat, summaries)))
+            write_parquet(out / "energy_sweep_speed.parquet", _frame(map(_flat, summaries)))
         if json_out:
             print_json({"sweep": "speed", "rows": summaries})
         else:
@@ -144,9 +143,16 @@ def energy_command(
     report = energy_report(power_model, speed, dist, steps, t_acc_s=t_acc, payload_kg=payload)
     summary = report.summary()
     if out is not None:
-        write_parquet(out / "energy_phases.parquet", pd.DataFrame(summary["phases"]))
-        write_parquet(out / "energy.parquet", pd.DataFrame([_flat(summary)]))
+        write_parquet(out / "energy_phases.parquet", _frame(summary["phases"]))
+        write_parquet(out / "energy.parquet", _frame([_flat(summary)]))
     if json_out:
         print_json(summary)
     else:
         stdout.print(_report_table(report))
+
+
+def _frame(rows: object) -> object:
+    """A DataFrame for `-o`; pandas is imported only when a table is written."""
+    import pandas as pd
+
+    return pd.DataFrame(rows)

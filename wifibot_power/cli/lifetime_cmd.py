@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Annotated
 
-import pandas as pd
 import typer
 from rich.table import Table
 
@@ -120,7 +119,7 @@ def lifetime_command(
     if sweep is None:
         result = network_lifetime(power_model, rate, **scenario)
         if out is not None:
-            write_parquet(out / "lifetime.parquet", pd.DataFrame([result.summary()]))
+            write_parquet(out / "lifetime.parquet", _frame([result.summary()]))
         if json_out:
             print_json(result.summary())
         else:
@@ -129,8 +128,15 @@ def lifetime_command(
     rows = lifetime_sweep(sweep, power_model, rate if rate is not None else 0.0, **scenario)
     summaries = [r.summary() for r in rows]
     if out is not None:
-        write_parquet(out / f"lifetime_sweep_{sweep}.parquet", pd.DataFrame(summaries))
+        write_parquet(out / f"lifetime_sweep_{sweep}.parquet", _frame(summaries))
     if json_out:
         print_json({"sweep": sweep, "rows": summaries})
     else:
         stdout.print(_table(rows, f"Relay lifetime against {sweep} (paper Figure 7)"))
+
+
+def _frame(rows: object) -> object:
+    """A DataFrame for `-o`; pandas is imported only when a table is written."""
+    import pandas as pd
+
+    return pd.DataFrame(rows)

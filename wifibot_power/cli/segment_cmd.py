@@ -21,7 +21,6 @@ from wifibot_power.cli.common import (
     read_options,
     stdout,
 )
-from wifibot_power.segment import segment_file
 
 
 @app.command("segment")
@@ -37,6 +36,8 @@ def segment_command(
     """Split one log into phases: idle/accel/cruise/decel per step for a motion run, steady
     levels otherwise. Short start-up spikes stay in the phase they start and are listed."""
     options = read_options(supply_voltage, current_column, voltage_column, sample_period)
+    from wifibot_power.segment import segment_file  # its numerics load only when used
+
     run, segmentation = segment_file(path, options)
     if json_out:
         print_json(
