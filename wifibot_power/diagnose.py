@@ -26,8 +26,8 @@ import pandas as pd
 from scipy import stats
 
 from wifibot_power.causes import ALPHA, CAUSES, Evidence, fit_model, predict_motion_energy_J
-from wifibot_power.errors import LogError, WbpowerError
-from wifibot_power.fit import _default_segmenter
+from wifibot_power.errors import LogError
+from wifibot_power.fit import segment_checked
 from wifibot_power.io import LogSource, ReadOptions, Skipped
 from wifibot_power.io.batch import map_runs
 from wifibot_power.model import PowerModel
@@ -147,17 +147,7 @@ def summarize_run(run: Run, segmenter: Segmenter | None = None) -> RunSummary:
     """Segment a run and keep only its row and trace statistics."""
     if run.meta.mode != "motion":
         return RunSummary(run_row(run, Segmentation(run.meta.run_id, ())), EMPTY)
-    segment = segmenter or _default_segmenter()
-    try:
-        segmentation = segment(run)
-    except WbpowerError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - one run the segmenter fails on must not end the batch
-        raise LogError(
-            f"segmentation failed ({exc.__class__.__name__}: {exc})",
-            file=run.file,
-            fix="check the log with 'wbpower segment'",
-        ) from None
+    segmentation = segment_checked(run, segmenter)
     return RunSummary(run_row(run, segmentation), trace_stats(run, segmentation))
 
 

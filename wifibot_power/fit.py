@@ -383,6 +383,22 @@ def _default_segmenter() -> Segmenter:
     return segment_run
 
 
+def segment_checked(run: Run, segmenter: Segmenter | None = None) -> Segmentation:
+    """Segment a run; an unexpected failure of the segmenter becomes a one-line `LogError`
+    naming the file, so one run cannot end a batch (`fit` and `diagnose` both use it)."""
+    segment = segmenter or _default_segmenter()
+    try:
+        return segment(run)
+    except WbpowerError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - reported as this file's error, not a traceback
+        raise LogError(
+            f"segmentation failed ({exc.__class__.__name__}: {exc})",
+            file=run.file,
+            fix="check the log with 'wbpower segment'",
+        ) from None
+
+
 def _result_to_table(result: tuple[dict[str, object], pd.DataFrame]) -> pa.Table:
     """A run's row and phases as one Parquet table (phases; the row in its metadata)."""
     row, phases = result
@@ -431,21 +447,11 @@ def fit_logs(
     reason. Raises `LogError` when no run at all can be used (nothing to fit).
     """
     paths = [paths] if isinstance(paths, str | Path) else list(paths)
-    segment = segmenter or _default_segmenter()
 
     def work(run: Run) -> tuple[dict[str, object], pd.DataFrame]:
         if run.meta.mode == "unknown":  # nothing to fit it to: not worth segmenting
             return run_row(run, Segmentation(run.meta.run_id, ())), Segmentation("", ()).frame()
-        try:
-            segmentation = segment(run)
-        except WbpowerError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - one run the segmenter fails on must not end the batch
-            raise LogError(
-                f"segmentation failed ({exc.__class__.__name__}: {exc})",
-                file=run.file,
-                fix="check the log with 'wbpower segment'",
-            ) from None
+        segmentation = segment_checked(run, segmenter)
         return run_row(run, segmentation), segmentation.frame()
 
     # with the default segmenter, what a run gives is a function of its content and of this
