@@ -67,3 +67,9 @@ def test_every_command_has_help(command):
 def test_version():
     result = CliRunner().invoke(app, ["--version"])
     assert result.exit_code == 0 and result.output.strip() == f"wbpower {wb.__version__}"
+
+
+def test_diagnose_in_parallel_equals_one_file_at_a_time(small_logs):
+    one = json_safe(wb.diagnose_logs([small_logs], jobs=1).summary())
+    two = json_safe(wb.diagnose_logs([small_logs], jobs=2).summary())
+    assert one == two

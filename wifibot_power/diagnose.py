@@ -157,12 +157,16 @@ def diagnose_logs(
     *,
     wrap: Callable[[list[LogSource]], Iterator[LogSource]] | None = None,
     segmenter: Segmenter | None = None,
+    jobs: int | None = 1,
 ) -> Diagnosis:
+    """Read, segment and summarise every log under `paths` (`jobs` files at a time, one file
+    in memory per worker), then diagnose them (module docstring)."""
     summaries, skipped = map_runs(
         [Path(p) for p in paths],
         options or ReadOptions(),
         lambda run: summarize_run(run, segmenter),
         wrap=wrap,
+        jobs=jobs,
     )
     return diagnose_summaries(summaries, skipped)
 

@@ -14,6 +14,7 @@ from wifibot_power.cli.common import (
     EXIT_OK,
     EXIT_SKIPPED,
     CurrentColumn,
+    Jobs,
     JsonFlag,
     OutDir,
     SamplePeriod,
@@ -123,6 +124,7 @@ def diagnose_command(
     sample_period: SamplePeriod = None,
     json_out: JsonFlag = False,
     out: OutDir = None,
+    jobs: Jobs = 0,
     fail_on_discrepancy: Annotated[
         bool, typer.Option("--fail-on-discrepancy", help="Exit 1 when any finding is made (CI).")
     ] = False,
@@ -132,7 +134,7 @@ def diagnose_command(
     from wifibot_power.diagnose import diagnose_logs, write_diagnosis
 
     options = read_options(supply_voltage, current_column, voltage_column, sample_period)
-    result = diagnose_logs(paths, options, wrap=lambda s: progress(s, "diagnosing"))
+    result = diagnose_logs(paths, options, wrap=lambda s: progress(s, "diagnosing"), jobs=jobs)
     if out is not None:
         write_diagnosis(result, out)
     if json_out:
