@@ -10,7 +10,8 @@ cost is linear in the number of samples and independent of the analyser's sample
   just after and just before it, both extrapolated to the boundary. A step of height h gives
   h; a straight trend or any symmetric curvature (a slow ripple near its crest) gives ~0.
 - `best_split`: where one least-squares polynomial piece ends and the next begins inside a
-  window (prefix sums: every candidate split in O(1)); the fine locator of every boundary.
+  window (closed-form Gram matrices and prefix sums: every candidate split at once, in O(1)
+  numpy operations each); the fine locator of every boundary.
 - `detect_levels`: steady levels of any trace (e.g. a load switching between levels):
   jumps above a noise threshold, then short start-up spikes (inrush, overshoot) merged into
   the level they start, then changes too small to matter merged.
@@ -25,6 +26,7 @@ References
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from itertools import pairwise
 
@@ -114,7 +116,10 @@ def peaks(score: np.ndarray, threshold: float, separation: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Split:
-    """Result of `best_split`: the first index of the right piece, and the costs."""
+    """Result of `best_split`: the first index of the right piece, and the costs.
+
+    `left_coef` / `right_coef` are each piece's polynomial in its own basis (x from -1/2 at
+    the piece's start to +1/2 at its end, around the window mean; `_PolyCost`)."""
 
     index: int
     sse: float
@@ -130,46 +135,96 @@ class Split:
         return self.right_start_W - self.left_end_W
 
 
+def _centred_power_sum(r: int, length: np.ndarray) -> np.ndarray:
+    """sum over m = 0..L-1 of (m - (L-1)/2)^r, closed form (moments of the discrete uniform).
+
+    Odd r: 0 (symmetric); r = 0: L; r = 2: L(L²-1)/12; r = 4: L(L²-1)(3L²-7)/240;
+    r = 6: L(L²-1)(3L⁴-18L²+31)/1344.
+    """
+    L = np.asarray(length, dtype=np.float64)
+    L2 = L * L
+    if r % 2:
+        return np.zeros_like(L)
+    if r == 0:
+        return L
+    if r == 2:
+        return L * (L2 - 1.0) / 12.0
+    if r == 4:
+        return L * (L2 - 1.0) * (3.0 * L2 - 7.0) / 240.0
+    if r == 6:
+        return L * (L2 - 1.0) * (3.0 * L2 * L2 - 18.0 * L2 + 31.0) / 1344.0
+    raise ValueError(f"centred power sums are tabulated up to r = 6, not {r}")
+
+
 class _PolyCost:
     """Least-squares cost of polynomial pieces over [i, j) of a window, each in O(1).
 
-    Prefix sums of x^p (p <= 2 deg) and x^p y (p <= deg) make the normal equations of any
-    piece a difference of two rows: SSE = sum y^2 - b^T G^-1 b (ordinary least squares).
-    x is the position scaled to [0, 1] and y is centred, to keep the sums well conditioned.
+    Each piece [i, j) is fitted in its own basis x = (k - c) / L, c = (i + j - 1) / 2 its
+    centre and L = j - i its length, so x lies in [-1/2, 1/2]. Positions are integers, so
+    the Gram matrix G_pq = sum x^(p+q) depends on L alone, in closed form
+    (`_centred_power_sum`): no prefix sums of x^p, no cancellation in G. It is zero where
+    p + q is odd, so the normal equations split into an even (x^0, x^2) and an odd (x^1,
+    x^3) system of at most 2 x 2, solved in closed form for every candidate at once
+    (SSE = sum y² - bᵀG⁻¹b, ordinary least squares). The right-hand sides b_p = sum x^p y
+    come from prefix sums of u^q y (u: the position centred on the window, scaled to
+    [-1/2, 1/2]) by the binomial expansion of (u - u_c)^p. y is centred on its window mean.
+    Degrees up to 3.
     """
 
     def __init__(self, y: np.ndarray, max_deg: int) -> None:
+        if max_deg > 3:
+            raise ValueError(f"polynomial pieces up to degree 3, not {max_deg}")
         n = y.size
         self.n = n
         self.offset = float(np.mean(y)) if n else 0.0
         yc = y - self.offset
-        x = np.arange(n, dtype=np.float64) / max(n - 1, 1)
-        self.x_scale = max(n - 1, 1)
-        powers = [np.ones(n)]
-        for _ in range(2 * max_deg):
-            powers.append(powers[-1] * x)
-        self.px = [np.concatenate(([0.0], np.cumsum(p))) for p in powers]
-        self.pxy = [np.concatenate(([0.0], np.cumsum(p * yc))) for p in powers[: max_deg + 1]]
+        self.scale = float(max(n, 1))
+        u = (np.arange(n, dtype=np.float64) - (n - 1) / 2.0) / self.scale
+        term = yc
+        self.puy = [np.concatenate(([0.0], np.cumsum(term)))]
+        for _ in range(max_deg):
+            term = term * u
+            self.puy.append(np.concatenate(([0.0], np.cumsum(term))))
         self.py2 = np.concatenate(([0.0], np.cumsum(yc * yc)))
 
     def fit(self, i: np.ndarray, j: np.ndarray, deg: int) -> tuple[np.ndarray, np.ndarray]:
-        """SSE and coefficients (in the scaled x) of a degree-`deg` fit over each [i, j)."""
-        i = np.atleast_1d(i)
-        j = np.atleast_1d(j)
-        m = deg + 1
-        gram = np.empty(i.shape + (m, m))
-        rhs = np.empty(i.shape + (m,))
-        for p in range(m):
-            rhs[..., p] = self.pxy[p][j] - self.pxy[p][i]
-            for q in range(m):
-                gram[..., p, q] = self.px[p + q][j] - self.px[p + q][i]
-        ridge = 1e-15 * np.trace(gram, axis1=-2, axis2=-1)[..., None, None] * np.eye(m)
-        coef = np.linalg.solve(gram + ridge, rhs[..., None])[..., 0]
-        sse = (self.py2[j] - self.py2[i]) - np.sum(coef * rhs, axis=-1)
-        return np.maximum(sse, 0.0), coef
+        """SSE and coefficients (in each piece's own x, see the class) of a degree-`deg`
+        fit over each [i, j)."""
+        i = np.atleast_1d(np.asarray(i, dtype=np.int64))
+        j = np.atleast_1d(np.asarray(j, dtype=np.int64))
+        length = (j - i).astype(np.float64)
+        u_c = ((i + j - 1) / 2.0 - (self.n - 1) / 2.0) / self.scale
+        ratio = self.scale / length  # x = (u - u_c) * ratio
+        sums = [p[j] - p[i] for p in self.puy[: deg + 1]]
+        rhs = []
+        for p in range(deg + 1):
+            # sum (u - u_c)^p y = sum_q C(p, q) (-u_c)^(p-q) sum u^q y
+            acc = sums[p].copy()
+            for q in range(p):
+                acc += math.comb(p, q) * (-u_c) ** (p - q) * sums[q]
+            rhs.append(acc * ratio**p)
+        gram = [_centred_power_sum(r, length) / length**r for r in range(2 * deg + 1)]
+        coef = [np.zeros_like(length) for _ in range(deg + 1)]
+        explained = np.zeros_like(length)
+        for first in (0, 1):  # the even, then the odd system
+            idx = list(range(first, deg + 1, 2))
+            if len(idx) == 1:
+                (p,) = idx
+                coef[p] = rhs[p] / gram[2 * p]
+            elif len(idx) == 2:
+                p, q = idx
+                a, b, d = gram[2 * p], gram[p + q], gram[2 * q]
+                det = a * d - b * b
+                coef[p] = (d * rhs[p] - b * rhs[q]) / det
+                coef[q] = (a * rhs[q] - b * rhs[p]) / det
+            for p in idx:
+                explained += coef[p] * rhs[p]
+        sse = (self.py2[j] - self.py2[i]) - explained
+        return np.maximum(sse, 0.0), np.stack(coef, axis=-1)
 
-    def value(self, coef: np.ndarray, index: float) -> float:
-        x = index / self.x_scale
+    def value(self, coef: np.ndarray, x: float) -> float:
+        """The piece at x (its own basis: -1/2 at its first sample's start edge, +1/2 at its
+        last one's end edge) [W]."""
         return float(sum(c * x**p for p, c in enumerate(coef)) + self.offset)
 
 
@@ -202,9 +257,9 @@ def best_split(
     sse_left, coef_left = cost.fit(np.zeros_like(splits), splits, deg_left)
     sse_right, coef_right = cost.fit(splits, np.full_like(splits, n), deg_right)
     total = sse_left + sse_right
-    x_split = (splits - 0.5) / cost.x_scale
-    left_end = sum(coef_left[:, p] * x_split**p for p in range(deg_left + 1))
-    right_start = sum(coef_right[:, p] * x_split**p for p in range(deg_right + 1))
+    # the split's edge is x = +1/2 of the left piece and x = -1/2 of the right one
+    left_end = coef_left @ 0.5 ** np.arange(deg_left + 1)
+    right_start = coef_right @ (-0.5) ** np.arange(deg_right + 1)
     if jump_sign and np.any(np.sign(right_start - left_end) * jump_sign >= 0):
         total = np.where(np.sign(right_start - left_end) * jump_sign >= 0, total, np.inf)
     best = int(np.argmin(total))
@@ -214,8 +269,8 @@ def best_split(
         index=lo + k,
         sse=float(total[best]),
         sse_one_piece=float(sse_one[0]),
-        left_end_W=cost.value(coef_left[best], k - 0.5),
-        right_start_W=cost.value(coef_right[best], k - 0.5),
+        left_end_W=cost.value(coef_left[best], 0.5),
+        right_start_W=cost.value(coef_right[best], -0.5),
         left_coef=tuple(float(c) for c in coef_left[best]),
         right_coef=tuple(float(c) for c in coef_right[best]),
     )
