@@ -1,9 +1,12 @@
 """Read one log (canonical wbpower CSV or Keysight N6705 datalog) into a `Run`.
 
-Parsing goes through pyarrow's multi-threaded CSV reader; per-sample work is
-vectorised. The preamble (metadata lines, N6705 header, the first data lines) is
-parsed in Python: it is a handful of lines. Line numbers for error messages are
-worked out only when there is an error to report.
+Parsing goes through pyarrow's streaming CSV reader, block by block, straight from the
+file (decompressed on the fly for .gz/.zst): the file's bytes are never held whole, and
+each block is reduced to the numeric columns used before the next is read, so memory
+follows the columns kept, not the file (docs/log-format.md, "Memory"). Per-sample work is
+vectorised. The preamble (metadata lines, N6705 header, the first data lines) is parsed in
+Python from the first 64 KiB: it is a handful of lines. Line numbers for messages are
+worked out only when a message needs one, by reading the file again.
 
 What is read where the spec is silent is described in docs/log-format.md.
 """
@@ -11,8 +14,10 @@ What is read where the spec is silent is described in docs/log-format.md.
 from __future__ import annotations
 
 import csv
+import io
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -39,6 +44,12 @@ LOG_SUFFIXES = (".csv", ".csv.gz", ".csv.zst")
 #: The canonical format versions this reader knows (`# wbpower-log: 1`).
 KNOWN_VERSIONS = ("1",)
 _HEAD_BYTES = 1 << 16
+#: pyarrow parses a block at a time: a few blocks are in memory at once, whatever the file's
+#: size (4 MiB: as fast as 16 MiB blocks on the corpus, a quarter of the parse buffers).
+_BLOCK_BYTES = 1 << 22
+#: Bytes read at a time when a file is scanned again for line numbers.
+_SCAN_BYTES = 1 << 20
+_UTF8_BOM = b"\xef\xbb\xbf"
 #: Data lines of the head looked at to tell the decimal mark and the field count.
 _SNIFF_LINES = 50
 _LINE_END = re.compile(r"\r\n|\r|\n")
@@ -75,15 +86,11 @@ def is_log_name(path: Path) -> bool:
     return path.name.lower().endswith(LOG_SUFFIXES)
 
 
-def read_bytes(path: Path) -> bytes:
-    """The file's bytes, decompressed by extension (.gz, .zst)."""
-    name = path.name.lower()
+@contextmanager
+def _read_errors(path: Path) -> Iterator[None]:
+    """Errors opening, reading or decompressing a file, as one-line `LogError`s."""
     try:
-        if name.endswith((".gz", ".zst")):
-            codec = "gzip" if name.endswith(".gz") else "zstd"
-            with pa.input_stream(str(path), compression=codec) as stream:
-                return stream.read()
-        return path.read_bytes()
+        yield
     except FileNotFoundError:
         raise LogError("no such file", file=path, fix="check the path") from None
     except IsADirectoryError:
@@ -97,6 +104,60 @@ def read_bytes(path: Path) -> bytes:
             file=path,
             fix="check the file is complete and its extension matches its compression",
         ) from None
+
+
+def _codec(path: Path) -> str | None:
+    name = path.name.lower()
+    return "gzip" if name.endswith(".gz") else "zstd" if name.endswith(".zst") else None
+
+
+def read_bytes(path: Path) -> bytes:
+    """The file's bytes, decompressed by extension (.gz, .zst)."""
+    with _read_errors(path):
+        codec = _codec(path)
+        if codec is not None:
+            with pa.input_stream(str(path), compression=codec) as stream:
+                return stream.read()
+        return path.read_bytes()
+
+
+@dataclass(frozen=True)
+class _Content:
+    """A log's (decompressed) bytes, opened afresh for each pass over them: from the file, or
+    from `data` when the caller already holds them."""
+
+    path: Path
+    data: bytes | None = None
+
+    def open(self) -> pa.NativeFile:
+        """A stream of the bytes from the start (errors surface as they are read)."""
+        if self.data is not None:
+            return pa.BufferReader(self.data)
+        return pa.input_stream(str(self.path), compression=_codec(self.path))
+
+    def head(self) -> bytes:
+        """The first bytes: `_HEAD_BYTES` after a byte-order mark, and one more to tell whether
+        the content goes on."""
+        with _read_errors(self.path), self.open() as stream:
+            return stream.read(_HEAD_BYTES + len(_UTF8_BOM) + 1)
+
+    def chunks(self, limit: int | None = None, size: int = _SCAN_BYTES) -> Iterator[bytes]:
+        """The bytes in pieces of `size`, up to `limit` bytes if given."""
+        left = limit
+        with _read_errors(self.path), self.open() as stream:
+            while left is None or left > 0:
+                chunk = stream.read(size if left is None else min(size, left))
+                if not chunk:
+                    return
+                if left is not None:
+                    left -= len(chunk)
+                yield chunk
+
+    def is_blank(self) -> bool:
+        """Nothing but blanks (or nothing) after a UTF-8 byte-order mark."""
+        chunks = self.chunks()
+        first = next(chunks, b"").removeprefix(_UTF8_BOM)
+        return (not first or first.isspace()) and all(chunk.isspace() for chunk in chunks)
 
 
 def read_log(
@@ -116,23 +177,30 @@ def read_log(
     options = options or ReadOptions()
     path = Path(path)
     named = tuple(c for c in (options.current_column, options.voltage_column) if c)
-    raw = _decode(path, read_bytes(path) if data is None else data)
-    pre = _parse_preamble(path, raw, named)
-    raw, cut_problem = _drop_unterminated_last_line(raw, pre)
-    lines = _LineMap(raw, pre.header_line)
+    content, head = _decode(path, _Content(path, data))
+    pre = _parse_preamble(path, content, head, named)
     source = _power_source(path, pre, pre.header, options)
     time_column = find_column(pre.header, "time_s" if pre.format == FORMAT_CANONICAL else "Sample")
     # only the columns used are converted to numbers (about a third of the parse time saved
     # on the 4-column canonical log); every line's field count is still checked
     used = [spec[0] for spec in (source.power, source.current, source.voltage) if spec]
-    table = _read_table(path, raw, pre, lines, named, [*used, *([time_column] * bool(time_column))])
+    columns = _read_columns(
+        path, content, pre, head, named, [*used, *([time_column] * bool(time_column))]
+    )
+    lines = columns.lines
+    cut_problem = None
+    if columns.cut_at is not None:
+        cut_problem = Problem(
+            "cut",
+            f"line {lines.line_count() + 1} has no line end (file cut short?): dropped, not read",
+        )
     values = dict(pre.metadata)
     where = {k: f"metadata {w}" for k, w in pre.metadata_where.items()}
     for key, value in (overrides or {}).items():
         values[key] = value
         where[key] = origin or "manifest"
     time_name = "time_s" if pre.format == FORMAT_CANONICAL else "Sample"
-    has_time = find_column(table.column_names, time_name) is not None
+    has_time = find_column(columns.names, time_name) is not None
     if options.sample_period_s is not None and (pre.format == FORMAT_N6705 or not has_time):
         values["sample_period_s"] = repr(options.sample_period_s)
         where["sample_period_s"] = "--sample-period"
@@ -143,8 +211,9 @@ def read_log(
             fix="give the sample spacing with --sample-period S, or re-export the datalog",
         )
     meta = build_meta(values, file=str(path), stem=_stem(path), where="metadata", origins=where)
-    power_W, measured = _power(path, table, source)
-    time_s = _time(path, pre, table, meta.sample_period_s)
+    power_W, measured = _power(path, columns, source)
+    time_s = _time(path, pre, columns, meta.sample_period_s)
+    columns.values.clear()  # the arrays live on in power_W, measured and time_s only
     period_s, problems = check_samples(
         str(path),
         time_s,
@@ -153,6 +222,7 @@ def read_log(
         default_period_s=meta.sample_period_s,
         measured=measured,
     )
+    del measured
     if cut_problem is not None:
         problems.insert(0, cut_problem)
     if time_s is None:
@@ -187,50 +257,109 @@ def _not_a_log(path: Path, why: str, where: str | None = None) -> LogError:
     )
 
 
-def _decode(path: Path, raw: bytes) -> bytes:
-    """UTF-8 bytes without a byte-order mark: a UTF-8 BOM is dropped, UTF-16 (with its BOM,
-    as spreadsheets save "Unicode text") is converted. Both are unambiguous."""
-    if raw.startswith(b"\xef\xbb\xbf"):
-        return raw[3:]
-    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
-        try:
-            return raw.decode("utf-16").lstrip("\ufeff").encode("utf-8")
-        except UnicodeDecodeError:
-            raise _not_a_log(path, "broken UTF-16 text") from None
-    return raw
+def _decode(path: Path, content: _Content) -> tuple[_Content, bytes]:
+    """A UTF-16 file (with its BOM, as spreadsheets save "Unicode text") is converted to UTF-8
+    in memory (such exports are small); anything else is read as it is. A UTF-8 BOM is left
+    in place: it sits in the first line, which the CSV parse skips, and the preamble drops it.
+    Both BOMs are unambiguous."""
+    head = content.head()
+    if not head.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return content, head
+    raw = read_bytes(path) if content.data is None else content.data
+    try:
+        utf8 = _Content(path, raw.decode("utf-16").lstrip("\ufeff").encode("utf-8"))
+    except UnicodeDecodeError:
+        raise _not_a_log(path, "broken UTF-16 text") from None
+    return utf8, utf8.head()
 
 
 class _LineMap:
-    """File line numbers (1-based) of data rows, worked out only when a message needs one."""
+    """File line numbers (1-based) of data rows, worked out only when a message needs one, by
+    reading the content again up to `limit` bytes (where a dropped cut line starts)."""
 
-    def __init__(self, raw: bytes, header_line: int) -> None:
-        self._raw = raw
+    def __init__(self, content: _Content, header_line: int, limit: int | None = None) -> None:
+        self._content = content
         self._header_line = header_line
-        self._rows: list[int] | None = None
-        self._lines: list[bytes] | None = None
+        self._limit = limit
+        self._rows: np.ndarray | None = None
+        self._line_ends = 0
 
-    def lines(self) -> list[bytes]:
-        if self._lines is None:
-            self._lines = _LINE_END_BYTES.split(self._raw)
-        return self._lines
+    def _scan(self) -> np.ndarray:
+        if self._rows is None:
+            self._rows, self._line_ends = _scan_lines(
+                self._content.chunks(self._limit), self._header_line
+            )
+        return self._rows
 
     def line_of(self, row: int) -> int:
         """Line of data row `row` (pyarrow skips empty lines, so they are skipped here too)."""
-        if self._rows is None:
-            lines = self.lines()
-            start = self._header_line + 1
-            self._rows = [k + 1 for k in range(start, len(lines)) if lines[k]]
-        if not self._rows:
+        rows = self._scan()
+        if not rows.size:
             return self._header_line + 2
-        return self._rows[min(max(row, 0), len(self._rows) - 1)]
+        return int(rows[min(max(row, 0), rows.size - 1)])
 
-    def find(self, match: Callable[[bytes], bool]) -> int | None:
-        """First data line (1-based) for which `match(line bytes)` holds."""
-        lines = self.lines()
-        for k in range(self._header_line + 1, len(lines)):
-            if lines[k] and match(lines[k]):
-                return k + 1
+    def line_count(self) -> int:
+        """Line ends up to the limit (a \\r\\n counts once)."""
+        self._scan()
+        return self._line_ends
+
+    def find(self, match: Callable[[bytes], bool]) -> tuple[int, bytes] | None:
+        """First data line (1-based) for which `match(line bytes)` holds, and the line."""
+        for index, line in enumerate(_iter_lines(self._content.chunks(self._limit))):
+            if index > self._header_line and line and match(line):
+                return index + 1, line
         return None
+
+
+def _iter_lines(chunks: Iterator[bytes]) -> Iterator[bytes]:
+    """The lines of the concatenated chunks, as `_LINE_END_BYTES.split` of the whole gives them."""
+    carry = b""
+    for chunk in chunks:
+        buffer = carry + chunk
+        # a \r at the end may be the first half of a \r\n: keep it for the next chunk
+        held = b"\r" if buffer.endswith(b"\r") else b""
+        parts = _LINE_END_BYTES.split(buffer[: len(buffer) - len(held)])
+        carry = parts.pop() + held
+        yield from parts
+    yield from _LINE_END_BYTES.split(carry)
+
+
+def _scan_lines(chunks: Iterator[bytes], header_line: int) -> tuple[np.ndarray, int]:
+    """Line numbers (1-based) of the non-empty lines after line `header_line` (0-based), and
+    the number of line ends (\\r\\n, \\r or \\n, as pyarrow and `_LINE_END_BYTES` know them).
+    Vectorised over the bytes of each chunk; a line cut by a chunk's end is carried over."""
+    found: list[np.ndarray] = []
+    carry = b""
+    lines_before = 0  # complete lines in the chunks already done
+
+    def complete_lines(buffer: bytes) -> int:
+        """Note the data rows among the complete lines of `buffer`; return where they end."""
+        nonlocal lines_before
+        data = np.frombuffer(buffer, dtype=np.uint8)
+        is_cr, is_lf = data == 13, data == 10
+        after_cr = np.concatenate(([False], is_cr[:-1]))
+        starts = np.flatnonzero(is_cr | (is_lf & ~after_cr))  # first byte of each line end
+        if not starts.size:
+            return 0
+        before_lf = np.concatenate((is_lf[1:], [False]))
+        ends = starts + 1 + before_lf[starts]  # one past each line end
+        lengths = starts - np.concatenate(([0], ends[:-1]))
+        index = lines_before + np.arange(starts.size)
+        keep = (lengths > 0) & (index > header_line)
+        found.append(index[keep] + 1)
+        lines_before += int(starts.size)
+        return int(ends[-1])
+
+    for chunk in chunks:
+        buffer = carry + chunk
+        held = 1 if buffer.endswith(b"\r") else 0  # may be the first half of a \r\n
+        done = complete_lines(buffer[: len(buffer) - held])
+        carry = buffer[done:]
+    done = complete_lines(carry)
+    if carry[done:] and lines_before > header_line:
+        found.append(np.array([lines_before + 1]))  # a last line without a line end
+    rows = np.concatenate(found) if found else np.zeros(0, dtype=np.int64)
+    return rows, lines_before
 
 
 def _split_lines(text: str) -> list[str]:
@@ -238,10 +367,15 @@ def _split_lines(text: str) -> list[str]:
     return _LINE_END.split(text)
 
 
-def _parse_preamble(path: Path, raw: bytes, extra_columns: tuple[str, ...] = ()) -> _Preamble:
-    if not raw or raw.isspace():  # no .strip(): it would copy the whole file
+def _parse_preamble(
+    path: Path, content: _Content, head: bytes, extra_columns: tuple[str, ...] = ()
+) -> _Preamble:
+    """The preamble, from the content's first bytes (`_Content.head`)."""
+    head = head.removeprefix(_UTF8_BOM)
+    more = len(head) > _HEAD_BYTES
+    head = head[:_HEAD_BYTES]
+    if not head or (head.isspace() and (not more or content.is_blank())):
         raise LogError("the file is empty", file=path, fix="re-export the log")
-    head = raw[:_HEAD_BYTES]
     if b"\x00" in head:
         raise _not_a_log(path, "binary data")
     try:
@@ -257,7 +391,7 @@ def _parse_preamble(path: Path, raw: bytes, extra_columns: tuple[str, ...] = ())
             ) from None
         text = head[: exc.start].decode("utf-8")
     lines = _split_lines(text)
-    if len(raw) > len(head):
+    if more:
         lines = lines[:-1]  # the last line of the head may be cut by the head limit
     first = next((ln.strip() for ln in lines if ln.strip()), "")
     if re.match(r"^N6705[ABC]?\b", first, re.IGNORECASE):
@@ -406,23 +540,77 @@ def _sniff_data(
     return commas is not None
 
 
-def _drop_unterminated_last_line(raw: bytes, pre: _Preamble) -> tuple[bytes, Problem | None]:
-    """A last data line with no line end is what a full disk or a cut copy leaves: it may hold a
-    shortened number (23.3102 -> 23.3), so it is dropped and reported, never read."""
-    if not raw or raw.endswith((b"\n", b"\r")):
-        return raw, None
-    cut = max(raw.rfind(b"\n"), raw.rfind(b"\r"))
-    last = raw[cut + 1 :]
-    if not last.strip():
-        return raw, None
-    head = raw[: cut + 1]
-    line_no = head.count(b"\n") + head.count(b"\r") - head.count(b"\r\n") + 1
-    if line_no - 1 <= pre.header_line:
-        return raw, None  # the header itself: "header only" follows
-    return head, Problem(
-        "cut",
-        f"line {line_no} has no line end (file cut short?): dropped, not read",
-    )
+def _line_start(head: bytes, index: int) -> int:
+    """Byte offset of line `index` (0-based) in `head`."""
+    if index == 0:
+        return 0
+    for count, match in enumerate(_LINE_END_BYTES.finditer(head), start=1):
+        if count == index:
+            return match.end()
+    return len(head)
+
+
+class _HoldBackCutLine(io.RawIOBase):
+    """The content as a stream for pyarrow, less a last line that has no line end.
+
+    A last data line with no line end is what a full disk or a cut copy leaves: it may hold a
+    shortened number (23.3102 -> 23.3), so it is dropped and reported, never read. What follows
+    the last line end seen so far is held back until more comes; at the end, what is held is
+    dropped if it is more than blanks and starts after `header_start` (a header with no line
+    end stays: "header only" follows). `cut_at` is then where the dropped line starts.
+    """
+
+    def __init__(self, stream: pa.NativeFile, header_start: int) -> None:
+        super().__init__()
+        self._stream = stream
+        self._header_start = header_start
+        self._ready = bytearray()  # bytes that can be handed out
+        self._held = b""  # the bytes after the last line end seen
+        self._consumed = 0  # bytes taken from `stream`
+        self._ended = False
+        self.cut_at: int | None = None
+        #: the exception reading the file raised (pyarrow may wrap it in its own)
+        self.error: BaseException | None = None
+
+    def readable(self) -> bool:
+        return True
+
+    def read(self, size: int | None = -1) -> bytes:
+        want = _BLOCK_BYTES if size is None or size < 0 else size
+        while len(self._ready) < want and not self._ended:
+            self._pull(want)
+        out = bytes(self._ready[:want])
+        del self._ready[:want]
+        return out
+
+    def readinto(self, buffer: memoryview) -> int:  # pragma: no cover - pyarrow calls read()
+        data = self.read(len(buffer))
+        buffer[: len(data)] = data
+        return len(data)
+
+    def _pull(self, size: int) -> None:
+        try:
+            chunk = self._stream.read(size)
+        except (OSError, pa.ArrowException) as exc:
+            self.error = exc
+            raise
+        if not chunk:
+            self._ended = True
+            tail_start = self._consumed - len(self._held)
+            if self._held.strip() and tail_start > self._header_start:
+                self.cut_at = tail_start
+            else:
+                self._ready += self._held
+            self._held = b""
+            return
+        self._consumed += len(chunk)
+        buffer = self._held + chunk
+        last = max(buffer.rfind(b"\n"), buffer.rfind(b"\r"))
+        if last < 0:
+            self._held = buffer
+        else:
+            self._ready += buffer[: last + 1]
+            self._held = buffer[last + 1 :]
 
 
 def _float_columns(pre: _Preamble, extra_columns: tuple[str, ...]) -> list[str]:
@@ -440,19 +628,41 @@ def _float_columns(pre: _Preamble, extra_columns: tuple[str, ...]) -> list[str]:
     return out
 
 
-def _read_table(
+@dataclass
+class _Columns:
+    """The columns read from a log, as numpy arrays (a column of text is named, not held)."""
+
+    names: list[str]
+    values: dict[str, np.ndarray]
+    text: set[str]
+    lines: _LineMap
+    #: where a dropped last line without a line end starts (None: no such line)
+    cut_at: int | None = None
+
+
+def _read_columns(
     path: Path,
-    raw: bytes,
+    content: _Content,
     pre: _Preamble,
-    lines: _LineMap,
+    head: bytes,
     extra_columns: tuple[str, ...] = (),
     include_columns: list[str] | None = None,
-) -> pa.Table:
+) -> _Columns:
+    """Parse the data lines a block at a time; each block is reduced to numpy arrays of the
+    included columns before the next is parsed, and the arrays are joined at the end (the
+    file's bytes and pyarrow's parse buffers are never held whole)."""
+    header_start = _line_start(head, pre.header_line)
+    chunks: dict[str, list[np.ndarray]] = {}
+    text: set[str] = set()
+    rows = 0
+    with _read_errors(path):
+        stream = content.open()
+    held_back = _HoldBackCutLine(stream, header_start)
     try:
-        table = pacsv.read_csv(
-            pa.BufferReader(raw),
+        with pacsv.open_csv(
+            pa.PythonFile(held_back, mode="r"),
             read_options=pacsv.ReadOptions(
-                skip_rows=pre.header_line + 1, column_names=pre.header, block_size=1 << 24
+                skip_rows=pre.header_line + 1, column_names=pre.header, block_size=_BLOCK_BYTES
             ),
             parse_options=pacsv.ParseOptions(delimiter=pre.delimiter),
             convert_options=pacsv.ConvertOptions(
@@ -462,23 +672,49 @@ def _read_table(
                 strings_can_be_null=False,
                 quoted_strings_can_be_null=False,
             ),
-        )
-    except pa.ArrowInvalid as exc:
-        raise _parse_error(path, pre, str(exc), lines) from None
-    except pa.ArrowException as exc:
+        ) as reader:
+            names = reader.schema.names
+            for field_ in reader.schema:
+                if not pa.types.is_floating(field_.type) and not pa.types.is_integer(field_.type):
+                    text.add(field_.name)
+            chunks = {name: [] for name in names if name not in text}
+            for batch in reader:
+                rows += batch.num_rows
+                for name, kept in chunks.items():
+                    column = batch.column(name).to_numpy(zero_copy_only=False)
+                    kept.append(column.astype(np.float64, copy=False))
+    except (OSError, pa.ArrowException) as exc:
+        lines = _LineMap(content, pre.header_line, held_back.cut_at)
+        if held_back.error is not None:
+            with _read_errors(path):
+                raise held_back.error from None
+        if isinstance(exc, pa.ArrowInvalid):
+            raise _parse_error(path, pre, str(exc), lines) from None
         raise LogError(
             f"cannot parse the CSV ({str(exc)[:100]})",
             file=path,
             fix="check the delimiter and quoting",
         ) from None
-    if table.num_rows == 0:
+    finally:
+        stream.close()
+    lines = _LineMap(content, pre.header_line, held_back.cut_at)
+    if rows == 0:
         raise LogError(
             "header only: no samples",
             file=path,
             where=f"line {pre.header_line + 1}",
             fix="the log holds no data; re-export it",
         )
-    return table
+    values = {}
+    for name in list(chunks):
+        # one column joined at a time, its pieces dropped before the next is joined
+        pieces = chunks.pop(name)
+        values[name] = pieces[0] if len(pieces) == 1 else np.concatenate(pieces)
+        del pieces
+    # pyarrow's allocator keeps freed blocks for reuse; what follows (checks, segmentation)
+    # allocates through numpy, so give them back
+    pa.default_memory_pool().release_unused()
+    return _Columns(names, values, text, lines, held_back.cut_at)
 
 
 def _parse_error(path: Path, pre: _Preamble, message: str, lines: _LineMap) -> LogError:
@@ -493,8 +729,8 @@ def _parse_error(path: Path, pre: _Preamble, message: str, lines: _LineMap) -> L
             cells = _cells(line, pre.delimiter)
             return index < len(cells) and cells[index].strip() == text.strip()
 
-        line_no = lines.find(holds)
-        where = f"line {line_no}, column '{name}'" if line_no else f"column '{name}'"
+        found = lines.find(holds)
+        where = f"line {found[0]}, column '{name}'" if found else f"column '{name}'"
         return LogError(
             f"'{text[:40]}' where a number belongs",
             file=path,
@@ -503,17 +739,16 @@ def _parse_error(path: Path, pre: _Preamble, message: str, lines: _LineMap) -> L
         )
     if "Expected" in first and "columns" in first:
         expected = len(pre.header)
-        line_no = lines.find(lambda line: len(_cells(line, pre.delimiter)) != expected)
-        got = len(_cells(lines.lines()[line_no - 1], pre.delimiter)) if line_no else None
+        found = lines.find(lambda line: len(_cells(line, pre.delimiter)) != expected)
         what = (
-            f"{got} field(s) where the header has {expected}"
-            if got is not None
-            else ("a line with the wrong number of fields")
+            f"{len(_cells(found[1], pre.delimiter))} field(s) where the header has {expected}"
+            if found
+            else "a line with the wrong number of fields"
         )
         return LogError(
             what,
             file=path,
-            where=f"line {line_no}" if line_no else None,
+            where=f"line {found[0]}" if found else None,
             fix="the line is truncated or malformed; delete it or re-export the log",
         )
     return LogError(
@@ -657,43 +892,51 @@ def _named_source(path: Path, names: list[str], options: ReadOptions) -> PowerSo
     return PowerSource(current=current, supply_voltage_V=options.supply_voltage_V)
 
 
-def _column(path: Path, table: pa.Table, spec: tuple[str, float]) -> np.ndarray:
+def _column(path: Path, columns: _Columns, spec: tuple[str, float]) -> np.ndarray:
     name, scale = spec
-    col = table[name]
-    if not pa.types.is_floating(col.type) and not pa.types.is_integer(col.type):
+    if name in columns.text:
         raise LogError(
             f"column '{name}' holds text, not numbers",
             file=path,
             where=f"column '{name}'",
             fix="fix the column or re-export",
         )
-    values = col.to_numpy().astype(np.float64, copy=False)
-    return values * scale if scale != 1.0 else values
+    return _scaled(columns.values[name], scale)
+
+
+def _scaled(values: np.ndarray, scale: float) -> np.ndarray:
+    """`values * scale`, in place when the array is ours to change (no second full-size copy)."""
+    if scale == 1.0:
+        return values
+    if values.flags.writeable and values.flags.owndata:
+        values *= scale
+        return values
+    return values * scale
 
 
 def _power(
-    path: Path, table: pa.Table, source: PowerSource
+    path: Path, columns: _Columns, source: PowerSource
 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Power [W] and the measured columns it comes from (checked for clipping)."""
     if source.power:
-        power_W = _column(path, table, source.power)
+        power_W = _column(path, columns, source.power)
         return power_W, {source.power[0]: power_W}
-    current_A = _column(path, table, source.current)
+    current_A = _column(path, columns, source.current)
     measured = {source.current[0]: current_A}
     if source.voltage:
-        voltage_V = _column(path, table, source.voltage)
+        voltage_V = _column(path, columns, source.voltage)
         measured[source.voltage[0]] = voltage_V
         return current_A * voltage_V, measured
     return current_A * float(source.supply_voltage_V), measured
 
 
-def _time(path: Path, pre: _Preamble, table: pa.Table, period_s: float) -> np.ndarray | None:
+def _time(path: Path, pre: _Preamble, columns: _Columns, period_s: float) -> np.ndarray | None:
     if pre.format == FORMAT_CANONICAL:
-        name = find_column(table.column_names, "time_s")
+        name = find_column(columns.names, "time_s")
         if name is not None:
-            return _column(path, table, (name, 1.0))
+            return _column(path, columns, (name, 1.0))
         return None
-    name = find_column(table.column_names, "Sample")
+    name = find_column(columns.names, "Sample")
     if name is None:
         return None
-    return _column(path, table, (name, 1.0)) * period_s
+    return _scaled(_column(path, columns, (name, 1.0)), period_s)
