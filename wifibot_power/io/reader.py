@@ -44,9 +44,10 @@ LOG_SUFFIXES = (".csv", ".csv.gz", ".csv.zst")
 #: The canonical format versions this reader knows (`# wbpower-log: 1`).
 KNOWN_VERSIONS = ("1",)
 _HEAD_BYTES = 1 << 16
-#: pyarrow parses a block at a time: a few blocks are in memory at once, whatever the file's
-#: size (4 MiB: as fast as 16 MiB blocks on the corpus, a quarter of the parse buffers).
-_BLOCK_BYTES = 1 << 22
+#: pyarrow parses blocks of this size in parallel and holds a few at once, whatever the file's
+#: size. 1 MiB: fastest on the corpus's 41 MB logs and the smallest parse buffers (16 MiB
+#: blocks hold ~70 MB of buffers; docs/log-format.md, "Memory").
+_BLOCK_BYTES = 1 << 20
 #: Bytes read at a time when a file is scanned again for line numbers.
 _SCAN_BYTES = 1 << 20
 _UTF8_BOM = b"\xef\xbb\xbf"
@@ -152,6 +153,18 @@ class _Content:
                 if left is not None:
                     left -= len(chunk)
                 yield chunk
+
+    def tail(self) -> tuple[bytes, int] | None:
+        """The last `_HEAD_BYTES` bytes and the size of the whole, when they can be had without
+        reading the rest (bytes in memory, an uncompressed file); else None."""
+        if self.data is not None:
+            return self.data[-_HEAD_BYTES:], len(self.data)
+        if _codec(self.path) is not None:
+            return None
+        with _read_errors(self.path), pa.OSFile(str(self.path)) as stream:
+            size = stream.size()
+            stream.seek(max(size - _HEAD_BYTES, 0))
+            return stream.read(), size
 
     def is_blank(self) -> bool:
         """Nothing but blanks (or nothing) after a UTF-8 byte-order mark."""
@@ -613,6 +626,18 @@ class _HoldBackCutLine(io.RawIOBase):
             self._held = buffer[last + 1 :]
 
 
+def _cut_start(tail: bytes, size: int, header_start: int) -> int | None:
+    """Where a last data line without a line end starts (see `_HoldBackCutLine`), from the
+    content's last bytes `tail` and its `size`; -1 when the tail holds no line end at all."""
+    if not tail or tail.endswith((b"\n", b"\r")):
+        return None
+    last = max(tail.rfind(b"\n"), tail.rfind(b"\r"))
+    if last < 0 and len(tail) < size:
+        return -1  # a last line longer than the tail: let the stream find where it starts
+    start = size - len(tail) + last + 1
+    return start if tail[last + 1 :].strip() and start > header_start else None
+
+
 def _float_columns(pre: _Preamble, extra_columns: tuple[str, ...]) -> list[str]:
     wanted = {c.strip().lower() for c in extra_columns}
     out = []
@@ -648,19 +673,29 @@ def _read_columns(
     extra_columns: tuple[str, ...] = (),
     include_columns: list[str] | None = None,
 ) -> _Columns:
-    """Parse the data lines a block at a time; each block is reduced to numpy arrays of the
-    included columns before the next is parsed, and the arrays are joined at the end (the
-    file's bytes and pyarrow's parse buffers are never held whole)."""
+    """Parse the data lines into numpy arrays of the included columns.
+
+    pyarrow reads the file itself, in blocks of `_BLOCK_BYTES` parsed in parallel, so neither
+    the file's bytes nor more than a few blocks' parse buffers are held at once; its table
+    (the included columns only) is turned into numpy arrays a column at a time, each column
+    dropped from the table once copied, so at most one column is held twice.
+    """
     header_start = _line_start(head, pre.header_line)
-    chunks: dict[str, list[np.ndarray]] = {}
-    text: set[str] = set()
-    rows = 0
+    tail = content.tail()
+    cut_at = -1 if tail is None else _cut_start(*tail, header_start)
     with _read_errors(path):
         stream = content.open()
-    held_back = _HoldBackCutLine(stream, header_start)
+    held_back: _HoldBackCutLine | None = None
+    if cut_at is None:
+        source = stream  # pyarrow reads the file itself: no Python in the loop
+    elif cut_at >= 0 and content.data is not None:
+        source = pa.BufferReader(pa.py_buffer(content.data).slice(0, cut_at))
+    else:  # compressed, or cut: the stream is watched for a last line without a line end
+        held_back = _HoldBackCutLine(stream, header_start)
+        source = pa.PythonFile(held_back, mode="r")
     try:
-        with pacsv.open_csv(
-            pa.PythonFile(held_back, mode="r"),
+        table = pacsv.read_csv(
+            source,
             read_options=pacsv.ReadOptions(
                 skip_rows=pre.header_line + 1, column_names=pre.header, block_size=_BLOCK_BYTES
             ),
@@ -672,23 +707,18 @@ def _read_columns(
                 strings_can_be_null=False,
                 quoted_strings_can_be_null=False,
             ),
-        ) as reader:
-            names = reader.schema.names
-            for field_ in reader.schema:
-                if not pa.types.is_floating(field_.type) and not pa.types.is_integer(field_.type):
-                    text.add(field_.name)
-            chunks = {name: [] for name in names if name not in text}
-            for batch in reader:
-                rows += batch.num_rows
-                for name, kept in chunks.items():
-                    column = batch.column(name).to_numpy(zero_copy_only=False)
-                    kept.append(column.astype(np.float64, copy=False))
+        )
     except (OSError, pa.ArrowException) as exc:
-        lines = _LineMap(content, pre.header_line, held_back.cut_at)
-        if held_back.error is not None:
+        if held_back is not None:
+            cut_at = held_back.cut_at
+        read_error = held_back.error if held_back is not None else None
+        if read_error is None and held_back is None and not isinstance(exc, pa.ArrowInvalid):
+            read_error = exc  # the file itself (a disk error), not its text
+        if read_error is not None:
             with _read_errors(path):
-                raise held_back.error from None
+                raise read_error from None
         if isinstance(exc, pa.ArrowInvalid):
+            lines = _LineMap(content, pre.header_line, cut_at)
             raise _parse_error(path, pre, str(exc), lines) from None
         raise LogError(
             f"cannot parse the CSV ({str(exc)[:100]})",
@@ -697,24 +727,31 @@ def _read_columns(
         ) from None
     finally:
         stream.close()
-    lines = _LineMap(content, pre.header_line, held_back.cut_at)
-    if rows == 0:
+    if held_back is not None:
+        cut_at = held_back.cut_at
+    if table.num_rows == 0:
         raise LogError(
             "header only: no samples",
             file=path,
             where=f"line {pre.header_line + 1}",
             fix="the log holds no data; re-export it",
         )
+    names = table.column_names
+    numeric = (pa.types.is_floating, pa.types.is_integer)
+    text = {f.name for f in table.schema if not any(is_type(f.type) for is_type in numeric)}
     values = {}
-    for name in list(chunks):
-        # one column joined at a time, its pieces dropped before the next is joined
-        pieces = chunks.pop(name)
-        values[name] = pieces[0] if len(pieces) == 1 else np.concatenate(pieces)
-        del pieces
+    for name in names:
+        if name not in text:
+            pieces = [chunk.to_numpy(zero_copy_only=False) for chunk in table[name].chunks]
+            joined = np.concatenate(pieces) if len(pieces) > 1 else pieces[0].copy()
+            values[name] = joined.astype(np.float64, copy=False)
+            del pieces
+        table = table.drop_columns([name])  # its buffers go back to pyarrow's pool
+    del table
     # pyarrow's allocator keeps freed blocks for reuse; what follows (checks, segmentation)
     # allocates through numpy, so give them back
     pa.default_memory_pool().release_unused()
-    return _Columns(names, values, text, lines, held_back.cut_at)
+    return _Columns(names, values, text, _LineMap(content, pre.header_line, cut_at), cut_at)
 
 
 def _parse_error(path: Path, pre: _Preamble, message: str, lines: _LineMap) -> LogError:
