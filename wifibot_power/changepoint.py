@@ -156,19 +156,57 @@ def _centred_power_sum(r: int, length: np.ndarray) -> np.ndarray:
     raise ValueError(f"centred power sums are tabulated up to r = 6, not {r}")
 
 
+#: nonzero entries of G(L)⁻¹ per polynomial degree, each indexed by piece length L
+_GRAM_INVERSE: dict[int, dict[tuple[int, int], np.ndarray]] = {}
+
+
+def _gram_inverse(deg: int, max_len: int) -> dict[tuple[int, int], np.ndarray]:
+    """Entries (p, q) of G(L)⁻¹ for every piece length L = 0..(at least) max_len.
+
+    G(L)_pq = sum over the piece of x^(p+q), x = (k - c) / L, which is
+    `_centred_power_sum(p + q, L) / L^(p+q)`: zero for odd p + q, and so is (G⁻¹)_pq. In
+    this basis G is well conditioned (x in [-1/2, 1/2]; cond < 1e4 up to degree 3), so its
+    inverse is tabulated once per degree and looked up by length. Only the nonzero entries
+    (p + q even) are kept. Rows L <= deg (fewer points than coefficients) are NaN:
+    `best_split` never asks for them.
+    """
+    table = _GRAM_INVERSE.get(deg)
+    if table is not None and table[0, 0].size > max_len:
+        return table
+    size = max(2 * int(max_len) + 1, 4096)
+    m = deg + 1
+    length = np.arange(size, dtype=np.float64)
+    valid = length > deg
+    L = length[valid]
+    gram = np.empty((L.size, m, m))
+    for p in range(m):
+        for q in range(m):
+            gram[:, p, q] = _centred_power_sum(p + q, L) / L ** (p + q)
+    inverse = np.full((size, m, m), np.nan)
+    inverse[valid] = np.linalg.inv(gram)
+    table = {
+        (p, q): np.ascontiguousarray(inverse[:, p, q])
+        for p in range(m)
+        for q in range(m)
+        if (p + q) % 2 == 0
+    }
+    _GRAM_INVERSE[deg] = table
+    return table
+
+
 class _PolyCost:
     """Least-squares cost of polynomial pieces over [i, j) of a window, each in O(1).
 
     Each piece [i, j) is fitted in its own basis x = (k - c) / L, c = (i + j - 1) / 2 its
     centre and L = j - i its length, so x lies in [-1/2, 1/2]. Positions are integers, so
     the Gram matrix G_pq = sum x^(p+q) depends on L alone, in closed form
-    (`_centred_power_sum`): no prefix sums of x^p, no cancellation in G. It is zero where
-    p + q is odd, so the normal equations split into an even (x^0, x^2) and an odd (x^1,
-    x^3) system of at most 2 x 2, solved in closed form for every candidate at once
-    (SSE = sum y² - bᵀG⁻¹b, ordinary least squares). The right-hand sides b_p = sum x^p y
-    come from prefix sums of u^q y (u: the position centred on the window, scaled to
-    [-1/2, 1/2]) by the binomial expansion of (u - u_c)^p. y is centred on its window mean.
-    Degrees up to 3.
+    (`_centred_power_sum`), and its inverse is looked up by L (`_gram_inverse`): no prefix
+    sums of x^p, no cancellation in G, no per-candidate solve. Coefficients c = G⁻¹b and
+    SSE = sum y² - bᵀG⁻¹b (ordinary least squares), for every candidate at once in a fixed
+    number of numpy operations (powers by multiplication: `**` on arrays is slow). The
+    right-hand sides b_p = sum x^p y come from prefix sums of u^q y (u: the position
+    centred on the window, scaled to [-1/2, 1/2]) by the binomial expansion of
+    (u - u_c)^p. y is centred on its window mean. Degrees up to 3.
     """
 
     def __init__(self, y: np.ndarray, max_deg: int) -> None:
@@ -180,47 +218,47 @@ class _PolyCost:
         yc = y - self.offset
         self.scale = float(max(n, 1))
         u = (np.arange(n, dtype=np.float64) - (n - 1) / 2.0) / self.scale
-        term = yc
-        self.puy = [np.concatenate(([0.0], np.cumsum(term)))]
-        for _ in range(max_deg):
-            term = term * u
-            self.puy.append(np.concatenate(([0.0], np.cumsum(term))))
-        self.py2 = np.concatenate(([0.0], np.cumsum(yc * yc)))
+        terms = np.empty((max_deg + 2, n + 1))
+        terms[:, 0] = 0.0
+        terms[0, 1:] = yc
+        for q in range(1, max_deg + 1):
+            np.multiply(terms[q - 1, 1:], u, out=terms[q, 1:])
+        np.multiply(yc, yc, out=terms[-1, 1:])
+        np.cumsum(terms, axis=1, out=terms)
+        self.puy = list(terms[:-1])  # prefix sums of u^q y, q = 0..max_deg
+        self.py2 = terms[-1]  # prefix sums of y^2
 
-    def fit(self, i: np.ndarray, j: np.ndarray, deg: int) -> tuple[np.ndarray, np.ndarray]:
+    def fit(
+        self, i: np.ndarray | int, j: np.ndarray | int, deg: int
+    ) -> tuple[np.ndarray, np.ndarray]:
         """SSE and coefficients (in each piece's own x, see the class) of a degree-`deg`
-        fit over each [i, j)."""
-        i = np.atleast_1d(np.asarray(i, dtype=np.int64))
-        j = np.atleast_1d(np.asarray(j, dtype=np.int64))
-        length = (j - i).astype(np.float64)
-        u_c = ((i + j - 1) / 2.0 - (self.n - 1) / 2.0) / self.scale
-        ratio = self.scale / length  # x = (u - u_c) * ratio
-        sums = [p[j] - p[i] for p in self.puy[: deg + 1]]
-        rhs = []
-        for p in range(deg + 1):
-            # sum (u - u_c)^p y = sum_q C(p, q) (-u_c)^(p-q) sum u^q y
-            acc = sums[p].copy()
-            for q in range(p):
-                acc += math.comb(p, q) * (-u_c) ** (p - q) * sums[q]
-            rhs.append(acc * ratio**p)
-        gram = [_centred_power_sum(r, length) / length**r for r in range(2 * deg + 1)]
-        coef = [np.zeros_like(length) for _ in range(deg + 1)]
-        explained = np.zeros_like(length)
-        for first in (0, 1):  # the even, then the odd system
-            idx = list(range(first, deg + 1, 2))
-            if len(idx) == 1:
-                (p,) = idx
-                coef[p] = rhs[p] / gram[2 * p]
-            elif len(idx) == 2:
-                p, q = idx
-                a, b, d = gram[2 * p], gram[p + q], gram[2 * q]
-                det = a * d - b * b
-                coef[p] = (d * rhs[p] - b * rhs[q]) / det
-                coef[q] = (a * rhs[q] - b * rhs[p]) / det
-            for p in idx:
-                explained += coef[p] * rhs[p]
+        fit over each [i, j) (`i` or `j` may be one int): shapes (N,) and (N, deg + 1)."""
+        i = np.asarray(i, dtype=np.int64)
+        j = np.asarray(j, dtype=np.int64)
+        m = deg + 1
+        length = np.atleast_1d(j - i)
+        sums = [self.puy[q][j] - self.puy[q][i] for q in range(m)]  # sum u^q y per piece
+        rhs = [sums[0]]
+        if m > 1:
+            # x = (u - u_c) scale / L: b_p = (scale/L)^p sum_q C(p,q) (-u_c)^(p-q) sum u^q y
+            shift = ((self.n - i - j) * 0.5) / self.scale  # -u_c
+            ratio = self.scale / length
+            shift_pow = [None, shift]
+            ratio_pow = [None, ratio]
+            for _ in range(2, m):
+                shift_pow.append(shift_pow[-1] * shift)
+                ratio_pow.append(ratio_pow[-1] * ratio)
+            for p in range(1, m):
+                acc = sums[p] + sum(math.comb(p, q) * shift_pow[p - q] * sums[q] for q in range(p))
+                rhs.append(acc * ratio_pow[p])
+        inverse = _gram_inverse(deg, int(length.max()))
+        coef = np.empty((length.size, m))
+        explained = np.zeros(length.size)
+        for p in range(m):
+            coef[:, p] = sum(inverse[p, q][length] * rhs[q] for q in range(p % 2, m, 2))
+            explained += coef[:, p] * rhs[p]
         sse = (self.py2[j] - self.py2[i]) - explained
-        return np.maximum(sse, 0.0), np.stack(coef, axis=-1)
+        return np.maximum(sse, 0.0), coef
 
     def value(self, coef: np.ndarray, x: float) -> float:
         """The piece at x (its own basis: -1/2 at its first sample's start edge, +1/2 at its
@@ -254,17 +292,19 @@ def best_split(
     cost = _PolyCost(window, max(deg_left, deg_right))
     n = window.size
     splits = np.arange(min_len, n - min_len + 1)
-    sse_left, coef_left = cost.fit(np.zeros_like(splits), splits, deg_left)
-    sse_right, coef_right = cost.fit(splits, np.full_like(splits, n), deg_right)
+    sse_left, coef_left = cost.fit(0, splits, deg_left)
+    sse_right, coef_right = cost.fit(splits, n, deg_right)
     total = sse_left + sse_right
-    # the split's edge is x = +1/2 of the left piece and x = -1/2 of the right one
-    left_end = coef_left @ 0.5 ** np.arange(deg_left + 1)
-    right_start = coef_right @ (-0.5) ** np.arange(deg_right + 1)
-    if jump_sign and np.any(np.sign(right_start - left_end) * jump_sign >= 0):
-        total = np.where(np.sign(right_start - left_end) * jump_sign >= 0, total, np.inf)
+    if jump_sign:
+        # the split's edge is x = +1/2 of the left piece and x = -1/2 of the right one
+        left_end = coef_left @ 0.5 ** np.arange(deg_left + 1)
+        right_start = coef_right @ (-0.5) ** np.arange(deg_right + 1)
+        allowed = np.sign(right_start - left_end) * jump_sign >= 0
+        if allowed.any():
+            total = np.where(allowed, total, np.inf)
     best = int(np.argmin(total))
     k = int(splits[best])
-    sse_one, _ = cost.fit(np.array([0]), np.array([n]), max(deg_left, deg_right))
+    sse_one, _ = cost.fit(0, n, max(deg_left, deg_right))
     return Split(
         index=lo + k,
         sse=float(total[best]),
@@ -282,7 +322,7 @@ def piece_sse(y: np.ndarray, deg: int) -> float:
     if y.size <= deg + 1:
         return 0.0
     cost = _PolyCost(y, deg)
-    sse, _ = cost.fit(np.array([0]), np.array([y.size]), deg)
+    sse, _ = cost.fit(0, y.size, deg)
     return float(sse[0])
 
 
