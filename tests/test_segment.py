@@ -19,6 +19,7 @@ from typer.testing import CliRunner
 
 from wifibot_power.changepoint import (
     LevelParams,
+    _centred_power_sum,
     best_split,
     block_means,
     detect_levels,
@@ -84,8 +85,8 @@ def _brute_best_split(y: np.ndarray, deg_left: int, deg_right: int, min_len: int
 @settings(max_examples=60, deadline=None)
 @given(
     values=st.lists(st.floats(-50, 50, allow_nan=False), min_size=16, max_size=40),
-    deg_left=st.integers(0, 2),
-    deg_right=st.integers(0, 2),
+    deg_left=st.integers(0, 3),
+    deg_right=st.integers(0, 3),
 )
 def test_best_split_is_the_least_squares_split(
     values: list[float], deg_left: int, deg_right: int
@@ -96,6 +97,37 @@ def test_best_split_is_the_least_squares_split(
     brute = _brute_best_split(y, deg_left, deg_right, 5)
     # same optimum up to float error on sums of ~40 squares of values up to ~75
     assert split.sse == pytest.approx(brute, rel=1e-6, abs=1e-6)
+
+
+def test_centred_power_sums_by_hand() -> None:
+    # L = 3: positions -1, 0, 1: every even power sums to 2, odd ones to 0
+    assert_allclose(
+        [_centred_power_sum(r, np.array([3.0]))[0] for r in range(7)], [3, 0, 2, 0, 2, 0, 2]
+    )
+    # L = 4: positions +-0.5, +-1.5: r = 2: 2 (0.25 + 2.25) = 5; r = 4: 2 (0.0625 + 5.0625)
+    # = 10.25; r = 6: 2 (0.015625 + 11.390625) = 22.8125
+    assert_allclose(
+        [_centred_power_sum(r, np.array([4.0]))[0] for r in (2, 4, 6)], [5.0, 10.25, 22.8125]
+    )
+
+
+def test_best_split_long_window_exact_pieces() -> None:
+    # 2000 blocks, noise-free: a cubic (a wavy cruise) over [0, 1234), then flat idle 23.3 W.
+    # The least-squares split is exact (SSE 0 there, > 0 elsewhere), and both pieces are
+    # recovered at the boundary k = 1233.5 in a window long enough to stress conditioning.
+    k = np.arange(2000, dtype=np.float64)
+
+    def cubic(x):
+        return 25.0 + 3e-3 * x - 2e-6 * x**2 + 1e-9 * x**3
+
+    y = np.where(k < 1234, cubic(k), 23.3)
+    split = best_split(y, 0, y.size, 3, 0, 5)
+    assert split is not None and split.index == 1234
+    # cubic(1233.5) = 25 + 3.7005 - 3.04304 + 1.87680 = 27.53425 W (by hand); the pieces
+    # are exact, so only float error on sums of ~2000 terms is left: 1e-6 W
+    assert split.left_end_W == pytest.approx(cubic(1233.5), abs=1e-6)
+    assert split.right_start_W == pytest.approx(23.3, abs=1e-6)
+    assert split.sse == pytest.approx(0.0, abs=1e-6)
 
 
 def test_best_split_sign_constraint() -> None:
