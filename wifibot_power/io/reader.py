@@ -577,7 +577,7 @@ class _HoldBackCutLine(io.RawIOBase):
         super().__init__()
         self._stream = stream
         self._header_start = header_start
-        self._ready = bytearray()  # bytes that can be handed out
+        self._ready = b""  # bytes that can be handed out
         self._held = b""  # the bytes after the last line end seen
         self._consumed = 0  # bytes taken from `stream`
         self._ended = False
@@ -589,11 +589,13 @@ class _HoldBackCutLine(io.RawIOBase):
         return True
 
     def read(self, size: int | None = -1) -> bytes:
+        if size == 0:
+            return b""
         want = _BLOCK_BYTES if size is None or size < 0 else size
-        while len(self._ready) < want and not self._ended:
-            self._pull(want)
-        out = bytes(self._ready[:want])
-        del self._ready[:want]
+        while not self._ready and not self._ended:
+            # what is held and what is read fit in `want`: handed out whole, not re-cut
+            self._pull(max(want - len(self._held), 1))
+        out, self._ready = self._ready[:want], self._ready[want:]
         return out
 
     def readinto(self, buffer: memoryview) -> int:  # pragma: no cover - pyarrow calls read()
@@ -620,7 +622,7 @@ class _HoldBackCutLine(io.RawIOBase):
         buffer = self._held + chunk
         last = max(buffer.rfind(b"\n"), buffer.rfind(b"\r"))
         if last < 0:
-            self._held = buffer
+            self._held = buffer  # a line longer than `size`: read on until it ends
         else:
             self._ready += buffer[: last + 1]
             self._held = buffer[last + 1 :]
@@ -717,6 +719,8 @@ def _read_columns(
         if read_error is not None:
             with _read_errors(path):
                 raise read_error from None
+        if "Could not skip initial" in str(exc):  # the header is the last line, unended
+            raise _header_only(path, pre) from None
         if isinstance(exc, pa.ArrowInvalid):
             lines = _LineMap(content, pre.header_line, cut_at)
             raise _parse_error(path, pre, str(exc), lines) from None
@@ -730,12 +734,7 @@ def _read_columns(
     if held_back is not None:
         cut_at = held_back.cut_at
     if table.num_rows == 0:
-        raise LogError(
-            "header only: no samples",
-            file=path,
-            where=f"line {pre.header_line + 1}",
-            fix="the log holds no data; re-export it",
-        )
+        raise _header_only(path, pre)
     names = table.column_names
     numeric = (pa.types.is_floating, pa.types.is_integer)
     text = {f.name for f in table.schema if not any(is_type(f.type) for is_type in numeric)}
@@ -752,6 +751,15 @@ def _read_columns(
     # allocates through numpy, so give them back
     pa.default_memory_pool().release_unused()
     return _Columns(names, values, text, _LineMap(content, pre.header_line, cut_at), cut_at)
+
+
+def _header_only(path: Path, pre: _Preamble) -> LogError:
+    return LogError(
+        "header only: no samples",
+        file=path,
+        where=f"line {pre.header_line + 1}",
+        fix="the log holds no data; re-export it",
+    )
 
 
 def _parse_error(path: Path, pre: _Preamble, message: str, lines: _LineMap) -> LogError:

@@ -67,9 +67,11 @@ def check_samples(
 def _check_time(
     file: str, time_s: np.ndarray, line_of: Callable[[int], int], default_period_s: float
 ) -> tuple[float, list[Problem]]:
-    bad = ~np.isfinite(time_s)
-    if bad.any():
-        index = int(np.argmax(bad))
+    if not time_s.size:
+        return default_period_s, []
+    # min/max first: on a clean log (the usual case) no full-size mask is made
+    if not (np.isfinite(time_s.min()) and np.isfinite(time_s.max())):
+        index = int(np.argmax(~np.isfinite(time_s)))
         raise LogError(
             "time is missing, NaN or inf",
             file=file,
@@ -79,9 +81,8 @@ def _check_time(
     if time_s.size < 2:
         return default_period_s, []
     step_s = np.diff(time_s)
-    nonpositive = step_s <= 0
-    if nonpositive.any():
-        index = int(np.argmax(nonpositive))
+    if step_s.min() <= 0:
+        index = int(np.argmax(step_s <= 0))
         what = "is duplicated" if step_s[index] == 0 else "goes backwards"
         raise LogError(
             f"time {what} (t = {time_s[index + 1]:.7g} s after {time_s[index]:.7g} s)",
@@ -89,14 +90,16 @@ def _check_time(
             where=f"line {line_of(index + 1)}",
             fix="the log is out of order or two logs were joined; sort or split it",
         )
-    # time stamps carry far fewer than 10 significant digits: drop the float noise of the diff
-    period_s = float(f"{float(np.median(step_s)):.10g}")
+    # time stamps carry far fewer than 10 significant digits: drop the float noise of the diff;
+    # the median sorts `step_s` in place (no second full-size copy), so gaps use a fresh diff
+    period_s = float(f"{float(np.median(step_s, overwrite_input=True)):.10g}")
+    del step_s
     if abs(period_s - default_period_s) <= 1e-6 * default_period_s:
         period_s = default_period_s  # the stated period, not its float-rounded echo
-    gaps = np.flatnonzero(step_s > GAP_FACTOR * period_s)
+    gaps = np.flatnonzero(np.diff(time_s) > GAP_FACTOR * period_s)
     if not gaps.size:
         return period_s, []
-    missing_s = step_s[gaps] - period_s
+    missing_s = (time_s[gaps + 1] - time_s[gaps]) - period_s
     longest = int(np.argmax(missing_s))
     span_s = float(time_s[-1] - time_s[0]) + period_s
     missing_pct = 100.0 * float(missing_s.sum()) / (span_s if span_s > 0 else 1.0)
@@ -127,27 +130,28 @@ def _check_time(
 
 
 def _check_power(file: str, power_W: np.ndarray, line_of: Callable[[int], int]) -> None:
-    finite = np.isfinite(power_W)
-    if not finite.all():
-        index = int(np.argmax(~finite))
+    if not power_W.size:
+        return
+    # min/max first: on a clean log (the usual case) no full-size mask is made
+    low_W, high_W = power_W.min(), power_W.max()
+    if not (np.isfinite(low_W) and np.isfinite(high_W)):
+        index = int(np.argmax(~np.isfinite(power_W)))
         raise LogError(
             f"power is missing, NaN or inf ({power_W[index]})",
             file=file,
             where=f"line {line_of(index)}",
             fix="fix or delete that line",
         )
-    negative = power_W < NEGATIVE_POWER_W
-    if negative.any():
-        index = int(np.argmax(negative))
+    if low_W < NEGATIVE_POWER_W:
+        index = int(np.argmax(power_W < NEGATIVE_POWER_W))
         raise LogError(
             f"negative power ({power_W[index]:.4g} W)",
             file=file,
             where=f"line {line_of(index)}",
             fix="check the current sign and the columns used (--current-column/--voltage-column)",
         )
-    absurd = power_W > ABSURD_POWER_W
-    if absurd.any():
-        index = int(np.argmax(absurd))
+    if high_W > ABSURD_POWER_W:
+        index = int(np.argmax(power_W > ABSURD_POWER_W))
         raise LogError(
             f"absurd power ({power_W[index]:.4g} W, over {ABSURD_POWER_W:g} W)",
             file=file,
@@ -169,7 +173,9 @@ def _check_saturation(
         return []
     peak = values.max()
     at_peak = values == peak
-    if at_peak.sum() < SATURATION_SAMPLES or not peak > SATURATION_ABOVE_MEDIAN * np.median(values):
+    if np.count_nonzero(at_peak) < SATURATION_SAMPLES:
+        return []
+    if not peak > SATURATION_ABOVE_MEDIAN * np.median(values):
         return []
     if np.mean(np.diff(values[~at_peak]) == 0) > QUANTISED_SHARE:
         return []  # noise-free or coarsely quantised: a flat top is a level, not clipping
