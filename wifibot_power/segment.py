@@ -417,16 +417,22 @@ def _wavy(y: np.ndarray, sigma_b: float, t1: int, t3: int, group: int) -> bool:
     means = block_means(y[t1 + 2 : t3 - 2], group)
     if means.size < 10:
         return False
-    x = np.arange(means.size, dtype=np.float64)
-    residual = means - np.polyval(np.polyfit(x, means, 1), x)
+    slope, intercept = _line(means)
+    residual = means - (intercept + slope * np.arange(means.size, dtype=np.float64))
     return float(np.std(residual)) > max(3.0 * sigma_b / np.sqrt(group), 0.1)
 
 
 def _line(y: np.ndarray) -> tuple[float, float]:
-    """Least-squares slope (per block) and intercept (at the first block)."""
-    x = np.arange(y.size, dtype=np.float64)
-    slope, intercept = np.polyfit(x, y, 1)
-    return float(slope), float(intercept)
+    """Least-squares slope (per block) and intercept (at the first block), closed form:
+    slope = sum (x - x̄)(y - ȳ) / S_xx with x = 0..n-1, x̄ = (n-1)/2, S_xx = n (n² - 1) / 12
+    (what `numpy.polyfit(x, y, 1)` returns, without its general least-squares solve)."""
+    n = y.size
+    mean_W = float(np.mean(y))
+    if n < 2:
+        return 0.0, mean_W
+    x_centred = np.arange(n, dtype=np.float64) - (n - 1) / 2.0
+    slope = float(x_centred @ (y - mean_W)) / (n * (n * n - 1) / 12.0)
+    return slope, mean_W - slope * (n - 1) / 2.0
 
 
 def _start_spikes(
@@ -442,7 +448,8 @@ def _start_spikes(
             continue
         tail = seg[seg.size // 2 :]
         x = np.arange(seg.size, dtype=np.float64)
-        slope, intercept = np.polyfit(x[seg.size // 2 :], tail, 1)
+        slope, tail_intercept = _line(tail)
+        intercept = tail_intercept - slope * (seg.size // 2)  # the line at x = 0
         excess = seg - (intercept + slope * x)
         out = excess > 6.0 * sigma_b + 0.5
         if not out[0]:
@@ -472,7 +479,8 @@ def _time_at(run: Run, index: int) -> float:
 
 def _phase(run: Run, step: int, name: str, i_start: int, i_end: int) -> Phase:
     power = run.power_W[i_start:i_end]
-    energy = float(np.sum(power, dtype=np.float64) * run.sample_period_s)
+    total_W = np.sum(power, dtype=np.float64)  # one pass: the mean is the same sum / n
+    energy = float(total_W * run.sample_period_s)
     return Phase(
         step=step,
         phase=name,
@@ -480,7 +488,7 @@ def _phase(run: Run, step: int, name: str, i_start: int, i_end: int) -> Phase:
         i_end=i_end,
         t_start_s=_time_at(run, i_start),
         t_end_s=_time_at(run, i_end),
-        mean_power_W=float(power.mean()),
+        mean_power_W=float(total_W / power.size),
         energy_J=energy,
     )
 
