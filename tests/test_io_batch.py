@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import gzip
 import json
 import shutil
 from pathlib import Path
@@ -11,7 +12,7 @@ import pytest
 
 from wifibot_power.errors import LogError
 from wifibot_power.io import ReadOptions
-from wifibot_power.io.batch import map_runs
+from wifibot_power.io.batch import map_runs, reporting_problems
 
 SAMPLE_LOGS = Path(__file__).resolve().parents[1] / "sample_logs"
 GOOD = [
@@ -77,3 +78,93 @@ def test_single_file_failure_raises_for_exit_2(tmp_path):
     path.write_text("")
     with pytest.raises(LogError, match="the file is empty"):
         map_runs([path], ReadOptions(), lambda run: run)
+
+
+# -- problems found while reading (gaps, clipping, a cut line): said by every batch command ---
+
+GAP_LOG = "v0.30_d2_s1_r1"
+DROPPED_ROWS = slice(5000, 5003)  # 3 rows of the 1.024 ms sample log: a 3.072 ms gap
+
+
+@pytest.fixture
+def folder_with_a_gap(tmp_path) -> tuple[Path, Path, str]:
+    """The good sample logs, one rewritten with a time column and 3 rows dropped. Returns the
+    folder, the gap log and the warning every command must print for it (worked out here)."""
+    if not all((SAMPLE_LOGS / f"{name}.csv.gz").is_file() for name in GOOD):
+        pytest.skip("sample_logs/ is not there (made by 'make sample-logs')")
+    for name in GOOD:
+        if name != GAP_LOG:
+            shutil.copy(SAMPLE_LOGS / f"{name}.csv.gz", tmp_path)
+    lines = gzip.decompress((SAMPLE_LOGS / f"{GAP_LOG}.csv.gz").read_bytes()).decode().splitlines()
+    metadata = [ln for ln in lines if ln.startswith("#")]
+    power_W = [ln for ln in lines if not ln.startswith("#")][1:]  # below the power_W header
+    period_s = 0.001024
+    rows = [f"{k * period_s:.7f},{p}" for k, p in enumerate(power_W)]
+    del rows[DROPPED_ROWS]
+    path = tmp_path / f"{GAP_LOG}.csv"
+    path.write_text("\n".join([*metadata, "time_s,power_W", *rows]) + "\n")
+    # the header is line len(metadata) + 1; row k (after the cut) is on line len(metadata) + 2 + k.
+    # The row after the gap is row 5000, its time 5003 x 1.024 ms; the one before, 4999 x 1.024 ms.
+    line = len(metadata) + 2 + 5000
+    warning = (
+        f"wbpower: warning: {path}: line {line}: 3.072 ms of samples dropped after "
+        f"t = {4999 * period_s:.6g} s"
+    )
+    return tmp_path, path, warning
+
+
+def test_map_runs_hands_problems_to_the_calling_process(folder_with_a_gap):
+    folder, gap_log, _ = folder_with_a_gap
+    said: list[tuple[str, tuple]] = []
+    for jobs in (1, 2):  # 2: read in forked workers, said here
+        said.clear()
+        results, skipped = map_runs(
+            [folder],
+            ReadOptions(),
+            lambda run: run.meta.run_id,
+            jobs=jobs,
+            on_problems=lambda file, problems: said.append((file, problems)),
+        )
+        assert len(results) == len(GOOD) and not skipped
+        ((file, (gap,)),) = said
+        assert file == str(gap_log)
+        assert gap.kind == "gap"
+        assert gap.duration_s == pytest.approx(3 * 0.001024, rel=1e-9)  # 3 dropped samples
+
+
+def test_reporting_problems_reaches_a_batch_run_by_a_library_call(folder_with_a_gap):
+    folder, gap_log, _ = folder_with_a_gap
+    said: list[str] = []
+    with reporting_problems(lambda file, problems: said.append(file)):
+        map_runs([folder], ReadOptions(), lambda run: None)
+    map_runs([folder], ReadOptions(), lambda run: None)  # outside the block: nobody is told
+    assert said == [str(gap_log)]
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("fit", "--jobs", "1"),
+        ("fit", "--jobs", "2"),
+        ("diagnose",),
+        ("segment",),  # one file: the gap log itself
+        ("inspect",),  # already said it; must still say it once
+    ],
+)
+def test_every_command_warns_about_reading_problems(folder_with_a_gap, wbpower, args):
+    folder, gap_log, warning = folder_with_a_gap
+    target = gap_log if args[0] == "segment" else folder
+    result = wbpower(*args, target)
+    assert result.exit_code == 0, result.stderr
+    warnings = [ln for ln in result.stderr.splitlines() if ln.startswith("wbpower: warning:")]
+    assert warnings.count(warning) == 1, result.stderr
+    assert all(str(gap_log) in ln for ln in warnings if "samples dropped" in ln)
+
+
+def test_fit_from_the_cache_still_warns(folder_with_a_gap, wbpower, tmp_path_factory):
+    folder, _, warning = folder_with_a_gap
+    cache = tmp_path_factory.mktemp("cache")
+    for _ in range(2):  # filling the cache, then every result taken from it
+        result = wbpower("fit", "--cache", cache, folder)
+        assert result.exit_code == 0, result.stderr
+        assert result.stderr.splitlines().count(warning) == 1, result.stderr

@@ -25,6 +25,7 @@ from wifibot_power.cache import ParseCache
 from wifibot_power.errors import WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
 from wifibot_power.outputs import json_safe
+from wifibot_power.run import Problem
 
 EXIT_OK = 0
 EXIT_SKIPPED = 1
@@ -112,6 +113,13 @@ def fail(message: str, code: int = EXIT_USAGE) -> None:
 
 def warn(message: str) -> None:
     print(f"wbpower: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
+def warn_problems(file: str, problems: tuple[Problem, ...]) -> None:
+    """What reading a log found but did not stop it (gaps, clipping, a cut last line): one
+    warning line each on stderr, naming the file (as `inspect` prints them)."""
+    for problem in problems:
+        warn(f"{file}: {problem.message}")
 
 
 def print_json(data: object) -> None:

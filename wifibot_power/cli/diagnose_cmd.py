@@ -26,7 +26,9 @@ from wifibot_power.cli.common import (
     read_options,
     report_skipped,
     stdout,
+    warn_problems,
 )
+from wifibot_power.io.batch import reporting_problems
 
 if TYPE_CHECKING:
     from wifibot_power.diagnose import Diagnosis
@@ -134,7 +136,8 @@ def diagnose_command(
     from wifibot_power.diagnose import diagnose_logs, write_diagnosis
 
     options = read_options(supply_voltage, current_column, voltage_column, sample_period)
-    result = diagnose_logs(paths, options, wrap=lambda s: progress(s, "diagnosing"), jobs=jobs)
+    with reporting_problems(warn_problems):
+        result = diagnose_logs(paths, options, wrap=lambda s: progress(s, "diagnosing"), jobs=jobs)
     if out is not None:
         write_diagnosis(result, out)
     if json_out:

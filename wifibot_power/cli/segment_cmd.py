@@ -20,6 +20,7 @@ from wifibot_power.cli.common import (
     print_json,
     read_options,
     stdout,
+    warn_problems,
 )
 
 
@@ -39,6 +40,7 @@ def segment_command(
     from wifibot_power.segment import segment_file  # its numerics load only when used
 
     run, segmentation = segment_file(path, options)
+    warn_problems(run.file, run.problems)
     if json_out:
         print_json(
             {

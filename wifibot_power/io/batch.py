@@ -1,8 +1,17 @@
-"""Reading many logs: every good file is processed, each bad one is listed with its reason."""
+"""Reading many logs: every good file is processed, each bad one is listed with its reason.
+
+What a log's reading found odd but did not stop (a gap, a clipped stretch, a cut last line:
+`Run.problems`) comes back from the workers with each result, so the calling process can say
+it (`on_problems`, or `reporting_problems` around a library call that runs a batch).
+"""
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
@@ -11,12 +20,31 @@ from wifibot_power.io.discover import LogSource, Skipped, find_logs
 from wifibot_power.io.manifest import is_manifest
 from wifibot_power.io.reader import ReadOptions, read_log
 from wifibot_power.parallel import map_ordered
-from wifibot_power.run import Run
+from wifibot_power.run import Problem, Run
 
 if TYPE_CHECKING:
+    import pyarrow as pa
+
     from wifibot_power.cache import ParseCache, ResultMemo
 
 T = TypeVar("T")
+
+#: `hook(file, problems)`: called in the calling process for each log read with problems.
+ProblemHook = Callable[[str, tuple[Problem, ...]], None]
+_PROBLEM_HOOK: ContextVar[ProblemHook | None] = ContextVar("wbpower_problem_hook", default=None)
+_PROBLEMS_KEY = b"wbpower.problems"
+
+
+@contextmanager
+def reporting_problems(hook: ProblemHook) -> Iterator[None]:
+    """Within the block, every `map_runs` not given its own `on_problems` calls `hook(file,
+    problems)` for each log read with problems: for a command that runs a batch through a
+    library function (`fit_logs`, `diagnose_logs`) and should say what reading found."""
+    token = _PROBLEM_HOOK.set(hook)
+    try:
+        yield
+    finally:
+        _PROBLEM_HOOK.reset(token)
 
 
 def is_single_input(paths: list[Path]) -> bool:
@@ -34,6 +62,7 @@ def map_runs(
     jobs: int | None = 1,
     cache: ParseCache | None = None,
     memo: ResultMemo[T] | None = None,
+    on_problems: ProblemHook | None = None,
 ) -> tuple[list[T], list[Skipped]]:
     """Read each log under `paths` and apply `work` to it, one file in memory at a time per
     worker; results in the order of the logs.
@@ -45,9 +74,15 @@ def map_runs(
     `wrap(sources)` is a progress hook: an iterator over the sources, advanced as each file
     is done; if it has a `done(source)` method, that is called instead with the file done.
 
+    `on_problems(file, problems)` is called in this process, in the order of the logs, for
+    each log read with problems (`Run.problems`: gaps, clipped stretches, a cut last line),
+    after all are done; without it, the hook of an enclosing `reporting_problems` is.
+    Problems come back from workers and from the cache too.
+
     A single named file that fails raises (exit 2); in a batch the failure is recorded in
     the returned `Skipped` list and the rest goes on (exit 1).
     """
+    on_problems = on_problems or _PROBLEM_HOOK.get()
     sources, skipped = find_logs([Path(p) for p in paths])
     if not sources and not skipped:
         raise LogError(
@@ -57,7 +92,10 @@ def map_runs(
         )
     single = is_single_input([Path(p) for p in paths])
 
-    def one(source: LogSource) -> tuple[bool, T | Skipped]:
+    def with_problems(run: Run) -> tuple[tuple[Problem, ...], T]:
+        return run.problems, work(run)
+
+    def one(source: LogSource) -> tuple[bool, tuple[tuple[Problem, ...], T] | Skipped]:
         try:
             if cache is not None:
                 return True, cache.process(
@@ -65,11 +103,11 @@ def map_runs(
                     options,
                     source.overrides,
                     origin=source.origin,
-                    work=work,
-                    memo=memo,
+                    work=with_problems,
+                    memo=_keeping_problems(memo) if memo is not None else None,
                 )
             run = read_log(source.path, options, source.overrides, origin=source.origin)
-            return True, work(run)
+            return True, with_problems(run)
         except WbpowerError as exc:
             exc.with_file(source.path)
             if single:
@@ -100,12 +138,35 @@ def map_runs(
         if close is not None:
             close()
     results: list[T] = []
-    for ok, value in outcomes:
+    for source, (ok, value) in zip(sources, outcomes, strict=True):
         if ok:
-            results.append(value)  # type: ignore[arg-type]
+            problems, result = value  # type: ignore[misc]
+            results.append(result)
+            if problems and on_problems is not None:
+                on_problems(str(source.path), problems)
         else:
             skipped.append(value)  # type: ignore[arg-type]
     return results, skipped
+
+
+def _keeping_problems(memo: ResultMemo[T]) -> ResultMemo[tuple[tuple[Problem, ...], T]]:
+    """`memo`, keeping the run's problems beside its result (in the table's metadata), so a
+    result taken from the cache still says what reading the log found."""
+    from wifibot_power.cache import ResultMemo
+
+    def to_table(kept: tuple[tuple[Problem, ...], T]) -> pa.Table:
+        problems, result = kept
+        table = memo.to_table(result)
+        listed = json.dumps([dataclasses.asdict(p) for p in problems]).encode()
+        return table.replace_schema_metadata(
+            {**(table.schema.metadata or {}), _PROBLEMS_KEY: listed}
+        )
+
+    def from_table(table: pa.Table) -> tuple[tuple[Problem, ...], T]:
+        listed = json.loads((table.schema.metadata or {})[_PROBLEMS_KEY])  # KeyError: a miss
+        return tuple(Problem(**p) for p in listed), memo.from_table(table)
+
+    return ResultMemo(key=f"{memo.key} +problems", to_table=to_table, from_table=from_table)
 
 
 def _size_bytes(source: LogSource) -> int:
