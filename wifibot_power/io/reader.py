@@ -739,17 +739,19 @@ def _read_columns(
     numeric = (pa.types.is_floating, pa.types.is_integer)
     text = {f.name for f in table.schema if not any(is_type(f.type) for is_type in numeric)}
     values = {}
+    pool = pa.default_memory_pool()
     for name in names:
         if name not in text:
             pieces = [chunk.to_numpy(zero_copy_only=False) for chunk in table[name].chunks]
             joined = np.concatenate(pieces) if len(pieces) > 1 else pieces[0].copy()
             values[name] = joined.astype(np.float64, copy=False)
             del pieces
-        table = table.drop_columns([name])  # its buffers go back to pyarrow's pool
+        table = table.drop_columns([name])
+        # pyarrow's allocator keeps freed blocks for its own reuse; the copies (and what
+        # follows: checks, segmentation) allocate through numpy, so give each column back
+        # before the next is copied: at most one column is held twice
+        pool.release_unused()
     del table
-    # pyarrow's allocator keeps freed blocks for reuse; what follows (checks, segmentation)
-    # allocates through numpy, so give them back
-    pa.default_memory_pool().release_unused()
     return _Columns(names, values, text, _LineMap(content, pre.header_line, cut_at), cut_at)
 
 
