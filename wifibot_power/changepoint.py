@@ -40,15 +40,17 @@ MAD_TO_SIGMA = 1.4826
 def block_means(values: np.ndarray, block: int) -> np.ndarray:
     """Means of consecutive blocks of `block` samples; a partial last block is dropped.
 
-    A matrix-vector product with a vector of 1/block: ~10x faster than `.mean(axis=1)`,
-    whose reduction over a short inner axis costs per row (equal to it within a few ulp).
+    Row sums by `numpy.einsum` (its own SIMD loop): ~4x faster than `.mean(axis=1)`, whose
+    reduction over a short inner axis costs per row (equal to it within a few ulp). Not a
+    matrix product: BLAS threads spin and steal the CPU from the rest of segmentation on a
+    busy machine.
     """
     values = np.asarray(values, dtype=np.float64)
     block = max(1, int(block))
     n_blocks = values.size // block
     if block == 1:
         return values.copy()
-    return values[: n_blocks * block].reshape(n_blocks, block) @ np.full(block, 1.0 / block)
+    return np.einsum("ij->i", values[: n_blocks * block].reshape(n_blocks, block)) / block
 
 
 def robust_sigma_W(y: np.ndarray) -> float:
@@ -303,8 +305,9 @@ def best_split(
     total = sse_left + sse_right
     if jump_sign:
         # the split's edge is x = +1/2 of the left piece and x = -1/2 of the right one
-        left_end = coef_left @ 0.5 ** np.arange(deg_left + 1)
-        right_start = coef_right @ (-0.5) ** np.arange(deg_right + 1)
+        # (einsum, not @: no BLAS threads, see `block_means`)
+        left_end = np.einsum("np,p->n", coef_left, 0.5 ** np.arange(deg_left + 1))
+        right_start = np.einsum("np,p->n", coef_right, (-0.5) ** np.arange(deg_right + 1))
         allowed = np.sign(right_start - left_end) * jump_sign >= 0
         if allowed.any():
             total = np.where(allowed, total, np.inf)
