@@ -1,8 +1,8 @@
 """Read one log (canonical wbpower CSV or Keysight N6705 datalog) into a `Run`.
 
-Parsing goes through pyarrow's streaming CSV reader, block by block, straight from the
-file (decompressed on the fly for .gz/.zst): the file's bytes are never held whole, and
-each block is reduced to the numeric columns used before the next is read, so memory
+Parsing goes through pyarrow's CSV reader, reading the file itself in 1 MiB blocks parsed in
+parallel (decompressed on the fly for .gz/.zst): the file's bytes are never held whole, only
+the numeric columns used are kept, and they are copied to numpy a column at a time, so memory
 follows the columns kept, not the file (docs/log-format.md, "Memory"). Per-sample work is
 vectorised. The preamble (metadata lines, N6705 header, the first data lines) is parsed in
 Python from the first 64 KiB: it is a handful of lines. Line numbers for messages are
