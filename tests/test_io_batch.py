@@ -12,7 +12,7 @@ import pytest
 
 from wifibot_power.errors import LogError
 from wifibot_power.io import ReadOptions
-from wifibot_power.io.batch import map_runs, reporting_problems
+from wifibot_power.io.batch import map_runs
 
 SAMPLE_LOGS = Path(__file__).resolve().parents[1] / "sample_logs"
 GOOD = [
@@ -132,12 +132,13 @@ def test_map_runs_hands_problems_to_the_calling_process(folder_with_a_gap):
         assert gap.duration_s == pytest.approx(3 * 0.001024, rel=1e-9)  # 3 dropped samples
 
 
-def test_reporting_problems_reaches_a_batch_run_by_a_library_call(folder_with_a_gap):
+def test_library_batches_pass_problems_to_their_caller(folder_with_a_gap):
+    import wifibot_power as wb
+
     folder, gap_log, _ = folder_with_a_gap
     said: list[str] = []
-    with reporting_problems(lambda file, problems: said.append(file)):
-        map_runs([folder], ReadOptions(), lambda run: None)
-    map_runs([folder], ReadOptions(), lambda run: None)  # outside the block: nobody is told
+    wb.fit_logs([folder], on_problems=lambda file, problems: said.append(file))
+    wb.fit_logs([folder])  # no hook: nobody is told, nothing fails
     assert said == [str(gap_log)]
 
 

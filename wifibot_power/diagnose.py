@@ -29,7 +29,7 @@ from wifibot_power.causes import ALPHA, CAUSES, Evidence, fit_model, predict_mot
 from wifibot_power.errors import LogError
 from wifibot_power.fit import segment_checked
 from wifibot_power.io import LogSource, ReadOptions, Skipped
-from wifibot_power.io.batch import map_runs
+from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.model import PowerModel
 from wifibot_power.outputs import write_json, write_parquet
 from wifibot_power.phases import Segmentation
@@ -158,6 +158,7 @@ def diagnose_logs(
     wrap: Callable[[list[LogSource]], Iterator[LogSource]] | None = None,
     segmenter: Segmenter | None = None,
     jobs: int | None = 1,
+    on_problems: ProblemHook | None = None,
 ) -> Diagnosis:
     """Read, segment and summarise every log under `paths` (`jobs` files at a time, one file
     in memory per worker), then diagnose them (module docstring)."""
@@ -167,6 +168,7 @@ def diagnose_logs(
         lambda run: summarize_run(run, segmenter),
         wrap=wrap,
         jobs=jobs,
+        on_problems=on_problems,
     )
     return diagnose_summaries(summaries, skipped)
 

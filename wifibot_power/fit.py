@@ -35,7 +35,7 @@ import pyarrow as pa
 from wifibot_power.cache import ParseCache, ResultMemo, code_digest
 from wifibot_power.errors import LogError, WbpowerError
 from wifibot_power.io import LogSource, ReadOptions, Skipped
-from wifibot_power.io.batch import map_runs
+from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.model import LinearFit, PowerModel, paper_model
 from wifibot_power.outputs import json_safe, write_json, write_parquet
 from wifibot_power.phases import Segmentation
@@ -434,6 +434,7 @@ def fit_logs(
     segmenter: Segmenter | None = None,
     jobs: int | None = 1,
     cache: ParseCache | None = None,
+    on_problems: ProblemHook | None = None,
 ) -> FitResult:
     """Read every log under `paths` (one file in memory at a time per worker), segment it,
     build the per-run table and fit the paper's models over the usable runs (see module
@@ -465,6 +466,7 @@ def fit_logs(
         jobs=jobs,
         cache=cache,
         memo=memo,
+        on_problems=on_problems,
     )
     runs = runs_frame([row for row, _ in results])
     frames = [frame for _, frame in results if len(frame)]

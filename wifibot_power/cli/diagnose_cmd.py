@@ -28,7 +28,6 @@ from wifibot_power.cli.common import (
     stdout,
     warn_problems,
 )
-from wifibot_power.io.batch import reporting_problems
 
 if TYPE_CHECKING:
     from wifibot_power.diagnose import Diagnosis
@@ -136,8 +135,13 @@ def diagnose_command(
     from wifibot_power.diagnose import diagnose_logs, write_diagnosis
 
     options = read_options(supply_voltage, current_column, voltage_column, sample_period)
-    with reporting_problems(warn_problems):
-        result = diagnose_logs(paths, options, wrap=lambda s: progress(s, "diagnosing"), jobs=jobs)
+    result = diagnose_logs(
+        paths,
+        options,
+        wrap=lambda s: progress(s, "diagnosing"),
+        jobs=jobs,
+        on_problems=warn_problems,
+    )
     if out is not None:
         write_diagnosis(result, out)
     if json_out:

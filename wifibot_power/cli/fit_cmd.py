@@ -31,7 +31,6 @@ from wifibot_power.cli.common import (
     warn_problems,
 )
 from wifibot_power.fit import FitResult, fit_logs, format_number, write_fit
-from wifibot_power.io.batch import reporting_problems
 
 
 def render_table(result: FitResult) -> Table:
@@ -84,14 +83,14 @@ def fit_command(
 ) -> None:
     """Segment every run and fit the paper's power models by least squares over runs."""
     options = read_options(supply_voltage, current_column, voltage_column, sample_period)
-    with reporting_problems(warn_problems):
-        result = fit_logs(
-            paths,
-            options,
-            wrap=lambda s: progress(s, "fitting"),
-            jobs=jobs,
-            cache=parse_cache(cache),
-        )
+    result = fit_logs(
+        paths,
+        options,
+        wrap=lambda s: progress(s, "fitting"),
+        jobs=jobs,
+        cache=parse_cache(cache),
+        on_problems=warn_problems,
+    )
     if out is not None:
         written = write_fit(result, out)
         if not result.model_complete:

@@ -2,7 +2,7 @@
 
 What a log's reading found odd but did not stop (a gap, a clipped stretch, a cut last line:
 `Run.problems`) comes back from the workers with each result, so the calling process can say
-it (`on_problems`, or `reporting_problems` around a library call that runs a batch).
+it (`on_problems`).
 """
 
 from __future__ import annotations
@@ -10,8 +10,6 @@ from __future__ import annotations
 import dataclasses
 import json
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from contextvars import ContextVar
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
@@ -31,20 +29,7 @@ T = TypeVar("T")
 
 #: `hook(file, problems)`: called in the calling process for each log read with problems.
 ProblemHook = Callable[[str, tuple[Problem, ...]], None]
-_PROBLEM_HOOK: ContextVar[ProblemHook | None] = ContextVar("wbpower_problem_hook", default=None)
 _PROBLEMS_KEY = b"wbpower.problems"
-
-
-@contextmanager
-def reporting_problems(hook: ProblemHook) -> Iterator[None]:
-    """Within the block, every `map_runs` not given its own `on_problems` calls `hook(file,
-    problems)` for each log read with problems: for a command that runs a batch through a
-    library function (`fit_logs`, `diagnose_logs`) and should say what reading found."""
-    token = _PROBLEM_HOOK.set(hook)
-    try:
-        yield
-    finally:
-        _PROBLEM_HOOK.reset(token)
 
 
 def is_single_input(paths: list[Path]) -> bool:
@@ -76,13 +61,12 @@ def map_runs(
 
     `on_problems(file, problems)` is called in this process, in the order of the logs, for
     each log read with problems (`Run.problems`: gaps, clipped stretches, a cut last line),
-    after all are done; without it, the hook of an enclosing `reporting_problems` is.
+    after all are done.
     Problems come back from workers and from the cache too.
 
     A single named file that fails raises (exit 2); in a batch the failure is recorded in
     the returned `Skipped` list and the rest goes on (exit 1).
     """
-    on_problems = on_problems or _PROBLEM_HOOK.get()
     sources, skipped = find_logs([Path(p) for p in paths])
     if not sources and not skipped:
         raise LogError(
