@@ -257,16 +257,23 @@ class _PolyCost:
                 shift_pow.append(shift_pow[-1] * shift)
                 ratio_pow.append(ratio_pow[-1] * ratio)
             for p in range(1, m):
-                acc = sums[p] + sum(math.comb(p, q) * shift_pow[p - q] * sums[q] for q in range(p))
-                rhs.append(acc * ratio_pow[p])
+                acc = shift_pow[p] * sums[0]  # q = 0: C(p, 0) = 1
+                for q in range(1, p):
+                    acc += math.comb(p, q) * shift_pow[p - q] * sums[q]
+                rhs.append((sums[p] + acc) * ratio_pow[p])
         inverse = _gram_inverse(deg, int(length.max()))
-        coef = np.empty((length.size, m))
-        explained = np.zeros(length.size)
+        coef = []
         for p in range(m):
-            coef[:, p] = sum(inverse[p, q][length] * rhs[q] for q in range(p % 2, m, 2))
-            explained += coef[:, p] * rhs[p]
+            # G⁻¹ is zero where p + q is odd
+            c_p = inverse[p, p % 2][length] * rhs[p % 2]
+            for q in range(p % 2 + 2, m, 2):
+                c_p = c_p + inverse[p, q][length] * rhs[q]
+            coef.append(c_p)
+        explained = coef[0] * rhs[0]
+        for p in range(1, m):
+            explained = explained + coef[p] * rhs[p]
         sse = (self.py2[j] - self.py2[i]) - explained
-        return np.maximum(sse, 0.0), coef
+        return np.maximum(sse, 0.0), np.stack(coef, axis=-1)
 
     def value(self, coef: np.ndarray, x: float) -> float:
         """The piece at x (its own basis: -1/2 at its first sample's start edge, +1/2 at its
