@@ -73,3 +73,10 @@ def test_diagnose_in_parallel_equals_one_file_at_a_time(small_logs):
     one = json_safe(wb.diagnose_logs([small_logs], jobs=1).summary())
     two = json_safe(wb.diagnose_logs([small_logs], jobs=2).summary())
     assert one == two
+
+
+@pytest.mark.parametrize("command", ["inspect", "segment", "fit", "diagnose"])
+def test_every_reading_command_takes_the_shared_reading_options(command):
+    help_text = CliRunner().invoke(app, [command, "--help"]).output
+    for option in ("--supply-voltage", "--current-column", "--voltage-column", "--sample-period"):
+        assert option in help_text

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import functools
+import inspect
 import json
 import os
 import sys
+import typing
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Annotated, TypeVar
@@ -59,11 +61,20 @@ ModelSpec = Annotated[
 ]
 
 
+#: the reading options, as (parameter name, annotated type): one declaration for every command
+READING_OPTIONS = (
+    ("supply_voltage", SupplyVoltage),
+    ("current_column", CurrentColumn),
+    ("voltage_column", VoltageColumn),
+    ("sample_period", SamplePeriod),
+)
+
+
 def read_options(
-    supply_voltage: float | None,
-    current_column: str | None,
-    voltage_column: str | None,
-    sample_period: float | None,
+    supply_voltage: float | None = None,
+    current_column: str | None = None,
+    voltage_column: str | None = None,
+    sample_period: float | None = None,
 ) -> ReadOptions:
     return ReadOptions(
         supply_voltage_V=supply_voltage,
@@ -71,6 +82,35 @@ def read_options(
         voltage_column=voltage_column,
         sample_period_s=sample_period,
     )
+
+
+def with_reading_options(command: Callable[..., object]) -> Callable[..., object]:
+    """Give a command the shared reading options (cli.md); it receives them as one
+    `options: ReadOptions` parameter instead of four."""
+    signature = inspect.signature(command)
+    hints = typing.get_type_hints(command, include_extras=True)  # resolves string annotations
+    kept = [
+        p.replace(annotation=hints.get(p.name, p.annotation))
+        for p in signature.parameters.values()
+        if p.name != "options"
+    ]
+    added = [
+        inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=None, annotation=kind)
+        for name, kind in READING_OPTIONS
+    ]
+
+    @functools.wraps(command)
+    def wrapper(*args: object, **kwargs: object) -> object:
+        values = {name: kwargs.pop(name, None) for name, _ in READING_OPTIONS}
+        return command(*args, options=read_options(**values), **kwargs)
+
+    wrapper.__signature__ = signature.replace(parameters=kept + added)  # type: ignore[attr-defined]
+    wrapper.__annotations__ = {
+        **{k: v for k, v in hints.items() if k != "options"},
+        **dict(READING_OPTIONS),
+    }
+    del wrapper.__wrapped__  # typer must see the new signature, not the wrapped one
+    return wrapper
 
 
 F = TypeVar("F", bound=Callable[..., object])

@@ -13,21 +13,18 @@ from wifibot_power.cli.app import app
 from wifibot_power.cli.common import (
     EXIT_OK,
     EXIT_SKIPPED,
-    CurrentColumn,
     Jobs,
     JsonFlag,
     OutDir,
-    SamplePeriod,
-    SupplyVoltage,
-    VoltageColumn,
     handles_errors,
     print_json,
     progress,
-    read_options,
     report_skipped,
     stdout,
     warn_problems,
+    with_reading_options,
 )
+from wifibot_power.io import ReadOptions
 
 if TYPE_CHECKING:
     from wifibot_power.diagnose import Diagnosis
@@ -117,12 +114,10 @@ def _findings(result: Diagnosis) -> Table:
 
 @app.command("diagnose")
 @handles_errors
+@with_reading_options
 def diagnose_command(
     paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
-    supply_voltage: SupplyVoltage = None,
-    current_column: CurrentColumn = None,
-    voltage_column: VoltageColumn = None,
-    sample_period: SamplePeriod = None,
+    options: ReadOptions,
     json_out: JsonFlag = False,
     out: OutDir = None,
     jobs: Jobs = 0,
@@ -134,7 +129,6 @@ def diagnose_command(
     # imported here: scipy.stats alone costs a second, which no other command should pay
     from wifibot_power.diagnose import diagnose_logs, write_diagnosis
 
-    options = read_options(supply_voltage, current_column, voltage_column, sample_period)
     result = diagnose_logs(
         paths,
         options,

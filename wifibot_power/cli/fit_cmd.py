@@ -13,24 +13,21 @@ from rich.table import Table
 from wifibot_power.cli.app import app
 from wifibot_power.cli.common import (
     CacheDir,
-    CurrentColumn,
     Jobs,
     JsonFlag,
     OutDir,
-    SamplePeriod,
-    SupplyVoltage,
-    VoltageColumn,
     handles_errors,
     parse_cache,
     print_json,
     progress,
-    read_options,
     report_skipped,
     stdout,
     warn,
     warn_problems,
+    with_reading_options,
 )
 from wifibot_power.fit import FitResult, fit_logs, format_number, write_fit
+from wifibot_power.io import ReadOptions
 
 
 def render_table(result: FitResult) -> Table:
@@ -67,12 +64,10 @@ def render_table(result: FitResult) -> Table:
 
 @app.command("fit")
 @handles_errors
+@with_reading_options
 def fit_command(
     paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
-    supply_voltage: SupplyVoltage = None,
-    current_column: CurrentColumn = None,
-    voltage_column: VoltageColumn = None,
-    sample_period: SamplePeriod = None,
+    options: ReadOptions,
     json_out: JsonFlag = False,
     markdown: Annotated[
         bool, typer.Option("--markdown", help="Print the table as Markdown (for a paper).")
@@ -82,7 +77,6 @@ def fit_command(
     cache: CacheDir = None,
 ) -> None:
     """Segment every run and fit the paper's power models by least squares over runs."""
-    options = read_options(supply_voltage, current_column, voltage_column, sample_period)
     result = fit_logs(
         paths,
         options,

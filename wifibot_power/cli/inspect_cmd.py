@@ -10,34 +10,28 @@ from rich.table import Table
 
 from wifibot_power.cli.app import app
 from wifibot_power.cli.common import (
-    CurrentColumn,
     JsonFlag,
-    SamplePeriod,
-    SupplyVoltage,
-    VoltageColumn,
     handles_errors,
     print_json,
     progress,
-    read_options,
     report_skipped,
     stdout,
     warn,
+    with_reading_options,
 )
 from wifibot_power.inspect import inspect_logs
+from wifibot_power.io import ReadOptions
 
 
 @app.command("inspect")
 @handles_errors
+@with_reading_options
 def inspect_command(
     paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
-    supply_voltage: SupplyVoltage = None,
-    current_column: CurrentColumn = None,
-    voltage_column: VoltageColumn = None,
-    sample_period: SamplePeriod = None,
+    options: ReadOptions,
     json_out: JsonFlag = False,
 ) -> None:
     """What is in each log: format, samples, period, duration, mean power, energy, metadata."""
-    options = read_options(supply_voltage, current_column, voltage_column, sample_period)
     rows, skipped = inspect_logs(paths, options, wrap=lambda s: progress(s, "reading"))
     for row in rows:
         for problem in row["problems"]:

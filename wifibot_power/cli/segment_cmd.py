@@ -11,32 +11,26 @@ from rich.table import Table
 
 from wifibot_power.cli.app import app
 from wifibot_power.cli.common import (
-    CurrentColumn,
     JsonFlag,
-    SamplePeriod,
-    SupplyVoltage,
-    VoltageColumn,
     handles_errors,
     print_json,
-    read_options,
     stdout,
     warn_problems,
+    with_reading_options,
 )
+from wifibot_power.io import ReadOptions
 
 
 @app.command("segment")
 @handles_errors
+@with_reading_options
 def segment_command(
     path: Annotated[Path, typer.Argument(help="One log file.")],
-    supply_voltage: SupplyVoltage = None,
-    current_column: CurrentColumn = None,
-    voltage_column: VoltageColumn = None,
-    sample_period: SamplePeriod = None,
+    options: ReadOptions,
     json_out: JsonFlag = False,
 ) -> None:
     """Split one log into phases: idle/accel/cruise/decel per step for a motion run, steady
     levels otherwise. Short start-up spikes stay in the phase they start and are listed."""
-    options = read_options(supply_voltage, current_column, voltage_column, sample_period)
     from wifibot_power.segment import segment_file  # its numerics load only when used
 
     run, segmentation = segment_file(path, options)
