@@ -80,3 +80,24 @@ def test_every_reading_command_takes_the_shared_reading_options(command):
     help_text = CliRunner().invoke(app, [command, "--help"]).output
     for option in ("--supply-voltage", "--current-column", "--voltage-column", "--sample-period"):
         assert option in help_text
+
+
+def test_fail_on_discrepancy_exits_1_when_a_cause_is_named(small_logs):
+    runner = CliRunner()
+    plain = runner.invoke(app, ["diagnose", str(small_logs), "--json", "--jobs", "1"])
+    failing = runner.invoke(
+        app, ["diagnose", str(small_logs), "--json", "--jobs", "1", "--fail-on-discrepancy"]
+    )
+    assert plain.exit_code == 0
+    assert failing.exit_code == 1  # small_logs carries a decel phase: a finding is made
+    assert json.loads(failing.stdout)["findings"][0]["cause"] == "decel_phase"
+
+
+def test_diagnose_against_a_stored_model(small_logs, tmp_path):
+    runner = CliRunner()
+    assert runner.invoke(app, ["fit", str(small_logs), "-o", str(tmp_path)]).exit_code == 0
+    result = runner.invoke(
+        app, ["diagnose", str(small_logs), "--json", "--model", str(tmp_path / "model.json")]
+    )
+    assert result.exit_code == 0, result.output
+    assert "not refitted" in json.loads(result.stdout)["baseline"]["model"]

@@ -32,10 +32,10 @@ def _size(cause: str, seed: int) -> float:
     return float(np.random.default_rng([seed, 99]).uniform(low, high))
 
 
-def _diagnose(effects: dict[str, float], seed: int, **grid):
+def _diagnose(effects: dict[str, float], seed: int, reference=None, **grid):
     config = SimConfig(**{**GRID, **grid}, effects=effects, seed=seed)
     sims = simulate_runs(config)
-    return diagnose_runs([s.run for s in sims]), sims
+    return diagnose_runs([s.run for s in sims], reference=reference), sims
 
 
 @pytest.mark.parametrize("seed", [11, 12])
@@ -65,11 +65,17 @@ def test_each_energy_cause_is_named_alone_with_a_large_heldout_gain(cause, seed)
     assert [f.cause for f in result.findings] == [cause]
     (finding,) = result.findings
     assert finding.metric == "run_energy"
-    assert finding.gain_pct >= 30.0  # issue 5: run-energy causes give >= 30% held-out gain
-    assert result.gain_pct >= 30.0
+    # issue 5 asks >= 30%; docs/diagnose.md measured >= 90% over 8 seeds: 80% leaves room
+    assert finding.gain_pct >= 80.0
+    assert result.gain_pct >= 80.0
     assert finding.p_value < 1e-3
-    # the estimate recovers the hidden size (10%: segmentation and noise, stated in docs)
-    assert finding.estimate["value"] == pytest.approx(size, rel=0.1)
+    # the estimate recovers the hidden size (docs/diagnose.md: within 3% for most causes,
+    # up to 7.5% for thermal drift, whose drift over a 30-run session is only a few %)
+    tolerance = 0.1 if cause == "thermal_drift" else 0.05
+    assert finding.estimate["value"] == pytest.approx(size, rel=tolerance)
+    # and it is the value the extended model (model.json) carries
+    extension = result.extended_model.extensions[cause]
+    assert extension[finding.estimate["parameter"]] == pytest.approx(finding.estimate["value"])
     assert not result.unexplained, result.unexplained_reasons
 
 
@@ -80,8 +86,8 @@ def test_cruise_ripple_is_named_with_a_frequency_that_scales_with_speed(seed):
     assert [f.cause for f in result.findings] == ["cruise_ripple"]
     (finding,) = result.findings
     assert finding.metric == "power_trace"
-    assert finding.gain_pct >= 10.0
-    assert finding.estimate["value"] == pytest.approx(size, rel=0.1)
+    assert finding.gain_pct >= 50.0  # docs: >= 74% measured, even with a 5x noisier analyser
+    assert finding.estimate["value"] == pytest.approx(size, rel=0.05)
     # f = k v: k is the wheel's 1/(pi d), within its interval and 2%
     low, high = finding.estimate["hz_per_mps_ci95_low"], finding.estimate["hz_per_mps_ci95_high"]
     assert finding.estimate["hz_per_mps"] == pytest.approx(WHEEL_HZ_PER_MPS, rel=0.02)
@@ -100,9 +106,16 @@ def test_cruise_ripple_is_named_with_a_frequency_that_scales_with_speed(seed):
 )
 def test_a_pair_of_effects_yields_both(pair):
     seed = 41
-    result, _ = _diagnose({c: _size(c, seed) for c in pair}, seed)
+    sizes = {c: _size(c, seed) for c in pair}
+    result, _ = _diagnose(sizes, seed)
     assert sorted(f.cause for f in result.findings) == sorted(pair)
-    assert result.gain_pct >= 30.0
+    assert result.gain_pct >= 80.0
+    for finding in result.findings:
+        # each estimate is made with the other cause in the model, as model.json holds it
+        tolerance = 0.1 if finding.cause == "thermal_drift" else 0.05
+        assert finding.estimate["value"] == pytest.approx(sizes[finding.cause], rel=tolerance)
+        extension = result.extended_model.extensions[finding.cause]
+        assert extension[finding.estimate["parameter"]] == pytest.approx(finding.estimate["value"])
 
 
 def test_structure_no_cause_explains_is_reported_as_unexplained():
@@ -137,3 +150,36 @@ def test_extended_model_carries_the_named_term_for_energy_and_lifetime():
     # by hand: P_dec(0.5) = 23.9 + 0.5 * 11.2 * 0.5 / 2 = 25.3 W for 0.5 s, and the stop covers
     # 0.5 * 0.5 / 2 m that the cruise no longer does: - (23.9 + 11.2 * 0.5) * 0.25 s
     assert with_stop - without == pytest.approx(25.3 * 0.5 - 29.5 * 0.25, rel=0.1)
+
+
+def test_a_ripple_too_small_to_name_is_a_note_not_unexplained():
+    """0.1 W is below the 0.2 W worth naming: it scales with speed, so it is explained
+    structure, just small; a note says so."""
+    result, _ = _diagnose({"cruise_ripple": 0.1}, 61)
+    assert result.findings == ()
+    assert not result.unexplained, result.unexplained_reasons
+    assert any(n.startswith("cruise_ripple") for n in result.notes)
+
+
+def test_a_heldout_run_does_not_change_its_own_baseline_prediction():
+    config = SimConfig(**GRID, seed=71)
+    runs = [s.run for s in simulate_runs(config)]
+    before = diagnose_runs(runs).runs.set_index("run_id")
+    victim = next(r for r in runs if r.meta.mode == "motion")
+    changed = [replace(r, power_W=r.power_W * 1.2) if r is victim else r for r in runs]
+    after = diagnose_runs(changed).runs.set_index("run_id")
+    run_id = victim.meta.run_id
+    assert after.loc[run_id, "measured_energy_J"] > before.loc[run_id, "measured_energy_J"] * 1.1
+    assert after.loc[run_id, "baseline_energy_J"] == before.loc[run_id, "baseline_energy_J"]
+
+
+def test_a_given_model_is_the_baseline_as_it_is():
+    from wifibot_power.model import paper_model
+
+    result, _ = _diagnose({"decel_phase": 0.4}, 81, reference=paper_model())
+    row = result.runs.set_index("run_id").loc["v0.40_d2_s1_r1"]
+    # paper Eq. 5/6 by hand, t_acc = 1 s (paper_model): P_acc(0.4) = 23.9 + 14.8 * 0.4 = 29.82 W
+    # for 1 s; s_acc = 0.2 m; cruise (2 - 0.2) / 0.4 = 4.5 s at 23.9 + 11.2 * 0.4 = 28.38 W
+    assert row["baseline_energy_J"] == pytest.approx(29.82 + 4.5 * 28.38, rel=1e-9)
+    assert "not refitted" in result.summary()["baseline"]["model"]
+    assert [f.cause for f in result.findings] == ["decel_phase"]

@@ -377,7 +377,7 @@ def cruise_ripple_evidence(
         )
     scaling = ripple_scaling(found)
     amplitudes = found["ripple_amplitude_W"].to_numpy(np.float64)
-    amplitude = float(np.median(amplitudes))
+    amplitude = float(np.mean(amplitudes))
     half = stats.t.ppf(0.975, k - 1) * amplitudes.std(ddof=1) / np.sqrt(k)
     params = {
         "amplitude_W": amplitude,

@@ -27,9 +27,12 @@ class OLS:
         return (float(self.coef[j] - t * self.se[j]), float(self.coef[j] + t * self.se[j]))
 
     def p_greater(self, j: int) -> float:
-        """One-sided p-value of H0: b_j <= 0 against b_j > 0."""
-        if self.dof < 1 or not np.isfinite(self.se[j]) or self.se[j] == 0:
-            return float("nan") if self.dof < 1 else (0.0 if self.coef[j] > 0 else 1.0)
+        """One-sided p-value of H0: b_j <= 0 against b_j > 0; NaN when the design cannot
+        tell b_j apart (rank-deficient or no degrees of freedom), never a false 0."""
+        if self.dof < 1 or not np.isfinite(self.se[j]):
+            return float("nan")
+        if self.se[j] == 0:
+            return 0.0 if self.coef[j] > 0 else 1.0
         return float(stats.t.sf(self.coef[j] / self.se[j], self.dof))
 
 

@@ -121,6 +121,14 @@ def diagnose_command(
     json_out: JsonFlag = False,
     out: OutDir = None,
     jobs: Jobs = 0,
+    model: Annotated[
+        str | None,
+        typer.Option(
+            "--model",
+            help="Baseline: 'paper' or a model.json (e.g. the robot's stored model), used as "
+            "given; default: the paper's model fitted to these logs.",
+        ),
+    ] = None,
     fail_on_discrepancy: Annotated[
         bool, typer.Option("--fail-on-discrepancy", help="Exit 1 when any finding is made (CI).")
     ] = False,
@@ -128,6 +136,9 @@ def diagnose_command(
     """What the paper's model gets wrong on these logs, the named cause, the held-out gain."""
     # imported here: scipy.stats alone costs a second, which no other command should pay
     from wifibot_power.diagnose import diagnose_logs, write_diagnosis
+    from wifibot_power.model import load_model
+
+    reference = load_model(model) if model is not None else None
 
     result = diagnose_logs(
         paths,
@@ -135,6 +146,7 @@ def diagnose_command(
         wrap=lambda s: progress(s, "diagnosing"),
         jobs=jobs,
         on_problems=warn_problems,
+        reference=reference,
     )
     if out is not None:
         write_diagnosis(result, out)
@@ -145,7 +157,8 @@ def diagnose_command(
         stdout.print(_patterns(result))
         stdout.print(_findings(result))
         stdout.print(
-            f"{result.n_runs} motion runs, K-fold held out by run. Paper-form model: RMSE "
+            f"{result.n_runs} motion runs, K-fold held out by run. Baseline "
+            f"({result.baseline_label}): RMSE "
             f"{result.baseline_rmse_J:.3g} J, MAPE {result.baseline_mape_pct:.3g}%. Extended "
             f"({', '.join(f.cause for f in result.findings) or 'nothing added'}): RMSE "
             f"{result.extended_rmse_J:.3g} J, MAPE {result.extended_mape_pct:.3g}%. "
