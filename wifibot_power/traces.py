@@ -160,11 +160,15 @@ def ripple_peak(x: np.ndarray, block_s: float) -> tuple[float, float, float]:
 
 
 def _sinusoid(x: np.ndarray, t: np.ndarray, hz: float) -> tuple[float, float]:
-    """Least-squares sinusoid at `hz`: its amplitude [W] and the variance it explains."""
-    basis = np.column_stack([np.sin(2 * np.pi * hz * t), np.cos(2 * np.pi * hz * t)])
+    """Least-squares sinusoid at `hz`, fitted jointly with a line [1, t] (x was detrended:
+    by Frisch-Waugh-Lovell this gives the sinusoid's coefficients as if fitted together with
+    the trend, so a cruise of a few periods does not lose the part of the sine that the
+    detrending took): its amplitude [W] and the variance it explains."""
+    wave = np.column_stack([np.sin(2 * np.pi * hz * t), np.cos(2 * np.pi * hz * t)])
+    basis = np.column_stack([wave, np.ones_like(t), t])
     coef, *_ = np.linalg.lstsq(basis, x, rcond=None)
-    fitted = basis @ coef
-    return float(np.hypot(*coef)), float(fitted @ fitted)
+    fitted = wave @ coef[:2]
+    return float(np.hypot(coef[0], coef[1])), float(fitted @ fitted)
 
 
 def ripple_trace_rmse_W(x: np.ndarray, block_s: float, hz: float, amplitude_W: float) -> float:

@@ -97,10 +97,10 @@ def _findings(result: Diagnosis) -> Table:
     for f in result.findings:
         est = f.estimate
         low, high = est["ci95"]
-        ci = f"[{low:.3g}, {high:.3g}]" if math.isfinite(low) else "-"
+        ci = f"[{low:.4g}, {high:.4g}]" if math.isfinite(low) else "-"
         table.add_row(
             f.cause,
-            f"{est['value']:.3g} {est['unit']}",
+            f"{est['value']:.4g} {est['unit']}",
             ci,
             f"{f.p_value:.2g}",
             f"{f.gain_pct:.1f}",
