@@ -344,3 +344,20 @@ def test_segment_command_bad_input_is_one_line_exit_2(tmp_path) -> None:
 def test_segment_command_has_help() -> None:
     result = CliRunner().invoke(app, ["segment", "--help"])
     assert result.exit_code == 0 and "--supply-voltage" in result.stdout
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    values=st.lists(
+        st.one_of(st.floats(-1e6, 1e6), st.just(float("-inf"))), min_size=1, max_size=300
+    ),
+    half=st.integers(0, 40),
+)
+def test_sliding_max_equals_scipys_maximum_filter(values, half):
+    from scipy.ndimage import maximum_filter1d
+
+    from wifibot_power.changepoint import sliding_max
+
+    x = np.array(values)
+    expected = maximum_filter1d(x, size=2 * half + 1, mode="constant", cval=-np.inf)
+    assert np.array_equal(sliding_max(x, 2 * half + 1), expected)

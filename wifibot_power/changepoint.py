@@ -31,7 +31,6 @@ from dataclasses import dataclass
 from itertools import pairwise
 
 import numpy as np
-from scipy.ndimage import maximum_filter1d
 
 #: 1.4826 * MAD estimates the standard deviation of normal noise.
 MAD_TO_SIGMA = 1.4826
@@ -108,12 +107,30 @@ def jump_sd_factor(half_width: int) -> float:
     return float(np.sqrt(2.0 * (1.0 / w + 3.0 * w / (w * w - 1.0))))
 
 
+def sliding_max(values: np.ndarray, size: int) -> np.ndarray:
+    """Maximum over the centred window of odd `size` at every index, -inf beyond the ends
+    (as scipy.ndimage.maximum_filter1d with mode="constant", cval=-inf), in O(n) by the
+    van Herk / Gil-Werman method: per-block prefix and suffix maxima, vectorised. Written
+    here because importing scipy.ndimage cost 0.2 s of every 'wbpower fit'."""
+    n = values.size
+    half = size // 2
+    padded_n = -(-(n + size - 1) // size) * size
+    padded = np.full(padded_n, -np.inf)
+    padded[half : half + n] = values
+    blocks = padded.reshape(-1, size)
+    prefix = np.maximum.accumulate(blocks, axis=1).ravel()
+    suffix = np.maximum.accumulate(blocks[:, ::-1], axis=1)[:, ::-1].ravel()
+    # the window of index j covers padded[j : j + size]: a suffix of one block and a prefix
+    # of the next (or one whole block)
+    return np.maximum(suffix[:n], prefix[size - 1 : size - 1 + n])
+
+
 def peaks(score: np.ndarray, threshold: float, separation: int) -> np.ndarray:
     """Indices of local maxima of `score` above `threshold`, at least `separation` apart
     (greedy from the largest)."""
     s = np.nan_to_num(np.asarray(score, dtype=np.float64), nan=-np.inf)
     size = 2 * max(1, int(separation)) + 1
-    local = (s == maximum_filter1d(s, size=size, mode="constant", cval=-np.inf)) & (s > threshold)
+    local = (s == sliding_max(s, size)) & (s > threshold)
     candidates = np.flatnonzero(local)
     kept: list[int] = []
     for idx in candidates[np.argsort(-s[candidates], kind="stable")]:
