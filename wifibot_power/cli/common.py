@@ -10,7 +10,7 @@ import sys
 import typing
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
-from typing import Annotated, TypeVar
+from typing import TYPE_CHECKING, Annotated, TypeVar
 
 import typer
 from rich.console import Console
@@ -23,11 +23,13 @@ from rich.progress import (
     TransferSpeedColumn,
 )
 
-from wifibot_power.cache import ParseCache
 from wifibot_power.errors import WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
 from wifibot_power.outputs import json_safe
 from wifibot_power.run import Problem
+
+if TYPE_CHECKING:
+    from wifibot_power.cache import ParseCache
 
 EXIT_OK = 0
 EXIT_SKIPPED = 1
@@ -268,4 +270,8 @@ CacheDir = Annotated[
 
 def parse_cache(directory: Path | None) -> ParseCache | None:
     """The `--cache DIR` cache (None without the option)."""
-    return ParseCache(directory) if directory is not None else None
+    if directory is None:
+        return None
+    from wifibot_power.cache import ParseCache  # pyarrow.parquet loads only when asked for
+
+    return ParseCache(directory)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.table import Table
@@ -26,12 +26,16 @@ from wifibot_power.cli.common import (
     warn_problems,
     with_reading_options,
 )
-from wifibot_power.fit import FitResult, fit_logs, format_number, write_fit
 from wifibot_power.io import ReadOptions
+
+if TYPE_CHECKING:
+    from wifibot_power.fit import FitResult
 
 
 def render_table(result: FitResult) -> Table:
     """The paper table: coefficients, 95% intervals, R², the paper's values, n runs."""
+    from wifibot_power.fit import format_number
+
     table = Table(
         title=f"Power model fitted over {result.n_runs} run(s) (95% CI: OLS t intervals by run)",
         title_justify="left",
@@ -77,6 +81,8 @@ def fit_command(
     cache: CacheDir = None,
 ) -> None:
     """Segment every run and fit the paper's power models by least squares over runs."""
+    from wifibot_power.fit import fit_logs, write_fit  # pandas and numerics load only here
+
     result = fit_logs(
         paths,
         options,
