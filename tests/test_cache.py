@@ -250,8 +250,8 @@ def test_fit_with_cache_same_result_cold_and_warm(tmp_path: Path, wbpower, monke
     cache = ParseCache(tmp_path / "cache")
     assert_same_fit(fit_logs([corpus], jobs=2, cache=cache), plain)  # fills it
     # 3 logs: 3 parses and 3 kept results (row + phases of each run)
-    assert len(list((tmp_path / "cache").glob("*.result.parquet"))) == 3
-    assert len(list((tmp_path / "cache").glob("*.parquet"))) == 6
+    assert len(list((tmp_path / "cache").glob("*.result.json"))) == 3
+    assert len(list((tmp_path / "cache").glob("*.parquet"))) == 3
     # warm: neither parsed nor segmented again, and exactly the same result
     monkeypatch.setattr(cache_module, "read_log", lambda *a, **k: pytest.fail("parsed"))
     monkeypatch.setattr("wifibot_power.segment.segment_run", lambda run: pytest.fail("segmented"))

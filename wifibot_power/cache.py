@@ -19,9 +19,10 @@ code (a new wbpower reads the logs afresh). It is valid only for the file's cont
   does not grow with edits).
 
 A batch can also keep what its per-run work made of a run (`ResultMemo`: `fit` keeps each
-run's row and phases), beside the parse and valid for the same content, under a key that
-holds a digest of all of wifibot_power's code and the numeric libraries' versions
-(`code_digest`): a warm `fit --cache` then neither parses nor segments.
+run's row and phases, as a small JSON document), beside the parse and valid for the same
+content, under a key that holds a digest of all of wifibot_power's code and the numeric
+libraries' versions (`code_digest`): a warm `fit --cache` then neither parses nor segments,
+and `kept_result` finds those results in the calling process without starting any worker.
 
 What could still fool it: a system clock stepped back by more than `SETTLE_S` between runs, or
 a network file system whose server clock runs more than `SETTLE_S` behind this machine's.
@@ -45,7 +46,6 @@ from typing import Generic, TypeVar
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
 
 from wifibot_power.errors import UsageError
 from wifibot_power.io.reader import ReadOptions, read_log
@@ -58,7 +58,8 @@ SETTLE_S = 2.0
 SETTLE_NS = int(SETTLE_S * 1e9)
 _METADATA_KEY = b"wbpower.run"
 _CONTENT_KEY = b"wbpower.content_sha256"
-_MISSING = object()
+#: What `ParseCache.kept_result` returns when nothing is kept for the content.
+MISSING = object()
 T = TypeVar("T")
 _COMPRESSED = {".gz": "gzip", ".zst": "zstd"}
 
@@ -94,27 +95,34 @@ class ResultMemo(Generic[T]):
     """How to keep what a batch's per-run work made of a run, beside the parse.
 
     `key` names the work and everything its result depends on (e.g. a digest of the code that
-    computes it: `code_digest()`); `to_table` / `from_table` are an exact round trip of the
-    result through a Parquet table. A kept result is valid for the same content as the parse.
+    computes it: `code_digest()`); `to_json` / `from_json` are an exact round trip of the
+    result through JSON values (dicts, lists, str, float with NaN, int, bool, None). A kept
+    result is valid for the same content as the parse. JSON, not Parquet: a warm batch reads
+    a small document per file and needs neither pyarrow.parquet nor pandas to do it.
     """
 
     key: str
-    to_table: Callable[[T], pa.Table]
-    from_table: Callable[[pa.Table], T]
+    to_json: Callable[[T], object]
+    from_json: Callable[[object], T]
 
 
 @functools.lru_cache(maxsize=1)
 def code_digest() -> str:
     """SHA-256 of all of wifibot_power's source and the numeric libraries' versions: a result
-    computed by other code, or other numpy/pandas/scipy/pyarrow, is computed again."""
-    import numpy
-    import pandas
-    import scipy
+    computed by other code, or other numpy/pandas/scipy/pyarrow, is computed again. The
+    versions are read from the installed distributions' metadata, not by importing them
+    (pandas and scipy cost ~0.7 s to import: a warm run needs neither)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    def installed(name: str) -> str:
+        try:
+            return version(name)
+        except PackageNotFoundError:
+            return "absent"
 
     package = Path(__file__).parent
-    digest = hashlib.sha256(
-        f"{numpy.__version__} {pandas.__version__} {scipy.__version__} {pa.__version__}".encode()
-    )
+    versions = " ".join(installed(n) for n in ("numpy", "pandas", "scipy", "pyarrow"))
+    digest = hashlib.sha256(versions.encode())
     for source in sorted(package.rglob("*.py")):
         digest.update(str(source.relative_to(package)).encode())
         digest.update(source.read_bytes())
@@ -171,6 +179,46 @@ class ParseCache:
         """`io.read_log`, from the cache when the file's content has been parsed before."""
         return self.process(path, options, overrides, origin=origin)
 
+    def kept_result(
+        self,
+        path: str | Path,
+        options: ReadOptions | None = None,
+        overrides: dict[str, str] | None = None,
+        *,
+        origin: str | None = None,
+        memo: ResultMemo[T],
+    ) -> T | object:
+        """The kept result of `memo`'s work on the file's current content, or `MISSING`.
+
+        Cheap when the file is settled and unchanged (a stat and two small reads), so a
+        batch can sort hits from misses in the calling process before starting any worker.
+        The content rule is the same as `process`'s: a changed file is hashed and misses.
+        """
+        path = Path(path)
+        options = options or ReadOptions()
+        try:
+            stat = os.stat(path)
+        except OSError:
+            return MISSING  # the worker reading it names the problem
+        entry = self.entry_path(path, options, overrides, origin)
+        validity = _read_validity(entry)
+        content, fresh = self._content(path, stat, validity)
+        kept = _load_result(_result_path(entry, memo), content, memo)
+        if kept is not MISSING and validity is not None and fresh != validity:
+            if validity["content_sha256"] == content:  # touched, or settled: trust stat next
+                _write_validity(entry, fresh)
+        return kept
+
+    @staticmethod
+    def _content(
+        path: Path, stat: os.stat_result, validity: dict | None
+    ) -> tuple[str, dict[str, object]]:
+        """The file's content hash, from the entry when its stat is trusted, else by reading."""
+        if validity and validity["settled"] and validity["fingerprint"] == _fingerprint(stat):
+            return validity["content_sha256"], validity
+        _, fresh = _hash(path, stat)
+        return str(fresh["content_sha256"]), fresh
+
     def process(
         self,
         path: str | Path,
@@ -200,7 +248,7 @@ class ParseCache:
         known = validity is not None and validity["content_sha256"] == content
         if memo is not None:
             kept = _load_result(_result_path(entry, memo), content, memo)
-            if kept is not _MISSING:
+            if kept is not MISSING:
                 if known and fresh != validity:  # touched, or settled since: trust stat next
                     _write_validity(entry, fresh)
                 return kept  # type: ignore[return-value]
@@ -215,7 +263,7 @@ class ParseCache:
             _write_validity(entry, fresh)
         result = work(run)
         if memo is not None:
-            _store_result(_result_path(entry, memo), memo.to_table(result), content)
+            _store_result(_result_path(entry, memo), memo.to_json(result), content)
         return result
 
 
@@ -232,25 +280,25 @@ def _hash(path: Path, stat: os.stat_result) -> tuple[bytes, dict[str, object]]:
 
 def _result_path(entry: Path, memo: ResultMemo) -> Path:
     work = hashlib.sha256(memo.key.encode()).hexdigest()[:16]
-    return entry.with_name(f"{entry.stem}.{work}.result.parquet")
+    return entry.with_name(f"{entry.stem}.{work}.result.json")
 
 
 def _load_result(path: Path, content_sha256: str, memo: ResultMemo[T]) -> T | object:
-    """The kept result of the work on this content, or `_MISSING`."""
+    """The kept result of the work on this content, or `MISSING`."""
     try:
-        table = pq.read_table(path)
-        kept_for = (table.schema.metadata or {}).get(_CONTENT_KEY, b"").decode()
-        if kept_for != content_sha256:
-            return _MISSING
-        return memo.from_table(table)
-    except (OSError, KeyError, TypeError, ValueError, pa.ArrowException):
-        return _MISSING
+        kept = json.loads(path.read_bytes())
+        if kept["content_sha256"] != content_sha256:
+            return MISSING
+        return memo.from_json(kept["result"])
+    except (OSError, KeyError, TypeError, ValueError, AttributeError):
+        return MISSING
 
 
-def _store_result(path: Path, table: pa.Table, content_sha256: str) -> None:
-    metadata = {**(table.schema.metadata or {}), _CONTENT_KEY: content_sha256.encode()}
-    table = table.replace_schema_metadata(metadata)
-    _replace(path, lambda tmp: pq.write_table(table, tmp, compression="none"))
+def _store_result(path: Path, result: object, content_sha256: str) -> None:
+    # NaN is kept as NaN (Python's json writes and reads it back exactly); floats round-trip
+    # bit for bit through repr
+    document = json.dumps({"content_sha256": content_sha256, "result": result})
+    _replace(path, lambda tmp: tmp.write_text(document, encoding="utf-8"))
 
 
 def _decompressed(path: Path, raw: bytes) -> bytes | None:
@@ -289,6 +337,8 @@ def _write_validity(entry: Path, validity: dict[str, object]) -> None:
 
 def _load_run(entry: Path, content_sha256: str) -> Run | None:
     """The cached `Run`, or None when the entry is missing, unreadable or of other content."""
+    import pyarrow.parquet as pq  # only for a parse that is read back: a warm fit needs none
+
     try:
         table = pq.read_table(entry)
         stored = json.loads((table.schema.metadata or {})[_METADATA_KEY])
@@ -318,6 +368,8 @@ def _load_run(entry: Path, content_sha256: str) -> Run | None:
 
 def _store(entry: Path, run: Run, validity: dict[str, object]) -> None:
     """Write the parse (Parquet), then what it is valid for (JSON beside it)."""
+    import pyarrow.parquet as pq
+
     meta = dataclasses.asdict(run.meta)
     meta["started_at"] = run.meta.started_at.isoformat() if run.meta.started_at else None
     # a time column that is exactly sample index x period need not be stored

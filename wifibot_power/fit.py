@@ -21,7 +21,6 @@ References
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -30,7 +29,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pyarrow as pa
 
 from wifibot_power.cache import ParseCache, ResultMemo, code_digest
 from wifibot_power.errors import LogError, WbpowerError
@@ -399,30 +397,26 @@ def segment_checked(run: Run, segmenter: Segmenter | None = None) -> Segmentatio
         ) from None
 
 
-def _result_to_table(result: tuple[dict[str, object], pd.DataFrame]) -> pa.Table:
-    """A run's row and phases as one Parquet table (phases; the row in its metadata)."""
+def _result_to_json(result: tuple[dict[str, object], list[dict[str, object]]]) -> object:
+    """A run's row and phase rows as JSON values (datetimes as ISO text, NaN kept as NaN)."""
     row, phases = result
-    table = pa.Table.from_pandas(phases, preserve_index=False)
     dates = [k for k, v in row.items() if isinstance(v, datetime)]
     encoded = {k: (v.isoformat() if k in dates else v) for k, v in row.items()}
-    row_json = json.dumps({"row": encoded, "datetimes": dates})  # NaN kept as NaN
-    return table.replace_schema_metadata({**table.schema.metadata, _ROW_KEY: row_json.encode()})
+    return {"row": encoded, "datetimes": dates, "phases": phases}
 
 
-def _result_from_table(table: pa.Table) -> tuple[dict[str, object], pd.DataFrame]:
-    stored = json.loads(table.schema.metadata[_ROW_KEY])
-    row = stored["row"]
-    for key in stored["datetimes"]:
+def _result_from_json(stored: object) -> tuple[dict[str, object], list[dict[str, object]]]:
+    row = dict(stored["row"])  # type: ignore[index]
+    for key in stored["datetimes"]:  # type: ignore[index]
         row[key] = datetime.fromisoformat(row[key])
-    return row, table.to_pandas()
+    return row, list(stored["phases"])  # type: ignore[index]
 
 
-_ROW_KEY = b"wbpower.fit.row"
 #: How `fit --cache` keeps each run's row and phases (valid for this code only).
 RESULT_MEMO = ResultMemo(
     key=f"fit.run_row+segment_run {code_digest()}",
-    to_table=_result_to_table,
-    from_table=_result_from_table,
+    to_json=_result_to_json,
+    from_json=_result_from_json,
 )
 
 
@@ -449,11 +443,14 @@ def fit_logs(
     """
     paths = [paths] if isinstance(paths, str | Path) else list(paths)
 
-    def work(run: Run) -> tuple[dict[str, object], pd.DataFrame]:
+    def work(run: Run) -> tuple[dict[str, object], list[dict[str, object]]]:
+        # a row per phase, as Segmentation.frame() makes it: plain values, small to send back
+        # and to keep, and the phases table is built once from all of them
         if run.meta.mode == "unknown":  # nothing to fit it to: not worth segmenting
-            return run_row(run, Segmentation(run.meta.run_id, ())), Segmentation("", ()).frame()
+            return run_row(run, Segmentation(run.meta.run_id, ())), []
         segmentation = segment_checked(run, segmenter)
-        return run_row(run, segmentation), segmentation.frame()
+        phases = [{"run_id": segmentation.run_id, **p.as_dict()} for p in segmentation.phases]
+        return run_row(run, segmentation), phases
 
     # with the default segmenter, what a run gives is a function of its content and of this
     # code: a cache keeps it (a custom segmenter's is not kept: its code is not known here)
@@ -469,8 +466,9 @@ def fit_logs(
         on_problems=on_problems,
     )
     runs = runs_frame([row for row, _ in results])
-    frames = [frame for _, frame in results if len(frame)]
-    phases = pd.concat(frames, ignore_index=True) if frames else Segmentation("", ()).frame()
+    empty = Segmentation("", ()).frame()
+    phase_rows = [phase for _, phases in results for phase in phases]
+    phases = pd.DataFrame(phase_rows, columns=empty.columns) if phase_rows else empty
     unusable = [
         Skipped(str(row["file"]), f"{row['file']}: {row['skip_reason']}")
         for row in runs.to_dict("records")

@@ -8,7 +8,6 @@ it (`on_problems`).
 from __future__ import annotations
 
 import dataclasses
-import json
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
@@ -21,15 +20,12 @@ from wifibot_power.parallel import map_ordered
 from wifibot_power.run import Problem, Run
 
 if TYPE_CHECKING:
-    import pyarrow as pa
-
     from wifibot_power.cache import ParseCache, ResultMemo
 
 T = TypeVar("T")
 
 #: `hook(file, problems)`: called in the calling process for each log read with problems.
 ProblemHook = Callable[[str, tuple[Problem, ...]], None]
-_PROBLEMS_KEY = b"wbpower.problems"
 
 
 def is_single_input(paths: list[Path]) -> bool:
@@ -116,7 +112,14 @@ def map_runs(
             next(iterator, None)
 
     try:
-        outcomes = map_ordered(sources, one, jobs=jobs, on_done=on_done, cost=_size_bytes)
+        outcomes = _kept_outcomes(sources, cache, memo, options, on_done)
+        # only what is not kept goes to workers: a warm batch starts none
+        todo = [k for k, outcome in enumerate(outcomes) if outcome is None]
+        computed = map_ordered(
+            [sources[k] for k in todo], one, jobs=jobs, on_done=on_done, cost=_size_bytes
+        )
+        for k, outcome in zip(todo, computed, strict=True):
+            outcomes[k] = outcome
     finally:
         close = getattr(tracker, "close", None)
         if close is not None:
@@ -134,23 +137,53 @@ def map_runs(
 
 
 def _keeping_problems(memo: ResultMemo[T]) -> ResultMemo[tuple[tuple[Problem, ...], T]]:
-    """`memo`, keeping the run's problems beside its result (in the table's metadata), so a
-    result taken from the cache still says what reading the log found."""
+    """`memo`, keeping the run's problems beside its result, so a result taken from the cache
+    still says what reading the log found."""
     from wifibot_power.cache import ResultMemo
 
-    def to_table(kept: tuple[tuple[Problem, ...], T]) -> pa.Table:
+    def to_json(kept: tuple[tuple[Problem, ...], T]) -> object:
         problems, result = kept
-        table = memo.to_table(result)
-        listed = json.dumps([dataclasses.asdict(p) for p in problems]).encode()
-        return table.replace_schema_metadata(
-            {**(table.schema.metadata or {}), _PROBLEMS_KEY: listed}
-        )
+        return {
+            "problems": [dataclasses.asdict(p) for p in problems],
+            "result": memo.to_json(result),
+        }
 
-    def from_table(table: pa.Table) -> tuple[tuple[Problem, ...], T]:
-        listed = json.loads((table.schema.metadata or {})[_PROBLEMS_KEY])  # KeyError: a miss
-        return tuple(Problem(**p) for p in listed), memo.from_table(table)
+    def from_json(kept: object) -> tuple[tuple[Problem, ...], T]:
+        listed = kept["problems"]  # type: ignore[index]  # KeyError / TypeError: a miss
+        return tuple(Problem(**p) for p in listed), memo.from_json(kept["result"])  # type: ignore[index]
 
-    return ResultMemo(key=f"{memo.key} +problems", to_table=to_table, from_table=from_table)
+    return ResultMemo(key=f"{memo.key} +problems", to_json=to_json, from_json=from_json)
+
+
+def _kept_outcomes(
+    sources: list[LogSource],
+    cache: ParseCache | None,
+    memo: ResultMemo[T] | None,
+    options: ReadOptions,
+    on_done: Callable[[LogSource], None] | None,
+) -> list[tuple[bool, object] | None]:
+    """Each source's kept result (as `one` returns it), looked up in this process; None for a
+    source whose content has no kept result (or when there is no cache or memo)."""
+    if cache is None or memo is None:
+        return [None] * len(sources)
+    from wifibot_power.cache import MISSING
+
+    keeping = _keeping_problems(memo)
+    outcomes: list[tuple[bool, object] | None] = []
+    for source in sources:
+        try:
+            kept = cache.kept_result(
+                source.path, options, source.overrides, origin=source.origin, memo=keeping
+            )
+        except Exception:  # noqa: BLE001 - a lookup that fails is a miss: the worker will say why
+            kept = MISSING
+        if kept is MISSING:
+            outcomes.append(None)
+            continue
+        outcomes.append((True, kept))
+        if on_done is not None:
+            on_done(source)
+    return outcomes
 
 
 def _size_bytes(source: LogSource) -> int:
