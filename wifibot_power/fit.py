@@ -21,14 +21,15 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from wifibot_power.cache import ParseCache, ResultMemo, code_digest
 from wifibot_power.errors import LogError, WbpowerError
@@ -36,20 +37,114 @@ from wifibot_power.io import LogSource, ReadOptions, Skipped
 from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.model import LinearFit, PowerModel, paper_model
 from wifibot_power.outputs import json_safe, write_json, write_parquet
-from wifibot_power.phases import Segmentation
-from wifibot_power.run import Run
-from wifibot_power.runtable import COMPONENT_MODES, run_row, runs_frame
+from wifibot_power.run import MODES, Run
 
-Segmenter = Callable[[Run], Segmentation]
+if TYPE_CHECKING:  # pandas (~0.4 s to import) loads only when a table is asked for
+    import pandas as pd
+
+    from wifibot_power.phases import Segmentation
+
+Segmenter = Callable[[Run], "Segmentation"]
 NAN_PAIR = (float("nan"), float("nan"))
+#: Modes whose runs measure one component with the robot standing (paper Table 1): every run
+#: mode but motion, idle and unknown. Derived from `run.MODES` (as `runtable.COMPONENT_MODES`
+#: is, in the same order; a test checks) so that fitting needs no pandas.
+COMPONENT_MODES = tuple(m for m in MODES if m not in ("motion", "idle", "unknown"))
+#: A per-run row as `runtable.run_row` makes it (or a record of `runtable.runs_frame`).
+Row = Mapping[str, object]
 
 
 def _t_quantile(p: float, dof: float) -> float:
-    """Student's t quantile: `scipy.special.stdtrit(dof, p)`, the function `scipy.stats.t.ppf`
-    calls (the same bits), without importing scipy.stats (~0.7 s of start-up here)."""
-    from scipy import special
+    """Student's t quantile `t_{p, dof}` (what `scipy.stats.t.ppf(p, dof)` gives, to ~1e-13
+    relative), in plain Python: importing scipy.special costs ~0.25 s, most of a warm
+    `fit --cache`.
 
-    return float(special.stdtrit(dof, p))
+    For t >= 0, `P(T > t) = I_x(ν/2, 1/2) / 2` and `P(0 < T <= t) = I_y(1/2, ν/2) / 2` with
+    `x = ν / (ν + t²)`, `y = t² / (ν + t²) = 1 - x` (Abramowitz & Stegun 26.7.1 with 26.5.27;
+    `I` the regularized incomplete beta function, `_betainc`). The equation for t is set on
+    the smaller of the two probabilities, `1 - p` or `p - 1/2` (each exact in floating point
+    there), and solved by Newton's method with the t density
+    `f(t) = Γ((ν+1)/2) / (sqrt(νπ) Γ(ν/2)) (1 + t²/ν)^(-(ν+1)/2)` (A&S 26.7.1) as derivative,
+    kept inside a bracket that bisection falls back to.
+    """
+    if not (0.0 < p < 1.0 and dof > 0.0):
+        return math.nan
+    if p < 0.5:
+        return -_t_quantile(1.0 - p, dof)
+    if p == 0.5:
+        return 0.0
+    half = 0.5 * (dof + 1.0)
+    log_norm = math.lgamma(half) - math.lgamma(0.5 * dof) - 0.5 * math.log(dof * math.pi)
+    use_tail = p > 0.75
+    target = 1.0 - p if use_tail else p - 0.5
+
+    def excess(t: float) -> float:
+        """How far t's probability is from the target, signed: > 0 when t is below the root."""
+        x, y = dof / (dof + t * t), t * t / (dof + t * t)
+        if use_tail:
+            return 0.5 * _betainc(0.5 * dof, 0.5, x, y) - target
+        return target - 0.5 * _betainc(0.5, 0.5 * dof, y, x)
+
+    def density(t: float) -> float:
+        return math.exp(log_norm - half * math.log1p(t * t / dof))
+
+    low, high = 0.0, 1.0
+    while excess(high) > 0.0:  # double until the root is bracketed
+        low, high = high, 2.0 * high
+    t = 0.5 * (low + high)
+    for _ in range(200):
+        gap = excess(t)
+        if gap > 0.0:
+            low = t
+        else:
+            high = t
+        following = t + gap / density(t)
+        if not low < following < high:  # Newton left the bracket: bisect
+            following = 0.5 * (low + high)
+        if abs(following - t) <= 2.0 * _EPS * abs(following) or following in (low, high):
+            return following
+        t = following
+    return t
+
+
+_EPS = 2.220446049250313e-16  # float64 machine epsilon
+
+
+def _betainc(a: float, b: float, x: float, y: float) -> float:
+    """Regularized incomplete beta function `I_x(a, b)`, given `x` and `y = 1 - x` (each as
+    accurate as the caller can make it: `log x` and `log y` come from the smaller one).
+
+    Continued fraction evaluated by the modified Lentz method (Numerical Recipes, 3rd ed.,
+    Eq. 6.4.5 and §5.2), with `I_x(a, b) = 1 - I_y(b, a)` where it converges slowly
+    (x > (a + 1) / (a + b + 2)).
+    """
+    if x <= 0.0:
+        return 0.0
+    if y <= 0.0:
+        return 1.0
+    if x > (a + 1.0) / (a + b + 2.0):
+        return 1.0 - _betainc(b, a, y, x)
+    log_x = math.log(x) if x < 0.5 else math.log1p(-y)
+    log_y = math.log(y) if y < 0.5 else math.log1p(-x)
+    front = math.exp(math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b) + a * log_x + b * log_y)
+    tiny = 1e-300
+    c, d = 1.0, 1.0 - (a + b) * x / (a + 1.0)
+    d = 1.0 / (d if abs(d) > tiny else tiny)
+    fraction = d
+    for m in range(1, 100_000):
+        two_m = 2 * m
+        for numerator in (
+            m * (b - m) * x / ((a + two_m - 1.0) * (a + two_m)),
+            -(a + m) * (a + b + m) * x / ((a + two_m) * (a + two_m + 1.0)),
+        ):
+            d = 1.0 + numerator * d
+            d = 1.0 / (d if abs(d) > tiny else tiny)
+            c = 1.0 + numerator / c
+            c = c if abs(c) > tiny else tiny
+            fraction *= c * d
+        if abs(c * d - 1.0) <= _EPS:
+            break
+    return front * fraction / a
 
 
 def fit_line(speed_mps: np.ndarray, values: np.ndarray) -> LinearFit:
@@ -67,7 +162,7 @@ def fit_line(speed_mps: np.ndarray, values: np.ndarray) -> LinearFit:
     keep = np.isfinite(x) & np.isfinite(y)
     x, y = x[keep], y[keep]
     n = int(x.size)
-    if n < 2 or np.unique(x).size < 2:
+    if n < 2 or bool(np.all(x == x[0])):  # fewer than 2 distinct speeds (np.unique: 40 ms cold)
         return LinearFit(float("nan"), float("nan"), n_runs=n)
     x_mean, y_mean = x.mean(), y.mean()
     s_xx = float(np.sum((x - x_mean) ** 2))
@@ -142,18 +237,36 @@ class FitResult:
     """What `fit` found: the model, its uncertainty, the tables and what was left out.
 
     `runs` holds a row per readable run (`usable` says whether the fit used it), `phases`
-    a row per phase (phases.parquet). `skipped` lists unreadable and unusable inputs.
+    a row per phase (phases.parquet): pandas tables, made by `tables` when first asked for
+    (a command that only prints the model, e.g. a warm `fit --cache --json`, never loads
+    pandas). `skipped` lists unreadable and unusable inputs.
     """
 
     model: PowerModel
     idle: MeanEstimate
     idle_source: str
     components: dict[str, MeanEstimate | None]
-    runs: pd.DataFrame
-    phases: pd.DataFrame
+    #: runs the fit used
+    n_runs: int
+    #: makes `(runs, phases)`
+    tables: Callable[[], tuple[pd.DataFrame, pd.DataFrame]] = field(repr=False)
     skipped: tuple[Skipped, ...] = ()
     notes: tuple[str, ...] = ()
     paper: PowerModel = field(default_factory=paper_model)
+
+    @functools.cached_property
+    def _frames(self) -> tuple[pd.DataFrame, pd.DataFrame]:
+        return self.tables()
+
+    @property
+    def runs(self) -> pd.DataFrame:
+        """A row per readable run (runs.parquet, `runtable.runs_frame`)."""
+        return self._frames[0]
+
+    @property
+    def phases(self) -> pd.DataFrame:
+        """A row per phase of every run (phases.parquet, `Segmentation.frame` columns)."""
+        return self._frames[1]
 
     @property
     def model_complete(self) -> bool:
@@ -171,11 +284,6 @@ class FitResult:
                 model.idle_W,
             )
         )
-
-    @property
-    def n_runs(self) -> int:
-        """Runs used by the fit."""
-        return int(self.runs["usable"].sum()) if len(self.runs) else 0
 
     def summary(self) -> dict[str, object]:
         """The `fit --json` document (cli.md), JSON-safe (NaN -> null)."""
@@ -326,35 +434,55 @@ def fit_table(
 
     Callable on any subset of runs (e.g. `diagnose` fitting on the runs it does not hold out).
     """
-    used = runs[runs["usable"]] if len(runs) else runs
-    motion = used[used["mode"] == "motion"]
-    speed = motion["speed_mps"].to_numpy(dtype=np.float64)
-    accel = fit_line(speed, motion["accel_mean_power_W"].to_numpy(dtype=np.float64))
-    cruise = fit_line(speed, motion["cruise_mean_power_W"].to_numpy(dtype=np.float64))
-    t_acc = fit_line(speed, motion["t_acc_s"].to_numpy(dtype=np.float64))
+    if phases is None:
+        import pandas as pd
+
+        phases = pd.DataFrame()
+    records = runs.to_dict("records") if len(runs) else []
+    return fit_rows(records, lambda: (runs, phases), skipped)
+
+
+def fit_rows(
+    rows: Sequence[Row],
+    tables: Callable[[], tuple[pd.DataFrame, pd.DataFrame]],
+    skipped: tuple[Skipped, ...] = (),
+) -> FitResult:
+    """`fit_table` on per-run rows (`runtable.run_row` dicts or the records of a runs table),
+    without pandas: paper Eq. 1-4 by least squares (`fit_line`), idle and Table 1 component
+    powers as means over runs (`MeanEstimate`, `net_of_idle`). `tables()` makes the
+    `(runs, phases)` tables of the result when they are asked for.
+    """
+    used = [row for row in rows if row["usable"]]
+    motion = [row for row in used if row["mode"] == "motion"]
+
+    def column(selected: list[Row], name: str) -> np.ndarray:
+        return np.array([row[name] for row in selected], dtype=np.float64)  # None -> NaN
+
+    speed = column(motion, "speed_mps")
+    accel = fit_line(speed, column(motion, "accel_mean_power_W"))
+    cruise = fit_line(speed, column(motion, "cruise_mean_power_W"))
+    t_acc = fit_line(speed, column(motion, "t_acc_s"))
     notes: list[str] = []
     if len(motion) and not math.isfinite(accel.slope):
         notes.append("fewer than 2 distinct speeds among motion runs: P_acc, P_v not fitted")
 
-    idle_runs = used[used["mode"] == "idle"]
+    idle_runs = [row for row in used if row["mode"] == "idle"]
     if len(idle_runs):
-        idle = MeanEstimate.of(idle_runs["mean_power_W"].to_numpy(dtype=np.float64))
+        idle = MeanEstimate.of(column(idle_runs, "mean_power_W"))
         idle_source = "idle runs"
     else:
-        idle = MeanEstimate.of(motion["idle_mean_power_W"].to_numpy(dtype=np.float64))
+        idle = MeanEstimate.of(column(motion, "idle_mean_power_W"))
         idle_source = "idle phases of motion runs" if idle.n_runs else "none"
         if idle.n_runs:
             notes.append("no idle-mode runs: idle power is the mean of motion runs' idle phases")
 
     components: dict[str, MeanEstimate | None] = {}
     for mode in COMPONENT_MODES:
-        mode_runs = used[used["mode"] == mode]
+        mode_runs = [row for row in used if row["mode"] == mode]
         if len(mode_runs) == 0:
             components[mode] = None
             continue
-        components[mode] = net_of_idle(
-            MeanEstimate.of(mode_runs["mean_power_W"].to_numpy(dtype=np.float64)), idle
-        )
+        components[mode] = net_of_idle(MeanEstimate.of(column(mode_runs, "mean_power_W")), idle)
     model = PowerModel(
         accel=accel,
         cruise=cruise,
@@ -368,8 +496,8 @@ def fit_table(
         idle=idle,
         idle_source=idle_source,
         components=components,
-        runs=runs,
-        phases=phases if phases is not None else pd.DataFrame(),
+        n_runs=len(used),
+        tables=tables,
         skipped=tuple(skipped),
         notes=tuple(notes),
     )
@@ -446,6 +574,9 @@ def fit_logs(
     def work(run: Run) -> tuple[dict[str, object], list[dict[str, object]]]:
         # a row per phase, as Segmentation.frame() makes it: plain values, small to send back
         # and to keep, and the phases table is built once from all of them
+        from wifibot_power.phases import Segmentation
+        from wifibot_power.runtable import run_row
+
         if run.meta.mode == "unknown":  # nothing to fit it to: not worth segmenting
             return run_row(run, Segmentation(run.meta.run_id, ())), []
         segmentation = segment_checked(run, segmenter)
@@ -465,24 +596,36 @@ def fit_logs(
         memo=memo,
         on_problems=on_problems,
     )
-    runs = runs_frame([row for row, _ in results])
-    empty = Segmentation("", ()).frame()
+    rows = [row for row, _ in results]
     phase_rows = [phase for _, phases in results for phase in phases]
-    phases = pd.DataFrame(phase_rows, columns=empty.columns) if phase_rows else empty
     unusable = [
         Skipped(str(row["file"]), f"{row['file']}: {row['skip_reason']}")
-        for row in runs.to_dict("records")
+        for row in rows
         if not row["usable"]
     ]
     skipped = tuple(read_skipped) + tuple(unusable)
-    if not runs["usable"].any():
+    if not any(row["usable"] for row in rows):
         first = skipped[0].reason if skipped else "no logs"
         raise LogError(
-            f"no usable run among {len(runs) + len(read_skipped)} input(s); first: {first}",
+            f"no usable run among {len(rows) + len(read_skipped)} input(s); first: {first}",
             file=", ".join(map(str, paths)),
             fix="see 'wbpower inspect' for what each log holds",
         )
-    return fit_table(runs, phases, skipped)
+    return fit_rows(rows, lambda: _tables(rows, phase_rows), skipped)
+
+
+def _tables(
+    rows: list[dict[str, object]], phase_rows: list[dict[str, object]]
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The runs and phases tables of `fit_logs` (pandas is imported here, when asked for)."""
+    import pandas as pd
+
+    from wifibot_power.phases import Segmentation
+    from wifibot_power.runtable import runs_frame
+
+    empty = Segmentation("", ()).frame()
+    phases = pd.DataFrame(phase_rows, columns=empty.columns) if phase_rows else empty
+    return runs_frame(rows), phases
 
 
 def write_fit(result: FitResult, out_dir: Path) -> list[Path]:
