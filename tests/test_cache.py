@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import gzip
 import json
+import math
 import os
 from pathlib import Path
 
@@ -310,3 +311,108 @@ def test_entry_round_trip_is_bitwise(
     assert loaded is not None
     assert_same_run(loaded, run)
     assert cache_module._load_run(entry, "other content") is None
+
+
+# -- the warm path: nothing but the kept results, in the calling process -----------------------
+
+WARM_RUN = r"""
+import json, sys
+from wifibot_power.io import batch
+
+started = []
+real = batch.map_ordered
+def spy(items, task, **kwargs):
+    started.extend(items)
+    return real(items, task, **kwargs)
+batch.map_ordered = spy
+from wifibot_power.cli import main
+sys.argv = ["wbpower", "fit", sys.argv[1], "--json", "--jobs", "2", "--cache", sys.argv[2]]
+try:
+    main()
+except SystemExit:
+    pass
+loaded = sorted(m for m in ("pandas", "scipy", "pyarrow.parquet") if m in sys.modules)
+print(json.dumps({"loaded": loaded, "worked_on": len(started)}), file=sys.stderr)
+"""
+
+
+def test_warm_fit_forks_no_worker_and_loads_neither_pandas_nor_scipy(tmp_path: Path) -> None:
+    """What makes a warm `fit --cache` >= 10x faster than a cold one (docs/benchmarks.md): no
+    file goes to a worker, and pandas, scipy and pyarrow.parquet (~0.8 s of imports together)
+    are not imported. The cold run, measured the same way, goes through the workers."""
+    import subprocess
+    import sys
+
+    corpus = _corpus(tmp_path / "logs")
+
+    def run() -> tuple[dict, dict]:
+        done = subprocess.run(
+            [sys.executable, "-c", WARM_RUN, str(corpus), str(tmp_path / "cache")],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        return json.loads(done.stdout), json.loads(done.stderr.strip().splitlines()[-1])
+
+    cold_summary, cold = run()
+    warm_summary, warm = run()
+    assert cold["worked_on"] == 3  # 3 logs parsed and segmented (pandas: in the workers)
+    assert warm == {"loaded": [], "worked_on": 0}
+    assert warm_summary == cold_summary
+
+
+def test_fit_tables_are_made_when_asked_for(tmp_path: Path) -> None:
+    """FitResult.runs / .phases are pandas tables made on first use, then the same object."""
+    result = fit_logs([_corpus(tmp_path / "logs")], jobs=1)
+    assert "_frames" not in vars(result)
+    runs = result.runs
+    assert runs is result.runs and len(runs) == 3 and result.n_runs == 3
+    assert list(result.phases.columns)[:3] == ["run_id", "step", "phase"]
+
+
+def test_component_modes_are_the_run_tables() -> None:
+    from wifibot_power import fit, runtable
+
+    assert fit.COMPONENT_MODES == runtable.COMPONENT_MODES == ("network", "video", "cpu")
+
+
+# -- Student's t quantile without scipy (fit's intervals) --------------------------------------
+
+
+def test_t_quantile_known_values() -> None:
+    from wifibot_power.fit import _t_quantile
+
+    # closed forms: 1 dof is Cauchy, t = tan(pi (p - 1/2)); 2 dof, t = (2p - 1) / sqrt(2p(1 - p))
+    for p in (0.6, 0.975, 0.999):
+        assert _t_quantile(p, 1.0) == pytest.approx(math.tan(math.pi * (p - 0.5)), rel=1e-13)
+        assert _t_quantile(p, 2.0) == pytest.approx(
+            (2 * p - 1) / math.sqrt(2 * p * (1 - p)), rel=1e-13
+        )
+    # printed tables (e.g. Montgomery & Runger, Table V): t_{0.975, 10} = 2.228, 30 -> 2.042
+    assert _t_quantile(0.975, 10.0) == pytest.approx(2.228, abs=5e-4)
+    assert _t_quantile(0.975, 30.0) == pytest.approx(2.042, abs=5e-4)
+    # symmetric, and 0 at the median
+    assert _t_quantile(0.025, 7.5) == -_t_quantile(0.975, 7.5)
+    assert _t_quantile(0.5, 3.0) == 0.0
+    # just above the median t = delta / f(0): f(0) = Gamma(5/2) / (sqrt(4 pi) Gamma(2)) = 3/8
+    # for 4 dof; the next term is O(delta^3), so 1e-12 relative holds for delta = 1e-7
+    delta = 0.5000001 - 0.5
+    assert _t_quantile(0.5000001, 4.0) == pytest.approx(delta / 0.375, rel=1e-12)
+    assert math.isnan(_t_quantile(0.975, 0.0)) and math.isnan(_t_quantile(1.0, 5.0))
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    p=st.floats(0.6, 1 - 1e-9),
+    dof=st.one_of(st.floats(0.5, 1000.0), st.integers(1, 1000).map(float)),
+)
+def test_t_quantile_is_scipys(p: float, dof: float) -> None:
+    """Against scipy.special.stdtrit (what scipy.stats.t.ppf calls). rtol 1e-11: the
+    incomplete beta's front factor takes lgamma(dof / 2), whose absolute error (~eps x
+    lgamma) is ~1e-13 relative at 1000 dof; the Newton solve adds a few ulps. (Near p = 1/2
+    scipy itself is less accurate than this: see test_t_quantile_known_values.)"""
+    from scipy.special import stdtrit
+
+    from wifibot_power.fit import _t_quantile
+
+    assert _t_quantile(p, dof) == pytest.approx(float(stdtrit(dof, p)), rel=1e-11)
