@@ -225,3 +225,35 @@ def test_generator_wrap_still_advances_once_per_file(corpus: Path) -> None:
     rows, _ = map_runs([corpus], ReadOptions(), lambda run: run.samples, wrap=wrap, jobs=1)
     assert len(advanced) == len(rows) + 2  # every file, the two skipped included
     assert np.all(np.asarray(rows) > 0)
+
+
+def test_prepare_runs_once_before_work_and_not_when_all_is_kept(corpus: Path, tmp_path) -> None:
+    """`prepare` (fit: import pandas and the segmenter once, before forking) is called once
+    when some file needs work, and not at all when the cache keeps every result."""
+    import shutil
+
+    from wifibot_power.cache import ParseCache
+    from wifibot_power.fit import RESULT_MEMO, fit_logs
+
+    good = tmp_path / "good"  # the corpus without its 2 broken logs (those are never kept)
+    shutil.copytree(corpus, good, ignore=shutil.ignore_patterns("broken_*"))
+    calls: list[int] = []
+    cache = ParseCache(tmp_path / "cache")
+    fit_logs([good], jobs=2, cache=cache)  # parses kept: the work below needs no parsing
+
+    def prepare() -> None:
+        calls.append(1)
+
+    # a fresh memo key: nothing kept for it yet -> work on the 5 logs (3 speeds, idle,
+    # network), prepare once
+    memo = type(RESULT_MEMO)(key="test prepare", to_json=lambda r: r, from_json=lambda r: r)
+    names, _ = map_runs(
+        [good], ReadOptions(), lambda run: Path(run.file).name, jobs=2, cache=cache,
+        memo=memo, prepare=prepare,
+    )  # fmt: skip
+    assert calls == [1] and len(names) == 5
+    again, _ = map_runs(
+        [good], ReadOptions(), lambda run: pytest.fail("worked"), jobs=2, cache=cache,
+        memo=memo, prepare=prepare,
+    )  # fmt: skip
+    assert calls == [1] and again == names

@@ -595,6 +595,7 @@ def fit_logs(
         cache=cache,
         memo=memo,
         on_problems=on_problems,
+        prepare=_import_work_modules,
     )
     rows = [row for row, _ in results]
     phase_rows = [phase for _, phases in results for phase in phases]
@@ -612,6 +613,13 @@ def fit_logs(
             fix="see 'wbpower inspect' for what each log holds",
         )
     return fit_rows(rows, lambda: _tables(rows, phase_rows), skipped)
+
+
+def _import_work_modules() -> None:
+    """What `fit_logs`' work on a file imports (pandas, via the run table; the segmenter),
+    imported once here, before workers are forked, rather than once in every worker."""
+    import wifibot_power.runtable  # noqa: F401
+    import wifibot_power.segment  # noqa: F401
 
 
 def _tables(

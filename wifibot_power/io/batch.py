@@ -44,6 +44,7 @@ def map_runs(
     cache: ParseCache | None = None,
     memo: ResultMemo[T] | None = None,
     on_problems: ProblemHook | None = None,
+    prepare: Callable[[], object] | None = None,
 ) -> tuple[list[T], list[Skipped]]:
     """Read each log under `paths` and apply `work` to it, one file in memory at a time per
     worker; results in the order of the logs.
@@ -54,6 +55,10 @@ def map_runs(
     (how to keep what `work` returns) it skips the work too on content it has seen.
     `wrap(sources)` is a progress hook: an iterator over the sources, advanced as each file
     is done; if it has a `done(source)` method, that is called instead with the file done.
+
+    `prepare()` is called in this process once, before the first file is worked on (not at
+    all when every result is kept in the cache): e.g. importing what `work` needs, so forked
+    workers inherit it instead of each importing it.
 
     `on_problems(file, problems)` is called in this process, in the order of the logs, for
     each log read with problems (`Run.problems`: gaps, clipped stretches, a cut last line),
@@ -115,6 +120,8 @@ def map_runs(
         outcomes = _kept_outcomes(sources, cache, memo, options, on_done)
         # only what is not kept goes to workers: a warm batch starts none
         todo = [k for k, outcome in enumerate(outcomes) if outcome is None]
+        if todo and prepare is not None:
+            prepare()
         computed = map_ordered(
             [sources[k] for k in todo], one, jobs=jobs, on_done=on_done, cost=_size_bytes
         )
