@@ -416,3 +416,13 @@ def test_t_quantile_is_scipys(p: float, dof: float) -> None:
     from wifibot_power.fit import _t_quantile
 
     assert _t_quantile(p, dof) == pytest.approx(float(stdtrit(dof, p)), rel=1e-11)
+
+
+def test_library_versions_in_the_code_digest_are_the_installed_ones() -> None:
+    """The kept results' key names numpy/pandas/scipy/pyarrow versions without importing them:
+    they must be what the package metadata says (a new pandas must recompute)."""
+    from importlib.metadata import version
+
+    for name in ("numpy", "pandas", "scipy", "pyarrow"):
+        assert cache_module._installed_version(name) == version(name)
+    assert cache_module._installed_version("no_such_distribution_here") == "absent"

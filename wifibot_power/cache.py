@@ -110,23 +110,42 @@ class ResultMemo(Generic[T]):
 def code_digest() -> str:
     """SHA-256 of all of wifibot_power's source and the numeric libraries' versions: a result
     computed by other code, or other numpy/pandas/scipy/pyarrow, is computed again. The
-    versions are read from the installed distributions' metadata, not by importing them
-    (pandas and scipy cost ~0.7 s to import: a warm run needs neither)."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    def installed(name: str) -> str:
-        try:
-            return version(name)
-        except PackageNotFoundError:
-            return "absent"
-
+    versions are found without importing the libraries (pandas and scipy cost ~0.7 s to
+    import: a warm run needs neither; `_installed_version`)."""
     package = Path(__file__).parent
-    versions = " ".join(installed(n) for n in ("numpy", "pandas", "scipy", "pyarrow"))
+    versions = " ".join(_installed_version(n) for n in ("numpy", "pandas", "scipy", "pyarrow"))
     digest = hashlib.sha256(versions.encode())
     for source in sorted(package.rglob("*.py")):
         digest.update(str(source.relative_to(package)).encode())
         digest.update(source.read_bytes())
     return digest.hexdigest()
+
+
+def _installed_version(name: str) -> str:
+    """The installed version of distribution `name`, from the name of its `.dist-info` folder
+    beside the package (`{name}-{version}.dist-info`, the wheel spec, PEP 427), found without
+    importing the package; else from `importlib.metadata` (whose import and header parsing
+    cost ~20 ms of a warm run)."""
+    import importlib.util
+
+    spec = importlib.util.find_spec(name)
+    if spec is None:
+        return "absent"
+    if spec.origin:
+        found = sorted(Path(spec.origin).parent.parent.glob(f"{name}-*.dist-info"))
+        if len(found) == 1:
+            return found[0].name[len(name) + 1 : -len(".dist-info")]
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(name)
+    except PackageNotFoundError:
+        return "absent"
+
+
+@functools.lru_cache(maxsize=16)
+def _options_key(options: ReadOptions) -> dict[str, object]:
+    return dataclasses.asdict(options)  # a deep copy: once per batch, not once per file
 
 
 @dataclasses.dataclass(frozen=True)
@@ -160,7 +179,7 @@ class ParseCache:
             [
                 reader_digest(),
                 str(path),
-                dataclasses.asdict(options),
+                _options_key(options),
                 sorted((overrides or {}).items()),
                 origin,
             ],
