@@ -101,3 +101,16 @@ def test_diagnose_against_a_stored_model(small_logs, tmp_path):
     )
     assert result.exit_code == 0, result.output
     assert "not refitted" in json.loads(result.stdout)["baseline"]["model"]
+
+
+def test_a_command_loads_only_its_own_module():
+    """`wbpower energy` does not pay for diagnose's imports (start-up is most of a warm run)."""
+    code = (
+        "import sys\n"
+        "sys.argv = ['wbpower', 'energy', '--help']\n"
+        "from wifibot_power.cli import main\n"
+        "try:\n    main()\nexcept SystemExit:\n    pass\n"
+        "print(sorted(m for m in sys.modules if m.endswith('_cmd')))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.strip().splitlines()[-1] == "['wifibot_power.cli.energy_cmd']"

@@ -10,7 +10,6 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.table import Table
 
-from wifibot_power.cli.app import app
 from wifibot_power.cli.common import (
     CacheDir,
     Jobs,
@@ -26,6 +25,7 @@ from wifibot_power.cli.common import (
     warn_problems,
     with_reading_options,
 )
+from wifibot_power.cli.typer_app import app
 from wifibot_power.io import ReadOptions
 
 if TYPE_CHECKING:

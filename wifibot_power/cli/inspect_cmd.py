@@ -8,7 +8,6 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from wifibot_power.cli.app import app
 from wifibot_power.cli.common import (
     JsonFlag,
     handles_errors,
@@ -19,6 +18,7 @@ from wifibot_power.cli.common import (
     warn,
     with_reading_options,
 )
+from wifibot_power.cli.typer_app import app
 from wifibot_power.inspect import inspect_logs
 from wifibot_power.io import ReadOptions
 

@@ -7,8 +7,8 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from wifibot_power.cli.app import app
 from wifibot_power.cli.common import JsonFlag, ModelSpec, OutDir, handles_errors, print_json, stdout
+from wifibot_power.cli.typer_app import app
 from wifibot_power.errors import UsageError
 from wifibot_power.lifetime import (
     DEFAULT_DIST_M,

@@ -8,8 +8,8 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from wifibot_power.cli.app import app
 from wifibot_power.cli.common import JsonFlag, handles_errors, print_json, stdout
+from wifibot_power.cli.typer_app import app
 from wifibot_power.simulate import EFFECTS, SimConfig, WriteOptions, parse_effects, write_simulation
 
 
