@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import gzip
 import json
-import math
 import os
 from pathlib import Path
 
@@ -377,45 +376,6 @@ def test_component_modes_are_the_run_tables() -> None:
 
 
 # -- Student's t quantile without scipy (fit's intervals) --------------------------------------
-
-
-def test_t_quantile_known_values() -> None:
-    from wifibot_power.fit import _t_quantile
-
-    # closed forms: 1 dof is Cauchy, t = tan(pi (p - 1/2)); 2 dof, t = (2p - 1) / sqrt(2p(1 - p))
-    for p in (0.6, 0.975, 0.999):
-        assert _t_quantile(p, 1.0) == pytest.approx(math.tan(math.pi * (p - 0.5)), rel=1e-13)
-        assert _t_quantile(p, 2.0) == pytest.approx(
-            (2 * p - 1) / math.sqrt(2 * p * (1 - p)), rel=1e-13
-        )
-    # printed tables (e.g. Montgomery & Runger, Table V): t_{0.975, 10} = 2.228, 30 -> 2.042
-    assert _t_quantile(0.975, 10.0) == pytest.approx(2.228, abs=5e-4)
-    assert _t_quantile(0.975, 30.0) == pytest.approx(2.042, abs=5e-4)
-    # symmetric, and 0 at the median
-    assert _t_quantile(0.025, 7.5) == -_t_quantile(0.975, 7.5)
-    assert _t_quantile(0.5, 3.0) == 0.0
-    # just above the median t = delta / f(0): f(0) = Gamma(5/2) / (sqrt(4 pi) Gamma(2)) = 3/8
-    # for 4 dof; the next term is O(delta^3), so 1e-12 relative holds for delta = 1e-7
-    delta = 0.5000001 - 0.5
-    assert _t_quantile(0.5000001, 4.0) == pytest.approx(delta / 0.375, rel=1e-12)
-    assert math.isnan(_t_quantile(0.975, 0.0)) and math.isnan(_t_quantile(1.0, 5.0))
-
-
-@settings(max_examples=200, deadline=None)
-@given(
-    p=st.floats(0.6, 1 - 1e-9),
-    dof=st.one_of(st.floats(0.5, 1000.0), st.integers(1, 1000).map(float)),
-)
-def test_t_quantile_is_scipys(p: float, dof: float) -> None:
-    """Against scipy.special.stdtrit (what scipy.stats.t.ppf calls). rtol 1e-11: the
-    incomplete beta's front factor takes lgamma(dof / 2), whose absolute error (~eps x
-    lgamma) is ~1e-13 relative at 1000 dof; the Newton solve adds a few ulps. (Near p = 1/2
-    scipy itself is less accurate than this: see test_t_quantile_known_values.)"""
-    from scipy.special import stdtrit
-
-    from wifibot_power.fit import _t_quantile
-
-    assert _t_quantile(p, dof) == pytest.approx(float(stdtrit(dof, p)), rel=1e-11)
 
 
 def test_library_versions_in_the_code_digest_are_the_installed_ones() -> None:

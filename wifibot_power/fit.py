@@ -38,6 +38,7 @@ from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.model import LinearFit, PowerModel, paper_model
 from wifibot_power.outputs import json_safe, write_json, write_parquet
 from wifibot_power.run import MODES, Run
+from wifibot_power.stats import t_quantile
 
 if TYPE_CHECKING:  # pandas (~0.4 s to import) loads only when a table is asked for
     import pandas as pd
@@ -52,99 +53,6 @@ NAN_PAIR = (float("nan"), float("nan"))
 COMPONENT_MODES = tuple(m for m in MODES if m not in ("motion", "idle", "unknown"))
 #: A per-run row as `runtable.run_row` makes it (or a record of `runtable.runs_frame`).
 Row = Mapping[str, object]
-
-
-def _t_quantile(p: float, dof: float) -> float:
-    """Student's t quantile `t_{p, dof}` (what `scipy.stats.t.ppf(p, dof)` gives, to ~1e-13
-    relative), in plain Python: importing scipy.special costs ~0.25 s, most of a warm
-    `fit --cache`.
-
-    For t >= 0, `P(T > t) = I_x(ν/2, 1/2) / 2` and `P(0 < T <= t) = I_y(1/2, ν/2) / 2` with
-    `x = ν / (ν + t²)`, `y = t² / (ν + t²) = 1 - x` (Abramowitz & Stegun 26.7.1 with 26.5.27;
-    `I` the regularized incomplete beta function, `_betainc`). The equation for t is set on
-    the smaller of the two probabilities, `1 - p` or `p - 1/2` (each exact in floating point
-    there), and solved by Newton's method with the t density
-    `f(t) = Γ((ν+1)/2) / (sqrt(νπ) Γ(ν/2)) (1 + t²/ν)^(-(ν+1)/2)` (A&S 26.7.1) as derivative,
-    kept inside a bracket that bisection falls back to.
-    """
-    if not (0.0 < p < 1.0 and dof > 0.0):
-        return math.nan
-    if p < 0.5:
-        return -_t_quantile(1.0 - p, dof)
-    if p == 0.5:
-        return 0.0
-    half = 0.5 * (dof + 1.0)
-    log_norm = math.lgamma(half) - math.lgamma(0.5 * dof) - 0.5 * math.log(dof * math.pi)
-    use_tail = p > 0.75
-    target = 1.0 - p if use_tail else p - 0.5
-
-    def excess(t: float) -> float:
-        """How far t's probability is from the target, signed: > 0 when t is below the root."""
-        x, y = dof / (dof + t * t), t * t / (dof + t * t)
-        if use_tail:
-            return 0.5 * _betainc(0.5 * dof, 0.5, x, y) - target
-        return target - 0.5 * _betainc(0.5, 0.5 * dof, y, x)
-
-    def density(t: float) -> float:
-        return math.exp(log_norm - half * math.log1p(t * t / dof))
-
-    low, high = 0.0, 1.0
-    while excess(high) > 0.0:  # double until the root is bracketed
-        low, high = high, 2.0 * high
-    t = 0.5 * (low + high)
-    for _ in range(200):
-        gap = excess(t)
-        if gap > 0.0:
-            low = t
-        else:
-            high = t
-        following = t + gap / density(t)
-        if not low < following < high:  # Newton left the bracket: bisect
-            following = 0.5 * (low + high)
-        if abs(following - t) <= 2.0 * _EPS * abs(following) or following in (low, high):
-            return following
-        t = following
-    return t
-
-
-_EPS = 2.220446049250313e-16  # float64 machine epsilon
-
-
-def _betainc(a: float, b: float, x: float, y: float) -> float:
-    """Regularized incomplete beta function `I_x(a, b)`, given `x` and `y = 1 - x` (each as
-    accurate as the caller can make it: `log x` and `log y` come from the smaller one).
-
-    Continued fraction evaluated by the modified Lentz method (Numerical Recipes, 3rd ed.,
-    Eq. 6.4.5 and §5.2), with `I_x(a, b) = 1 - I_y(b, a)` where it converges slowly
-    (x > (a + 1) / (a + b + 2)).
-    """
-    if x <= 0.0:
-        return 0.0
-    if y <= 0.0:
-        return 1.0
-    if x > (a + 1.0) / (a + b + 2.0):
-        return 1.0 - _betainc(b, a, y, x)
-    log_x = math.log(x) if x < 0.5 else math.log1p(-y)
-    log_y = math.log(y) if y < 0.5 else math.log1p(-x)
-    front = math.exp(math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b) + a * log_x + b * log_y)
-    tiny = 1e-300
-    c, d = 1.0, 1.0 - (a + b) * x / (a + 1.0)
-    d = 1.0 / (d if abs(d) > tiny else tiny)
-    fraction = d
-    for m in range(1, 100_000):
-        two_m = 2 * m
-        for numerator in (
-            m * (b - m) * x / ((a + two_m - 1.0) * (a + two_m)),
-            -(a + m) * (a + b + m) * x / ((a + two_m) * (a + two_m + 1.0)),
-        ):
-            d = 1.0 + numerator * d
-            d = 1.0 / (d if abs(d) > tiny else tiny)
-            c = 1.0 + numerator / c
-            c = c if abs(c) > tiny else tiny
-            fraction *= c * d
-        if abs(c * d - 1.0) <= _EPS:
-            break
-    return front * fraction / a
 
 
 def fit_line(speed_mps: np.ndarray, values: np.ndarray) -> LinearFit:
@@ -174,7 +82,7 @@ def fit_line(speed_mps: np.ndarray, values: np.ndarray) -> LinearFit:
     sse = float(np.sum(residual**2))
     sst = float(np.sum((y - y_mean) ** 2))
     s = math.sqrt(sse / (n - 2))
-    t = float(_t_quantile(0.975, n - 2))
+    t = float(t_quantile(0.975, n - 2))
     se_slope = s / math.sqrt(s_xx)
     se_intercept = s * math.sqrt(1.0 / n + x_mean**2 / s_xx)
     return LinearFit(
@@ -208,7 +116,7 @@ class MeanEstimate:
         if n == 1:
             return cls(mean, NAN_PAIR, 1)
         se = float(values.std(ddof=1) / math.sqrt(n))
-        t = float(_t_quantile(0.975, n - 1))
+        t = float(t_quantile(0.975, n - 1))
         return cls(mean, (mean - t * se, mean + t * se), n, se)
 
 
@@ -228,7 +136,7 @@ def net_of_idle(mode: MeanEstimate, idle: MeanEstimate) -> MeanEstimate:
     dof = (var_mode + var_idle) ** 2 / (
         var_mode**2 / (mode.n_runs - 1) + var_idle**2 / (idle.n_runs - 1)
     )
-    t = float(_t_quantile(0.975, dof))
+    t = float(t_quantile(0.975, dof))
     return MeanEstimate(value, (value - t * se, value + t * se), mode.n_runs, se)
 
 
