@@ -10,6 +10,7 @@ import json
 
 import pandas as pd
 import pytest
+from contract import RUNS_PARQUET_COLUMNS
 from typer.testing import CliRunner
 
 from wifibot_power import fit as fit_module
@@ -106,20 +107,7 @@ def test_out_dir_writes_tables_and_a_model_that_loads(logs, truth_segments, tmp_
     assert result.exit_code == 0, result.output
     out = tmp_path / "out"
     runs = pd.read_parquet(out / "runs.parquet")
-    assert {
-        "run_id",
-        "file",
-        "mode",
-        "speed_mps",
-        "distance_m",
-        "steps",
-        "duration_s",
-        "energy_J",
-        "motion_energy_J",
-        "t_acc_s",
-        "accel_mean_power_W",
-        "cruise_mean_power_W",
-    } <= set(runs.columns)
+    assert RUNS_PARQUET_COLUMNS <= set(runs.columns)
     assert len(runs) == 14
     phases = pd.read_parquet(out / "phases.parquet")
     assert set(phases["run_id"]) == set(truth_segments)

@@ -16,6 +16,7 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
+from contract import PHASES_PARQUET_COLUMNS
 from numpy.testing import assert_allclose
 
 from wifibot_power.fit import MeanEstimate, fit_line, fit_logs, fit_table, net_of_idle, write_fit
@@ -261,16 +262,7 @@ def test_fit_logs_recovers_truth_and_writes_a_model_that_loads_back(sim_dir, tmp
     phases = pd.read_parquet(tmp_path / "out" / "phases.parquet")
     # one row per truth phase of every run
     assert len(phases) == sum(len(t["phases"]) for t in truth.values())
-    assert {
-        "run_id",
-        "step",
-        "phase",
-        "t_start_s",
-        "t_end_s",
-        "duration_s",
-        "mean_power_W",
-        "energy_J",
-    } <= set(phases.columns)
+    assert PHASES_PARQUET_COLUMNS <= set(phases.columns)
 
 
 def test_fit_logs_lists_unusable_and_unreadable_inputs(sim_dir, tmp_path):
