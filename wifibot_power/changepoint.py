@@ -349,16 +349,6 @@ def best_split(
     )
 
 
-def piece_sse(y: np.ndarray, deg: int) -> float:
-    """Residual sum of squares of one least-squares polynomial of degree `deg` over y."""
-    y = np.asarray(y, dtype=np.float64)
-    if y.size <= deg + 1:
-        return 0.0
-    cost = _PolyCost(y, deg)
-    sse, _ = cost.fit(0, y.size, deg)
-    return float(sse[0])
-
-
 @dataclass(frozen=True)
 class LevelSpike:
     """A short start-up excursion at the start of a level, in samples."""

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from datetime import datetime
-from pathlib import Path
 
 import numpy as np
 
@@ -98,8 +97,3 @@ def energy_J(power_W: np.ndarray, sample_period_s: float) -> float:
     which is what the per-phase tables rely on.
     """
     return float(np.sum(power_W, dtype=np.float64) * sample_period_s)
-
-
-def source_name(path: str | Path) -> str:
-    """How a file is named in messages and tables."""
-    return str(path)

@@ -21,7 +21,7 @@ phase boundaries and motion energy of each run.
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
@@ -458,7 +458,3 @@ def write_simulation(
 def load_truth(path: Path) -> dict[str, object]:
     """Read a `truth.json` (for scoring in tests and benchmarks, never inside `diagnose`)."""
     return json.loads(Path(path).read_text(encoding="utf-8"))
-
-
-def with_effects(config: SimConfig, **effects: float) -> SimConfig:
-    return replace(config, effects={**config.effects, **effects})

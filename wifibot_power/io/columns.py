@@ -35,16 +35,6 @@ class PowerSource:
     voltage: tuple[str, float] | None = None
     supply_voltage_V: float | None = None
 
-    def describe(self) -> str:
-        if self.power:
-            return f"power from '{self.power[0]}'"
-        volts = f"'{self.voltage[0]}'" if self.voltage else f"{self.supply_voltage_V} V supply"
-        return f"power = '{self.current[0]}' x {volts}"
-
-    @property
-    def columns(self) -> list[str]:
-        return [c[0] for c in (self.power, self.current, self.voltage) if c]
-
 
 def find_column(names: list[str], wanted: str) -> str | None:
     """The column whose name matches `wanted` case-insensitively (quotes and blanks ignored)."""
