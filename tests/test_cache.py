@@ -19,7 +19,7 @@ from wifibot_power import cache as cache_module
 from wifibot_power.cache import ParseCache
 from wifibot_power.errors import LogError, UsageError
 from wifibot_power.fit import fit_logs
-from wifibot_power.io import ReadOptions, read_log
+from wifibot_power.io import ReadOptions, read_log, reader
 from wifibot_power.run import Run, RunMeta
 
 LOG = """# wbpower-log: 1
@@ -51,13 +51,13 @@ class Spy:
 
     def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
         self.calls = 0
-        real = cache_module.read_log
+        real = reader.read_log
 
         def counting(*args, **kwargs):
             self.calls += 1
             return real(*args, **kwargs)
 
-        monkeypatch.setattr(cache_module, "read_log", counting)
+        monkeypatch.setattr(reader, "read_log", counting)  # the cache imports it when it parses
 
 
 @pytest.fixture
@@ -253,7 +253,7 @@ def test_fit_with_cache_same_result_cold_and_warm(tmp_path: Path, wbpower, monke
     assert len(list((tmp_path / "cache").glob("*.result.json"))) == 3
     assert len(list((tmp_path / "cache").glob("*.parquet"))) == 3
     # warm: neither parsed nor segmented again, and exactly the same result
-    monkeypatch.setattr(cache_module, "read_log", lambda *a, **k: pytest.fail("parsed"))
+    monkeypatch.setattr(reader, "read_log", lambda *a, **k: pytest.fail("parsed"))
     monkeypatch.setattr("wifibot_power.segment.segment_run", lambda run: pytest.fail("segmented"))
     for jobs in (1, 2):
         assert_same_fit(fit_logs([corpus], jobs=jobs, cache=cache), plain)
@@ -330,15 +330,17 @@ try:
     main()
 except SystemExit:
     pass
-loaded = sorted(m for m in ("pandas", "scipy", "pyarrow.parquet") if m in sys.modules)
+loaded = sorted(m for m in ("pandas", "scipy", "pyarrow", "pydantic") if m in sys.modules)
 print(json.dumps({"loaded": loaded, "worked_on": len(started)}), file=sys.stderr)
 """
 
 
-def test_warm_fit_forks_no_worker_and_loads_neither_pandas_nor_scipy(tmp_path: Path) -> None:
+def test_warm_fit_forks_no_worker_and_loads_no_parser(tmp_path: Path) -> None:
     """What makes a warm `fit --cache` >= 10x faster than a cold one (docs/benchmarks.md): no
-    file goes to a worker, and pandas, scipy and pyarrow.parquet (~0.8 s of imports together)
-    are not imported. The cold run, measured the same way, goes through the workers."""
+    file goes to a worker, and pandas, scipy, pyarrow (~0.8 s of imports together) and
+    pydantic (typer >= 0.29 coerces options through it: ~0.1 s, hence typer < 0.29 in
+    pyproject.toml) are not imported. The cold run, measured the same way, goes through the
+    workers and loads pyarrow in this process before they fork."""
     import subprocess
     import sys
 
@@ -356,6 +358,7 @@ def test_warm_fit_forks_no_worker_and_loads_neither_pandas_nor_scipy(tmp_path: P
     cold_summary, cold = run()
     warm_summary, warm = run()
     assert cold["worked_on"] == 3  # 3 logs parsed and segmented (pandas: in the workers)
+    assert "pyarrow" in cold["loaded"]
     assert warm == {"loaded": [], "worked_on": 0}
     assert warm_summary == cold_summary
 

@@ -45,10 +45,9 @@ from pathlib import Path
 from typing import Generic, TypeVar
 
 import numpy as np
-import pyarrow as pa
 
 from wifibot_power.errors import UsageError
-from wifibot_power.io.reader import ReadOptions, read_log
+from wifibot_power.io.options import ReadOptions
 from wifibot_power.run import Problem, Run, RunMeta
 
 #: Version of the entry layout; part of every key.
@@ -255,6 +254,8 @@ class ParseCache:
         try:
             stat = os.stat(path)
         except OSError:
+            from wifibot_power.io.reader import read_log
+
             return work(read_log(path, options, overrides, origin=origin))  # its own error
         entry = self.entry_path(path, options, overrides, origin)
         validity = _read_validity(entry)
@@ -276,6 +277,8 @@ class ParseCache:
             if raw is None:  # stat was trusted but the entry is gone: read and hash afresh
                 raw, fresh = _hash(path, stat)
                 content = fresh["content_sha256"]
+            from wifibot_power.io.reader import read_log  # a warm lookup needs no parser
+
             run = read_log(path, options, overrides, data=_decompressed(path, raw), origin=origin)
             _store(entry, run, fresh)
         elif fresh != validity:
@@ -325,6 +328,8 @@ def _decompressed(path: Path, raw: bytes) -> bytes | None:
     codec = next((c for s, c in _COMPRESSED.items() if path.name.lower().endswith(s)), None)
     if codec is None:
         return raw
+    import pyarrow as pa
+
     try:
         with pa.input_stream(pa.BufferReader(raw), compression=codec) as stream:
             return stream.read()
@@ -356,6 +361,7 @@ def _write_validity(entry: Path, validity: dict[str, object]) -> None:
 
 def _load_run(entry: Path, content_sha256: str) -> Run | None:
     """The cached `Run`, or None when the entry is missing, unreadable or of other content."""
+    import pyarrow as pa
     import pyarrow.parquet as pq  # only for a parse that is read back: a warm fit needs none
 
     try:
@@ -387,6 +393,7 @@ def _load_run(entry: Path, content_sha256: str) -> Run | None:
 
 def _store(entry: Path, run: Run, validity: dict[str, object]) -> None:
     """Write the parse (Parquet), then what it is valid for (JSON beside it)."""
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
     meta = dataclasses.asdict(run.meta)

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from wifibot_power.errors import UsageError
-from wifibot_power.io.reader import FORMAT_CANONICAL
+from wifibot_power.io.options import FORMAT_CANONICAL
 from wifibot_power.io.writer import format_log, write_log
 from wifibot_power.outputs import write_json, write_text
 from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Run, RunMeta

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, TypeVar
 from wifibot_power.errors import LogError, WbpowerError
 from wifibot_power.io.discover import LogSource, Skipped, find_logs
 from wifibot_power.io.manifest import is_manifest
-from wifibot_power.io.reader import ReadOptions, read_log
+from wifibot_power.io.options import ReadOptions
 from wifibot_power.parallel import map_ordered
 from wifibot_power.run import Problem, Run
 
@@ -81,6 +81,8 @@ def map_runs(
         return run.problems, work(run)
 
     def one(source: LogSource) -> tuple[bool, tuple[tuple[Problem, ...], T] | Skipped]:
+        from wifibot_power.io.reader import read_log  # loaded before workers fork (below)
+
         try:
             if cache is not None:
                 return True, cache.process(
@@ -120,8 +122,12 @@ def map_runs(
         outcomes = _kept_outcomes(sources, cache, memo, options, on_done)
         # only what is not kept goes to workers: a warm batch starts none
         todo = [k for k, outcome in enumerate(outcomes) if outcome is None]
-        if todo and prepare is not None:
-            prepare()
+        if todo:
+            # the parser (and pyarrow) load only when something is parsed: a warm batch skips them
+            import wifibot_power.io.reader  # noqa: F401
+
+            if prepare is not None:
+                prepare()
         computed = map_ordered(
             [sources[k] for k in todo], one, jobs=jobs, on_done=on_done, cost=_size_bytes
         )

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from wifibot_power.errors import LogError
 from wifibot_power.io.manifest import MANIFEST_NAME, is_manifest, read_manifest
-from wifibot_power.io.reader import is_log_name
+from wifibot_power.io.options import is_log_name
 
 
 @dataclass(frozen=True)

@@ -35,12 +35,15 @@ from wifibot_power.io.columns import (
     unit_scale,
 )
 from wifibot_power.io.metadata import build_meta
+from wifibot_power.io.options import (
+    FORMAT_CANONICAL,
+    FORMAT_N6705,
+    LOG_SUFFIXES,
+    ReadOptions,
+)
 from wifibot_power.io.validate import check_samples
 from wifibot_power.run import Problem, Run
 
-FORMAT_CANONICAL = "wbpower-csv"
-FORMAT_N6705 = "n6705"
-LOG_SUFFIXES = (".csv", ".csv.gz", ".csv.zst")
 #: The canonical format versions this reader knows (`# wbpower-log: 1`).
 KNOWN_VERSIONS = ("1",)
 _HEAD_BYTES = 1 << 16
@@ -62,16 +65,6 @@ _DECIMAL_POINT_CELL = re.compile(r"^\s*[+-]?\d*\.\d+(?:[eE][+-]?\d+)?\s*$")
 
 
 @dataclass(frozen=True)
-class ReadOptions:
-    """Options every log-reading command shares (cli.md: reading options)."""
-
-    supply_voltage_V: float | None = None
-    current_column: str | None = None
-    voltage_column: str | None = None
-    sample_period_s: float | None = None
-
-
-@dataclass(frozen=True)
 class _Preamble:
     format: str
     header_line: int  # 0-based index of the header row in the file
@@ -81,10 +74,6 @@ class _Preamble:
     decimal_comma: bool
     #: metadata key -> where it was set ("line 3"), for messages
     metadata_where: dict[str, str] = field(default_factory=dict)
-
-
-def is_log_name(path: Path) -> bool:
-    return path.name.lower().endswith(LOG_SUFFIXES)
 
 
 @contextmanager
