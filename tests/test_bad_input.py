@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
+from wifibot_power.errors import LogError
 from wifibot_power.io import read_log
 
 HEAD = "# wbpower-log: 1\n# run_id: t\n# mode: idle\n"  # lines 1-3; the header is line 4
@@ -299,17 +300,25 @@ def test_unambiguous_variants_are_read(tmp_path, wbpower, case, data):
 # -- harmless problems: read, and reported with where and how long --------------------------
 
 
-def test_cut_last_line_is_dropped_and_reported(tmp_path, wbpower):
-    # lines 5 and 6 complete; line 7 cut mid-number by a full disk ("23.3102" -> "23.3")
+def test_cut_last_line_is_bad_input(tmp_path, wbpower):
+    # lines 5 and 6 complete; line 7 cut mid-number by a full disk ("23.3102" -> "23.3"):
+    # log-format.md lists "a truncated last line" as bad input, so the log is not analysed
     path = tmp_path / "cut.csv"
     path.write_text(log("0.0000000,23.3102\n0.0001024,23.3102\n0.0002048,23.3"))
     result = wbpower("inspect", "--json", path)
-    assert result.exit_code == 0
-    (row,) = json.loads(result.stdout)
-    assert row["samples"] == 2
-    assert row["problems"] == ["line 7 has no line end (file cut short?): dropped, not read"]
-    assert "line 7 has no line end" in result.stderr  # warned, not silent
-    assert read_log(path).power_W.tolist() == [23.3102, 23.3102]
+    assert result.exit_code == 2 and result.stdout == ""
+    (message,) = result.stderr.splitlines()
+    assert message.startswith(f"wbpower: error: {path}: line 7: the last line has no line end")
+    assert "delete it to read the rest" in message
+    with pytest.raises(LogError, match="line 7: the last line has no line end"):
+        read_log(path)
+    # in a batch: listed as skipped with the same reason, the good log analysed, exit 1
+    good = tmp_path / "good.csv"
+    good.write_text(log("0.0000000,23.3102\n0.0001024,23.3102\n0.0002048,23.3102\n"))
+    batch = wbpower("inspect", "--json", tmp_path)
+    assert batch.exit_code == 1
+    assert [row["file"] for row in json.loads(batch.stdout)] == [str(good)]
+    assert f"{path}: line 7: the last line has no line end" in batch.stderr
 
 
 def test_short_gap_is_reported_and_the_rest_analysed(tmp_path, wbpower):

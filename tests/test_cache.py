@@ -82,13 +82,16 @@ def test_hit_is_the_same_run_and_skips_the_parse(tmp_path: Path, monkeypatch, se
     assert second.energy_J == pytest.approx(0.0996, rel=1e-12)
 
 
+GAP_ROWS = "".join(f"{k / 1000:.3f},23.{k % 7}\n" for k in range(301) if k != 150)
+
+
 @pytest.mark.parametrize(
     "name, text",
     [
         # power only, no time column: time is index x period, not stored
         ("p.csv", "# mode: idle\n# sample_period_s: 0.001\npower_W\n23.1\n23.3\n23.2\n"),
-        # a cut last line (a Problem travels with the run)
-        ("cut.csv", "# mode: idle\ntime_s,power_W\n0,23.1\n0.001,23.3\n0.002,23.2\n0.003,23"),
+        # a short gap of one dropped sample in 300 (a Problem travels with the run)
+        ("gap.csv", "# mode: idle\ntime_s,power_W\n" + GAP_ROWS),
         # semicolons and decimal commas
         ("comma.csv", "# mode: idle\ntime_s;power_W\n0;23,1\n0,001;23,3\n0,002;23,2\n"),
     ],
@@ -99,6 +102,7 @@ def test_hit_round_trips_every_kind_of_log(tmp_path: Path, name: str, text: str,
     cache = ParseCache(tmp_path / "cache")
     cache.read_log(log)
     assert_same_run(cache.read_log(log), read_log(log))
+    assert bool(read_log(log).problems) == (name == "gap.csv")
 
 
 def test_gzip_log(tmp_path: Path, monkeypatch, settled) -> None:

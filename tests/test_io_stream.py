@@ -1,5 +1,5 @@
 """The reader streams the file: it never holds the file's bytes, finds line numbers by reading
-the file again, and drops a cut last line the same way whatever the source.
+the file again, and stops at a cut last line the same way whatever the source.
 
 Expected values are worked out by hand from the text written (line numbers counted from the
 lines built here); the line scanner is checked against the plain `re.split` of the whole text.
@@ -96,22 +96,21 @@ def test_line_numbers_past_the_first_block(tmp_path):
         read_log(_write(tmp_path / "word.csv", text))
 
 
-# -- a cut last line: dropped and reported, from every kind of source ------------------------
+# -- a cut last line: the same error, with its line, from every kind of source --------------
 
 
 @pytest.mark.parametrize("name", ["cut.csv", "cut.csv.gz", "cut.csv.zst", "in memory"])
 @pytest.mark.parametrize("end", ["\n", "\r\n"])
-def test_cut_last_line_is_dropped_whatever_the_source(tmp_path, name, end):
+def test_cut_last_line_is_an_error_whatever_the_source(tmp_path, name, end):
     # lines 5-7 complete, line 8 cut mid-number ("23.5102" -> "23.5")
     text = HEAD.replace("\n", end) + _rows(np.array([23.3, 23.4, 23.5]), end=end) + "0.0003072,23.5"
-    if name == "in memory":
-        run = read_log("cut.csv", data=text.encode())
-    else:
-        run = read_log(_write(tmp_path / name, text))
-    assert run.power_W.tolist() == [23.3, 23.4, 23.5]
-    assert [p.message for p in run.problems] == [
-        "line 8 has no line end (file cut short?): dropped, not read"
-    ]
+    with pytest.raises(LogError, match="line 8: the last line has no line end"):
+        if name == "in memory":
+            read_log("cut.csv", data=text.encode())
+        else:
+            read_log(_write(tmp_path / name, text))
+    # the same text with its line end is a good log of 4 samples
+    assert read_log("whole.csv", data=(text + end).encode()).samples == 4
 
 
 @pytest.mark.parametrize("name", ["long.csv", "long.csv.gz", "in memory"])
@@ -119,13 +118,11 @@ def test_cut_line_longer_than_the_tail_read(tmp_path, name):
     # a cut last line of 70 000 characters: longer than the 64 KiB the reader looks at first
     # at the end of a file, so it is found while streaming instead
     text = HEAD + _rows(np.array([23.3, 23.4])) + "0.0002048," + "2" * 70_000
-    if name == "in memory":
-        run = read_log("long.csv", data=text.encode())
-    else:
-        run = read_log(_write(tmp_path / name, text))
-    assert run.power_W.tolist() == [23.3, 23.4]
-    assert [p.kind for p in run.problems] == ["cut"]
-    assert run.problems[0].message.startswith("line 7 has no line end")
+    with pytest.raises(LogError, match="line 7: the last line has no line end"):
+        if name == "in memory":
+            read_log("long.csv", data=text.encode())
+        else:
+            read_log(_write(tmp_path / name, text))
 
 
 def test_header_without_line_end_is_header_only(tmp_path):

@@ -42,7 +42,7 @@ from wifibot_power.io.options import (
     ReadOptions,
 )
 from wifibot_power.io.validate import check_samples
-from wifibot_power.run import Problem, Run
+from wifibot_power.run import Run
 
 #: The canonical format versions this reader knows (`# wbpower-log: 1`).
 KNOWN_VERSIONS = ("1",)
@@ -190,12 +190,6 @@ def read_log(
         path, content, pre, head, named, [*used, *([time_column] * bool(time_column))]
     )
     lines = columns.lines
-    cut_problem = None
-    if columns.cut_at is not None:
-        cut_problem = Problem(
-            "cut",
-            f"line {lines.line_count() + 1} has no line end (file cut short?): dropped, not read",
-        )
     values = dict(pre.metadata)
     where = {k: f"metadata {w}" for k, w in pre.metadata_where.items()}
     for key, value in (overrides or {}).items():
@@ -225,8 +219,6 @@ def read_log(
         measured=measured,
     )
     del measured
-    if cut_problem is not None:
-        problems.insert(0, cut_problem)
     if time_s is None:
         time_s = np.arange(power_W.size) * period_s
     elif period_s != meta.sample_period_s:
@@ -277,7 +269,7 @@ def _decode(path: Path, content: _Content) -> tuple[_Content, bytes]:
 
 class _LineMap:
     """File line numbers (1-based) of data rows, worked out only when a message needs one, by
-    reading the content again up to `limit` bytes (where a dropped cut line starts)."""
+    reading the content again up to `limit` bytes (where a cut last line starts)."""
 
     def __init__(self, content: _Content, header_line: int, limit: int | None = None) -> None:
         self._content = content
@@ -556,10 +548,11 @@ class _HoldBackCutLine(io.RawIOBase):
     """The content as a stream for pyarrow, less a last line that has no line end.
 
     A last data line with no line end is what a full disk or a cut copy leaves: it may hold a
-    shortened number (23.3102 -> 23.3), so it is dropped and reported, never read. What follows
-    the last line end seen so far is held back until more comes; at the end, what is held is
-    dropped if it is more than blanks and starts after `header_start` (a header with no line
-    end stays: "header only" follows). `cut_at` is then where the dropped line starts.
+    shortened number (23.3102 -> 23.3), so it is never parsed, and the read stops with an
+    error (`_cut_line`). What follows the last line end seen so far is held back until more
+    comes; at the end, what is held is kept out if it is more than blanks and starts after
+    `header_start` (a header with no line end stays: "header only" follows). `cut_at` is then
+    where that line starts.
     """
 
     def __init__(self, stream: pa.NativeFile, header_start: int) -> None:
@@ -652,8 +645,6 @@ class _Columns:
     values: dict[str, np.ndarray]
     text: set[str]
     lines: _LineMap
-    #: where a dropped last line without a line end starts (None: no such line)
-    cut_at: int | None = None
 
 
 def _read_columns(
@@ -674,14 +665,14 @@ def _read_columns(
     header_start = _line_start(head, pre.header_line)
     tail = content.tail()
     cut_at = -1 if tail is None else _cut_start(*tail, header_start)
+    if cut_at is not None and cut_at >= 0:
+        raise _cut_line(path, content, pre, cut_at)  # seen in the tail: nothing to parse
     with _read_errors(path):
         stream = content.open()
     held_back: _HoldBackCutLine | None = None
     if cut_at is None:
         source = stream  # pyarrow reads the file itself: no Python in the loop
-    elif cut_at >= 0 and content.data is not None:
-        source = pa.BufferReader(pa.py_buffer(content.data).slice(0, cut_at))
-    else:  # compressed, or cut: the stream is watched for a last line without a line end
+    else:  # compressed, or a last line longer than the tail: watched as it streams
         held_back = _HoldBackCutLine(stream, header_start)
         source = pa.PythonFile(held_back, mode="r")
     try:
@@ -720,8 +711,8 @@ def _read_columns(
         ) from None
     finally:
         stream.close()
-    if held_back is not None:
-        cut_at = held_back.cut_at
+    if held_back is not None and held_back.cut_at is not None:
+        raise _cut_line(path, content, pre, held_back.cut_at)
     if table.num_rows == 0:
         raise _header_only(path, pre)
     names = table.column_names
@@ -741,7 +732,20 @@ def _read_columns(
         # before the next is copied: at most one column is held twice
         pool.release_unused()
     del table
-    return _Columns(names, values, text, _LineMap(content, pre.header_line, cut_at), cut_at)
+    return _Columns(names, values, text, _LineMap(content, pre.header_line))
+
+
+def _cut_line(path: Path, content: _Content, pre: _Preamble, cut_at: int) -> LogError:
+    """The last line has no line end (log-format.md: a truncated last line is bad input)."""
+    line = _LineMap(content, pre.header_line, cut_at).line_count() + 1
+    return LogError(
+        "the last line has no line end: the file may be cut short, and a cut line can hold a "
+        "shortened number (23.3102 -> 23.3)",
+        file=path,
+        where=f"line {line}",
+        fix="re-copy the file; if the line is complete, end it with a line break, or delete "
+        "it to read the rest",
+    )
 
 
 def _header_only(path: Path, pre: _Preamble) -> LogError:
