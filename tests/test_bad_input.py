@@ -2,8 +2,9 @@
 
 Every unreadable single input: exit 2, nothing on stdout, one line on stderr that names
 the file (and the line/column where it applies) and says what to do, no traceback.
-Unambiguous variants are read, and their numbers checked. Gaps and clipped stretches are
-reported with where and how long. Line numbers below are counted by hand from the text.
+Unambiguous variants are read, and their numbers checked. Short gaps are reported with
+where and how long; a clipped stretch, a long gap and a cut last line are errors.
+Line numbers below are counted by hand from the text.
 """
 
 from __future__ import annotations
@@ -170,8 +171,7 @@ def test_bad_input_is_one_line_error(tmp_path, wbpower, case, content, needles):
 
 
 def test_long_clipped_stretch_is_an_error_saying_where_and_how_long(tmp_path, wbpower):
-    # 1000 noisy samples around 23.3 W; samples 300-499 (200 samples = 20.48 ms) stuck at 30 W,
-    # over the 10 ms that may be reported and analysed
+    # 1000 noisy samples around 23.3 W; samples 300-499 (200 samples = 20.48 ms) stuck at 30 W
     power_W = 23.3 + 0.05 * np.random.default_rng(1).standard_normal(1000)
     power_W[300:500] = 30.0
     path = tmp_path / "clipped.csv"
@@ -349,21 +349,24 @@ def test_many_short_gaps_over_one_percent_are_an_error(tmp_path, wbpower):
     assert_one_line_error(wbpower("inspect", path), path, "100 gap(s)", "(10% of the log)")
 
 
-def test_short_clipped_stretch_is_reported_where_and_how_long(tmp_path, wbpower):
-    # noisy 23.3 W with samples 100-119 (20 x 0.1024 ms = 2.048 ms) stuck at 30 W: reported,
-    # since a 2 ms clip cannot move a run's energy much; it starts on line 105
+def test_short_clipped_stretch_is_an_error_too(tmp_path, wbpower):
+    # noisy 23.3 W with samples 100-119 (20 x 0.1024 ms = 2.048 ms) stuck at 30 W: a short
+    # clip is still bad input (log-format.md), named with its line (105), length and time
     power_W = 23.3 + 0.05 * np.random.default_rng(2).standard_normal(1000)
     power_W[100:120] = 30.0
     path = tmp_path / "clip.csv"
     path.write_text(log(rows(power_W)))
-    result = wbpower("inspect", "--json", path)
-    assert result.exit_code == 0, result.stderr
-    (row,) = json.loads(result.stdout)
-    assert row["problems"] == [
-        "line 105: 'power_W' flat at its maximum 30 for 20 samples (2.05 ms) from t = 0.01024 s "
-        "(clipped?)"
-    ]
-    assert_allclose(row["problem_details"][0]["duration_s"], 20 * PERIOD_S, rtol=1e-12)
+    assert_one_line_error(
+        wbpower("inspect", path),
+        path,
+        "line 105",
+        "'power_W' clipped: 20 samples (0.002048 s) flat at its maximum 30",
+        "from t = 0.01024 s",
+    )
+    # the same clip shorter than 10 readings is not told apart from noise: read
+    power_W[109:120] = 23.3 + 0.05 * np.random.default_rng(3).standard_normal(11)
+    path.write_text(log(rows(power_W)))
+    assert wbpower("inspect", path).exit_code == 0
 
 
 def test_clipped_current_is_found_although_power_is_not_flat(tmp_path, wbpower):

@@ -80,7 +80,7 @@ def test_single_file_failure_raises_for_exit_2(tmp_path):
         map_runs([path], ReadOptions(), lambda run: run)
 
 
-# -- problems found while reading (short gaps, clipping): said by every batch command ---------
+# -- problems found while reading (short gaps): said by every batch command -------------------
 
 GAP_LOG = "v0.30_d2_s1_r1"
 DROPPED_ROWS = slice(5000, 5003)  # 3 rows of the 1.024 ms sample log: a 3.072 ms gap

@@ -158,7 +158,7 @@ def warn(message: str) -> None:
 
 
 def warn_problems(file: str, problems: tuple[Problem, ...]) -> None:
-    """What reading a log found but did not stop it (short gaps, short clipping): one warning
+    """What reading a log found but did not stop it (short gaps): one warning
     line each on stderr, naming the file (as `inspect` prints them)."""
     for problem in problems:
         warn(f"{file}: {problem.message}")

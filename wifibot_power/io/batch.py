@@ -1,6 +1,6 @@
 """Reading many logs: every good file is processed, each bad one is listed with its reason.
 
-What a log's reading found odd but did not stop (a short gap, a short clipped stretch:
+What a log's reading found odd but did not stop (a short gap of dropped samples:
 `Run.problems`) comes back from the workers with each result, so the calling process can say
 it (`on_problems`).
 """
@@ -61,7 +61,7 @@ def map_runs(
     workers inherit it instead of each importing it.
 
     `on_problems(file, problems)` is called in this process, in the order of the logs, for
-    each log read with problems (`Run.problems`: short gaps and clipped stretches),
+    each log read with problems (`Run.problems`: short gaps),
     after all are done.
     Problems come back from workers and from the cache too.
 

@@ -1,8 +1,8 @@
 """Checks on the samples of a log: the numbers must be ones we can trust.
 
 Vectorised over samples. Errors name the file and the line. What is harmless and
-reported (a short gap, a short clipped stretch) is returned as a `Problem`; what
-would make a number quietly wrong is an error. The thresholds are documented in
+reported (a short gap) is returned as a `Problem`; what would make a number quietly
+wrong is an error. The thresholds are documented in
 docs/log-format.md ("What wbpower checks").
 """
 
@@ -27,13 +27,11 @@ MAX_GAP_PCT = 1.0
 GAP_FACTOR = 1.5
 #: Consecutive identical readings at a column's maximum that mean the range clipped.
 SATURATION_SAMPLES = 10
-#: The maximum must stand this far above the median for a flat top to be clipping, not a level.
-SATURATION_ABOVE_MEDIAN = 1.05
-#: Clipped stretches adding up to more than this stop the analysis [s] (energy unknowable there).
-MAX_SATURATED_S = 0.01
 #: A trace with more repeated consecutive values than this share is quantised or noise-free:
 #: a flat top there is a level, not clipping, and is not reported.
 QUANTISED_SHARE = 0.5
+#: The maximum must stand this far above the median for a flat top to be clipping, not a level.
+SATURATION_ABOVE_MEDIAN = 1.05
 
 
 def check_samples(
@@ -60,7 +58,7 @@ def check_samples(
     else:
         period_s, problems = _check_time(file, time_s, line_of, default_period_s)
     for name, values in (measured or {"power": power_W}).items():
-        problems += _check_saturation(file, name, values, time_s, period_s, line_of)
+        _check_saturation(file, name, values, time_s, period_s, line_of)
     return period_s, problems
 
 
@@ -167,16 +165,18 @@ def _check_saturation(
     time_s: np.ndarray | None,
     period_s: float,
     line_of: Callable[[int], int],
-) -> list[Problem]:
-    """Flat stretches at the column's maximum: the analyser range clipped there."""
+) -> None:
+    """Flat stretches at the column's maximum: the analyser range clipped there, so the energy
+    there is unknown. log-format.md lists clipped readings as bad input: an error, however
+    short."""
     if values.size < SATURATION_SAMPLES:
-        return []
+        return
     peak = values.max()
     at_peak = values == peak
     if np.count_nonzero(at_peak) < SATURATION_SAMPLES:
-        return []
+        return
     if not peak > SATURATION_ABOVE_MEDIAN * np.median(values):
-        return []
+        return  # the flat top is the trace's typical level (a steady load), not a clip
     if np.mean(np.diff(values[~at_peak]) == 0) > QUANTISED_SHARE:
         return []  # noise-free or coarsely quantised: a flat top is a level, not clipping
     edges = np.diff(np.concatenate(([0], at_peak.view(np.int8), [0])))
@@ -184,31 +184,16 @@ def _check_saturation(
     lengths = ends - starts
     keep = lengths >= SATURATION_SAMPLES
     if not keep.any():
-        return []
+        return
     starts, lengths = starts[keep], lengths[keep]
-    durations_s = lengths * period_s
     longest = int(np.argmax(lengths))
-
-    def t_at(index: int) -> float:
-        return float(time_s[index]) if time_s is not None else index * period_s
-
-    if durations_s.sum() > MAX_SATURATED_S:
-        raise LogError(
-            f"'{name}' clipped: {lengths.sum()} samples ({durations_s.sum():.4g} s) flat at its "
-            f"maximum {peak:.6g} in {lengths.size} stretch(es), longest {lengths[longest]} "
-            f"samples from t = {t_at(int(starts[longest])):.6g} s",
-            file=file,
-            where=f"line {line_of(int(starts[longest]))}",
-            fix="the analyser range clipped, so energy there is unknown; re-record with a "
-            "higher range",
-        )
-    return [
-        Problem(
-            "saturated",
-            f"line {line_of(int(start))}: '{name}' flat at its maximum {peak:.6g} for {length} "
-            f"samples ({duration * 1e3:.3g} ms) from t = {t_at(int(start)):.6g} s (clipped?)",
-            t_at(int(start)),
-            float(duration),
-        )
-        for start, length, duration in zip(starts, lengths, durations_s, strict=True)
-    ]
+    start = int(starts[longest])
+    t_start_s = float(time_s[start]) if time_s is not None else start * period_s
+    raise LogError(
+        f"'{name}' clipped: {lengths.sum()} samples ({lengths.sum() * period_s:.4g} s) flat at "
+        f"its maximum {peak:.6g} in {lengths.size} stretch(es), longest {lengths[longest]} "
+        f"samples from t = {t_start_s:.6g} s",
+        file=file,
+        where=f"line {line_of(start)}",
+        fix="the analyser range clipped, so energy there is unknown; re-record with a higher range",
+    )
