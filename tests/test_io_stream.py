@@ -113,6 +113,18 @@ def test_cut_last_line_is_an_error_whatever_the_source(tmp_path, name, end):
     assert read_log("whole.csv", data=(text + end).encode()).samples == 4
 
 
+@pytest.mark.parametrize("name", ["bad.csv", "bad.csv.gz", "bad.csv.zst", "in memory"])
+def test_an_earlier_bad_line_is_reported_before_the_cut_one(tmp_path, name):
+    # line 6 has three fields, line 8 no line end: the first in the file is the one reported,
+    # whatever the source (the cut line is found before parsing for some, after for others)
+    text = HEAD + "0.0000000,23.3\n0.0001024,23.4,7\n0.0002048,23.5\n0.0003072,23.5"
+    with pytest.raises(LogError, match="line 6: 3 field"):
+        if name == "in memory":
+            read_log("bad.csv", data=text.encode())
+        else:
+            read_log(_write(tmp_path / name, text))
+
+
 @pytest.mark.parametrize("name", ["long.csv", "long.csv.gz", "in memory"])
 def test_cut_line_longer_than_the_tail_read(tmp_path, name):
     # a cut last line of 70 000 characters: longer than the 64 KiB the reader looks at first

@@ -665,14 +665,16 @@ def _read_columns(
     header_start = _line_start(head, pre.header_line)
     tail = content.tail()
     cut_at = -1 if tail is None else _cut_start(*tail, header_start)
-    if cut_at is not None and cut_at >= 0:
-        raise _cut_line(path, content, pre, cut_at)  # seen in the tail: nothing to parse
     with _read_errors(path):
         stream = content.open()
     held_back: _HoldBackCutLine | None = None
+    # a last line without a line end is never parsed; the lines before it are, so that an
+    # error earlier in the file is the one reported, whatever the source (file, .gz, bytes)
     if cut_at is None:
         source = stream  # pyarrow reads the file itself: no Python in the loop
-    else:  # compressed, or a last line longer than the tail: watched as it streams
+    elif cut_at >= 0 and content.data is not None:
+        source = pa.BufferReader(pa.py_buffer(content.data).slice(0, cut_at))
+    else:  # compressed, or cut: the stream is watched for a last line without a line end
         held_back = _HoldBackCutLine(stream, header_start)
         source = pa.PythonFile(held_back, mode="r")
     try:
@@ -711,8 +713,10 @@ def _read_columns(
         ) from None
     finally:
         stream.close()
-    if held_back is not None and held_back.cut_at is not None:
-        raise _cut_line(path, content, pre, held_back.cut_at)
+    if held_back is not None:
+        cut_at = held_back.cut_at
+    if cut_at is not None:
+        raise _cut_line(path, content, pre, cut_at)
     if table.num_rows == 0:
         raise _header_only(path, pre)
     names = table.column_names

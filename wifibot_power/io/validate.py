@@ -178,7 +178,7 @@ def _check_saturation(
     if not peak > SATURATION_ABOVE_MEDIAN * np.median(values):
         return  # the flat top is the trace's typical level (a steady load), not a clip
     if np.mean(np.diff(values[~at_peak]) == 0) > QUANTISED_SHARE:
-        return []  # noise-free or coarsely quantised: a flat top is a level, not clipping
+        return  # noise-free or coarsely quantised: a flat top is a level, not clipping
     edges = np.diff(np.concatenate(([0], at_peak.view(np.int8), [0])))
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
     lengths = ends - starts
