@@ -183,3 +183,45 @@ def test_a_given_model_is_the_baseline_as_it_is():
     assert row["baseline_energy_J"] == pytest.approx(29.82 + 4.5 * 28.38, rel=1e-9)
     assert "not refitted" in result.summary()["baseline"]["model"]
     assert [f.cause for f in result.findings] == ["decel_phase"]
+
+
+def test_a_heldout_fold_never_sees_the_causes_chosen_because_of_it(monkeypatch):
+    """Nested cross-validation: the extended model's held-out prediction of a run uses causes
+    chosen without the run's fold. A stand-in `select_causes` names decel_phase only when
+    one marked run is among the runs it chooses from; the marked run's fold must then be
+    predicted without it, and every other fold with it."""
+    from wifibot_power import diagnose
+
+    runs = [s.run for s in simulate_runs(SimConfig(**GRID, seed=73))]
+    result = diagnose_runs(runs)
+    table = result.runs.set_index("run_id")
+    marked = "v0.60_d5_s1_r1"
+    marked_fold = table.loc[marked, "fold"]
+    seen: list[frozenset] = []
+
+    def stand_in(runs_, motion, *args):
+        seen.append(frozenset(motion["run_id"]))
+        return ({"decel_phase": 50.0} if marked in set(motion["run_id"]) else {}), {}, ()
+
+    monkeypatch.setattr(diagnose, "select_causes", stand_in)
+    frame = diagnose.summary_table([diagnose.summarize_run(r) for r in runs])
+    motion = frame[frame["mode"] == "motion"].sort_values("run_id").reset_index(drop=True)
+    folds = diagnose.assign_folds(motion["run_id"])
+    notes: list[str] = []
+    nested = diagnose.nested_heldout_energy_J(frame, motion, folds, {}, ["decel_phase"], notes)
+    without = diagnose.heldout_energy_J(frame, motion, folds, [])
+    with_decel = diagnose.heldout_energy_J(frame, motion, folds, ["decel_phase"])
+    in_marked = folds == marked_fold
+    assert np.array_equal(nested[in_marked], without[in_marked])
+    assert np.array_equal(nested[~in_marked], with_decel[~in_marked])
+    assert not np.array_equal(with_decel[in_marked], without[in_marked])  # the test can tell
+    # one choice per fold, each from the other folds' runs only
+    all_ids = set(motion["run_id"])
+    assert sorted(seen, key=sorted) == sorted(
+        (frozenset(all_ids - set(motion["run_id"][folds == k])) for k in np.unique(folds)),
+        key=sorted,
+    )
+    assert notes == [
+        f"held-out fold {marked_fold}: the causes chosen without its {in_marked.sum()} runs are "
+        "none, not the findings ['decel_phase']"
+    ]

@@ -9,7 +9,8 @@
    size is worth naming; it becomes a finding when adding it to the model also improves
    predictions of runs held out of the fit (>= 5% lower RMSE of run energy, or >= 10% on the
    cruise power trace for the ripple).
-4. The extended model holds every finding; its gain is measured on held-out runs the same way.
+4. The extended model holds every finding; its gain is measured on held-out runs the same way,
+   nested: for each fold, the causes are chosen again, and fitted, without that fold.
    Held-out means K-fold by run: a run is predicted by a model fitted without it.
 5. Structure that remains in the extended model's held-out errors, or a periodic signal that
    does not scale with speed, is reported as `unexplained` rather than forced onto a name.
@@ -341,9 +342,65 @@ def select_causes(
     return selected, rmse_of, evidence
 
 
+def nested_heldout_energy_J(
+    runs: pd.DataFrame,
+    motion: pd.DataFrame,
+    folds: np.ndarray,
+    blocks: dict[str, tuple[np.ndarray, float]],
+    causes: list[str],
+    notes: list[str],
+) -> np.ndarray:
+    """Motion energy of each motion run predicted by a model whose causes were chosen, as
+    well as fitted, without its fold (nested cross-validation): `select_causes` is run again
+    on the other folds, with folds of its own. So the extended model's held-out error is not
+    flattered by having chosen its causes on the runs it then predicts. A fold whose
+    choice differs from `causes` (the findings, chosen on all runs) is noted; one whose
+    training runs are too few to choose from (< 6 motion runs or < 2 speeds) uses `causes`."""
+    others = runs[runs["mode"] != "motion"]
+    predicted = np.full(len(motion), np.nan)
+    for k in np.unique(folds):
+        train_motion = motion[folds != k].reset_index(drop=True)
+        train = pd.concat([others, train_motion])
+        chosen = causes
+        if len(train_motion) >= 6 and train_motion["speed_mps"].nunique() >= 2:
+            inner_folds = assign_folds(train_motion["run_id"])
+            inner_measured = train_motion["motion_energy_J"].to_numpy(np.float64)
+            inner_pred = heldout_energy_J(train, train_motion, inner_folds, [])
+            selected, _, _ = select_causes(
+                train,
+                train_motion,
+                inner_folds,
+                inner_measured,
+                _rmse_mape(inner_measured, inner_pred)[0],
+                blocks,
+                [],
+            )
+            chosen = list(selected)
+        else:
+            notes.append(
+                f"held-out fold {k}: too few runs without it to choose causes; the findings' "
+                "causes are used for it"
+            )
+        if sorted(chosen) != sorted(causes):
+            notes.append(
+                f"held-out fold {k}: the causes chosen without its {np.sum(folds == k)} runs "
+                f"are {sorted(chosen) or 'none'}, not the findings {sorted(causes) or 'none'}"
+            )
+        model = fit_model(train, chosen)
+        predicted[folds == k] = predict_motion_energy_J(model, motion[folds == k])
+    return predicted
+
+
 def _rmse_mape(measured: np.ndarray, predicted: np.ndarray) -> tuple[float, float]:
     error = predicted - measured
     return float(np.sqrt(np.mean(error**2))), float(100 * np.mean(np.abs(error) / measured))
+
+
+def summary_table(summaries: list[RunSummary]) -> pd.DataFrame:
+    """One row per run: its run-table row, trace statistics and place in its session."""
+    runs = runs_frame([s.row for s in summaries])
+    traces = pd.DataFrame([s.trace.as_row() for s in summaries], index=runs.index)
+    return session_clock(pd.concat([runs, traces], axis=1))
 
 
 def diagnose_summaries(
@@ -363,9 +420,7 @@ def diagnose_summaries(
     skipped = list(skipped)
     if not summaries:
         raise LogError("no readable logs", fix="see 'wbpower inspect' for what each log holds")
-    runs = runs_frame([s.row for s in summaries])
-    traces = pd.DataFrame([s.trace.as_row() for s in summaries], index=runs.index)
-    runs = session_clock(pd.concat([runs, traces], axis=1))
+    runs = summary_table(summaries)
     blocks = {s.row["run_id"]: (s.trace.cruise_blocks_W, s.trace.block_s) for s in summaries}
     for row in runs[~runs["usable"]].itertuples():
         skipped.append(Skipped(str(row.file), f"{row.file}: {row.skip_reason}"))
@@ -396,8 +451,12 @@ def diagnose_summaries(
         runs, motion, folds, measured, refit_rmse, blocks, notes
     )
     causes = list(selected)
-    extended_pred = heldout_energy_J(runs, motion, folds, causes)
+    # the extended model's held-out error: causes chosen and fitted without the run's fold
+    extended_pred = nested_heldout_energy_J(runs, motion, folds, blocks, causes, notes)
     extended_rmse, extended_mape = _rmse_mape(measured, extended_pred)
+    # a finding's own gain compares like with like: the findings' causes held fixed, with and
+    # without it (both fitted without the run's fold, both chosen on all runs)
+    fixed_rmse = _rmse_mape(measured, heldout_energy_J(runs, motion, folds, causes))[0]
     extended_model = fit_model(runs, causes)
     findings = []
     for e in evidence:
@@ -414,7 +473,7 @@ def diagnose_summaries(
             if without is None:
                 pred = heldout_energy_J(runs, motion, folds, [c for c in causes if c != e.cause])
                 without = _rmse_mape(measured, pred)[0]
-            gain = gain_pct(without, extended_rmse)
+            gain = gain_pct(without, fixed_rmse)
         else:
             gain = selected[e.cause]
         findings.append(

@@ -342,11 +342,14 @@ def fit_table(
 
     Callable on any subset of runs (e.g. `diagnose` fitting on the runs it does not hold out).
     """
+    from wifibot_power.runtable import RUN_COLUMNS
+
     if phases is None:
         import pandas as pd
 
         phases = pd.DataFrame()
-    records = runs.to_dict("records") if len(runs) else []
+    # only the run-table columns: a diagnose table carries ~30 more, and this runs per fold
+    records = runs[[c for c in runs.columns if c in RUN_COLUMNS]].to_dict("records")
     return fit_rows(records, lambda: (runs, phases), skipped)
 
 
