@@ -160,7 +160,8 @@ def diagnose_command(
             f"{result.n_runs} motion runs, K-fold held out by run. Baseline "
             f"({result.baseline_label}): RMSE "
             f"{result.baseline_rmse_J:.3g} J, MAPE {result.baseline_mape_pct:.3g}%. Extended "
-            f"({', '.join(f.cause for f in result.findings) or 'nothing added'}): RMSE "
+            f"({', '.join(f.cause for f in result.findings) or 'nothing added'}; chosen and "
+            "fitted without each held-out fold): RMSE "
             f"{result.extended_rmse_J:.3g} J, MAPE {result.extended_mape_pct:.3g}%. "
             f"Gain {result.gain_pct:.1f}%."
         )
