@@ -93,8 +93,11 @@ def test_cruise_ripple_is_named_with_a_frequency_that_scales_with_speed(seed):
     assert finding.estimate["hz_per_mps"] == pytest.approx(WHEEL_HZ_PER_MPS, rel=0.02)
     assert low <= WHEEL_HZ_PER_MPS <= high
     assert finding.estimate["r2"] > 0.99
-    # a zero-mean ripple changes no run's energy: no energy gain is claimed for it
+    # a zero-mean ripple changes no run's energy: no energy gain is claimed for it, and the
+    # extended model predicts energy as the refitted paper form does (diagnose relies on it to
+    # key held-out errors by energy causes only)
     assert abs(result.gain_pct) < 5.0
+    assert result.extended_fixed_rmse_J == result.baseline_rmse_J
 
 
 @pytest.mark.parametrize(
@@ -205,7 +208,7 @@ def test_a_heldout_fold_never_sees_the_causes_chosen_because_of_it(monkeypatch):
 
     monkeypatch.setattr(diagnose, "select_causes", stand_in)
     frame = diagnose.summary_table([diagnose.summarize_run(r) for r in runs])
-    motion = frame[frame["mode"] == "motion"].sort_values("run_id").reset_index(drop=True)
+    motion = diagnose.motion_runs(frame)
     folds = diagnose.assign_folds(motion["run_id"])
     notes: list[str] = []
     nested = diagnose.nested_heldout_energy_J(frame, motion, folds, {}, ["decel_phase"], notes)
@@ -225,3 +228,14 @@ def test_a_heldout_fold_never_sees_the_causes_chosen_because_of_it(monkeypatch):
         f"held-out fold {marked_fold}: the causes chosen without its {in_marked.sum()} runs are "
         "none, not the findings ['decel_phase']"
     ]
+
+
+def test_folds_too_small_to_choose_on_use_the_findings_and_say_so():
+    # 6 motion runs (the fewest diagnose takes): without a fold, 4 or 5 are left, too few to
+    # choose causes on, so every fold is predicted with the findings' causes, and a note says so
+    grid = {**GRID, "speeds_mps": (0.4, 0.6, 0.8), "trips": ((2.0, 1), (4.0, 4)), "repeats": 1}
+    result = diagnose_runs([s.run for s in simulate_runs(SimConfig(**grid, seed=74))])
+    assert result.n_runs == 6
+    too_few = [n for n in result.notes if "too few runs without it" in n]
+    assert len(too_few) == result.runs["fold"].nunique() == 5
+    assert result.extended_rmse_J == result.extended_fixed_rmse_J

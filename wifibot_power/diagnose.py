@@ -47,6 +47,9 @@ UNEXPLAINED_ANY_PCT = 5.0
 #: A gap longer than this between one run's end and the next's start ends a session [s].
 SESSION_GAP_S = 30 * 60.0
 FOLDS = 5
+#: Fewest usable motion runs, and speeds, that causes can be chosen and checked on.
+MIN_MOTION_RUNS = 6
+MIN_SPEEDS = 2
 
 Segmenter = Callable[[Run], Segmentation]
 
@@ -91,6 +94,9 @@ class Diagnosis:
     baseline_mape_pct: float
     extended_rmse_J: float
     extended_mape_pct: float
+    #: the extended model's held-out RMSE with its causes chosen on all runs, only their fit
+    #: held out (not nested; `extended_rmse_J` is): how much choosing on all runs flatters
+    extended_fixed_rmse_J: float
     unexplained: bool
     unexplained_reasons: tuple[str, ...]
     patterns: dict[str, object]
@@ -355,14 +361,14 @@ def nested_heldout_energy_J(
     on the other folds, with folds of its own. So the extended model's held-out error is not
     flattered by having chosen its causes on the runs it then predicts. A fold whose
     choice differs from `causes` (the findings, chosen on all runs) is noted; one whose
-    training runs are too few to choose from (< 6 motion runs or < 2 speeds) uses `causes`."""
+    training runs are too few to choose from (`enough_to_choose`) uses `causes`."""
     others = runs[runs["mode"] != "motion"]
     predicted = np.full(len(motion), np.nan)
     for k in np.unique(folds):
         train_motion = motion[folds != k].reset_index(drop=True)
         train = pd.concat([others, train_motion])
         chosen = causes
-        if len(train_motion) >= 6 and train_motion["speed_mps"].nunique() >= 2:
+        if enough_to_choose(train_motion):
             inner_folds = assign_folds(train_motion["run_id"])
             inner_measured = train_motion["motion_energy_J"].to_numpy(np.float64)
             inner_pred = heldout_energy_J(train, train_motion, inner_folds, [])
@@ -396,6 +402,17 @@ def _rmse_mape(measured: np.ndarray, predicted: np.ndarray) -> tuple[float, floa
     return float(np.sqrt(np.mean(error**2))), float(100 * np.mean(np.abs(error) / measured))
 
 
+def enough_to_choose(motion: pd.DataFrame) -> bool:
+    """Whether these motion runs are enough to choose causes on."""
+    return len(motion) >= MIN_MOTION_RUNS and motion["speed_mps"].nunique() >= MIN_SPEEDS
+
+
+def motion_runs(runs: pd.DataFrame) -> pd.DataFrame:
+    """The usable motion runs, in run_id order (the order `assign_folds` deals folds in)."""
+    usable = runs[runs["usable"]]
+    return usable[usable["mode"] == "motion"].sort_values("run_id").reset_index(drop=True)
+
+
 def summary_table(summaries: list[RunSummary]) -> pd.DataFrame:
     """One row per run: its run-table row, trace statistics and place in its session."""
     runs = runs_frame([s.row for s in summaries])
@@ -425,12 +442,13 @@ def diagnose_summaries(
     for row in runs[~runs["usable"]].itertuples():
         skipped.append(Skipped(str(row.file), f"{row.file}: {row.skip_reason}"))
     runs = runs[runs["usable"]]
-    motion = runs[runs["mode"] == "motion"].sort_values("run_id").reset_index(drop=True)
-    if len(motion) < 6 or motion["speed_mps"].nunique() < 2:
+    motion = motion_runs(runs)
+    if not enough_to_choose(motion):
         raise LogError(
             f"{len(motion)} usable motion run(s) at {motion['speed_mps'].nunique()} speed(s)",
             file="input",
-            fix="diagnose needs at least 6 motion runs at 2 or more speeds",
+            fix=f"diagnose needs at least {MIN_MOTION_RUNS} motion runs at {MIN_SPEEDS} or "
+            "more speeds",
         )
     notes: list[str] = []
     baseline_model = fit_model(runs)
@@ -455,8 +473,11 @@ def diagnose_summaries(
     extended_pred = nested_heldout_energy_J(runs, motion, folds, blocks, causes, notes)
     extended_rmse, extended_mape = _rmse_mape(measured, extended_pred)
     # a finding's own gain compares like with like: the findings' causes held fixed, with and
-    # without it (both fitted without the run's fold, both chosen on all runs)
-    fixed_rmse = _rmse_mape(measured, heldout_energy_J(runs, motion, folds, causes))[0]
+    # without it (both fitted without the run's fold, both chosen on all runs). Selection
+    # tried those sets already; keyed by energy causes only, since the ripple adds no energy
+    # (energy.cruise_ripple_energy_J)
+    energy_causes = frozenset(c for c in causes if CAUSES[c].metric == "run_energy")
+    fixed_rmse = energy_rmse[energy_causes]
     extended_model = fit_model(runs, causes)
     findings = []
     for e in evidence:
@@ -469,7 +490,7 @@ def diagnose_summaries(
             e = cause.test(motion, extended_model, others)
         if cause.metric == "run_energy":
             # its own gain: how much worse the extended model predicts without it
-            without = energy_rmse.get(frozenset(causes) - {e.cause})
+            without = energy_rmse.get(energy_causes - {e.cause})
             if without is None:
                 pred = heldout_energy_J(runs, motion, folds, [c for c in causes if c != e.cause])
                 without = _rmse_mape(measured, pred)[0]
@@ -523,6 +544,7 @@ def diagnose_summaries(
         baseline_mape_pct=baseline_mape,
         extended_rmse_J=extended_rmse,
         extended_mape_pct=extended_mape,
+        extended_fixed_rmse_J=fixed_rmse,
         unexplained=bool(reasons),
         unexplained_reasons=tuple(reasons),
         patterns=error_patterns(table),
