@@ -249,13 +249,13 @@ class ParseCache:
     ) -> T:
         """`work(read_log(path, ...))`, skipping the parse when the content was parsed before,
         and skipping the work too when `memo` says how to keep its result and it is kept."""
+        from wifibot_power.io.reader import read_log  # here, not above: `kept_result` needs none
+
         path = Path(path)
         options = options or ReadOptions()
         try:
             stat = os.stat(path)
         except OSError:
-            from wifibot_power.io.reader import read_log
-
             return work(read_log(path, options, overrides, origin=origin))  # its own error
         entry = self.entry_path(path, options, overrides, origin)
         validity = _read_validity(entry)
@@ -277,8 +277,6 @@ class ParseCache:
             if raw is None:  # stat was trusted but the entry is gone: read and hash afresh
                 raw, fresh = _hash(path, stat)
                 content = fresh["content_sha256"]
-            from wifibot_power.io.reader import read_log  # a warm lookup needs no parser
-
             run = read_log(path, options, overrides, data=_decompressed(path, raw), origin=origin)
             _store(entry, run, fresh)
         elif fresh != validity:
