@@ -25,6 +25,9 @@ class Phase:
     t_end_s: float
     mean_power_W: float
     energy_J: float
+    #: mean speed over the phase [m/s]: from the log's speed column, else the run's commanded
+    #: speed for cruise; None where unknown (cli.md, `segment --json`)
+    speed_mps: float | None = None
 
     @property
     def duration_s(self) -> float:
@@ -40,6 +43,7 @@ class Phase:
             "duration_s": self.duration_s,
             "mean_power_W": self.mean_power_W,
             "energy_J": self.energy_J,
+            "speed_mps": self.speed_mps,
         }
 
 
@@ -58,6 +62,9 @@ class Segmentation:
     run_id: str
     phases: tuple[Phase, ...]
     spikes: tuple[Spike, ...] = ()
+    #: reasons (plain sentences) why these phases may not describe the run; empty when the
+    #: segmentation fits (cli.md, `segment --json`)
+    doubts: tuple[str, ...] = ()
 
     def of(self, name: str) -> list[Phase]:
         return [p for p in self.phases if p.phase == name]
@@ -76,5 +83,6 @@ class Segmentation:
                 "duration_s",
                 "mean_power_W",
                 "energy_J",
+                "speed_mps",
             ],
         )

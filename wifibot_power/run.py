@@ -68,6 +68,9 @@ class Run:
     time_s: np.ndarray
     power_W: np.ndarray
     problems: tuple[Problem, ...] = ()
+    #: the robot's speed at each sample [m/s] when the log has a speed column
+    #: (log-format.md, "Speed"), else None
+    speed_mps: np.ndarray | None = None
 
     @property
     def samples(self) -> int:
