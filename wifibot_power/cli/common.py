@@ -23,7 +23,7 @@ from rich.progress import (
     TransferSpeedColumn,
 )
 
-from wifibot_power.errors import WbpowerError
+from wifibot_power.errors import UsageError, WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
 from wifibot_power.outputs import json_safe
 from wifibot_power.run import Problem
@@ -34,6 +34,7 @@ if TYPE_CHECKING:
 EXIT_OK = 0
 EXIT_SKIPPED = 1
 EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
 
 # a pipe gets wide tables (not rich's 80 columns), whatever COLUMNS the environment has
 stdout = Console(soft_wrap=False, width=None if sys.stdout.isatty() else 200)
@@ -117,6 +118,11 @@ def with_reading_options(command: Callable[..., object]) -> Callable[..., object
 
 F = TypeVar("F", bound=Callable[..., object])
 
+#: click's ClickException (typer >= 0.22 vendors click as typer._click, older typers import it)
+_CLICK_ERROR: type[Exception] = next(
+    c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException"
+)
+
 
 def handles_errors(command: F) -> F:
     """Library errors become one line on stderr and exit 2; never a traceback.
@@ -131,9 +137,14 @@ def handles_errors(command: F) -> F:
         except WbpowerError as exc:
             fail(exc.one_line())
         except KeyboardInterrupt:
-            fail("interrupted")
+            fail("interrupted", EXIT_INTERRUPTED)
         except (typer.Exit, typer.Abort, SystemExit):
             raise
+        except _CLICK_ERROR as exc:  # e.g. typer.BadParameter from an option's parser
+            fail(exc.format_message())
+        except OSError as exc:  # an output that cannot be written (disk full, read-only, ...)
+            where = f"{exc.filename}: " if exc.filename else ""
+            fail(f"{where}cannot write: {exc.strerror or exc} (check the path and free space)")
         except Exception as exc:  # noqa: BLE001 - the promise is: no traceback, ever
             if os.environ.get("WBPOWER_DEBUG"):
                 raise
@@ -144,6 +155,26 @@ def handles_errors(command: F) -> F:
         return None
 
     return wrapper  # type: ignore[return-value]
+
+
+def check_out_dir(out: Path | None) -> None:
+    """Refuse an `-o DIR` that cannot be written before any work is done (cli.md): an
+    existing file, or a folder (or the nearest existing parent of one to create) that is not
+    writable. Nothing is created here: a run that fails or is interrupted writes nothing."""
+    if out is None:
+        return
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(
+            f"-o {out}: is a file, not a folder", fix="give a folder to write the outputs into"
+        )
+    existing = next((p for p in (out, *out.absolute().parents) if p.exists()), None)
+    if existing is None or not existing.is_dir():
+        raise UsageError(f"-o {out}: {existing} is not a folder", fix="give another folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise UsageError(
+            f"-o {out}: {existing} is not writable", fix="give a folder you can write to"
+        )
 
 
 def fail(message: str, code: int = EXIT_USAGE) -> None:

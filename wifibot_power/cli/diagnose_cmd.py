@@ -15,6 +15,7 @@ from wifibot_power.cli.common import (
     Jobs,
     JsonFlag,
     OutDir,
+    check_out_dir,
     handles_errors,
     print_json,
     progress,
@@ -134,6 +135,7 @@ def diagnose_command(
     ] = False,
 ) -> None:
     """What the paper's model gets wrong on these logs, the named cause, the held-out gain."""
+    check_out_dir(out)
     # imported here: scipy.stats alone costs a second, which no other command should pay
     from wifibot_power.diagnose import diagnose_logs, write_diagnosis
     from wifibot_power.model import load_model

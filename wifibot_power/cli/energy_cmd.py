@@ -8,7 +8,15 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from wifibot_power.cli.common import JsonFlag, ModelSpec, OutDir, handles_errors, print_json, stdout
+from wifibot_power.cli.common import (
+    JsonFlag,
+    ModelSpec,
+    OutDir,
+    check_out_dir,
+    handles_errors,
+    print_json,
+    stdout,
+)
 from wifibot_power.cli.typer_app import app
 from wifibot_power.energy import EnergyReport, energy_report, speed_sweep
 from wifibot_power.errors import UsageError
@@ -123,6 +131,7 @@ def energy_command(
     out: OutDir = None,
 ) -> None:
     """Energy of a trip in N stop-and-go steps (paper Eq. 5/6), beside the one-step trip."""
+    check_out_dir(out)
     power_model = load_model(model)
     if sweep is not None:
         if sweep != "speed":

@@ -15,6 +15,7 @@ from wifibot_power.cli.common import (
     Jobs,
     JsonFlag,
     OutDir,
+    check_out_dir,
     handles_errors,
     parse_cache,
     print_json,
@@ -81,6 +82,7 @@ def fit_command(
     cache: CacheDir = None,
 ) -> None:
     """Segment every run and fit the paper's power models by least squares over runs."""
+    check_out_dir(out)
     from wifibot_power.fit import fit_logs, write_fit  # pandas and numerics load only here
 
     result = fit_logs(

@@ -7,7 +7,15 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from wifibot_power.cli.common import JsonFlag, ModelSpec, OutDir, handles_errors, print_json, stdout
+from wifibot_power.cli.common import (
+    JsonFlag,
+    ModelSpec,
+    OutDir,
+    check_out_dir,
+    handles_errors,
+    print_json,
+    stdout,
+)
 from wifibot_power.cli.typer_app import app
 from wifibot_power.errors import UsageError
 from wifibot_power.lifetime import (
@@ -103,6 +111,7 @@ def lifetime_command(
     out: OutDir = None,
 ) -> None:
     """Relay scenario (paper Eq. 7-11): lifetime of A with B relaying, against A alone."""
+    check_out_dir(out)
     if sweep is not None and sweep not in SWEEPS:
         raise UsageError(f"unknown sweep '{sweep}'", fix=f"give --sweep {'|'.join(SWEEPS)}")
     if rate is None and sweep != "rate":

@@ -18,6 +18,7 @@ from wifibot_power.cli.common import (
     with_reading_options,
 )
 from wifibot_power.cli.typer_app import app
+from wifibot_power.errors import UsageError
 from wifibot_power.io import ReadOptions
 
 
@@ -31,6 +32,11 @@ def segment_command(
 ) -> None:
     """Split one log into phases: idle/accel/cruise/decel per step for a motion run, steady
     levels otherwise. Short start-up spikes stay in the phase they start and are listed."""
+    if path.is_dir():
+        raise UsageError(
+            f"{path}: is a folder; segment takes one file",
+            fix="name one log in it, or give the folder to inspect or fit",
+        )
     from wifibot_power.segment import segment_file  # its numerics load only when used
 
     run, segmentation = segment_file(path, options)

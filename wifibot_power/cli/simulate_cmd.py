@@ -8,9 +8,17 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from wifibot_power.cli.common import JsonFlag, handles_errors, print_json, stdout
+from wifibot_power.cli.common import JsonFlag, check_out_dir, handles_errors, print_json, stdout
 from wifibot_power.cli.typer_app import app
-from wifibot_power.simulate import EFFECTS, SimConfig, WriteOptions, parse_effects, write_simulation
+from wifibot_power.simulate import (
+    COLUMN_SETS,
+    COMPRESSIONS,
+    EFFECTS,
+    SimConfig,
+    WriteOptions,
+    parse_effects,
+    write_simulation,
+)
 
 
 def _floats(text: str, option: str) -> tuple[float, ...]:
@@ -66,17 +74,20 @@ def simulate_command(
         float, typer.Option("--noise", min=0.0, help="Analyser noise per 0.1024 ms sample [W].")
     ] = 0.3,
     columns: Annotated[
-        str, typer.Option(help="'full' (time, voltage, current, power) or 'power'.")
+        str, typer.Option(help=f"{'|'.join(COLUMN_SETS)}: time, voltage, current, power or power.")
     ] = "full",
-    compress: Annotated[str, typer.Option(help="'none' or 'gz'.")] = "none",
+    compress: Annotated[
+        str, typer.Option(help=f"{'|'.join(COMPRESSIONS)}: how the logs are compressed.")
+    ] = "none",
     decimals: Annotated[
         int, typer.Option(min=1, max=9, help="Decimals written for power [W].")
     ] = 4,
     json_out: JsonFlag = False,
 ) -> None:
     """Write synthetic logs of a physical Wifibot model, with runs.csv and truth.json."""
-    if columns not in ("full", "power") or compress not in ("none", "gz"):
-        raise typer.BadParameter("--columns is full|power and --compress is none|gz")
+    check_out_dir(out)
+    # checked before anything is simulated or written (cli.md: a usage error, exit 2)
+    write = WriteOptions(columns=columns, compress=compress, decimals=decimals)
     config = SimConfig(
         speeds_mps=_floats(speeds, "--speeds"),
         trips=_trips(trips),
@@ -89,9 +100,7 @@ def simulate_command(
         effects=parse_effects(effect or []),
         seed=seed,
     )
-    summary = write_simulation(
-        config, out, WriteOptions(columns=columns, compress=compress, decimals=decimals)
-    )
+    summary = write_simulation(config, out, write)
     if json_out:
         print_json(summary)
         return
