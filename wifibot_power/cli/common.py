@@ -7,6 +7,7 @@ import inspect
 import json
 import os
 import sys
+import time
 import typing
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
@@ -17,11 +18,13 @@ from rich.console import Console
 from rich.progress import (
     BarColumn,
     Progress,
+    ProgressColumn,
+    Task,
     TaskID,
     TextColumn,
     TimeElapsedColumn,
-    TransferSpeedColumn,
 )
+from rich.text import Text
 
 from wifibot_power.errors import UsageError, WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
@@ -210,6 +213,38 @@ def report_skipped(skipped: list[Skipped]) -> int:
 T = TypeVar("T")
 
 
+#: No rate is shown before this much time since the work started: the first files finish
+#: together, a few ms apart, which would show rates of hundreds of GB/s.
+RATE_AFTER_S = 1.0
+
+
+def rate_text(bytes_done: float, elapsed_s: float) -> str:
+    """The rate shown on the bar: bytes done over the time since the work started (not
+    rich's rate between two updates), blank until `RATE_AFTER_S` has passed."""
+    if elapsed_s < RATE_AFTER_S or bytes_done <= 0:
+        return ""
+    rate = bytes_done / elapsed_s
+    for unit in ("B", "kB", "MB", "GB"):
+        if rate < 1000 or unit == "GB":
+            return f"{rate:.1f} {unit}/s"
+        rate /= 1000
+    return ""  # not reached
+
+
+class _RateColumn(ProgressColumn):
+    """Bytes per second since `started` (a `time.monotonic()`), or nothing yet."""
+
+    def __init__(self, started: float, in_bytes: bool = True) -> None:
+        super().__init__()
+        self.started = started
+        self.in_bytes = in_bytes  # False: the bar counts files (sizes unknown), no rate
+
+    def render(self, task: Task) -> Text:
+        if not self.in_bytes:
+            return Text("")
+        return Text(rate_text(task.completed, time.monotonic() - self.started))
+
+
 class FileProgress:
     """A rich progress bar on stderr: files done, MB/s, elapsed time.
 
@@ -225,13 +260,14 @@ class FileProgress:
         self.files_done = 0
         self._bar: Progress | None = None
         self._task: TaskID | None = None
+        self.started = time.monotonic()  # the work starts now, the bar at the first file done
 
     def _start(self) -> None:
         self._bar = Progress(
             TextColumn(f"[bold]{self.label}"),
             BarColumn(),
             TextColumn("{task.fields[files]}/" + f"{len(self.items)} files"),
-            TransferSpeedColumn(),
+            _RateColumn(self.started, in_bytes=self.total_bytes > 0),
             TimeElapsedColumn(),
             console=stderr,
             transient=True,
