@@ -223,6 +223,9 @@ class FitResult:
             "paper": {"idle_W": paper.idle_W, "components_W": dict(paper.components_W)},
             "skipped": [s.as_dict() for s in self.skipped],
             "notes": list(self.notes),
+            # whether model.json can be written (every coefficient energy/lifetime need)
+            "model_complete": self.model_complete,
+            "speed_range_mps": model.speed_range_mps,
         }
         del out["t_acc"]["paper"]
         return json_safe(out)  # type: ignore[return-value]
@@ -401,6 +404,7 @@ def fit_rows(
         t_acc=t_acc,
         components_W={m: (c.value_W if c else None) for m, c in components.items()},
         source="fit",
+        speed_range_mps=_speed_range(speed),
     )
     return FitResult(
         model=model,
@@ -412,6 +416,12 @@ def fit_rows(
         skipped=tuple(skipped),
         notes=tuple(notes),
     )
+
+
+def _speed_range(speed_mps: np.ndarray) -> tuple[float, float] | None:
+    """The lowest and highest speed the motion runs were fitted on (None without any)."""
+    finite = speed_mps[np.isfinite(speed_mps)]
+    return (float(finite.min()), float(finite.max())) if finite.size else None
 
 
 def _default_segmenter() -> Segmenter:

@@ -16,6 +16,7 @@ from wifibot_power.cli.common import (
     handles_errors,
     print_json,
     stdout,
+    warn,
 )
 from wifibot_power.cli.typer_app import app
 from wifibot_power.energy import EnergyReport, energy_report, speed_sweep
@@ -140,6 +141,8 @@ def energy_command(
         summaries = [r.summary() for r in rows]
         if out is not None:
             write_parquet(out / "energy_sweep_speed.parquet", _frame(map(_flat, summaries)))
+        for message in dict.fromkeys(w for r in rows for w in r.warnings):
+            warn(message)
         if json_out:
             print_json({"sweep": "speed", "rows": summaries})
         else:
@@ -151,6 +154,8 @@ def energy_command(
         )
     report = energy_report(power_model, speed, dist, steps, t_acc_s=t_acc, payload_kg=payload)
     summary = report.summary()
+    for message in report.warnings:
+        warn(message)
     if out is not None:
         write_parquet(out / "energy_phases.parquet", _frame(summary["phases"]))
         write_parquet(out / "energy.parquet", _frame([_flat(summary)]))

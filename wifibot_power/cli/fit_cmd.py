@@ -11,6 +11,7 @@ import typer
 from rich.table import Table
 
 from wifibot_power.cli.common import (
+    EXIT_SKIPPED,
     CacheDir,
     Jobs,
     JsonFlag,
@@ -107,4 +108,11 @@ def fit_command(
         stdout.print(render_table(result))
     for note in result.notes:
         warn(note)
-    raise typer.Exit(report_skipped(list(result.skipped)))
+    code = report_skipped(list(result.skipped))
+    if not result.model_complete:
+        # a fit that cannot give the model (e.g. one speed: no slope) is not a success: exit 1,
+        # so a CI check does not pass on it (docs/fit.md)
+        if out is None:
+            warn(f"the model is incomplete ({'; '.join(result.notes) or 'see the table'})")
+        code = EXIT_SKIPPED
+    raise typer.Exit(code)

@@ -15,6 +15,7 @@ from wifibot_power.cli.common import (
     handles_errors,
     print_json,
     stdout,
+    warn,
 )
 from wifibot_power.cli.typer_app import app
 from wifibot_power.errors import UsageError
@@ -127,6 +128,8 @@ def lifetime_command(
     }
     if sweep is None:
         result = network_lifetime(power_model, rate, **scenario)
+        for message in result.warnings:
+            warn(message)
         if out is not None:
             write_parquet(out / "lifetime.parquet", _frame([result.summary()]))
         if json_out:
@@ -136,6 +139,8 @@ def lifetime_command(
         return
     rows = lifetime_sweep(sweep, power_model, rate if rate is not None else 0.0, **scenario)
     summaries = [r.summary() for r in rows]
+    for message in dict.fromkeys(w for r in rows for w in r.warnings):
+        warn(message)
     if out is not None:
         write_parquet(out / f"lifetime_sweep_{sweep}.parquet", _frame(summaries))
     if json_out:
