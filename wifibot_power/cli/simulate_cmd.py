@@ -6,9 +6,9 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.table import Table
 
 from wifibot_power.cli.common import JsonFlag, check_out_dir, handles_errors, print_json, stdout
+from wifibot_power.cli.tables import Col, print_table
 from wifibot_power.cli.typer_app import app
 from wifibot_power.simulate import (
     COLUMN_SETS,
@@ -104,9 +104,5 @@ def simulate_command(
     if json_out:
         print_json(summary)
         return
-    table = Table(title="simulated", title_justify="left")
-    table.add_column("what")
-    table.add_column("value")
-    for key, value in summary.items():
-        table.add_row(key, str(value))
-    stdout.print(table)
+    cells = [[key, str(value)] for key, value in summary.items()]
+    print_table(stdout, "simulated", (Col("what", "text", key=True), Col("value", "text")), cells)
