@@ -153,7 +153,6 @@ def computed():
         pytest.skip("sample_logs/ is not there (made by 'make sample-logs')")
     from wifibot_power.diagnose import diagnose_logs
     from wifibot_power.fit import fit_logs
-
     from wifibot_power.inspect import inspect_logs
     from wifibot_power.segment import segment_file
 
