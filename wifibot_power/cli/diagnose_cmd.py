@@ -23,6 +23,7 @@ from wifibot_power.cli.common import (
     warn_problems,
     with_reading_options,
 )
+from wifibot_power.cli.help import command_help
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.io import ReadOptions
@@ -133,7 +134,7 @@ def _findings(result: Diagnosis) -> None:
     print_table(stdout, "Findings: named causes (shared/spec/causes.md)", _FINDING_COLUMNS, cells)
 
 
-@app.command("diagnose")
+@app.command("diagnose", **command_help("diagnose"))
 @handles_errors
 @with_wide_option
 @with_reading_options

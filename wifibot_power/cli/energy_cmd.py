@@ -17,6 +17,7 @@ from wifibot_power.cli.common import (
     stdout,
     warn,
 )
+from wifibot_power.cli.help import command_help
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.energy import EnergyReport, energy_report, speed_sweep
@@ -131,7 +132,7 @@ def _flat(summary: dict[str, object]) -> dict[str, object]:
     return {k: v for k, v in summary.items() if not isinstance(v, list | dict)}
 
 
-@app.command("energy")
+@app.command("energy", **command_help("energy"))
 @handles_errors
 @with_wide_option
 def energy_command(

@@ -26,6 +26,7 @@ from wifibot_power.cli.common import (
     warn_problems,
     with_reading_options,
 )
+from wifibot_power.cli.help import command_help
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.io import ReadOptions
@@ -78,7 +79,7 @@ def print_fit_table(result: FitResult) -> None:
     )
 
 
-@app.command("fit")
+@app.command("fit", **command_help("fit"))
 @handles_errors
 @with_wide_option
 @with_reading_options

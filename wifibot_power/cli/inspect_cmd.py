@@ -17,6 +17,7 @@ from wifibot_power.cli.common import (
     warn,
     with_reading_options,
 )
+from wifibot_power.cli.help import command_help
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.inspect import inspect_logs
@@ -37,7 +38,7 @@ COLUMNS = (
 )
 
 
-@app.command("inspect")
+@app.command("inspect", **command_help("inspect"))
 @handles_errors
 @with_wide_option
 @with_reading_options

@@ -16,6 +16,7 @@ from wifibot_power.cli.common import (
     stdout,
     warn,
 )
+from wifibot_power.cli.help import command_help
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.errors import UsageError
@@ -106,7 +107,7 @@ def _print(rows: list[LifetimeResult], title: str, key: str | None) -> None:
     print_table(stdout, title, cols, cells)
 
 
-@app.command("lifetime")
+@app.command("lifetime", **command_help("lifetime"))
 @handles_errors
 @with_wide_option
 def lifetime_command(

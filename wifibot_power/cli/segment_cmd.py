@@ -16,6 +16,7 @@ from wifibot_power.cli.common import (
     warn_problems,
     with_reading_options,
 )
+from wifibot_power.cli.help import command_help
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.errors import UsageError
@@ -38,7 +39,7 @@ _SPIKE_COLUMNS = (
 )
 
 
-@app.command("segment")
+@app.command("segment", **command_help("segment"))
 @handles_errors
 @with_wide_option
 @with_reading_options

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from wifibot_power.cli.common import JsonFlag, check_out_dir, handles_errors, print_json, stdout
+from wifibot_power.cli.help import command_help
 from wifibot_power.cli.tables import Col, print_table
 from wifibot_power.cli.typer_app import app
 from wifibot_power.simulate import (
@@ -41,7 +42,7 @@ def _trips(text: str) -> tuple[tuple[float, int], ...]:
     return tuple(trips)
 
 
-@app.command("simulate")
+@app.command("simulate", **command_help("simulate"))
 @handles_errors
 def simulate_command(
     out: Annotated[Path, typer.Option("-o", "--out", help="Folder to write the logs into.")],
