@@ -4,7 +4,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 WBPOWER := $(VENV)/bin/wbpower
 
-.PHONY: demo test lint bench sample-logs clean install
+.PHONY: demo test lint bench sample-logs clean
 
 # The oldest Python wbpower runs on (pyproject.toml: requires-python).
 MIN_PYTHON ?= 3.11

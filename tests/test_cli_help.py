@@ -22,13 +22,15 @@ def _help(*args: str) -> str:
 
 
 def test_every_command_is_documented():
-    assert set(SHORT_HELP) == set(EXAMPLES) == set(COMMANDS)
+    assert set(SHORT_HELP) == set(EXAMPLES)
+    assert set(COMMANDS) <= set(SHORT_HELP)
 
 
 def test_the_command_list_shows_each_summary_whole():
     text = _help()
     flat = " ".join(text.split())
-    for command, summary in SHORT_HELP.items():
+    for command in COMMANDS:
+        summary = SHORT_HELP[command]
         assert f"{command} {summary}" in flat, f"{command}: summary cut or missing:\n{text}"
     commands = text.split("Commands:")[1]
     assert "..." not in commands

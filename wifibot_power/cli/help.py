@@ -14,6 +14,8 @@ SHORT_HELP = {
     "lifetime": "Relay network lifetime (paper Eq. 7-11, Figure 7).",
     "diagnose": "What the paper's model gets wrong, why, and the gain.",
     "simulate": "Write synthetic logs of a simulated robot, with truth.",
+    # for branch `report` (its command registers with **command_help("report"))
+    "report": "Figures and one report.html: traces, fits, diagnosis.",
 }
 
 #: command -> (example arguments after `wbpower COMMAND`, what it does)
@@ -52,6 +54,10 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
         ("-o logs/", "the paper's grid (about 1 GB of CSV)"),
         ("-o logs/ --effect decel_phase=0.3 --seed 1", "a robot that needs 0.3 s to stop"),
         ("-o small/ --sample-period 0.001024 --compress zst", "smaller, zstd-compressed"),
+    ],
+    "report": [
+        ("sample_logs/ -o out/report", "out/report/report.html, opens offline"),
+        ("logs/ -o out/ --jobs 2", "figures drawn by 2 workers"),
     ],
 }
 
