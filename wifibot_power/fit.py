@@ -217,15 +217,15 @@ class FitResult:
             "idle_ci95": list(self.idle.ci95),
             "idle_n_runs": self.idle.n_runs,
             "idle_source": self.idle_source,
+            # whether model.json can be written (every coefficient energy/lifetime need)
+            "model_complete": self.model_complete,
+            "speed_range_mps": model.speed_range_mps,
             "components_W": {m: model.components_W.get(m) for m in COMPONENT_MODES},
             "components_ci95": {m: list(c.ci95) if c else None for m, c in self.components.items()},
             "components_n_runs": {m: c.n_runs if c else 0 for m, c in self.components.items()},
             "paper": {"idle_W": paper.idle_W, "components_W": dict(paper.components_W)},
             "skipped": [s.as_dict() for s in self.skipped],
             "notes": list(self.notes),
-            # whether model.json can be written (every coefficient energy/lifetime need)
-            "model_complete": self.model_complete,
-            "speed_range_mps": model.speed_range_mps,
         }
         del out["t_acc"]["paper"]
         return json_safe(out)  # type: ignore[return-value]
