@@ -142,3 +142,80 @@ def test_sweeps_cover_their_grids_and_both_branches():
     assert [r.e0a_J for r in e0a] == [100e3, 200e3]
     with pytest.raises(UsageError):
         lifetime_sweep("speed", PAPER, 54)
+
+
+# -- every row of the paper's Table 2 (Figure 7's rate sweep rests on all three) ------------
+# Worked by hand from Table 2 (nW/bit read as nJ/bit) and Eq. 7-11, paper model (idle 23.3 W),
+# B's trip as above (10 m at 0.9 m/s, t_acc = 1 s: 11.6111 s). e_s = 100 nJ/bit throughout.
+#
+# 10 Mbit/s (e_th 95, e_tl 9.5, e_rx 70): R = 1e7 bit/s
+#   P_A_high = 23.3 + 1e7 * (100 + 95) e-9  = 23.3 + 1.95   = 25.25 W
+#   P_A_low  = 23.3 + 1e7 * (100 + 9.5) e-9 = 23.3 + 1.095  = 24.395 W
+#   P_B      = 23.3 + 1e7 * (70 + 9.5) e-9  = 23.3 + 0.795  = 24.095 W
+#   T_0 = 480e3 / 25.25 = 19009.90 s
+#   E_A^{1->2} = 480e3 - 25.25 * 11.6111 = 479706.82 J; A dies first (B: ~19905 s > ~19664 s)
+#   T = 11.6111 + 479706.82 / 24.395 = 11.6111 + 19664.145 = 19675.756 s -> gain 3.503 %
+# 54 Mbit/s (e_th 24, e_tl 2.4, e_rx 18): R = 5.4e7 bit/s
+#   P_A_high = 23.3 + 5.4e7 * 124e-9   = 23.3 + 6.696  = 29.996 W
+#   P_A_low  = 23.3 + 5.4e7 * 102.4e-9 = 23.3 + 5.5296 = 28.8296 W
+#   P_B      = 23.3 + 5.4e7 * 20.4e-9  = 23.3 + 1.1016 = 24.4016 W
+#   T_0 = 480e3 / 29.996 = 16002.13 s
+#   E_A^{1->2} = 480e3 - 29.996 * 11.6111 = 479651.71 J
+#   T = 11.6111 + 479651.71 / 28.8296 = 11.6111 + 16637.474 = 16649.085 s -> gain 4.043 %
+# 100 Mbit/s (e_th 12, e_tl 1.2, e_rx 10): the numbers at the top of this file
+#   (34.5, 33.42, 24.42 W); T_0 = 13913.04 s; E_A^{1->2} = 480e3 - 34.5 * 11.6111 = 479599.42 J;
+#   T = 11.6111 + 479599.42 / 33.42 = 11.6111 + 14350.671 = 14362.282 s,
+#   gain 3.229 %.
+# B dies first with E0B = 100 kJ: t_B = (100e3 - 397.83) / P_B (397.83 J = E_TRAVEL), then
+#   T = 11.6111 + t_B + (E_A^{1->2} - P_A_low t_B) / P_A_high. At 54 Mbit/s:
+#   t_B = 99602.17 / 24.4016 = 4081.79 s; A left 479651.71 - 28.8296 * 4081.79 = 361975.1 J
+#   at 29.996 W = 12067.45 s; T = 16160.85 s.
+# Literal values (rounded as above) are checked to rtol 2e-6 (the 6-7 digits kept by hand);
+# the formulas on exact decimals to RTOL.
+TABLE2_BY_HAND = {
+    # rate: (e_th, e_tl, e_rx) nJ/bit, (P_A_high, P_A_low, P_B) W, T_0 s, T s, T(E0B=100 kJ) s
+    10.0: ((95, 9.5, 70), (25.25, 24.395, 24.095), 19009.90, 19675.756, None),
+    54.0: ((24, 2.4, 18), (29.996, 28.8296, 24.4016), 16002.13, 16649.085, 16160.85),
+    100.0: ((12, 1.2, 10), (34.5, 33.42, 24.42), 13913.04, 14362.282, None),
+}
+
+
+def _check_table2_row(rate: float) -> None:
+    (e_th, e_tl, e_rx), powers, t0, t_relay, t_b_first = TABLE2_BY_HAND[rate]
+    r = network_lifetime(PAPER, rate, t_acc_s=1.0)
+    r_bits = rate * 1e6
+    by_formula = [
+        23.3 + r_bits * (100 + e_th) * 1e-9,
+        23.3 + r_bits * (100 + e_tl) * 1e-9,
+        23.3 + r_bits * (e_rx + e_tl) * 1e-9,
+    ]
+    assert_allclose([r.p_a_high_W, r.p_a_low_W, r.p_b_W], by_formula, rtol=RTOL)
+    assert_allclose([r.p_a_high_W, r.p_a_low_W, r.p_b_W], powers, rtol=RTOL)
+    assert_allclose(r.baseline_s, t0, rtol=2e-6)
+    assert r.first_to_die == "A" and r.relayed
+    e_switch = 480e3 - by_formula[0] * T_TRAVEL
+    assert_allclose(r.lifetime_s, T_TRAVEL + e_switch / by_formula[1], rtol=RTOL)
+    assert_allclose(r.lifetime_s, t_relay, rtol=2e-6)
+    b = network_lifetime(PAPER, rate, e0b_J=100e3, t_acc_s=1.0)
+    t_b = (100e3 - E_TRAVEL) / by_formula[2]
+    expected = T_TRAVEL + t_b + (e_switch - by_formula[1] * t_b) / by_formula[0]
+    assert b.first_to_die == "B"
+    assert_allclose(b.lifetime_s, expected, rtol=RTOL)
+    if t_b_first is not None:
+        assert_allclose(b.lifetime_s, t_b_first, rtol=2e-6)
+
+
+@pytest.mark.parametrize("rate", [10.0, 54.0, 100.0])
+def test_every_table2_row_by_hand(rate):
+    _check_table2_row(rate)
+
+
+def test_a_typo_in_table2_is_caught(monkeypatch):
+    # the 54 Mbit/s rx cost mistyped 18 -> 81 nJ/bit: B's power changes (and so the lifetime
+    # when B dies first), though with the default E0B = 480 kJ B still outlives A
+    import wifibot_power.lifetime as lifetime
+
+    typo = lifetime.RadioCosts(54.0, 24e-9, 2.4e-9, 81e-9)
+    monkeypatch.setitem(lifetime.TABLE2, 54.0, typo)
+    with pytest.raises(AssertionError):
+        _check_table2_row(54.0)

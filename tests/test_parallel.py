@@ -257,3 +257,28 @@ def test_prepare_runs_once_before_work_and_not_when_all_is_kept(corpus: Path, tm
         memo=memo, prepare=prepare,
     )  # fmt: skip
     assert calls == [1] and again == names
+
+
+def test_progress_shows_no_rate_until_a_second_of_work() -> None:
+    # the first files finish a few ms after the start: 371 MB in 1 ms read "371.3 GB/s"
+    assert common.rate_text(371.3e6, 0.001) == ""
+    assert common.rate_text(0, 5.0) == ""
+    assert common.rate_text(371.3e6, 2.0) == "185.7 MB/s"  # 371.3 MB over 2 s
+    assert common.rate_text(1500, 1.5) == "1.0 kB/s"
+
+
+def test_the_bar_rate_counts_from_the_start_of_the_work(corpus: Path, monkeypatch) -> None:
+    items = sorted(corpus.glob("v*.csv"))
+    clock = [100.0]
+    monkeypatch.setattr(common.time, "monotonic", lambda: clock[0])
+    bar = common.FileProgress(items, "fitting")
+    clock[0] += 0.002  # two files done 2 ms after the start
+    bar.done(items[0])
+    bar.done(items[1])
+    (rate,) = [c for c in bar._bar.columns if isinstance(c, common._RateColumn)]
+    task = bar._bar.tasks[0]
+    assert str(rate.render(task)) == ""
+    clock[0] = 104.0  # 4 s after the start
+    done_bytes = items[0].stat().st_size + items[1].stat().st_size
+    assert str(rate.render(task)) == common.rate_text(done_bytes, 4.0) != ""
+    bar.close()

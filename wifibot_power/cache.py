@@ -435,4 +435,7 @@ def _replace(path: Path, write: Callable[[Path], object]) -> bool:
     except OSError:
         tmp.unlink(missing_ok=True)
         return False
+    except BaseException:  # interrupted (a stopped worker unwinds): no half-written entry
+        tmp.unlink(missing_ok=True)
+        raise
     return True

@@ -312,6 +312,8 @@ class EnergyReport:
     one_step: TripEnergy
     model_source: str
     ignored_extensions: tuple[str, ...] = field(default_factory=tuple)
+    #: why the answer may not hold (e.g. a speed outside the model's fitted range)
+    warnings: tuple[str, ...] = field(default_factory=tuple)
 
     @property
     def overhead_pct(self) -> float:
@@ -338,6 +340,7 @@ class EnergyReport:
             "model": self.model_source,
             "extensions": [p.phase for p in trip.phases if p.phase in EXTENSION_KEYS],
             "ignored_extensions": list(self.ignored_extensions),
+            "warnings": list(self.warnings),
             "phases": [
                 {
                     "phase": p.phase,
@@ -366,6 +369,7 @@ def energy_report(
         one_step=trip_energy(model, speed_mps, distance_m, 1, **kwargs),
         model_source=model.source,
         ignored_extensions=tuple(sorted(set(model.extensions) - set(EXTENSION_KEYS))),
+        warnings=tuple(model.extrapolation_warnings(speed_mps)),
     )
 
 

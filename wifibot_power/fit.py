@@ -217,6 +217,9 @@ class FitResult:
             "idle_ci95": list(self.idle.ci95),
             "idle_n_runs": self.idle.n_runs,
             "idle_source": self.idle_source,
+            # whether model.json can be written (every coefficient energy/lifetime need)
+            "model_complete": self.model_complete,
+            "speed_range_mps": model.speed_range_mps,
             "components_W": {m: model.components_W.get(m) for m in COMPONENT_MODES},
             "components_ci95": {m: list(c.ci95) if c else None for m, c in self.components.items()},
             "components_n_runs": {m: c.n_runs if c else 0 for m, c in self.components.items()},
@@ -401,6 +404,7 @@ def fit_rows(
         t_acc=t_acc,
         components_W={m: (c.value_W if c else None) for m, c in components.items()},
         source="fit",
+        speed_range_mps=_speed_range(speed),
     )
     return FitResult(
         model=model,
@@ -412,6 +416,12 @@ def fit_rows(
         skipped=tuple(skipped),
         notes=tuple(notes),
     )
+
+
+def _speed_range(speed_mps: np.ndarray) -> tuple[float, float] | None:
+    """The lowest and highest speed the motion runs were fitted on (None without any)."""
+    finite = speed_mps[np.isfinite(speed_mps)]
+    return (float(finite.min()), float(finite.max())) if finite.size else None
 
 
 def _default_segmenter() -> Segmenter:

@@ -151,6 +151,8 @@ class LifetimeResult:
     baseline_s: float
     first_to_die: str
     note: str
+    #: why the answer may not hold (B's speed outside the model's fitted range)
+    warnings: tuple[str, ...] = ()
 
     @property
     def improvement_pct(self) -> float:
@@ -178,6 +180,7 @@ class LifetimeResult:
             "e_a_switch_J": self.e_a_switch_J,
             "relayed": self.relayed,
             "note": self.note,
+            "warnings": list(self.warnings),
         }
 
 
@@ -238,6 +241,7 @@ def network_lifetime(
     # Eq. 8: B's trip, one step, from the energy model.
     travel = trip_energy(model, speed_mps, distance_m, 1, t_acc_s=t_acc_s)
     travel_s, travel_J = travel.time_s, travel.energy_J
+    alone = replace(alone, warnings=tuple(model.extrapolation_warnings(speed_mps)))
     e_a_switch_J = energy_at_switch_J(e0a_J, p_a_high_W, travel_s)
     moved = {"travel_s": travel_s, "travel_energy_J": travel_J, "e_a_switch_J": e_a_switch_J}
     if e0b_J < travel_J:
@@ -253,6 +257,7 @@ def network_lifetime(
     return LifetimeResult(
         **common,
         **moved,
+        warnings=alone.warnings,
         relayed=True,
         lifetime_s=lifetime_s,
         first_to_die=first,

@@ -77,6 +77,23 @@ class PowerModel:
     components_W: dict[str, float | None] = field(default_factory=dict)
     extensions: dict[str, dict[str, float]] = field(default_factory=dict)
     source: str = "fit"
+    #: (lowest, highest) speed of the motion runs the lines were fitted on [m/s]; None when
+    #: unknown (a model.json written before wbpower recorded it)
+    speed_range_mps: tuple[float, float] | None = None
+
+    def extrapolation_warnings(self, speed_mps: float) -> list[str]:
+        """Why the model's answer at `speed_mps` is an extrapolation (empty when it is not):
+        the speed lies outside the speeds the lines were fitted on."""
+        if self.speed_range_mps is None or not math.isfinite(speed_mps):
+            return []
+        low, high = self.speed_range_mps
+        slack = 1e-9 * max(abs(low), abs(high), 1.0)
+        if low - slack <= speed_mps <= high + slack:
+            return []
+        return [
+            f"speed {speed_mps:g} m/s is outside the {low:g}-{high:g} m/s the model "
+            f"({self.source}) was fitted on: its linear P_acc, P_v and t_acc are extrapolated"
+        ]
 
     def accel_power_W(self, speed_mps: float) -> float:
         """Mean power over the acceleration phase [W] (paper: 23.9 + 14.8 v)."""
@@ -127,6 +144,7 @@ class PowerModel:
                     for k, v in (data.get("extensions") or {}).items()
                 },
                 source=str(data.get("source", "fit")),
+                speed_range_mps=_range(data.get("speed_range_mps")),
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise UsageError(
@@ -144,6 +162,13 @@ def _pair(value: object) -> tuple[float, float]:
         return (float("nan"), float("nan"))
     low, high = value
     return (_number(low), _number(high))
+
+
+def _range(value: object) -> tuple[float, float] | None:
+    if value is None:
+        return None
+    low, high = value
+    return (float(low), float(high))
 
 
 def _linear(d: dict) -> LinearFit:
@@ -171,6 +196,7 @@ def paper_model() -> PowerModel:
         t_acc=LinearFit(1.0, 0.0),
         components_W={"network": 4.4, "video": 2.5, "cpu": 2.1},
         source="paper",
+        speed_range_mps=(0.1, 0.9),  # the paper's experiments (its Figures 2-5)
     )
 
 

@@ -14,10 +14,13 @@ time.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
+import signal
 import sys
-from collections.abc import Callable, Sequence
+import time
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import TypeVar
@@ -52,6 +55,31 @@ def can_fork() -> bool:
     return sys.platform.startswith("linux") and "fork" in multiprocessing.get_all_start_methods()
 
 
+#: In a worker: set when the parent asked it to stop (SIGTERM).
+_STOPPING = False
+#: Seconds a stopped worker has to finish its cleanup before it is killed.
+STOP_GRACE_S = 1.5
+
+
+def _start_worker(threads: int) -> None:
+    """A worker's start: Ctrl-C is the parent's to handle, SIGTERM stops the worker cleanly,
+    and pyarrow gets the worker's share of the cores."""
+    # The terminal sends SIGINT to the whole process group; a worker ignores it (no
+    # KeyboardInterrupt traceback from the middle of a task), and the parent stops it.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _stop)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    _share_cores(threads)
+
+
+def _stop(signum: int, frame: object) -> None:
+    """SIGTERM in a worker: unwind the task (its `finally`/`except` blocks remove temporary
+    files, e.g. a cache entry half written), then exit."""
+    global _STOPPING
+    _STOPPING = True
+    raise SystemExit(130)
+
+
 def _share_cores(threads: int) -> None:
     """In a worker: its share of the cores for pyarrow's own thread pool. The cores are
     already busy with one file per worker; more threads per file only add contention
@@ -64,7 +92,38 @@ def _share_cores(threads: int) -> None:
 
 def _run_task(index: int) -> object:
     assert _TASK is not None, "worker started without a task"
-    return _TASK(index)
+    try:
+        return _TASK(index)
+    except BaseException:
+        if _STOPPING:  # cleaned up while unwinding: leave now, not back to the pool's loop
+            os._exit(130)
+        raise
+
+
+@contextlib.contextmanager
+def _sigint_blocked() -> Iterator[None]:
+    """SIGINT held pending (delivered on leaving) while workers are forked: each is forked
+    with it blocked and installs its own handling before unblocking it."""
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+def _stop_workers(processes: list[multiprocessing.process.BaseProcess]) -> None:
+    """Stop the workers now: SIGTERM (each unwinds its task and exits), then SIGKILL for any
+    still running after `STOP_GRACE_S` (stuck in a long C call)."""
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
+    deadline = time.monotonic() + STOP_GRACE_S
+    for process in processes:
+        process.join(max(deadline - time.monotonic(), 0.0))
+    for process in processes:
+        if process.is_alive():
+            process.kill()
+            process.join()
 
 
 def map_ordered(
@@ -96,41 +155,52 @@ def map_ordered(
     global _TASK
     previous, _TASK = _TASK, lambda index: task(items[index])
     results_by_index: dict[int, R] = {}
+    context = multiprocessing.get_context("fork")
+    threads = max(available_cores() // workers, 1)
+    pool = ProcessPoolExecutor(
+        max_workers=workers, mp_context=context, initializer=_start_worker, initargs=(threads,)
+    )
+    processes: list[multiprocessing.process.BaseProcess] = []
     try:
-        context = multiprocessing.get_context("fork")
-        threads = max(available_cores() // workers, 1)
-        with ProcessPoolExecutor(
-            max_workers=workers,
-            mp_context=context,
-            initializer=_share_cores,
-            initargs=(threads,),
-        ) as pool:
-            pending: dict[object, int] = {}
-            order = range(len(items))
-            if cost is not None:
-                order = sorted(order, key=lambda index: -cost(items[index]))
-            queue = iter(order)
-            # a window of 2 items per worker in flight: workers never wait for work, and the
-            # parent holds a few futures, not one per file
-            for index in queue:
+        pending: dict[object, int] = {}
+        order = range(len(items))
+        if cost is not None:
+            order = sorted(order, key=lambda index: -cost(items[index]))
+        queue = iter(order)
+        # a window of 2 items per worker in flight: workers never wait for work, and the
+        # parent holds a few futures, not one per file
+        for index in queue:
+            if not processes:
+                # the first submit forks every worker: SIGINT is held back meanwhile, so a
+                # Ctrl-C lands here, once the workers are known and can be stopped
+                with _sigint_blocked():
+                    pending[pool.submit(_run_task, index)] = index
+                    processes = list(pool._processes.values())  # noqa: SLF001
+            else:
                 pending[pool.submit(_run_task, index)] = index
-                if len(pending) >= 2 * workers:
-                    break
-            while pending:
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for future in done:
-                    index = pending.pop(future)
-                    results_by_index[index] = future.result()
-                    if on_done is not None:
-                        on_done(items[index])
-                    next_index = next(queue, None)
-                    if next_index is not None:
-                        pending[pool.submit(_run_task, next_index)] = next_index
+            if len(pending) >= 2 * workers:
+                break
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                index = pending.pop(future)
+                results_by_index[index] = future.result()
+                if on_done is not None:
+                    on_done(items[index])
+                next_index = next(queue, None)
+                if next_index is not None:
+                    pending[pool.submit(_run_task, next_index)] = next_index
     except BrokenProcessPool:
+        _stop_workers(processes)
         raise WbpowerError(
             "a worker process died (killed for lack of memory?)",
             fix="run again with --jobs 1, or with fewer jobs",
         ) from None
+    except BaseException:
+        # Ctrl-C (KeyboardInterrupt), or an error a task raised: no worker is left behind
+        _stop_workers(processes)
+        raise
     finally:
+        pool.shutdown(wait=True, cancel_futures=True)
         _TASK = previous
     return [results_by_index[index] for index in range(len(items))]

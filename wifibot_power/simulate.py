@@ -388,13 +388,29 @@ def true_parameters(config: SimConfig) -> dict[str, object]:
     }
 
 
+#: `--compress` value -> the log files' suffix (the readers decompress by suffix)
+COMPRESSIONS = {"none": ".csv", "gz": ".csv.gz", "zst": ".csv.zst"}
+#: `--columns` value -> what each log holds
+COLUMN_SETS = ("full", "power")
+
+
 @dataclass(frozen=True)
 class WriteOptions:
     """How logs are written: the paper's full canonical columns by default."""
 
     columns: str = "full"  # "full": time_s, voltage_V, current_A, power_W; "power": power_W only
-    compress: str = "none"  # "none" or "gz"
+    compress: str = "none"  # "none", "gz" or "zst" (COMPRESSIONS)
     decimals: int = 4
+
+    def __post_init__(self) -> None:
+        if self.columns not in COLUMN_SETS:
+            raise UsageError(
+                f"--columns {self.columns!r} is not known", fix=f"give {'|'.join(COLUMN_SETS)}"
+            )
+        if self.compress not in COMPRESSIONS:
+            raise UsageError(
+                f"--compress {self.compress!r} is not known", fix=f"give {'|'.join(COMPRESSIONS)}"
+            )
 
 
 def write_simulation(
@@ -404,7 +420,7 @@ def write_simulation(
     write = write or WriteOptions()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    suffix = ".csv.gz" if write.compress == "gz" else ".csv"
+    suffix = COMPRESSIONS[write.compress]
     manifest = ["file,run_id,mode,speed_mps,distance_m,steps,payload_kg,started_at"]
     runs_truth = []
     total_bytes = 0

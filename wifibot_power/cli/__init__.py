@@ -3,18 +3,18 @@
 One module per command registers on the shared Typer app; nothing here does math or
 parsing. `wbpower COMMAND` loads only that command's module (start-up is most of a warm
 `fit --cache` run); `wbpower --help`, and `from wifibot_power.cli import app`, load all.
+This module itself imports nothing heavy, so that `main` covers the whole start-up: a
+Ctrl-C while typer, rich or numpy load is the same quiet exit 130 as one during the work.
 """
 
 from __future__ import annotations
 
 import importlib
 import sys
-from typing import Annotated
+from typing import TYPE_CHECKING
 
-import typer
-
-from wifibot_power import __version__
-from wifibot_power.cli.typer_app import app as _app
+if TYPE_CHECKING:
+    import typer
 
 #: command name -> the module that registers it
 COMMANDS = {
@@ -30,9 +30,11 @@ COMMANDS = {
 
 def load_commands(names: list[str] | None = None) -> typer.Typer:
     """Register the named commands (all by default) on the app and return it."""
+    from wifibot_power.cli.typer_app import app
+
     for name in names or list(COMMANDS):
         importlib.import_module(f"wifibot_power.cli.{COMMANDS[name]}")
-    return _app
+    return app
 
 
 def __getattr__(name: str) -> object:
@@ -41,21 +43,11 @@ def __getattr__(name: str) -> object:
     raise AttributeError(f"module 'wifibot_power.cli' has no attribute {name!r}")
 
 
-def _version(value: bool) -> None:
-    if value:
-        print(f"wbpower {__version__}")
-        raise typer.Exit(0)
-
-
-@_app.callback()
-def _root(
-    version: Annotated[
-        bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version.")
-    ] = False,
-) -> None:
-    """Energy models of a mobile robot from power-analyser logs, and where they go wrong."""
-
-
 def main() -> None:
-    wanted = [arg for arg in sys.argv[1:2] if arg in COMMANDS]
-    load_commands(wanted or None)()
+    try:
+        wanted = [arg for arg in sys.argv[1:2] if arg in COMMANDS]
+        load_commands(wanted or None)()
+    except KeyboardInterrupt:
+        # Ctrl-C outside a command's own handling (while loading, or parsing options)
+        print("wbpower: error: interrupted", file=sys.stderr)
+        raise SystemExit(130) from None

@@ -7,6 +7,7 @@ import inspect
 import json
 import os
 import sys
+import time
 import typing
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
@@ -17,13 +18,15 @@ from rich.console import Console
 from rich.progress import (
     BarColumn,
     Progress,
+    ProgressColumn,
+    Task,
     TaskID,
     TextColumn,
     TimeElapsedColumn,
-    TransferSpeedColumn,
 )
+from rich.text import Text
 
-from wifibot_power.errors import WbpowerError
+from wifibot_power.errors import UsageError, WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
 from wifibot_power.outputs import json_safe
 from wifibot_power.run import Problem
@@ -34,6 +37,7 @@ if TYPE_CHECKING:
 EXIT_OK = 0
 EXIT_SKIPPED = 1
 EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
 
 # a pipe gets wide tables (not rich's 80 columns), whatever COLUMNS the environment has
 stdout = Console(soft_wrap=False, width=None if sys.stdout.isatty() else 200)
@@ -117,6 +121,11 @@ def with_reading_options(command: Callable[..., object]) -> Callable[..., object
 
 F = TypeVar("F", bound=Callable[..., object])
 
+#: click's ClickException (typer >= 0.22 vendors click as typer._click, older typers import it)
+_CLICK_ERROR: type[Exception] = next(
+    c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException"
+)
+
 
 def handles_errors(command: F) -> F:
     """Library errors become one line on stderr and exit 2; never a traceback.
@@ -131,9 +140,14 @@ def handles_errors(command: F) -> F:
         except WbpowerError as exc:
             fail(exc.one_line())
         except KeyboardInterrupt:
-            fail("interrupted")
+            fail("interrupted", EXIT_INTERRUPTED)
         except (typer.Exit, typer.Abort, SystemExit):
             raise
+        except _CLICK_ERROR as exc:  # e.g. typer.BadParameter from an option's parser
+            fail(exc.format_message())
+        except OSError as exc:  # an output that cannot be written (disk full, read-only, ...)
+            where = f"{exc.filename}: " if exc.filename else ""
+            fail(f"{where}cannot write: {exc.strerror or exc} (check the path and free space)")
         except Exception as exc:  # noqa: BLE001 - the promise is: no traceback, ever
             if os.environ.get("WBPOWER_DEBUG"):
                 raise
@@ -144,6 +158,26 @@ def handles_errors(command: F) -> F:
         return None
 
     return wrapper  # type: ignore[return-value]
+
+
+def check_out_dir(out: Path | None) -> None:
+    """Refuse an `-o DIR` that cannot be written before any work is done (cli.md): an
+    existing file, or a folder (or the nearest existing parent of one to create) that is not
+    writable. Nothing is created here: a run that fails or is interrupted writes nothing."""
+    if out is None:
+        return
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(
+            f"-o {out}: is a file, not a folder", fix="give a folder to write the outputs into"
+        )
+    existing = next((p for p in (out, *out.absolute().parents) if p.exists()), None)
+    if existing is None or not existing.is_dir():
+        raise UsageError(f"-o {out}: {existing} is not a folder", fix="give another folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise UsageError(
+            f"-o {out}: {existing} is not writable", fix="give a folder you can write to"
+        )
 
 
 def fail(message: str, code: int = EXIT_USAGE) -> None:
@@ -179,6 +213,38 @@ def report_skipped(skipped: list[Skipped]) -> int:
 T = TypeVar("T")
 
 
+#: No rate is shown before this much time since the work started: the first files finish
+#: together, a few ms apart, which would show rates of hundreds of GB/s.
+RATE_AFTER_S = 1.0
+
+
+def rate_text(bytes_done: float, elapsed_s: float) -> str:
+    """The rate shown on the bar: bytes done over the time since the work started (not
+    rich's rate between two updates), blank until `RATE_AFTER_S` has passed."""
+    if elapsed_s < RATE_AFTER_S or bytes_done <= 0:
+        return ""
+    rate = bytes_done / elapsed_s
+    for unit in ("B", "kB", "MB", "GB"):
+        if rate < 1000 or unit == "GB":
+            return f"{rate:.1f} {unit}/s"
+        rate /= 1000
+    return ""  # not reached
+
+
+class _RateColumn(ProgressColumn):
+    """Bytes per second since `started` (a `time.monotonic()`), or nothing yet."""
+
+    def __init__(self, started: float, in_bytes: bool = True) -> None:
+        super().__init__()
+        self.started = started
+        self.in_bytes = in_bytes  # False: the bar counts files (sizes unknown), no rate
+
+    def render(self, task: Task) -> Text:
+        if not self.in_bytes:
+            return Text("")
+        return Text(rate_text(task.completed, time.monotonic() - self.started))
+
+
 class FileProgress:
     """A rich progress bar on stderr: files done, MB/s, elapsed time.
 
@@ -194,13 +260,14 @@ class FileProgress:
         self.files_done = 0
         self._bar: Progress | None = None
         self._task: TaskID | None = None
+        self.started = time.monotonic()  # the work starts now, the bar at the first file done
 
     def _start(self) -> None:
         self._bar = Progress(
             TextColumn(f"[bold]{self.label}"),
             BarColumn(),
             TextColumn("{task.fields[files]}/" + f"{len(self.items)} files"),
-            TransferSpeedColumn(),
+            _RateColumn(self.started, in_bytes=self.total_bytes > 0),
             TimeElapsedColumn(),
             console=stderr,
             transient=True,

@@ -7,7 +7,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
-from rich.table import Table
 
 from wifibot_power.cli.common import (
     EXIT_OK,
@@ -15,6 +14,7 @@ from wifibot_power.cli.common import (
     Jobs,
     JsonFlag,
     OutDir,
+    check_out_dir,
     handles_errors,
     print_json,
     progress,
@@ -23,6 +23,8 @@ from wifibot_power.cli.common import (
     warn_problems,
     with_reading_options,
 )
+from wifibot_power.cli.help import command_help
+from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.io import ReadOptions
 
@@ -30,24 +32,36 @@ if TYPE_CHECKING:
     from wifibot_power.diagnose import Diagnosis
 
 
-def _by_configuration(result: Diagnosis) -> Table:
-    table = Table(
-        title="Measured vs simulated motion energy (held-out), mean over repeats",
-        title_justify="left",
-    )
-    for name in (
-        "speed m/s",
-        "dist m",
-        "steps",
-        "payload kg",
-        "runs",
-        "measured J",
-        "paper-form J",
-        "error %",
-        "extended J",
-        "error %",
-    ):
-        table.add_column(name, justify="right")
+_CONFIG_COLUMNS = (
+    Col("speed m/s", key=True),
+    Col("dist m", key=True),
+    Col("steps", key=True),
+    Col("payload kg"),
+    Col("runs"),
+    Col("measured J"),
+    Col("paper-form J"),
+    Col("error %"),
+    Col("extended J"),
+    Col("error %"),
+)
+_PATTERN_COLUMNS = (
+    Col("error of", "text", key=True),
+    Col("against", "text", key=True),
+    Col("rho"),
+    Col("p"),
+)
+_FINDING_COLUMNS = (
+    Col("cause", "text", key=True),
+    Col("estimate"),
+    Col("95% CI"),
+    Col("p"),
+    Col("gain %"),
+    Col("metric", "text"),
+    Col("evidence", "text"),
+)
+
+
+def _by_configuration(result: Diagnosis) -> None:
     keys = ["speed_mps", "distance_m", "steps", "payload_kg"]
     grouped = result.runs.groupby(keys, sort=True).agg(
         runs=("run_id", "size"),
@@ -57,8 +71,8 @@ def _by_configuration(result: Diagnosis) -> Table:
         extended=("extended_energy_J", "mean"),
         extended_err=("extended_error_pct", "mean"),
     )
-    for (speed, dist, steps, payload), row in grouped.iterrows():
-        table.add_row(
+    cells = [
+        [
             f"{speed:.2f}",
             f"{dist:g}",
             str(steps),
@@ -69,51 +83,60 @@ def _by_configuration(result: Diagnosis) -> Table:
             f"{row.baseline_err:+.2f}",
             f"{row.extended:.1f}",
             f"{row.extended_err:+.2f}",
-        )
-    return table
-
-
-def _patterns(result: Diagnosis) -> Table:
-    table = Table(
-        title="Pattern of the paper-form model's error (Spearman rank correlation)",
-        title_justify="left",
+        ]
+        for (speed, dist, steps, payload), row in grouped.iterrows()
+    ]
+    print_table(
+        stdout,
+        "Measured vs simulated motion energy (held-out), mean over repeats",
+        _CONFIG_COLUMNS,
+        cells,
     )
-    for name in ("error of", "against", "rho", "p"):
-        table.add_column(name, justify="left" if name in ("error of", "against") else "right")
-    for key, value in result.patterns.items():
-        model = key.split("_error_vs_")[0]
-        table.add_row(
-            model, value["label"], f"{value['spearman_rho']:+.2f}", f"{value['p_value']:.2g}"
-        )
-    return table
 
 
-def _findings(result: Diagnosis) -> Table:
-    table = Table(title="Findings: named causes (shared/spec/causes.md)", title_justify="left")
-    for name in ("cause", "estimate", "95% CI", "p", "gain %", "metric", "evidence"):
-        table.add_column(
-            name, justify="right" if name in ("p", "gain %") else "left", overflow="fold"
-        )
+def _patterns(result: Diagnosis) -> None:
+    cells = [
+        [
+            key.split("_error_vs_")[0],
+            value["label"],
+            f"{value['spearman_rho']:+.2f}",
+            f"{value['p_value']:.2g}",
+        ]
+        for key, value in result.patterns.items()
+    ]
+    print_table(
+        stdout,
+        "Pattern of the paper-form model's error (Spearman rank correlation)",
+        _PATTERN_COLUMNS,
+        cells,
+    )
+
+
+def _findings(result: Diagnosis) -> None:
+    cells = []
     for f in result.findings:
         est = f.estimate
         low, high = est["ci95"]
         ci = f"[{low:.4g}, {high:.4g}]" if math.isfinite(low) else "-"
-        table.add_row(
-            f.cause,
-            f"{est['value']:.4g} {est['unit']}",
-            ci,
-            f"{f.p_value:.2g}",
-            f"{f.gain_pct:.1f}",
-            f.metric,
-            f.summary,
+        cells.append(
+            [
+                f.cause,
+                f"{est['value']:.4g} {est['unit']}",
+                ci,
+                f"{f.p_value:.2g}",
+                f"{f.gain_pct:.1f}",
+                f.metric,
+                f.summary,
+            ]
         )
     if not result.findings:
-        table.add_row("(none)", "", "", "", "", "", "the paper's model explains these runs")
-    return table
+        cells.append(["(none)", "", "", "", "", "", "the paper's model explains these runs"])
+    print_table(stdout, "Findings: named causes (shared/spec/causes.md)", _FINDING_COLUMNS, cells)
 
 
-@app.command("diagnose")
+@app.command("diagnose", **command_help("diagnose"))
 @handles_errors
+@with_wide_option
 @with_reading_options
 def diagnose_command(
     paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
@@ -134,6 +157,7 @@ def diagnose_command(
     ] = False,
 ) -> None:
     """What the paper's model gets wrong on these logs, the named cause, the held-out gain."""
+    check_out_dir(out)
     # imported here: scipy.stats alone costs a second, which no other command should pay
     from wifibot_power.diagnose import diagnose_logs, write_diagnosis
     from wifibot_power.model import load_model
@@ -153,9 +177,9 @@ def diagnose_command(
     if json_out:
         print_json(result.summary())
     else:
-        stdout.print(_by_configuration(result))
-        stdout.print(_patterns(result))
-        stdout.print(_findings(result))
+        _by_configuration(result)
+        _patterns(result)
+        _findings(result)
         stdout.print(
             f"{result.n_runs} motion runs, K-fold held out by run. Baseline "
             f"({result.baseline_label}): RMSE "

@@ -6,9 +6,19 @@ import math
 from typing import Annotated
 
 import typer
-from rich.table import Table
 
-from wifibot_power.cli.common import JsonFlag, ModelSpec, OutDir, handles_errors, print_json, stdout
+from wifibot_power.cli.common import (
+    JsonFlag,
+    ModelSpec,
+    OutDir,
+    check_out_dir,
+    handles_errors,
+    print_json,
+    stdout,
+    warn,
+)
+from wifibot_power.cli.help import command_help
+from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.energy import EnergyReport, energy_report, speed_sweep
 from wifibot_power.errors import UsageError
@@ -35,34 +45,55 @@ def _fmt(value: float, spec: str) -> str:
     return "-" if value is None or not math.isfinite(value) else format(value, spec)
 
 
-def _report_table(report: EnergyReport) -> Table:
+_REPORT_COLUMNS = (
+    Col("phase", "text", key=True),
+    Col("time s"),
+    Col("mean W"),
+    Col("energy J"),
+    Col("1-step time s"),
+    Col("1-step energy J"),
+)
+_SWEEP_COLUMNS = (
+    Col("distance m", key=True),
+    Col("speed m/s", key=True),
+    Col("1 step J"),
+    Col("steps"),
+    Col("stop-and-go J"),
+    Col("overhead %"),
+    Col("1 step J/m"),
+    Col("note", "text"),
+)
+
+
+def _print_report(report: EnergyReport) -> None:
     trip, one = report.trip, report.one_step
     title = (
         f"{trip.distance_m:g} m at {trip.speed_mps:g} m/s in {trip.steps} step(s) of "
         f"{trip.step.step_m:g} m (t_acc {trip.t_acc_s:g} s, model {report.model_source})"
     )
-    table = Table(title=title, title_justify="left")
-    for name in ("phase", "time s", "mean W", "energy J", "1-step time s", "1-step energy J"):
-        table.add_column(name, justify="left" if name == "phase" else "right")
     one_by_phase = {p.phase: p for p in one.phases}
+    rows = []
     for p in trip.phases:
         q = one_by_phase[p.phase]
-        table.add_row(
-            p.phase,
-            _fmt(p.time_s, ".3f") if p.time_s else "-",
-            _fmt(p.mean_power_W, ".3f"),
-            _fmt(p.energy_J, ".2f"),
-            _fmt(q.time_s, ".3f") if q.time_s else "-",
-            _fmt(q.energy_J, ".2f"),
+        rows.append(
+            [
+                p.phase,
+                _fmt(p.time_s, ".3f") if p.time_s else "-",
+                _fmt(p.mean_power_W, ".3f"),
+                _fmt(p.energy_J, ".2f"),
+                _fmt(q.time_s, ".3f") if q.time_s else "-",
+                _fmt(q.energy_J, ".2f"),
+            ]
         )
-    table.add_row(
-        "total",
-        _fmt(trip.time_s, ".3f"),
-        _fmt(trip.energy_J / trip.time_s, ".3f"),
-        _fmt(trip.energy_J, ".2f"),
-        _fmt(one.time_s, ".3f"),
-        _fmt(one.energy_J, ".2f"),
-        style="bold",
+    rows.append(
+        [
+            "total",
+            _fmt(trip.time_s, ".3f"),
+            _fmt(trip.energy_J / trip.time_s, ".3f"),
+            _fmt(trip.energy_J, ".2f"),
+            _fmt(one.time_s, ".3f"),
+            _fmt(one.energy_J, ".2f"),
+        ]
     )
     notes = [f"stop-and-go overhead: {report.overhead_pct:.2f} %"]
     if not trip.step.reaches_speed:
@@ -72,45 +103,38 @@ def _report_table(report: EnergyReport) -> Table:
         )
     if report.ignored_extensions:
         notes.append(f"ignored unknown extensions: {', '.join(report.ignored_extensions)}")
-    table.caption = "; ".join(notes)
-    table.caption_justify = "left"
-    return table
+    styles = [None] * (len(rows) - 1) + ["bold"]
+    print_table(stdout, title, _REPORT_COLUMNS, rows, caption="; ".join(notes), row_styles=styles)
 
 
-def _sweep_table(rows: list[EnergyReport]) -> Table:
-    table = Table(title="Figure 5: trip energy against speed", title_justify="left")
-    for name in (
-        "distance m",
-        "speed m/s",
-        "1 step J",
-        "steps",
-        "stop-and-go J",
-        "overhead %",
-        "1 step J/m",
-        "note",
-    ):
-        table.add_column(name, justify="left" if name == "note" else "right")
+def _print_sweep(rows: list[EnergyReport]) -> None:
+    cells = []
     for row in rows:
         trip = row.trip
-        table.add_row(
-            f"{trip.distance_m:g}",
-            f"{trip.speed_mps:g}",
-            f"{row.one_step.energy_J:.1f}",
-            str(trip.steps),
-            f"{trip.energy_J:.1f}",
-            f"{row.overhead_pct:.1f}",
-            f"{row.one_step.energy_J / trip.distance_m:.2f}",
-            "" if trip.step.reaches_speed else f"triangular (peak {trip.step.peak_speed_mps:.2f})",
+        cells.append(
+            [
+                f"{trip.distance_m:g}",
+                f"{trip.speed_mps:g}",
+                f"{row.one_step.energy_J:.1f}",
+                str(trip.steps),
+                f"{trip.energy_J:.1f}",
+                f"{row.overhead_pct:.1f}",
+                f"{row.one_step.energy_J / trip.distance_m:.2f}",
+                ""
+                if trip.step.reaches_speed
+                else f"triangular (peak {trip.step.peak_speed_mps:.2f})",
+            ]
         )
-    return table
+    print_table(stdout, "Figure 5: trip energy against speed", _SWEEP_COLUMNS, cells)
 
 
 def _flat(summary: dict[str, object]) -> dict[str, object]:
     return {k: v for k, v in summary.items() if not isinstance(v, list | dict)}
 
 
-@app.command("energy")
+@app.command("energy", **command_help("energy"))
 @handles_errors
+@with_wide_option
 def energy_command(
     speed: Speed = None,
     dist: Dist = None,
@@ -123,6 +147,7 @@ def energy_command(
     out: OutDir = None,
 ) -> None:
     """Energy of a trip in N stop-and-go steps (paper Eq. 5/6), beside the one-step trip."""
+    check_out_dir(out)
     power_model = load_model(model)
     if sweep is not None:
         if sweep != "speed":
@@ -131,10 +156,12 @@ def energy_command(
         summaries = [r.summary() for r in rows]
         if out is not None:
             write_parquet(out / "energy_sweep_speed.parquet", _frame(map(_flat, summaries)))
+        for message in dict.fromkeys(w for r in rows for w in r.warnings):
+            warn(message)
         if json_out:
             print_json({"sweep": "speed", "rows": summaries})
         else:
-            stdout.print(_sweep_table(rows))
+            _print_sweep(rows)
         return
     if speed is None or dist is None:
         raise UsageError(
@@ -142,13 +169,15 @@ def energy_command(
         )
     report = energy_report(power_model, speed, dist, steps, t_acc_s=t_acc, payload_kg=payload)
     summary = report.summary()
+    for message in report.warnings:
+        warn(message)
     if out is not None:
         write_parquet(out / "energy_phases.parquet", _frame(summary["phases"]))
         write_parquet(out / "energy.parquet", _frame([_flat(summary)]))
     if json_out:
         print_json(summary)
     else:
-        stdout.print(_report_table(report))
+        _print_report(report)
 
 
 def _frame(rows: object) -> object:

@@ -6,7 +6,6 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.table import Table
 
 from wifibot_power.cli.common import (
     JsonFlag,
@@ -18,13 +17,30 @@ from wifibot_power.cli.common import (
     warn,
     with_reading_options,
 )
+from wifibot_power.cli.help import command_help
+from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.inspect import inspect_logs
 from wifibot_power.io import ReadOptions
 
+#: file is the key (repeated if the table is split); numbers never cut, text folds
+COLUMNS = (
+    Col("file", "text", key=True),
+    Col("format", "text"),
+    Col("run_id", "text"),
+    Col("mode", "text"),
+    Col("samples"),
+    Col("period ms"),
+    Col("duration s"),
+    Col("mean W"),
+    Col("energy J"),
+    Col("problems", "text"),
+)
 
-@app.command("inspect")
+
+@app.command("inspect", **command_help("inspect"))
 @handles_errors
+@with_wide_option
 @with_reading_options
 def inspect_command(
     paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
@@ -40,35 +56,22 @@ def inspect_command(
         # the JSON document stays the list of cli.md; skipped inputs go to stderr (and exit 1)
         print_json(rows)
     else:
-        table = Table(title=f"{len(rows)} log(s)", title_justify="left")
-        for name, justify in [
-            ("file", "left"),
-            ("format", "left"),
-            ("run_id", "left"),
-            ("mode", "left"),
-            ("samples", "right"),
-            ("period ms", "right"),
-            ("duration s", "right"),
-            ("mean W", "right"),
-            ("energy J", "right"),
-            ("problems", "left"),
-        ]:
-            table.add_column(name, justify=justify)
-        for row in rows:
-            meta = row["meta"]
-            table.add_row(
+        cells = [
+            [
                 Path(str(row["file"])).name,
                 str(row["format"]),
                 str(row["run_id"]),
-                str(meta["mode"]),
+                str(row["meta"]["mode"]),
                 f"{row['samples']:,}",
                 f"{row['sample_period_s'] * 1e3:.5g}",
                 f"{row['duration_s']:.3f}",
                 f"{row['mean_power_W']:.3f}",
                 f"{row['energy_J']:.1f}",
                 _problems_cell(row["problems"]),
-            )
-        stdout.print(table)
+            ]
+            for row in rows
+        ]
+        print_table(stdout, f"{len(rows)} log(s)", COLUMNS, cells)
     raise typer.Exit(report_skipped(skipped))
 
 

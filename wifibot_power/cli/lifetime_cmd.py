@@ -5,9 +5,19 @@ from __future__ import annotations
 from typing import Annotated
 
 import typer
-from rich.table import Table
 
-from wifibot_power.cli.common import JsonFlag, ModelSpec, OutDir, handles_errors, print_json, stdout
+from wifibot_power.cli.common import (
+    JsonFlag,
+    ModelSpec,
+    OutDir,
+    check_out_dir,
+    handles_errors,
+    print_json,
+    stdout,
+    warn,
+)
+from wifibot_power.cli.help import command_help
+from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.errors import UsageError
 from wifibot_power.lifetime import (
@@ -67,6 +77,11 @@ _COLUMNS = (
 )
 
 
+#: what a reader looks for first: kept in the first table when the table is split
+_FIRST = ("lifetime_s", "baseline_s", "improvement_pct", "first_to_die")
+_SWEPT = {"e0a": "e0a_J", "e0b": "e0b_J", "dist": "distance_m", "rate": "rate_mbps"}
+
+
 def _cell(value: object, spec: str) -> str:
     if spec == "s":
         return str(value)
@@ -77,18 +92,24 @@ def _cell(value: object, spec: str) -> str:
     return format(float(value), spec)
 
 
-def _table(rows: list[LifetimeResult], title: str) -> Table:
-    table = Table(title=title, title_justify="left")
-    for name, _, spec in _COLUMNS:
-        table.add_column(name, justify="left" if spec == "s" else "right")
+def _print(rows: list[LifetimeResult], title: str, key: str | None) -> None:
+    """The rows as table(s): the results first (lifetime, gain), then the inputs and the
+    intermediate powers; the swept input (`key`, else the rate) is repeated if split."""
+    key = key or "rate_mbps"
+    order = sorted(_COLUMNS, key=lambda c: (c[1] != key, c[1] not in _FIRST))
+    cols = [
+        Col(name, "text" if spec == "s" else "num", key=field == key) for name, field, spec in order
+    ]
+    cells = []
     for row in rows:
         summary = row.summary()
-        table.add_row(*(_cell(summary[key], spec) for _, key, spec in _COLUMNS))
-    return table
+        cells.append([_cell(summary[field], spec) for _, field, spec in order])
+    print_table(stdout, title, cols, cells)
 
 
-@app.command("lifetime")
+@app.command("lifetime", **command_help("lifetime"))
 @handles_errors
+@with_wide_option
 def lifetime_command(
     rate: Rate = None,
     e0a: E0A = DEFAULT_E0_J,
@@ -103,6 +124,7 @@ def lifetime_command(
     out: OutDir = None,
 ) -> None:
     """Relay scenario (paper Eq. 7-11): lifetime of A with B relaying, against A alone."""
+    check_out_dir(out)
     if sweep is not None and sweep not in SWEEPS:
         raise UsageError(f"unknown sweep '{sweep}'", fix=f"give --sweep {'|'.join(SWEEPS)}")
     if rate is None and sweep != "rate":
@@ -118,21 +140,25 @@ def lifetime_command(
     }
     if sweep is None:
         result = network_lifetime(power_model, rate, **scenario)
+        for message in result.warnings:
+            warn(message)
         if out is not None:
             write_parquet(out / "lifetime.parquet", _frame([result.summary()]))
         if json_out:
             print_json(result.summary())
         else:
-            stdout.print(_table([result], "Relay lifetime (paper Eq. 7-11)"))
+            _print([result], "Relay lifetime (paper Eq. 7-11)", None)
         return
     rows = lifetime_sweep(sweep, power_model, rate if rate is not None else 0.0, **scenario)
     summaries = [r.summary() for r in rows]
+    for message in dict.fromkeys(w for r in rows for w in r.warnings):
+        warn(message)
     if out is not None:
         write_parquet(out / f"lifetime_sweep_{sweep}.parquet", _frame(summaries))
     if json_out:
         print_json({"sweep": sweep, "rows": summaries})
     else:
-        stdout.print(_table(rows, f"Relay lifetime against {sweep} (paper Figure 7)"))
+        _print(rows, f"Relay lifetime against {sweep} (paper Figure 7)", _SWEPT[sweep])
 
 
 def _frame(rows: object) -> object:

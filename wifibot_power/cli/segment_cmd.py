@@ -7,7 +7,6 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.table import Table
 
 from wifibot_power.cli.common import (
     JsonFlag,
@@ -17,12 +16,32 @@ from wifibot_power.cli.common import (
     warn_problems,
     with_reading_options,
 )
+from wifibot_power.cli.help import command_help
+from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
+from wifibot_power.errors import UsageError
 from wifibot_power.io import ReadOptions
 
+_PHASE_COLUMNS = (
+    Col("step", key=True),
+    Col("phase", "text", key=True),
+    Col("start s"),
+    Col("end s"),
+    Col("duration s"),
+    Col("mean W"),
+    Col("energy J"),
+)
+_SPIKE_COLUMNS = (
+    Col("start s", key=True),
+    Col("duration s"),
+    Col("peak W"),
+    Col("energy above level J"),
+)
 
-@app.command("segment")
+
+@app.command("segment", **command_help("segment"))
 @handles_errors
+@with_wide_option
 @with_reading_options
 def segment_command(
     path: Annotated[Path, typer.Argument(help="One log file.")],
@@ -31,6 +50,11 @@ def segment_command(
 ) -> None:
     """Split one log into phases: idle/accel/cruise/decel per step for a motion run, steady
     levels otherwise. Short start-up spikes stay in the phase they start and are listed."""
+    if path.is_dir():
+        raise UsageError(
+            f"{path}: is a folder; segment takes one file",
+            fix="name one log in it, or give the folder to inspect or fit",
+        )
     from wifibot_power.segment import segment_file  # its numerics load only when used
 
     run, segmentation = segment_file(path, options)
@@ -46,14 +70,8 @@ def segment_command(
             }
         )
         return
-    table = Table(
-        title=f"{segmentation.run_id} ({run.meta.mode}): {len(segmentation.phases)} phase(s)",
-        title_justify="left",
-    )
-    for name in ("step", "phase", "start s", "end s", "duration s", "mean W", "energy J"):
-        table.add_column(name, justify="left" if name == "phase" else "right")
-    for p in segmentation.phases:
-        table.add_row(
+    cells = [
+        [
             str(p.step),
             p.phase,
             f"{p.t_start_s:.4f}",
@@ -61,17 +79,20 @@ def segment_command(
             f"{p.duration_s:.4f}",
             f"{p.mean_power_W:.3f}",
             f"{p.energy_J:.2f}",
-        )
-    stdout.print(table)
+        ]
+        for p in segmentation.phases
+    ]
+    title = f"{segmentation.run_id} ({run.meta.mode}): {len(segmentation.phases)} phase(s)"
+    print_table(stdout, title, _PHASE_COLUMNS, cells)
     if segmentation.spikes:
-        spikes = Table(title=f"{len(segmentation.spikes)} start-up spike(s)", title_justify="left")
-        for name in ("start s", "duration s", "peak W", "energy above level J"):
-            spikes.add_column(name, justify="right")
-        for s in segmentation.spikes:
-            spikes.add_row(
+        spikes = [
+            [
                 f"{s.t_start_s:.4f}",
                 f"{s.duration_s:.4f}",
                 f"{s.peak_W:.3f}",
                 f"{s.energy_above_level_J:.4f}",
-            )
-        stdout.print(spikes)
+            ]
+            for s in segmentation.spikes
+        ]
+        title = f"{len(segmentation.spikes)} start-up spike(s)"
+        print_table(stdout, title, _SPIKE_COLUMNS, spikes)

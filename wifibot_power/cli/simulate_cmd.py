@@ -6,11 +6,20 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.table import Table
 
-from wifibot_power.cli.common import JsonFlag, handles_errors, print_json, stdout
+from wifibot_power.cli.common import JsonFlag, check_out_dir, handles_errors, print_json, stdout
+from wifibot_power.cli.help import command_help
+from wifibot_power.cli.tables import Col, print_table
 from wifibot_power.cli.typer_app import app
-from wifibot_power.simulate import EFFECTS, SimConfig, WriteOptions, parse_effects, write_simulation
+from wifibot_power.simulate import (
+    COLUMN_SETS,
+    COMPRESSIONS,
+    EFFECTS,
+    SimConfig,
+    WriteOptions,
+    parse_effects,
+    write_simulation,
+)
 
 
 def _floats(text: str, option: str) -> tuple[float, ...]:
@@ -33,7 +42,7 @@ def _trips(text: str) -> tuple[tuple[float, int], ...]:
     return tuple(trips)
 
 
-@app.command("simulate")
+@app.command("simulate", **command_help("simulate"))
 @handles_errors
 def simulate_command(
     out: Annotated[Path, typer.Option("-o", "--out", help="Folder to write the logs into.")],
@@ -66,17 +75,20 @@ def simulate_command(
         float, typer.Option("--noise", min=0.0, help="Analyser noise per 0.1024 ms sample [W].")
     ] = 0.3,
     columns: Annotated[
-        str, typer.Option(help="'full' (time, voltage, current, power) or 'power'.")
+        str, typer.Option(help=f"{'|'.join(COLUMN_SETS)}: time, voltage, current, power or power.")
     ] = "full",
-    compress: Annotated[str, typer.Option(help="'none' or 'gz'.")] = "none",
+    compress: Annotated[
+        str, typer.Option(help=f"{'|'.join(COMPRESSIONS)}: how the logs are compressed.")
+    ] = "none",
     decimals: Annotated[
         int, typer.Option(min=1, max=9, help="Decimals written for power [W].")
     ] = 4,
     json_out: JsonFlag = False,
 ) -> None:
     """Write synthetic logs of a physical Wifibot model, with runs.csv and truth.json."""
-    if columns not in ("full", "power") or compress not in ("none", "gz"):
-        raise typer.BadParameter("--columns is full|power and --compress is none|gz")
+    check_out_dir(out)
+    # checked before anything is simulated or written (cli.md: a usage error, exit 2)
+    write = WriteOptions(columns=columns, compress=compress, decimals=decimals)
     config = SimConfig(
         speeds_mps=_floats(speeds, "--speeds"),
         trips=_trips(trips),
@@ -89,15 +101,9 @@ def simulate_command(
         effects=parse_effects(effect or []),
         seed=seed,
     )
-    summary = write_simulation(
-        config, out, WriteOptions(columns=columns, compress=compress, decimals=decimals)
-    )
+    summary = write_simulation(config, out, write)
     if json_out:
         print_json(summary)
         return
-    table = Table(title="simulated", title_justify="left")
-    table.add_column("what")
-    table.add_column("value")
-    for key, value in summary.items():
-        table.add_row(key, str(value))
-    stdout.print(table)
+    cells = [[key, str(value)] for key, value in summary.items()]
+    print_table(stdout, "simulated", (Col("what", "text", key=True), Col("value", "text")), cells)

@@ -64,7 +64,10 @@ def format_log(
 
 
 def write_log(path: Path, data: bytes) -> Path:
-    """Write log bytes atomically; `.gz` names are gzip-compressed."""
+    """Write log bytes atomically; `.gz` names are gzip-compressed, `.zst` names zstd (by
+    pyarrow, which also reads them back: a standard zstd frame, as `zstd -d` reads)."""
     if str(path).endswith(".gz"):
         data = gzip.compress(data, compresslevel=6, mtime=0)
+    elif str(path).endswith(".zst"):
+        data = pa.compress(data, codec="zstd", asbytes=True)
     return write_atomic(Path(path), lambda tmp: tmp.write_bytes(data))

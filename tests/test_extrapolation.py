@@ -1,0 +1,111 @@
+"""A model answers only for the speeds it was fitted on without a word; beyond them it says
+so (stderr and a `warnings` key). A fit that cannot determine the model (one speed: no slope)
+does not exit 0."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from wifibot_power.energy import energy_report
+from wifibot_power.model import load_model, paper_model
+from wifibot_power.simulate import SimConfig, WriteOptions, write_simulation
+
+WARNING = "outside the 0.1-0.9 m/s the model (paper) was fitted on"
+
+
+def test_the_paper_model_knows_its_speeds():
+    model = paper_model()
+    assert model.speed_range_mps == (0.1, 0.9)
+    assert model.extrapolation_warnings(0.1) == model.extrapolation_warnings(0.9) == []
+    assert WARNING in model.extrapolation_warnings(0.95)[0]
+    assert WARNING in model.extrapolation_warnings(0.05)[0]
+    assert energy_report(model, 0.5, 10, 1).warnings == ()
+    assert WARNING in energy_report(model, 5.0, 10, 1).warnings[0]
+
+
+@pytest.mark.parametrize(
+    ("speed", "warned"), [("5", True), ("0.9", False), ("0.5", False), ("0.02", True)]
+)
+def test_energy_beyond_the_fitted_speeds_warns(wbpower, speed, warned):
+    result = wbpower("energy", "--speed", speed, "--dist", "10", "--json")
+    assert result.exit_code == 0
+    warnings = json.loads(result.stdout)["warnings"]
+    assert bool(warnings) is warned
+    assert (WARNING in result.stderr) is warned
+    if warned:
+        assert f"speed {float(speed):g} m/s" in warnings[0]
+    human = wbpower("energy", "--speed", speed, "--dist", "10")
+    assert (WARNING in human.stderr) is warned
+
+
+def test_lifetime_with_b_beyond_the_fitted_speeds_warns(wbpower):
+    fast = wbpower("lifetime", "--rate", "54", "--speed", "2", "--json")
+    assert fast.exit_code == 0 and WARNING in fast.stderr
+    assert WARNING in json.loads(fast.stdout)["warnings"][0]
+    usual = wbpower("lifetime", "--rate", "54", "--json")
+    assert json.loads(usual.stdout)["warnings"] == [] and usual.stderr == ""
+
+
+@pytest.fixture(scope="module")
+def two_speeds(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("two_speeds")
+    config = SimConfig(
+        speeds_mps=(0.3, 0.6),
+        trips=((2.0, 1),),
+        repeats=2,
+        modes=("idle",),
+        mode_repeats=1,
+        mode_duration_s=2.0,
+        sample_period_s=1.024e-3,
+        seed=4,
+    )
+    write_simulation(config, folder, WriteOptions(columns="power", decimals=3))
+    return folder
+
+
+def test_a_fitted_model_carries_its_speeds_into_model_json(wbpower, two_speeds, tmp_path):
+    result = wbpower("fit", two_speeds, "-o", tmp_path / "out", "--json")
+    assert result.exit_code == 0, result.stderr
+    assert json.loads(result.stdout)["speed_range_mps"] == [0.3, 0.6]
+    model = load_model(tmp_path / "out" / "model.json")
+    assert model.speed_range_mps == (0.3, 0.6)
+    assert model.extrapolation_warnings(0.45) == []
+    model_json = tmp_path / "out" / "model.json"
+    energy = wbpower("energy", "--model", model_json, "--speed", "0.9", "--dist", "2")
+    assert "outside the 0.3-0.6 m/s the model (fit) was fitted on" in energy.stderr
+
+
+def test_a_model_json_without_speeds_still_loads(tmp_path):
+    data = paper_model().to_json()
+    del data["speed_range_mps"]  # written before wbpower recorded the range
+    (tmp_path / "m.json").write_text(json.dumps(data))
+    model = load_model(tmp_path / "m.json")
+    assert model.speed_range_mps is None and model.extrapolation_warnings(5.0) == []
+
+
+def test_fit_on_one_speed_is_not_a_success(wbpower, tmp_path):
+    folder = tmp_path / "one"
+    config = SimConfig(
+        speeds_mps=(0.5,),
+        trips=((2.0, 1),),
+        repeats=2,
+        modes=("idle",),
+        mode_repeats=1,
+        mode_duration_s=2.0,
+        sample_period_s=1.024e-3,
+        seed=4,
+    )
+    write_simulation(config, folder, WriteOptions(columns="power", decimals=3))
+    out = tmp_path / "out"
+    result = wbpower("fit", folder, "-o", out, "--json")
+    assert result.exit_code == 1  # a CI check on the fit fails
+    summary = json.loads(result.stdout)
+    assert summary["model_complete"] is False
+    assert any("fewer than 2 distinct speeds" in n for n in summary["notes"])
+    assert "model.json not written" in result.stderr
+    assert not (out / "model.json").exists()
+    human = wbpower("fit", folder)
+    assert human.exit_code == 1 and "the model is incomplete" in human.stderr

@@ -1,0 +1,188 @@
+"""Tables that never cut a number, whatever the terminal's width (docs/cli-output.md).
+
+rich shrinks a table that is wider than the terminal by cutting cells ("3.98…"). Here a
+table is described as columns and rows of strings, and laid out for the width at hand:
+
+- a *number* column (`Col(kind="num")`, the default) is exactly as wide as its widest cell
+  (and its header's longest word), so no cell wraps or is cut; its header wraps at spaces
+  ("1-step / energy J");
+- a *text* column (`kind="text"`: file names, notes, evidence) folds onto more lines;
+- when the number columns still do not fit, the table is split: the columns that do not fit
+  move, in their order, to a second table (a third, ...) that repeats the *key* columns
+  (`key=True`, e.g. the run or the parameter) so each row can still be read across.
+
+`--wide` (every command that prints a table) keeps one table with every column, however
+wide: the terminal then wraps the lines, or `less -S` scrolls them.
+"""
+
+from __future__ import annotations
+
+import contextvars
+import functools
+import inspect
+import typing
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Annotated, Literal, TypeVar
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+#: Whether `--wide` was given to the running command.
+WIDE: contextvars.ContextVar[bool] = contextvars.ContextVar("wide", default=False)
+#: Narrowest a text column is planned at (it folds below its natural width).
+TEXT_MIN_WIDTH = 12
+
+WideFlag = Annotated[
+    bool,
+    typer.Option("--wide", help="All columns in one table, however wide (default: split to fit)."),
+]
+
+
+@dataclass(frozen=True)
+class Col:
+    """A column: its header, `num` (never cut) or `text` (folds), and whether it is a key
+    repeated in every part of a split table."""
+
+    name: str
+    kind: Literal["num", "text"] = "num"
+    key: bool = False
+    justify: Literal["left", "right", "center"] | None = None
+
+
+def _border_width(n_columns: int) -> int:
+    # rich's default box and padding: "│ " before each cell, " " after it, a closing "│"
+    return 3 * n_columns + 1
+
+
+def _natural_width(col: Col, cells: Sequence[str], whole_header: bool = False) -> int:
+    """The width a column is planned at: a number column's widest cell (and its header's
+    longest word, or all of its header with `whole_header`); a text column's up to
+    `TEXT_MIN_WIDTH` (it folds)."""
+    header = [col.name] if whole_header else col.name.split()
+    longest_word = max((len(w) for w in header), default=1)
+    longest_line = max((len(line) for cell in cells for line in cell.splitlines()), default=1)
+    if col.kind == "num":
+        return max(longest_word, longest_line)
+    return max(longest_word, min(longest_line, TEXT_MIN_WIDTH))
+
+
+def plan(cols: Sequence[Col], rows: Sequence[Sequence[str]], width: int) -> list[list[int]]:
+    """Column indices of each table: all in one when they fit in `width`, else the key
+    columns plus as many others (in order) as fit, then the next table."""
+    needed = [_natural_width(c, [row[i] for row in rows]) for i, c in enumerate(cols)]
+    keys = [i for i, c in enumerate(cols) if c.key]
+    others = [i for i, c in enumerate(cols) if not c.key]
+    parts: list[list[int]] = []
+    current: list[int] = list(keys)
+    for index in others:
+        trial = sorted([*current, index])
+        fits = sum(needed[i] for i in trial) + _border_width(len(trial)) <= width
+        if fits or len(current) == len(keys):  # a column alone too wide still gets a table
+            current = trial
+        else:
+            parts.append(current)
+            current = sorted([*keys, index])
+    parts.append(current)
+    return parts
+
+
+def tables(
+    title: str,
+    cols: Sequence[Col],
+    rows: Sequence[Sequence[str]],
+    *,
+    width: int,
+    wide: bool = False,
+    caption: str | None = None,
+    row_styles: Sequence[str | None] | None = None,
+) -> list[Table]:
+    """The rich table(s) showing `rows` under `cols` in `width` columns (see the module)."""
+    parts = [list(range(len(cols)))] if wide else plan(cols, rows, width)
+    out = []
+    for number, part in enumerate(parts, start=1):
+        # headers on one line when the part is narrow enough for it, else wrapped at spaces
+        whole = wide or (
+            sum(_natural_width(cols[i], [r[i] for r in rows], True) for i in part)
+            + _border_width(len(part))
+            <= width
+        )
+        suffix = f" ({number}/{len(parts)})" if len(parts) > 1 else ""
+        table = Table(title=f"{title}{suffix}", title_justify="left")
+        for i in part:
+            col = cols[i]
+            cells = [row[i] for row in rows]
+            justify = col.justify or ("right" if col.kind == "num" else "left")
+            if col.kind == "num":
+                # exactly as wide as its widest cell, so no cell wraps or is cut; the header
+                # (not no_wrap) wraps at its spaces instead
+                table.add_column(col.name, justify=justify, width=_natural_width(col, cells, whole))
+            else:
+                table.add_column(col.name, justify=justify, overflow="fold")
+        for k, row in enumerate(rows):
+            style = row_styles[k] if row_styles else None
+            table.add_row(*(row[i] for i in part), style=style)
+        if number == len(parts) and caption:
+            table.caption = caption
+            table.caption_justify = "left"
+        out.append(table)
+    return out
+
+
+def print_table(
+    console: Console,
+    title: str,
+    cols: Sequence[Col],
+    rows: Sequence[Sequence[str]],
+    *,
+    caption: str | None = None,
+    row_styles: Sequence[str | None] | None = None,
+) -> None:
+    """Print the table(s) for the console's width; with `--wide`, one table at its full width
+    (wider than the terminal if it must be)."""
+    wide = WIDE.get()
+    made = tables(
+        title, cols, rows, width=console.width, wide=wide, caption=caption, row_styles=row_styles
+    )
+    for table in made:
+        if not wide:
+            console.print(table)
+            continue
+        # the console itself made wider for this table (print(width=) only narrows)
+        needed = table.__rich_measure__(console, console.options.update_width(10**4)).maximum
+        width = console.width
+        console.width = max(needed, width)
+        try:
+            console.print(table)
+        finally:
+            console.width = width
+
+
+F = TypeVar("F", bound=Callable[..., object])
+
+
+def with_wide_option(command: F) -> F:
+    """Give a command the `--wide` option; while it runs, `WIDE` holds its value."""
+    signature = inspect.signature(command)
+    hints = typing.get_type_hints(command, include_extras=True)
+    kept = [
+        p.replace(annotation=hints.get(p.name, p.annotation)) for p in signature.parameters.values()
+    ]
+    added = inspect.Parameter(
+        "wide", inspect.Parameter.KEYWORD_ONLY, default=False, annotation=WideFlag
+    )
+
+    @functools.wraps(command)
+    def wrapper(*args: object, wide: bool = False, **kwargs: object) -> object:
+        token = WIDE.set(wide)
+        try:
+            return command(*args, **kwargs)
+        finally:
+            WIDE.reset(token)
+
+    wrapper.__signature__ = signature.replace(parameters=[*kept, added])  # type: ignore[attr-defined]
+    wrapper.__annotations__ = {**hints, "wide": WideFlag}
+    if hasattr(wrapper, "__wrapped__"):
+        del wrapper.__wrapped__  # typer must see the new signature, not the wrapped one
+    return wrapper  # type: ignore[return-value]
