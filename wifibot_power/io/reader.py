@@ -30,7 +30,7 @@ from wifibot_power.io.transport import (
     read_bytes,
     read_columns,
 )
-from wifibot_power.io.validate import check_samples, check_speed
+from wifibot_power.io.validate import check_channels, check_samples, check_speed
 from wifibot_power.run import Problem, Run
 
 __all__ = ["read_bytes", "read_log"]
@@ -98,6 +98,7 @@ def read_log(
         measured=measured,
     )
     del measured
+    check_channels(str(path), channels_W)
     if speed_mps is not None:
         check_speed(str(path), speed_column, speed_mps, line_of=columns.lines.line_of)
     if time_s is None:
