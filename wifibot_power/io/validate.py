@@ -17,6 +17,9 @@ from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem
 
 #: Above this the robot cannot be drawing power: a unit or column mistake.
 ABSURD_POWER_W = 1000.0
+#: A mostly negative channel whose mean power is under this share of another channel's mean
+#: absolute power reads almost nothing: a dead sensor with an offset, not a reversed one.
+DEAD_CHANNEL_SHARE = 0.05
 #: Above this a speed column is not in m/s (a small robot; mm/s or rpm by mistake) [m/s].
 ABSURD_SPEED_MPS = 50.0
 #: Below this a reading is negative, not an offset around zero: such samples are data
@@ -215,16 +218,27 @@ def _check_sign(file: str, power_W: np.ndarray, what: str, fix: str) -> None:
 
 def check_channels(file: str, channels_W: dict[str, np.ndarray]) -> None:
     """Each channel of a summed log is checked for a reversed sign on its own: one motor's
-    sensor wired the other way would otherwise cancel the other's power in the sum, quietly."""
+    sensor wired the other way would otherwise cancel the other's power in the sum, quietly.
+    A channel that is mostly negative but reads almost nothing (under `DEAD_CHANNEL_SHARE`
+    of the others' mean absolute power) is named as a dead sensor instead: a current offset
+    of a few mA, not a reversal."""
     for name, channel_W in channels_W.items():
-        if channel_W.size and channel_W.min() < 0:
-            _check_sign(
-                file,
-                channel_W,
-                f"the power of channel '{name}'",
-                "that channel's current sign looks reversed: negate its column in the log "
-                "(--flip-current negates every channel), or check the columns used",
+        if not (channel_W.size and channel_W.min() < 0):
+            continue
+        others_W = [float(np.mean(np.abs(c))) for n, c in channels_W.items() if n != name]
+        level_W = abs(float(channel_W.mean()))
+        if others_W and level_W < DEAD_CHANNEL_SHARE * max(others_W):
+            fix = (
+                f"its sensor looks dead: it reads {level_W:.3g} W against {max(others_W):.3g} W "
+                "on another channel; check its current sensor (to read one channel alone, "
+                "name its columns with --current-column and --voltage-column)"
             )
+        else:
+            fix = (
+                "that channel's current sign looks reversed: negate its column in the log "
+                "(--flip-current negates every channel), or check the columns used"
+            )
+        _check_sign(file, channel_W, f"the power of channel '{name}'", fix)
 
 
 def _negative_samples(
