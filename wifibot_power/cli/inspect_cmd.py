@@ -14,7 +14,7 @@ from wifibot_power.cli.common import (
     progress,
     report_skipped,
     stdout,
-    warn,
+    warn_problems,
     with_reading_options,
 )
 from wifibot_power.cli.help import command_help
@@ -48,10 +48,9 @@ def inspect_command(
     json_out: JsonFlag = False,
 ) -> None:
     """What is in each log: format, samples, period, duration, mean power, energy, metadata."""
-    rows, skipped = inspect_logs(paths, options, wrap=lambda s: progress(s, "reading"))
-    for row in rows:
-        for problem in row["problems"]:
-            warn(f"{row['file']}: {problem}")
+    rows, skipped = inspect_logs(
+        paths, options, wrap=lambda s: progress(s, "reading"), on_problems=warn_problems
+    )
     if json_out:
         # the JSON document stays the list of cli.md; skipped inputs go to stderr (and exit 1)
         print_json(rows)
@@ -68,10 +67,22 @@ def inspect_command(
                 f"{row['mean_power_W']:.3f}",
                 f"{row['energy_J']:.1f}",
                 _problems_cell(row["problems"]),
+<<<<<<< HEAD
             ]
             for row in rows
         ]
         print_table(stdout, f"{len(rows)} log(s)", COLUMNS, cells)
+=======
+            )
+        stdout.print(table)
+        for row in rows:
+            if row["channels"]:
+                summed = ", ".join(
+                    f"{c['name']} {c['mean_power_W']:.3f} W" for c in row["channels"]
+                )
+                name = Path(str(row["file"])).name
+                stdout.print(f"{name}: power is the sum of channels {summed}", highlight=False)
+>>>>>>> io
     raise typer.Exit(report_skipped(skipped))
 
 

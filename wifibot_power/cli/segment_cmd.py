@@ -55,9 +55,16 @@ def segment_command(
             f"{path}: is a folder; segment takes one file",
             fix="name one log in it, or give the folder to inspect or fit",
         )
-    from wifibot_power.segment import segment_file  # its numerics load only when used
+    from wifibot_power.errors import LogError
+    from wifibot_power.io import read_log, single_source
+    from wifibot_power.segment import segment_run  # its numerics load only when used
 
-    run, segmentation = segment_file(path, options)
+    source = single_source(path)  # with the row of the runs.csv beside it (log-format.md)
+    run = read_log(source.path, options, source.overrides, origin=source.origin)
+    try:
+        segmentation = segment_run(run)
+    except LogError as exc:
+        raise exc.with_file(path) from None
     warn_problems(run.file, run.problems)
     if json_out:
         print_json(
