@@ -67,14 +67,10 @@ def inspect_command(
                 f"{row['mean_power_W']:.3f}",
                 f"{row['energy_J']:.1f}",
                 _problems_cell(row["problems"]),
-<<<<<<< HEAD
             ]
             for row in rows
         ]
         print_table(stdout, f"{len(rows)} log(s)", COLUMNS, cells)
-=======
-            )
-        stdout.print(table)
         for row in rows:
             if row["channels"]:
                 summed = ", ".join(
@@ -82,7 +78,6 @@ def inspect_command(
                 )
                 name = Path(str(row["file"])).name
                 stdout.print(f"{name}: power is the sum of channels {summed}", highlight=False)
->>>>>>> io
     raise typer.Exit(report_skipped(skipped))
 
 
