@@ -79,6 +79,7 @@ def fit_command(
     out: OutDir = None,
     jobs: Jobs = 0,
     cache: CacheDir = None,
+    runs: Annotated[bool, typer.Option("--runs", help="Also print each run's energy.")] = False,
 ) -> None:
     """Segment every run and fit the paper's power models by least squares over runs."""
     from wifibot_power.fit import fit_logs, write_fit  # pandas and numerics load only here
@@ -103,6 +104,11 @@ def fit_command(
         stdout.print(result.to_markdown(), markup=False, highlight=False, end="")
     else:
         stdout.print(render_table(result))
+        from wifibot_power.cli.fit_tables import runs_table, stop_and_go_table
+
+        for table in (stop_and_go_table(result), runs_table(result) if runs else None):
+            if table is not None:
+                stdout.print(table)
     for note in result.notes:
         warn(note)
     raise typer.Exit(report_skipped(list(result.skipped)))
