@@ -25,6 +25,7 @@ from wifibot_power.cli.common import (
     warn_problems,
     with_reading_options,
 )
+from wifibot_power.cli.plot_option import PlotFile, check_plot, plot_to
 from wifibot_power.cli.typer_app import app
 from wifibot_power.io import ReadOptions
 
@@ -80,10 +81,12 @@ def fit_command(
     jobs: Jobs = 0,
     cache: CacheDir = None,
     runs: Annotated[bool, typer.Option("--runs", help="Also print each run's energy.")] = False,
+    plot: PlotFile = None,
 ) -> None:
     """Segment every run and fit the paper's power models by least squares over runs."""
     from wifibot_power.fit import fit_logs, write_fit  # pandas and numerics load only here
 
+    check_plot(plot)
     result = fit_logs(
         paths,
         options,
@@ -92,6 +95,7 @@ def fit_command(
         cache=parse_cache(cache),
         on_problems=warn_problems,
     )
+    plot_to(plot, "power_speed", result)
     if out is not None:
         written = write_fit(result, out)
         if not result.model_complete:

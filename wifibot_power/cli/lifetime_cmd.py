@@ -8,6 +8,7 @@ import typer
 from rich.table import Table
 
 from wifibot_power.cli.common import JsonFlag, ModelSpec, OutDir, handles_errors, print_json, stdout
+from wifibot_power.cli.plot_option import PlotFile, check_plot, plot_to
 from wifibot_power.cli.typer_app import app
 from wifibot_power.errors import UsageError
 from wifibot_power.lifetime import (
@@ -101,6 +102,7 @@ def lifetime_command(
     sweep: Sweep = None,
     json_out: JsonFlag = False,
     out: OutDir = None,
+    plot: PlotFile = None,
 ) -> None:
     """Relay scenario (paper Eq. 7-11): lifetime of A with B relaying, against A alone."""
     if sweep is not None and sweep not in SWEEPS:
@@ -108,6 +110,7 @@ def lifetime_command(
     if rate is None and sweep != "rate":
         raise UsageError("--rate is needed", fix=f"give --rate {_RATES}")
     power_model = load_model(model)
+    check_plot(plot)
     scenario = {
         "e0a_J": e0a,
         "e0b_J": e0b,
@@ -116,6 +119,8 @@ def lifetime_command(
         "embedded_scale": embedded_scale,
         "t_acc_s": t_acc,
     }
+    rates, sweeps = ((rate,) if rate is not None else None), ((sweep,) if sweep else SWEEPS)
+    plot_to(plot, "figure7", power_model, sweeps=sweeps, rates_mbps=rates, **scenario)
     if sweep is None:
         result = network_lifetime(power_model, rate, **scenario)
         if out is not None:

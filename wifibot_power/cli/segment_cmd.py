@@ -17,6 +17,7 @@ from wifibot_power.cli.common import (
     warn_problems,
     with_reading_options,
 )
+from wifibot_power.cli.plot_option import PlotFile, check_plot, plot_to
 from wifibot_power.cli.typer_app import app
 from wifibot_power.io import ReadOptions
 
@@ -28,12 +29,15 @@ def segment_command(
     path: Annotated[Path, typer.Argument(help="One log file.")],
     options: ReadOptions,
     json_out: JsonFlag = False,
+    plot: PlotFile = None,
 ) -> None:
     """Split one log into phases: idle/accel/cruise/decel per step for a motion run, steady
     levels otherwise. Short start-up spikes stay in the phase they start and are listed."""
     from wifibot_power.segment import segment_file  # its numerics load only when used
 
+    check_plot(plot)
     run, segmentation = segment_file(path, options)
+    plot_to(plot, "trace", run, segmentation)
     warn_problems(run.file, run.problems)
     if json_out:
         print_json(
