@@ -305,6 +305,13 @@ def render_html(report: Report, drawn: list[tuple[Drawn, bytes | None]]) -> str:
         parts.append("<h2>Skipped or not usable</h2><ul>")
         parts += [f"<li>{e(s.reason)}</li>" for s in report.skipped]
         parts.append("</ul>")
+    # after loading, the page records how many of its images decoded (the Chromium test and
+    # anyone opening the console can read it): <body data-images-loaded="N/M">
+    parts.append(
+        "<script>window.addEventListener('load',function(){var i=document.images,n=0;"
+        "for(var k=0;k<i.length;k++){if(i[k].complete&&i[k].naturalWidth>0){n++;}}"
+        "document.body.setAttribute('data-images-loaded',n+'/'+i.length);});</script>"
+    )
     parts.append("</body></html>")
     return "\n".join(parts) + "\n"
 

@@ -71,7 +71,7 @@ def figure5(
     for row in stop_and_go:
         if (row.distance_m, row.steps) not in trips:
             trips.append((row.distance_m, row.steps))
-    models = [(model, "-")] + ([(paper, "--")] if model is not paper else [])
+    models = [(model, "-")] + ([(paper, "--")] if model != paper else [])
     for i, (distance, steps) in enumerate(trips):
         extra = OTHER_COLOURS[i % len(OTHER_COLOURS)]
         for which, (m, style) in enumerate(models):
@@ -202,7 +202,7 @@ def figure7(
     columns = 2 if n > 1 else 1
     figure = new_figure(5.5 * columns, 3.8 * ((n + 1) // 2))
     axes = np.atleast_1d(figure.subplots((n + 1) // 2, columns)).ravel()
-    models = [(model, "-")] + ([(paper, "--")] if model is not paper else [])
+    models = [(model, "-")] + ([(paper, "--")] if model != paper else [])
     for ax, sweep in zip(axes, sweeps, strict=False):
         label, scale = SWEEP_AXES[sweep]
         for which, (m, style) in enumerate(models):
