@@ -237,27 +237,41 @@ def check_out_dir(out_dir: str | Path) -> Path:
     return out_dir
 
 
-def write_report(report: Report, out_dir: str | Path) -> list[Path]:
+def write_report(report: Report, out_dir: str | Path, *, jobs: int | None = 1) -> list[Path]:
     """`DIR/figures/*.png` and `DIR/report.html` (every image embedded as base64 PNG, so the
-    one file opens offline), written atomically. Returns the files written."""
-    from wifibot_power.figures import FIGURES, save_figure
+    one file opens offline), written atomically. `jobs` worker processes draw the figures
+    (None or 0: all cores). Returns the files written."""
+    from wifibot_power.figures import FIGURES
     from wifibot_power.outputs import write_text
+    from wifibot_power.parallel import map_ordered
 
     out_dir = Path(out_dir)
     figures_dir = out_dir / "figures"
-    written: list[Path] = []
-    drawn: list[tuple[Drawn, bytes | None]] = []
-    for name, title, draw, note in report_figures(report):
-        spec = FIGURES.get("trace" if name.startswith("trace_") else name)
-        how = spec.how_to_read if spec else ""
+    items = list(report_figures(report))
+
+    def draw_one(item: tuple[str, str, Callable[[], Figure] | None, str]) -> bytes | None:
+        from wifibot_power.figures.style import save_figure
+
+        name, _, draw, _ = item
         if draw is None:
-            drawn.append((Drawn(name, title, None, note, how), None))
-            continue
+            return None
         figure = draw()
         path = save_figure(figure, figures_dir / f"{name}.png")
-        figure.clear()  # a report of many runs keeps one figure in memory at a time
-        written.append(path)
-        drawn.append((Drawn(name, title, path.name, note, how), path.read_bytes()))
+        figure.clear()  # one figure in memory at a time per worker
+        return path.read_bytes()
+
+    import matplotlib.figure  # noqa: F401 - once, before workers are forked
+
+    images = map_ordered(items, draw_one, jobs=jobs)
+    written: list[Path] = []
+    drawn: list[tuple[Drawn, bytes | None]] = []
+    for (name, title, _, note), data in zip(items, images, strict=True):
+        spec = FIGURES.get("trace" if name.startswith("trace_") else name)
+        how = spec.how_to_read if spec else ""
+        file = f"{name}.png" if data is not None else None
+        if file:
+            written.append(figures_dir / file)
+        drawn.append((Drawn(name, title, file, note, how), data))
     written.append(write_text(out_dir / "report.html", render_html(report, drawn)))
     return written
 

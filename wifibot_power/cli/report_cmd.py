@@ -44,7 +44,7 @@ def report_command(
     report = build_report(
         paths, options, wrap=lambda s: progress(s, "reading"), jobs=jobs, on_problems=warn_problems
     )
-    written = write_report(report, out)
+    written = write_report(report, out, jobs=jobs)
     missing = [(name, note) for name, _, draw, note in report_figures(report) if draw is None]
     for note in dict.fromkeys(note for _, note in missing):  # one line per reason
         warn(f"{', '.join(n for n, why in missing if why == note)}: {note}")
