@@ -11,7 +11,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from test_figures import SAMPLE_LOGS, report, subset_dir  # noqa: F401 - fixtures
+from test_figures import SAMPLE_LOGS, SUBSET, report, subset_dir  # noqa: F401 - fixtures
 
 from wifibot_power.report import build_report, write_report
 
@@ -140,3 +140,16 @@ def test_report_loads_every_image_in_headless_chromium(report, tmp_path: Path) -
     loaded, total = map(int, match.groups())
     assert total == len(list((tmp_path / "figures").glob("*.png"))) > 0
     assert loaded == total
+
+
+def test_fit_prints_the_measured_overhead_and_with_runs_each_runs_energy(
+    wbpower,
+    subset_dir: Path,  # noqa: F811
+) -> None:
+    plain = wbpower("fit", subset_dir, "--jobs", "1")
+    assert plain.exit_code == 0, plain.stderr
+    assert "Stop-and-go overhead" in plain.stdout and "v0.30_d10_s1_r1" not in plain.stdout
+    with_runs = wbpower("fit", subset_dir, "--jobs", "1", "--runs")
+    assert "Stop-and-go overhead" in with_runs.stdout
+    for name in SUBSET:
+        assert name.removesuffix(".csv.gz") in with_runs.stdout
