@@ -38,14 +38,15 @@ def test_single_run_gives_no_interval() -> None:
 
 @pytest.mark.parametrize(
     ("n", "cv_n", "cv_1"),
-    [(3, 0.002, 0.002), (3, 0.002, 0.0002), (3, 0.02, 0.005), (5, 0.01, 0.03)],
+    [(3, 0.002, 0.002), (3, 0.02, 0.005), (5, 0.01, 0.03)],
 )
 def test_interval_coverage_by_simulation(n: int, cv_n: float, cv_1: float) -> None:
     """10 000 simulated experiments of n runs each side, normal run-to-run spread with the
     given coefficient of variation (sample_logs: ~0.02-0.2%): the nominal 95% interval
     covers the true ratio 1.3 in 94-97.5% of them. Measured: 96.7% with equal spreads and
-    3 runs a side (Welch's dof is then conservative, a known property), 94.6%, 94.5% and
-    94.9% for the others; the binomial standard error of 10 000 draws is 0.22%."""
+    3 runs a side (Welch's dof is then conservative, a known property), 94.5% and 94.9% for
+    the others (and 94.6% with spreads 10x apart); the binomial standard error of 10 000
+    draws is 0.22%."""
     rng = np.random.default_rng(7)
     true_n, true_1 = 1300.0, 1000.0
     reps = 10_000

@@ -18,8 +18,15 @@ from wifibot_power.report import build_report, write_report
 IMG = re.compile(r'<img alt="[^"]*" src="data:image/png;base64,([A-Za-z0-9+/=]+)">')
 
 
-def test_report_html_embeds_every_figure_of_cli_md(report, tmp_path: Path) -> None:  # noqa: F811
-    written = write_report(report, tmp_path)
+@pytest.fixture(scope="module")
+def written(report, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[Path]]:  # noqa: F811
+    """The report of the subset, written once for the tests that read it."""
+    folder = tmp_path_factory.mktemp("report")
+    return folder, write_report(report, folder, jobs=2)
+
+
+def test_report_html_embeds_every_figure_of_cli_md(report, written) -> None:  # noqa: F811
+    tmp_path, written = written
     page = (tmp_path / "report.html").read_text(encoding="utf-8")
     pngs = sorted((tmp_path / "figures").glob("*.png"))
     assert sorted(p for p in written if p.suffix == ".png") == pngs
@@ -57,11 +64,28 @@ def test_report_of_a_log_without_motion_metadata_draws_its_trace(
     assert {p.phase for p in view.phases} == {"level"} and len(view.phases) >= 5
 
 
-def test_report_command(wbpower, subset_dir: Path, tmp_path: Path) -> None:  # noqa: F811
-    result = wbpower("report", subset_dir, "-o", tmp_path / "out", "--jobs", "1")
+def test_report_command_on_too_few_runs_to_diagnose(wbpower, tmp_path: Path) -> None:
+    """Two speeds, one run each, and the idle runs: enough to fit (Figures 5 and 7 are drawn
+    from the fitted model), too few to diagnose (6 motion runs needed): the report says so
+    in place of the diagnosis figures, on stderr too, and exits 0 (nothing was skipped)."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    for name in ("v0.30_d2_s1_r1.csv.gz", "v0.90_d2_s1_r1.csv.gz", "idle_r1.csv.gz"):
+        shutil.copy(SAMPLE_LOGS / name, logs / name)
+    result = wbpower("report", logs, "-o", tmp_path / "out", "--jobs", "1")
     assert result.exit_code == 0, result.stderr
     assert result.stdout.strip() == f"report: {tmp_path / 'out' / 'report.html'}"
-    assert (tmp_path / "out" / "figures" / "figure5.png").is_file()
+    names = sorted(p.stem for p in (tmp_path / "out" / "figures").glob("*.png"))
+    assert names == [
+        "figure5",
+        "figure7",
+        "power_speed",
+        "trace_idle_r1",
+        "trace_v0.30_d2_s1_r1",
+        "trace_v0.90_d2_s1_r1",
+    ]
+    assert "heldout_error, findings: not drawn: " in result.stderr
+    assert "diagnose needs at least 6 motion runs" in result.stderr
 
 
 def test_report_refuses_an_output_it_cannot_write_before_reading(wbpower, tmp_path: Path) -> None:
@@ -111,10 +135,10 @@ def test_plot_refuses_a_suffix_it_cannot_draw_before_any_work(wbpower, tmp_path:
     reason="chromium is not on PATH (Debian: apt-get install chromium); the report is "
     "checked in a real browser only where one is installed",
 )
-def test_report_loads_every_image_in_headless_chromium(report, tmp_path: Path) -> None:  # noqa: F811
+def test_report_loads_every_image_in_headless_chromium(written) -> None:
     """report.html opened from disk, offline, in headless Chromium: after the load event the
     page's own script counts the images that decoded (body data-images-loaded="N/M")."""
-    write_report(report, tmp_path)
+    tmp_path, _ = written
     with tempfile.TemporaryDirectory() as profile:
         done = subprocess.run(
             [
