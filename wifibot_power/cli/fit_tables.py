@@ -24,21 +24,21 @@ def stop_and_go_table(result: FitResult) -> Table | None:
     if not result.stop_and_go:
         return None
     table = Table(
-        title="Stop-and-go overhead: measured (mean motion energy over runs) vs model (Eq. 5/6)",
+        title="Stop-and-go overhead, measured vs model (Eq. 5/6): D m in N steps against 1",
         title_justify="left",
     )
     for name in (
-        "speed m/s",
-        "dist m",
-        "steps",
+        "v m/s",
+        "D m",
+        "N",
         "runs",
-        "N steps J",
-        "1 step J",
-        "measured %",
-        "95% CI %",
-        "model %",
+        "E_N J",
+        "E_1 J",
+        "meas.\n%",
+        "95% CI\n%",
+        "model\n%",
     ):
-        table.add_column(name, justify="right")
+        table.add_column(name, justify="right", no_wrap=True)
     for row in result.stop_and_go:
         low, high = row.overhead_ci95
         ci = f"[{low:.2f}, {high:.2f}]" if math.isfinite(low) else "-"
@@ -54,8 +54,8 @@ def stop_and_go_table(result: FitResult) -> Table | None:
             _num(row.model_overhead_pct, ".2f"),
         )
     table.caption = (
-        "95% CI from the run-to-run spread (delta method on the log ratio, Welch t); "
-        "runs = N-step + 1-step runs"
+        "E_N, E_1: mean motion energy of the N-step and 1-step runs (runs: their counts); "
+        "95% CI from the run-to-run spread (delta method on the log ratio, Welch t)"
     )
     table.caption_justify = "left"
     return table
@@ -64,19 +64,18 @@ def stop_and_go_table(result: FitResult) -> Table | None:
 def runs_table(result: FitResult) -> Table:
     """`fit --runs`: each run's energy (total and motion), duration, and whether it was used."""
     runs = result.runs.sort_values(["mode", "speed_mps", "distance_m", "steps", "run_id"])
-    table = Table(title=f"Energy of each of {len(runs)} run(s)", title_justify="left")
-    for name in (
-        "run",
-        "mode",
-        "speed m/s",
-        "dist m",
-        "steps",
-        "duration s",
-        "energy J",
-        "motion J",
-        "used",
-    ):
-        table.add_column(name, justify="left" if name in ("run", "mode", "used") else "right")
+    # no rules: nine columns fit in 80 without cutting a run id or a number
+    table = Table(
+        title=f"Energy of each of {len(runs)} run(s)",
+        title_justify="left",
+        box=None,
+        pad_edge=False,
+    )
+    for name in ("run", "mode", "v m/s", "D m", "N", "time s", "E J", "motion J", "used"):
+        left = name in ("run", "mode", "used")
+        table.add_column(
+            name, justify="left" if left else "right", no_wrap=True, min_width=len(name)
+        )
     for row in runs.itertuples(index=False):
         table.add_row(
             str(row.run_id),
