@@ -303,3 +303,14 @@ def test_save_figure_refuses_other_suffixes(tmp_path: Path) -> None:
 
     with pytest.raises(UsageError, match=r"\.png or \.svg"):
         save_figure(figure7(paper_model(), sweeps=("rate",)), tmp_path / "f.pdf")
+
+
+def test_figure5_says_when_the_logs_hold_no_pair_and_is_silent_without_logs() -> None:
+    note = "no trip in the logs in both 1 and N steps"
+    with_logs = figure5(paper_model(), ())
+    assert [t.get_text() for t in with_logs.axes[1].texts] == [note]
+    without_logs = figure5(paper_model())  # `energy --plot`: no logs read
+    assert len(without_logs.axes[1].texts) == 0
+    lines = [line for line in without_logs.axes[0].lines if line.get_gid() == "model:0"]
+    assert len(lines) == 4  # the paper's model drawn once, not also as "the paper's"
+    assert len({line.get_color() for line in lines}) == 4  # one colour per trip

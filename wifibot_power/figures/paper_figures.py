@@ -46,7 +46,7 @@ def _label(model: PowerModel) -> str:
 
 def figure5(
     model: PowerModel,
-    stop_and_go: Sequence[StopAndGo] = (),
+    stop_and_go: Sequence[StopAndGo] | None = None,
     *,
     paper: PowerModel | None = None,
     distances_m: Sequence[float] = (2.0, 10.0),
@@ -58,7 +58,8 @@ def figure5(
     `step_m` steps, from `model` (solid) and the paper's model (dashed), the measured mean
     energies of `stop_and_go`'s trips as points. Right: the stop-and-go overhead [%] of the
     same trips, and of each measured trip, with the measured overheads as points with 95%
-    interval bars."""
+    interval bars. Without `stop_and_go` (None: no logs, e.g. `energy --plot`), models only;
+    with an empty one, the figure says the logs hold no trip in both 1 and N steps."""
     from wifibot_power.energy import energy_report
     from wifibot_power.model import paper_model
 
@@ -68,17 +69,19 @@ def figure5(
     ax_energy, ax_over = figure.subplots(1, 2)
     # the trips drawn: Figure 5's, plus every measured (distance, steps) pair
     trips = [(float(d), max(1, int(np.ceil(d / step_m - 1e-9)))) for d in distances_m]
-    for row in stop_and_go:
+    for row in stop_and_go or ():
         if (row.distance_m, row.steps) not in trips:
             trips.append((row.distance_m, row.steps))
     models = [(model, "-")] + ([(paper, "--")] if model != paper else [])
     for i, (distance, steps) in enumerate(trips):
-        extra = OTHER_COLOURS[i % len(OTHER_COLOURS)]
+        # a distance Figure 5 does not have: a pair of colours of its own
+        extra_one = OTHER_COLOURS[(2 * i) % len(OTHER_COLOURS)]
+        extra_n = OTHER_COLOURS[(2 * i + 1) % len(OTHER_COLOURS)]
         for which, (m, style) in enumerate(models):
             reports = [energy_report(m, v, distance, steps, t_acc_s=t_acc_s) for v in speeds]
             tag = _label(m)
-            one_colour = TRIP_COLOURS.get((distance, False), extra)
-            n_colour = TRIP_COLOURS.get((distance, True), extra)
+            one_colour = TRIP_COLOURS.get((distance, False), extra_one)
+            n_colour = TRIP_COLOURS.get((distance, True), extra_n)
             ax_energy.plot(
                 speeds,
                 [r.one_step.energy_J for r in reports],
@@ -151,7 +154,7 @@ def figure5(
             gid="measured",
         )
         ax_energy.plot([], [], "o", color="white", mec="black", label="measured (logs)")
-    else:
+    elif stop_and_go is not None:
         ax_over.text(
             0.5,
             0.9,
