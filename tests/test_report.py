@@ -37,8 +37,9 @@ def test_report_html_embeds_every_figure_of_cli_md(report, written) -> None:  # 
     embedded = IMG.findall(page)
     assert len(embedded) == len(pngs) == page.count("<img ")
     assert sorted(base64.b64decode(e) for e in embedded) == sorted(p.read_bytes() for p in pngs)
-    # self-contained: nothing is fetched from anywhere
-    assert not re.search(r'(src|href)="(?!data:)', page)
+    # self-contained: nothing is fetched from anywhere (links only within the page)
+    assert not re.search(r'(src|href)="(?!data:|#)', page)
+    assert page.count('href="#trace_') == 16
     assert "not drawn" not in page
     assert "Stop-and-go overhead" in page and "cruise_ripple" in page
 

@@ -296,6 +296,21 @@ def render_html(report: Report, drawn: list[tuple[Drawn, bytes | None]]) -> str:
         + ".</p>",
     ]
     parts += _summary_html(report)
+    # a table of contents: the model figures by name, then the runs' traces on one line
+    links = [
+        f'<a href="#{e(item.name)}">{e(item.title)}</a>'
+        for item, _ in drawn
+        if not item.name.startswith("trace_")
+    ]
+    runs = [
+        f'<a href="#{e(item.name)}">{e(item.name.removeprefix("trace_"))}</a>'
+        for item, _ in drawn
+        if item.name.startswith("trace_")
+    ]
+    parts.append("<h2>Figures</h2><ul>" + "".join(f"<li>{link}</li>" for link in links))
+    if runs:
+        parts.append(f"<li>Runs' traces: {' · '.join(runs)}</li>")
+    parts.append("</ul>")
     traces_started = False
     for item, data in drawn:
         if item.name.startswith("trace_") and not traces_started:
