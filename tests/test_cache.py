@@ -367,14 +367,17 @@ try:
     main()
 except SystemExit:
     pass
-loaded = sorted(m for m in ("pandas", "scipy", "pyarrow", "pydantic") if m in sys.modules)
+loaded = sorted(
+    m for m in ("pandas", "scipy", "pyarrow", "pydantic", "matplotlib") if m in sys.modules
+)
 print(json.dumps({"loaded": loaded, "worked_on": len(started)}), file=sys.stderr)
 """
 
 
 def test_warm_fit_forks_no_worker_and_loads_no_parser(tmp_path: Path) -> None:
     """What makes a warm `fit --cache` >= 10x faster than a cold one (docs/benchmarks.md): no
-    file goes to a worker, and pandas, scipy, pyarrow (~0.8 s of imports together) and
+    file goes to a worker, and pandas, scipy, pyarrow (~0.8 s of imports together), matplotlib
+    (only a figure needs it: `--plot`, `report`) and
     pydantic (typer >= 0.29 coerces options through it: ~0.1 s, hence typer < 0.29 in
     pyproject.toml) are not imported. The cold run, measured the same way, goes through the
     workers and loads pyarrow in this process before they fork."""

@@ -255,7 +255,12 @@ def test_fit_logs_recovers_truth_and_writes_a_model_that_loads_back(sim_dir, tmp
     assert_recovers_truth(result)
     assert result.skipped == () and result.n_runs == 14
     written = write_fit(result, tmp_path / "out")
-    assert sorted(p.name for p in written) == ["model.json", "phases.parquet", "runs.parquet"]
+    assert sorted(p.name for p in written) == [
+        "model.json",
+        "phases.parquet",
+        "runs.parquet",
+        "stop_and_go.parquet",
+    ]
     assert load_model(tmp_path / "out" / "model.json") == result.model
     runs = pd.read_parquet(tmp_path / "out" / "runs.parquet")
     assert len(runs) == 14

@@ -524,6 +524,10 @@ def diagnose_summaries(
             "payload_kg",
             "session_order",
             "tau_before_min",
+            # the cruise spectrum's peak of each run: the ripple's evidence, for its figure
+            "ripple_hz",
+            "ripple_amplitude_W",
+            "ripple_p_value",
         ]
     ].copy()
     table["fold"] = folds

@@ -37,6 +37,7 @@ from wifibot_power.io import LogSource, ReadOptions, Skipped
 from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.model import LinearFit, PowerModel, paper_model
 from wifibot_power.outputs import json_safe, write_json, write_parquet
+from wifibot_power.overhead import StopAndGo, stop_and_go_overheads
 from wifibot_power.run import MODES, Run
 from wifibot_power.stats import t_quantile
 
@@ -161,6 +162,9 @@ class FitResult:
     skipped: tuple[Skipped, ...] = ()
     notes: tuple[str, ...] = ()
     paper: PowerModel = field(default_factory=paper_model)
+    #: the measured stop-and-go overhead of every trip held in 1 and N > 1 steps, beside the
+    #: model's (`overhead.stop_and_go_overheads`)
+    stop_and_go: tuple[StopAndGo, ...] = ()
 
     @functools.cached_property
     def _frames(self) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -224,6 +228,7 @@ class FitResult:
             "components_ci95": {m: list(c.ci95) if c else None for m, c in self.components.items()},
             "components_n_runs": {m: c.n_runs if c else 0 for m, c in self.components.items()},
             "paper": {"idle_W": paper.idle_W, "components_W": dict(paper.components_W)},
+            "stop_and_go": [s.as_dict() for s in self.stop_and_go],
             "skipped": [s.as_dict() for s in self.skipped],
             "notes": list(self.notes),
         }
@@ -415,6 +420,7 @@ def fit_rows(
         tables=tables,
         skipped=tuple(skipped),
         notes=tuple(notes),
+        stop_and_go=stop_and_go_overheads(used, model),
     )
 
 
@@ -558,7 +564,8 @@ def _tables(
 
 
 def write_fit(result: FitResult, out_dir: Path) -> list[Path]:
-    """`fit -o DIR`: runs.parquet, phases.parquet, model.json (atomic writes).
+    """`fit -o DIR`: runs.parquet, phases.parquet, stop_and_go.parquet, model.json (atomic
+    writes).
 
     model.json is written only when the model is complete (`FitResult.model_complete`):
     a model with unfitted coefficients would only fail later, in `energy --model`.
@@ -567,7 +574,24 @@ def write_fit(result: FitResult, out_dir: Path) -> list[Path]:
     written = [
         write_parquet(out_dir / "runs.parquet", result.runs),
         write_parquet(out_dir / "phases.parquet", result.phases),
+        write_parquet(out_dir / "stop_and_go.parquet", stop_and_go_frame(result)),
     ]
     if result.model_complete:
         written.append(write_json(out_dir / "model.json", result.model.to_json()))
     return written
+
+
+def stop_and_go_frame(result: FitResult) -> pd.DataFrame:
+    """The rows of `stop_and_go` as a table (stop_and_go.parquet): the interval as two
+    columns, `overhead_ci95_low_pct` and `overhead_ci95_high_pct`."""
+    import pandas as pd
+
+    from wifibot_power.overhead import StopAndGo
+
+    columns = [k for k in StopAndGo.__dataclass_fields__ if k != "overhead_ci95"]
+    rows = []
+    for item in result.stop_and_go:
+        row = {k: getattr(item, k) for k in columns}
+        row["overhead_ci95_low_pct"], row["overhead_ci95_high_pct"] = item.overhead_ci95
+        rows.append(row)
+    return pd.DataFrame(rows, columns=[*columns, "overhead_ci95_low_pct", "overhead_ci95_high_pct"])

@@ -25,6 +25,7 @@ COMMANDS = {
     "lifetime": "lifetime_cmd",
     "diagnose": "diagnose_cmd",
     "simulate": "simulate_cmd",
+    "report": "report_cmd",
 }
 
 

@@ -24,6 +24,7 @@ from wifibot_power.cli.common import (
     with_reading_options,
 )
 from wifibot_power.cli.help import command_help
+from wifibot_power.cli.plot_option import PlotFile, check_plot, plot_to
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.io import ReadOptions
@@ -155,6 +156,7 @@ def diagnose_command(
     fail_on_discrepancy: Annotated[
         bool, typer.Option("--fail-on-discrepancy", help="Exit 1 when any finding is made (CI).")
     ] = False,
+    plot: PlotFile = None,
 ) -> None:
     """What the paper's model gets wrong on these logs, the named cause, the held-out gain."""
     check_out_dir(out)
@@ -163,6 +165,7 @@ def diagnose_command(
     from wifibot_power.model import load_model
 
     reference = load_model(model) if model is not None else None
+    check_plot(plot)
 
     result = diagnose_logs(
         paths,
@@ -172,6 +175,7 @@ def diagnose_command(
         on_problems=warn_problems,
         reference=reference,
     )
+    plot_to(plot, "heldout_error", result)
     if out is not None:
         write_diagnosis(result, out)
     if json_out:

@@ -18,6 +18,7 @@ from wifibot_power.cli.common import (
     warn,
 )
 from wifibot_power.cli.help import command_help
+from wifibot_power.cli.plot_option import PlotFile, check_plot, plot_to
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.energy import EnergyReport, energy_report, speed_sweep
@@ -145,14 +146,17 @@ def energy_command(
     sweep: Sweep = None,
     json_out: JsonFlag = False,
     out: OutDir = None,
+    plot: PlotFile = None,
 ) -> None:
     """Energy of a trip in N stop-and-go steps (paper Eq. 5/6), beside the one-step trip."""
     check_out_dir(out)
     power_model = load_model(model)
+    check_plot(plot)
     if sweep is not None:
         if sweep != "speed":
             raise UsageError(f"unknown sweep '{sweep}'", fix="give --sweep speed")
         rows = speed_sweep(power_model, t_acc_s=t_acc, payload_kg=payload)
+        plot_to(plot, "figure5", power_model, t_acc_s=t_acc)
         summaries = [r.summary() for r in rows]
         if out is not None:
             write_parquet(out / "energy_sweep_speed.parquet", _frame(map(_flat, summaries)))
@@ -168,6 +172,7 @@ def energy_command(
             "--speed and --dist are needed", fix="e.g. --speed 0.8 --dist 10 --steps 10"
         )
     report = energy_report(power_model, speed, dist, steps, t_acc_s=t_acc, payload_kg=payload)
+    plot_to(plot, "figure5", power_model, distances_m=(dist,), step_m=dist / steps, t_acc_s=t_acc)
     summary = report.summary()
     for message in report.warnings:
         warn(message)

@@ -27,6 +27,7 @@ from wifibot_power.cli.common import (
     with_reading_options,
 )
 from wifibot_power.cli.help import command_help
+from wifibot_power.cli.plot_option import PlotFile, check_plot, plot_to
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.io import ReadOptions
@@ -93,11 +94,14 @@ def fit_command(
     out: OutDir = None,
     jobs: Jobs = 0,
     cache: CacheDir = None,
+    runs: Annotated[bool, typer.Option("--runs", help="Also print each run's energy.")] = False,
+    plot: PlotFile = None,
 ) -> None:
     """Segment every run and fit the paper's power models by least squares over runs."""
     check_out_dir(out)
     from wifibot_power.fit import fit_logs, write_fit  # pandas and numerics load only here
 
+    check_plot(plot)
     result = fit_logs(
         paths,
         options,
@@ -106,6 +110,7 @@ def fit_command(
         cache=parse_cache(cache),
         on_problems=warn_problems,
     )
+    plot_to(plot, "power_speed", result)
     if out is not None:
         written = write_fit(result, out)
         if not result.model_complete:
@@ -118,6 +123,11 @@ def fit_command(
         stdout.print(result.to_markdown(), markup=False, highlight=False, end="")
     else:
         print_fit_table(result)
+        from wifibot_power.cli.fit_tables import print_runs_table, print_stop_and_go_table
+
+        print_stop_and_go_table(result)
+        if runs:
+            print_runs_table(result)
     for note in result.notes:
         warn(note)
     code = report_skipped(list(result.skipped))

@@ -17,6 +17,7 @@ from wifibot_power.cli.common import (
     warn,
 )
 from wifibot_power.cli.help import command_help
+from wifibot_power.cli.plot_option import PlotFile, check_plot, plot_to
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.errors import UsageError
@@ -122,6 +123,7 @@ def lifetime_command(
     sweep: Sweep = None,
     json_out: JsonFlag = False,
     out: OutDir = None,
+    plot: PlotFile = None,
 ) -> None:
     """Relay scenario (paper Eq. 7-11): lifetime of A with B relaying, against A alone."""
     check_out_dir(out)
@@ -130,6 +132,7 @@ def lifetime_command(
     if rate is None and sweep != "rate":
         raise UsageError("--rate is needed", fix=f"give --rate {_RATES}")
     power_model = load_model(model)
+    check_plot(plot)
     scenario = {
         "e0a_J": e0a,
         "e0b_J": e0b,
@@ -138,6 +141,8 @@ def lifetime_command(
         "embedded_scale": embedded_scale,
         "t_acc_s": t_acc,
     }
+    rates, sweeps = ((rate,) if rate is not None else None), ((sweep,) if sweep else SWEEPS)
+    plot_to(plot, "figure7", power_model, sweeps=sweeps, rates_mbps=rates, **scenario)
     if sweep is None:
         result = network_lifetime(power_model, rate, **scenario)
         for message in result.warnings:

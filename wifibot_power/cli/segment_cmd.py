@@ -17,6 +17,7 @@ from wifibot_power.cli.common import (
     with_reading_options,
 )
 from wifibot_power.cli.help import command_help
+from wifibot_power.cli.plot_option import PlotFile, check_plot, plot_to
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.errors import UsageError
@@ -47,6 +48,7 @@ def segment_command(
     path: Annotated[Path, typer.Argument(help="One log file.")],
     options: ReadOptions,
     json_out: JsonFlag = False,
+    plot: PlotFile = None,
 ) -> None:
     """Split one log into phases: idle/accel/cruise/decel per step for a motion run, steady
     levels otherwise. Short start-up spikes stay in the phase they start and are listed."""
@@ -59,12 +61,14 @@ def segment_command(
     from wifibot_power.io import read_log, single_source
     from wifibot_power.segment import segment_run  # its numerics load only when used
 
+    check_plot(plot)
     source = single_source(path)  # with the row of the runs.csv beside it (log-format.md)
     run = read_log(source.path, options, source.overrides, origin=source.origin)
     try:
         segmentation = segment_run(run)
     except LogError as exc:
         raise exc.with_file(path) from None
+    plot_to(plot, "trace", run, segmentation)
     warn_problems(run.file, run.problems)
     if json_out:
         print_json(

@@ -1,0 +1,316 @@
+"""Figures (wifibot_power/figures/): each checked through matplotlib's own objects (axis
+labels with units, one shaded span per phase, the paper's line, a point per run), not only
+that a file was written."""
+
+from __future__ import annotations
+
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from wifibot_power.figures import (
+    FIGURES,
+    PHASE_COLOURS,
+    figure5,
+    figure7,
+    findings_figure,
+    heldout_error_figure,
+    power_speed_figure,
+    save_figure,
+    trace_figure,
+    trace_view,
+)
+from wifibot_power.figures.trace import envelope
+from wifibot_power.model import paper_model
+from wifibot_power.phases import Phase, Segmentation, Spike
+from wifibot_power.run import Run, RunMeta
+
+SAMPLE_LOGS = Path(__file__).resolve().parents[1] / "sample_logs"
+#: a subset of sample_logs/ that fit and diagnose can use: 2 speeds x (10 m in 1 and 10 steps,
+#: 3 repeats; 2 m in 1 step, 1 repeat) + the idle runs = 16 logs (the whole set takes ~5x)
+SUBSET = (
+    [f"v{v}_d10_s{s}_r{r}.csv.gz" for v in ("0.30", "0.90") for s in (1, 10) for r in (1, 2, 3)]
+    + [f"v{v}_d2_s1_r1.csv.gz" for v in ("0.30", "0.90")]
+    + ["idle_r1.csv.gz", "idle_r2.csv.gz"]
+)
+
+
+def _labels(ax) -> tuple[str, str]:
+    return ax.get_xlabel(), ax.get_ylabel()
+
+
+def _has_unit(label: str) -> bool:
+    return "[" in label and label.rstrip().endswith("]")
+
+
+@pytest.fixture(scope="module")
+def subset_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("subset")
+    for name in SUBSET:
+        shutil.copy(SAMPLE_LOGS / name, folder / name)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def report(subset_dir: Path):
+    from wifibot_power.report import build_report
+
+    return build_report([subset_dir], jobs=1)
+
+
+# -- the trace --------------------------------------------------------------------------------
+def test_envelope_is_the_min_and_max_of_each_column() -> None:
+    rng = np.random.default_rng(1)
+    values = rng.normal(size=100_003)
+    time_s = np.arange(values.size) * 1e-3
+    env = envelope(time_s, values, columns=1000)
+    starts = np.linspace(0, values.size, 1001).astype(int)
+    assert env.time_s.size == 1000
+    for k in (0, 1, 500, 999):  # brute force on a few columns
+        chunk = values[starts[k] : starts[k + 1]]
+        assert env.low[k] == chunk.min() and env.high[k] == chunk.max()
+        assert env.mean[k] == pytest.approx(chunk.mean())
+    assert env.low.min() == values.min() and env.high.max() == values.max()
+    short = envelope(time_s[:10], values[:10], columns=1000)  # fewer samples than columns
+    assert_allclose(short.low, values[:10])
+
+
+def _motion_run(with_speed: bool) -> tuple[Run, Segmentation]:
+    dt = 0.01
+    t = np.arange(1000) * dt
+    power = np.full(t.size, 23.3)
+    power[200:300] = np.linspace(24, 31, 100)
+    power[300:800] = 29.5
+    speed = np.zeros(t.size)
+    speed[200:300] = np.linspace(0, 0.5, 100)
+    speed[300:800] = 0.5
+    meta = RunMeta("r1", mode="motion", speed_mps=0.5, distance_m=2.5, steps=1, sample_period_s=dt)
+    run = Run("r1.csv", "canonical", meta, t, power, speed_mps=speed if with_speed else None)
+    bounds = [("idle", 0, 0, 200), ("accel", 1, 200, 300), ("cruise", 1, 300, 800),
+              ("idle", 1, 800, 1000)]  # fmt: skip
+    phases = tuple(
+        Phase(step, name, a, b, a * dt, b * dt, float(power[a:b].mean()), 0.0)
+        for name, step, a, b in bounds
+    )
+    return run, Segmentation("r1", phases, spikes=(Spike(2.0, 0.02, 40.0, 0.1),))
+
+
+@pytest.mark.parametrize("with_speed", [True, False])
+def test_trace_has_one_span_per_phase_units_spikes_and_speed(with_speed: bool) -> None:
+    run, segmentation = _motion_run(with_speed)
+    figure = trace_figure(trace_view(run, segmentation))
+    ax = figure.axes[0]
+    spans = [p for p in ax.patches if str(p.get_gid()).startswith("phase:")]
+    assert [s.get_gid().split(":")[1] for s in spans] == ["idle", "accel", "cruise", "idle"]
+    for span, phase in zip(spans, segmentation.phases, strict=True):
+        assert span.get_facecolor()[:3] == pytest.approx(_rgb(PHASE_COLOURS[phase.phase]))
+        x0 = span.get_x() if hasattr(span, "get_x") else span.get_xy()[0][0]
+        assert x0 == pytest.approx(phase.t_start_s)
+    assert _labels(ax) == ("time [s]", "power [W]")
+    spikes = [line for line in ax.lines if line.get_gid() == "spikes"]
+    assert len(spikes) == 1 and list(spikes[0].get_ydata()) == [40.0]
+    assert {t.get_text() for t in ax.texts} >= {"idle", "cruise"}  # wide phases labelled
+    if with_speed:
+        assert len(figure.axes) == 2 and figure.axes[1].get_ylabel() == "speed [m/s]"
+        assert max(figure.axes[1].lines[0].get_ydata()) == pytest.approx(0.5)
+    else:
+        assert len(figure.axes) == 1
+
+
+def _rgb(colour: str) -> tuple[float, float, float]:
+    from matplotlib.colors import to_rgb
+
+    return to_rgb(colour)
+
+
+def test_trace_of_a_long_log_draws_a_bounded_envelope() -> None:
+    """2 M samples: the figure holds at most 2 * COLUMNS points, whatever the length, and
+    the envelope still spans the samples' extremes (the spike survives the reduction)."""
+    from wifibot_power.figures.trace import COLUMNS
+
+    n = 2_000_000
+    t = np.arange(n) * 1e-4
+    power = np.full(n, 23.0)
+    power[1_234_567] = 99.0  # one sample: the envelope must keep it
+    meta = RunMeta("long", sample_period_s=1e-4)
+    run = Run("long.csv", "canonical", meta, t, power)
+    phase = Phase(1, "level", 0, n, 0.0, n * 1e-4, 23.0, 0.0)
+    figure = trace_figure(run, Segmentation("long", (phase,)))
+    ax = figure.axes[0]
+    assert all(line.get_xydata().shape[0] <= 2 * COLUMNS for line in ax.lines)
+    fill = ax.collections[-1]
+    assert fill.get_paths()[0].vertices[:, 1].max() == 99.0
+
+
+# -- P(v) -------------------------------------------------------------------------------------
+def test_power_speed_points_lines_band_and_paper(report) -> None:
+    fit = report.fit
+    figure = power_speed_figure(fit)
+    motion = fit.runs[(fit.runs["mode"] == "motion") & fit.runs["usable"]]
+    assert len(figure.axes) == 2
+    for ax, column, model_line, paper_line in zip(
+        figure.axes,
+        ("accel_mean_power_W", "cruise_mean_power_W"),
+        (fit.model.accel, fit.model.cruise),
+        ((23.9, 14.8), (23.9, 11.2)),  # the paper's Eq. 2 and Eq. 4
+        strict=True,
+    ):
+        assert _labels(ax) == ("speed [m/s]", "mean power [W]")
+        (points,) = [line for line in ax.lines if line.get_gid() == "runs"]
+        assert len(points.get_xdata()) == len(motion) == 14
+        assert_allclose(sorted(points.get_ydata()), sorted(motion[column]))
+        (paper,) = [line for line in ax.lines if line.get_gid() == "paper"]
+        x, y = paper.get_xdata(), paper.get_ydata()
+        assert_allclose(y, paper_line[0] + paper_line[1] * x, rtol=1e-12)
+        (fitted,) = [line for line in ax.lines if line.get_gid() == "fit"]
+        assert_allclose(
+            fitted.get_ydata(), model_line.intercept + model_line.slope * fitted.get_xdata()
+        )
+        band = [c for c in ax.collections if c.get_label() == "95% band"]
+        assert len(band) == 1
+        labels = [t.get_text() for t in ax.get_legend().get_texts()]
+        assert any(t.startswith("paper") for t in labels) and any("95%" in t for t in labels)
+
+
+def test_mean_band_is_the_textbook_interval() -> None:
+    """y = 1 + 2x + e at x = 0, 1, 2, 3 with e = (+1, -1, -1, +1) · 0.1: OLS gives the line
+    1 + 2x exactly (e is orthogonal to 1 and x), s² = 0.04 / 2, S_xx = 5, so at x = 1.5
+    (the mean) the half width is t_{0.975,2} · s · sqrt(1/4)."""
+    from wifibot_power.figures.power_speed import mean_band
+    from wifibot_power.model import LinearFit
+
+    x = np.array([0.0, 1, 2, 3])
+    y = 1 + 2 * x + 0.1 * np.array([1, -1, -1, 1])
+    low, high = mean_band(x, y, LinearFit(1.0, 2.0), np.array([1.5]))
+    half = 4.302652729911275 * math.sqrt(0.04 / 2) * 0.5
+    assert_allclose([low[0], high[0]], [4.0 - half, 4.0 + half], rtol=1e-9)
+
+
+# -- diagnose ---------------------------------------------------------------------------------
+def test_heldout_error_figure_has_a_point_per_run_per_model(report) -> None:
+    diagnosis = report.diagnosis
+    figure = heldout_error_figure(diagnosis)
+    assert len(figure.axes) == 4
+    labels = [ax.get_xlabel() for ax in figure.axes]
+    assert labels[0] == "speed [m/s]" and all(_has_unit(label) for label in labels)
+    speed_ax = figure.axes[0]
+    for model in ("baseline", "extended"):
+        (points,) = [line for line in speed_ax.lines if line.get_gid() == model]
+        assert_allclose(sorted(points.get_ydata()), sorted(diagnosis.runs[f"{model}_error_pct"]))
+        assert len(points.get_ydata()) == diagnosis.n_runs == 14
+
+
+def test_findings_figure_shows_the_ripple_line_and_spectrum(report) -> None:
+    diagnosis = report.diagnosis
+    ripple = [f for f in diagnosis.findings if f.cause == "cruise_ripple"]
+    assert ripple, "sample_logs have a 1 W ripple (sample_logs/README.md)"
+    figure = findings_figure(diagnosis, report.cruise_blocks)
+    visible = [ax for ax in figure.axes if ax.axison]
+    assert len(visible) == len(diagnosis.findings) + 1  # + the ripple's spectrum
+    (ax,) = [ax for ax in visible if ax.get_ylabel() == "ripple frequency [Hz]"]
+    (line,) = [line for line in ax.lines if line.get_gid() == "fit"]
+    x, y = line.get_xdata(), line.get_ydata()
+    assert_allclose(y[-1] / x[-1], ripple[0].estimate["hz_per_mps"])
+    (spectrum_ax,) = [ax for ax in visible if ax.get_xlabel() == "frequency [Hz]"]
+    (spectrum,) = [line for line in spectrum_ax.lines if line.get_gid() == "spectrum"]
+    peak_hz = spectrum.get_xdata()[np.argmax(spectrum.get_ydata())]
+    # the fastest run, 0.9 m/s: the truth is 2.449 Hz per m/s (sample_logs/truth.json), and
+    # the spectrum's resolution is 1 / (cruise length) ~ 0.1 Hz
+    assert peak_hz == pytest.approx(0.9 * 2.449, abs=0.15)
+
+
+# -- the paper's figures ----------------------------------------------------------------------
+def test_figure5_lines_are_eq56_and_points_are_the_measured_overheads(report) -> None:
+    from wifibot_power.energy import trip_energy
+
+    fit = report.fit
+    figure = figure5(fit.model, fit.stop_and_go)
+    ax_energy, ax_over = figure.axes
+    assert _labels(ax_energy) == ("speed [m/s]", "trip energy [J]")
+    assert _labels(ax_over) == ("speed [m/s]", "stop-and-go overhead [%]")
+    paper_lines = [line for line in ax_energy.lines if line.get_gid() == "model:1"]
+    assert len(paper_lines) == 4  # 2 m and 10 m, each in 1 step and in 1 m steps
+    # the paper's 10 m in one step at 0.5 m/s by hand (Eq. 5/6): t_acc from the paper model,
+    # E = P_acc t_acc + P_v (10 - v t_acc / 2) / v
+    paper = paper_model()
+    t_acc = paper.t_acc_s(0.5)
+    by_hand = (23.9 + 14.8 * 0.5) * t_acc + (23.9 + 11.2 * 0.5) * (10 - 0.5 * t_acc / 2) / 0.5
+    (line,) = [line for line in paper_lines if line.get_label() == "10 m, 1 step (paper)"]
+    at = np.flatnonzero(np.isclose(line.get_xdata(), 0.5))[0]
+    assert line.get_ydata()[at] == pytest.approx(by_hand, rel=1e-9)
+    assert by_hand == pytest.approx(trip_energy(paper, 0.5, 10.0).energy_J)
+    measured = [c for c in ax_over.containers if c.get_label().startswith("measured")]
+    (bars,) = measured
+    x, y = bars.lines[0].get_xdata(), bars.lines[0].get_ydata()
+    assert len(x) == len(fit.stop_and_go) == 2  # 0.3 and 0.9 m/s, 10 m in 10 steps
+    assert_allclose(y, [r.overhead_pct for r in fit.stop_and_go])
+
+
+def test_figure7_has_each_sweep_a_line_per_rate_and_the_paper() -> None:
+    from wifibot_power.lifetime import lifetime_sweep
+
+    model = paper_model()
+    fitted = paper_model().with_extensions({}, source="fit")
+    figure = figure7(fitted, paper=model)
+    axes = [ax for ax in figure.axes if ax.axison]
+    assert len(axes) == 4
+    assert [ax.get_xlabel() for ax in axes] == [
+        "E0A, initial energy of A [kJ]",
+        "E0B, initial energy of B [kJ]",
+        "distance B drives [m]",
+        "data rate [Mbit/s]",
+    ]
+    assert all(ax.get_ylabel() == "lifetime gain [%]" for ax in axes)
+    e0a = axes[0]
+    assert len([line for line in e0a.lines if line.get_gid() == "model:1"]) == 3  # rates
+    (line,) = [ln for ln in e0a.lines if ln.get_label() == "54 Mbit/s (paper)"]
+    rows = lifetime_sweep("e0a", model, 54.0)
+    assert_allclose(line.get_ydata(), [r.improvement_pct for r in rows])
+    assert_allclose(line.get_xdata(), [r.e0a_J / 1e3 for r in rows])
+
+
+def test_one_sweep_gives_one_panel() -> None:
+    figure = figure7(paper_model(), sweeps=("dist",), rates_mbps=(54.0,))
+    assert len(figure.axes) == 1 and len(figure.axes[0].lines) == 1
+
+
+# -- the registry and the files ---------------------------------------------------------------
+def test_registry_lists_every_figure_function() -> None:
+    assert set(FIGURES) == {
+        "trace",
+        "power_speed",
+        "heldout_error",
+        "findings",
+        "figure5",
+        "figure7",
+    }
+    assert all(spec.how_to_read and spec.title for spec in FIGURES.values())
+
+
+@pytest.mark.parametrize("suffix", [".png", ".svg"])
+def test_save_figure_writes_png_and_svg(tmp_path: Path, suffix: str) -> None:
+    path = save_figure(figure7(paper_model(), sweeps=("rate",)), tmp_path / f"f{suffix}")
+    head = path.read_bytes()[:200]
+    assert head.startswith(b"\x89PNG") if suffix == ".png" else b"<svg" in head or b"<?xml" in head
+
+
+def test_save_figure_refuses_other_suffixes(tmp_path: Path) -> None:
+    from wifibot_power.errors import UsageError
+
+    with pytest.raises(UsageError, match=r"\.png or \.svg"):
+        save_figure(figure7(paper_model(), sweeps=("rate",)), tmp_path / "f.pdf")
+
+
+def test_figure5_says_when_the_logs_hold_no_pair_and_is_silent_without_logs() -> None:
+    note = "no trip in the logs in both 1 and N steps"
+    with_logs = figure5(paper_model(), ())
+    assert [t.get_text() for t in with_logs.axes[1].texts] == [note]
+    without_logs = figure5(paper_model())  # `energy --plot`: no logs read
+    assert len(without_logs.axes[1].texts) == 0
+    lines = [line for line in without_logs.axes[0].lines if line.get_gid() == "model:0"]
+    assert len(lines) == 4  # the paper's model drawn once, not also as "the paper's"
+    assert len({line.get_color() for line in lines}) == 4  # one colour per trip

@@ -1,0 +1,180 @@
+"""`wbpower report` and `--plot` (cli.md, "Figures"): what report.html holds, that it stands
+alone, that it loads in a real browser, and that each command draws its one figure."""
+
+from __future__ import annotations
+
+import base64
+import re
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import pytest
+from test_figures import SAMPLE_LOGS, SUBSET, report, subset_dir  # noqa: F401 - fixtures
+
+from wifibot_power.report import build_report, write_report
+
+IMG = re.compile(r'<img alt="[^"]*" src="data:image/png;base64,([A-Za-z0-9+/=]+)">')
+
+
+@pytest.fixture(scope="module")
+def written(report, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[Path]]:  # noqa: F811
+    """The report of the subset, written once for the tests that read it."""
+    folder = tmp_path_factory.mktemp("report")
+    return folder, write_report(report, folder, jobs=2)
+
+
+def test_report_html_embeds_every_figure_of_cli_md(report, written) -> None:  # noqa: F811
+    tmp_path, written = written
+    page = (tmp_path / "report.html").read_text(encoding="utf-8")
+    pngs = sorted((tmp_path / "figures").glob("*.png"))
+    assert sorted(p for p in written if p.suffix == ".png") == pngs
+    names = {p.stem for p in pngs}
+    # cli.md's list: each run's trace, P(v), the diagnosis views, Figures 5 and 7
+    assert {"power_speed", "heldout_error", "findings", "figure5", "figure7"} <= names
+    assert len([n for n in names if n.startswith("trace_")]) == len(report.traces) == 16
+    embedded = IMG.findall(page)
+    assert len(embedded) == len(pngs) == page.count("<img ")
+    assert sorted(base64.b64decode(e) for e in embedded) == sorted(p.read_bytes() for p in pngs)
+    # self-contained: nothing is fetched from anywhere (links only within the page)
+    assert not re.search(r'(src|href)="(?!data:|#)', page)
+    assert page.count('href="#trace_') == 16
+    assert "not drawn" not in page
+    assert "Stop-and-go overhead" in page and "cruise_ripple" in page
+
+
+def test_report_of_a_log_without_motion_metadata_draws_its_trace(
+    real_n6705: Path, tmp_path: Path
+) -> None:
+    """The real N6705C export: no mode, speed or steps, so no fit and no diagnosis; the
+    report still draws its trace (steady levels) and says what it cannot draw and why."""
+    from wifibot_power.io import ReadOptions
+
+    built = build_report([real_n6705], ReadOptions(supply_voltage_V=12.6))
+    assert built.fit is None and built.diagnosis is None
+    write_report(built, tmp_path)
+    assert [p.name for p in (tmp_path / "figures").iterdir()] == ["trace_n6705c_dlog1.png"]
+    page = (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert len(IMG.findall(page)) == 1
+    for name in ("power_speed", "figure5", "figure7", "heldout_error", "findings"):
+        section = page[page.index(f'id="{name}"') :]
+        assert section[: section.index("</section>")].count("not drawn:") == 1
+    assert "motion runs with speed, distance and steps" in page
+    view = built.traces[0]
+    assert {p.phase for p in view.phases} == {"level"} and len(view.phases) >= 5
+
+
+def test_report_command_on_too_few_runs_to_diagnose(wbpower, tmp_path: Path) -> None:
+    """Two speeds, one run each, and the idle runs: enough to fit (Figures 5 and 7 are drawn
+    from the fitted model), too few to diagnose (6 motion runs needed): the report says so
+    in place of the diagnosis figures, on stderr too, and exits 0 (nothing was skipped)."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    for name in ("v0.30_d2_s1_r1.csv.gz", "v0.90_d2_s1_r1.csv.gz", "idle_r1.csv.gz"):
+        shutil.copy(SAMPLE_LOGS / name, logs / name)
+    result = wbpower("report", logs, "-o", tmp_path / "out", "--jobs", "1")
+    assert result.exit_code == 0, result.stderr
+    assert result.stdout.strip() == f"report: {tmp_path / 'out' / 'report.html'}"
+    names = sorted(p.stem for p in (tmp_path / "out" / "figures").glob("*.png"))
+    assert names == [
+        "figure5",
+        "figure7",
+        "power_speed",
+        "trace_idle_r1",
+        "trace_v0.30_d2_s1_r1",
+        "trace_v0.90_d2_s1_r1",
+    ]
+    assert "heldout_error, findings: not drawn: " in result.stderr
+    assert "diagnose needs at least 6 motion runs" in result.stderr
+
+
+def test_report_refuses_an_output_it_cannot_write_before_reading(wbpower, tmp_path: Path) -> None:
+    blocker = tmp_path / "a-file"
+    blocker.write_text("x")
+    result = wbpower("report", tmp_path / "no-such-logs", "-o", blocker)
+    assert result.exit_code == 2
+    assert "is a file, not a folder" in result.stderr and "no logs" not in result.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "suffix"),
+    [
+        (("segment", SAMPLE_LOGS / "v0.90_d2_s1_r1.csv.gz"), ".png"),
+        (("fit", "SUBSET", "--jobs", "1"), ".svg"),
+        (("diagnose", "SUBSET", "--jobs", "1"), ".png"),
+        (("energy", "--sweep", "speed"), ".png"),
+        (("energy", "--speed", "0.5", "--dist", "4", "--steps", "4"), ".svg"),
+        (("lifetime", "--sweep", "dist", "--rate", "54"), ".png"),
+        (("lifetime", "--sweep", "rate"), ".png"),
+    ],
+)
+def test_plot_draws_each_commands_figure(
+    wbpower,
+    subset_dir: Path,  # noqa: F811
+    tmp_path: Path,
+    args: tuple,
+    suffix: str,
+) -> None:
+    target = tmp_path / f"figure{suffix}"
+    args = tuple(subset_dir if a == "SUBSET" else a for a in args)
+    result = wbpower(*args, "--plot", target)
+    assert result.exit_code == 0, result.stderr
+    data = target.read_bytes()
+    assert data.startswith(b"\x89PNG") if suffix == ".png" else b"<svg" in data[:400]
+    assert f"wrote {target}" in result.stderr
+
+
+def test_plot_refuses_a_suffix_it_cannot_draw_before_any_work(wbpower, tmp_path: Path) -> None:
+    result = wbpower("fit", tmp_path / "nothing-here", "--plot", tmp_path / "f.pdf")
+    assert result.exit_code == 2
+    assert ".png or .svg" in result.stderr and "no logs" not in result.stderr
+
+
+@pytest.mark.skipif(
+    shutil.which("chromium") is None,
+    reason="chromium is not on PATH (Debian: apt-get install chromium); the report is "
+    "checked in a real browser only where one is installed",
+)
+def test_report_loads_every_image_in_headless_chromium(written) -> None:
+    """report.html opened from disk, offline, in headless Chromium: after the load event the
+    page's own script counts the images that decoded (body data-images-loaded="N/M")."""
+    tmp_path, _ = written
+    with tempfile.TemporaryDirectory() as profile:
+        done = subprocess.run(
+            [
+                "chromium",
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--no-first-run",
+                f"--user-data-dir={profile}",
+                "--virtual-time-budget=10000",
+                "--dump-dom",
+                (tmp_path / "report.html").resolve().as_uri(),
+            ],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+    match = re.search(r'data-images-loaded="(\d+)/(\d+)"', done.stdout)
+    assert match, done.stderr[-2000:]
+    loaded, total = map(int, match.groups())
+    assert total == len(list((tmp_path / "figures").glob("*.png"))) > 0
+    assert loaded == total
+
+
+def test_fit_prints_the_measured_overhead_and_with_runs_each_runs_energy(
+    wbpower,
+    subset_dir: Path,  # noqa: F811
+) -> None:
+    plain = wbpower("fit", subset_dir, "--jobs", "1")
+    assert plain.exit_code == 0, plain.stderr
+    assert "Stop-and-go overhead" in plain.stdout and "v0.30_d10_s1_r1" not in plain.stdout
+    with_runs = wbpower("fit", subset_dir, "--jobs", "1", "--runs")
+    assert "Stop-and-go overhead" in with_runs.stdout
+    for name in SUBSET:
+        assert name.removesuffix(".csv.gz") in with_runs.stdout

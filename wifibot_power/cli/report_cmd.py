@@ -1,0 +1,69 @@
+"""`wbpower report PATH... -o DIR` (see shared/spec/cli.md, "Figures")."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from wifibot_power.cli.common import (
+    Jobs,
+    JsonFlag,
+    check_out_dir,
+    handles_errors,
+    print_json,
+    progress,
+    report_skipped,
+    warn,
+    warn_problems,
+    with_reading_options,
+)
+from wifibot_power.cli.help import command_help
+from wifibot_power.cli.typer_app import app
+from wifibot_power.io import ReadOptions
+
+
+@app.command("report", **command_help("report"))
+@handles_errors
+@with_reading_options
+def report_command(
+    paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
+    options: ReadOptions,
+    out: Annotated[
+        Path,
+        typer.Option("-o", "--out", help="Write DIR/report.html and DIR/figures/*.png."),
+    ],
+    jobs: Jobs = 0,
+    json_out: JsonFlag = False,
+) -> None:
+    """Read, segment, fit and diagnose the logs; write one self-contained report.html (every
+    figure embedded, opens offline) and its figures as PNG (docs/report.md)."""
+    from wifibot_power.report import build_report, report_figures, write_report
+
+    check_out_dir(out)  # before any work
+    report = build_report(
+        paths, options, wrap=lambda s: progress(s, "reading"), jobs=jobs, on_problems=warn_problems
+    )
+    written = write_report(report, out, jobs=jobs)
+    missing = [(name, note) for name, _, draw, note in report_figures(report) if draw is None]
+    for note in dict.fromkeys(note for _, note in missing):  # one line per reason
+        warn(f"{', '.join(n for n, why in missing if why == note)}: {note}")
+    page = out / "report.html"
+    if json_out:
+        print_json(
+            {
+                "report": str(page),
+                "figures": [str(p) for p in written if p.suffix == ".png"],
+                "not_drawn": [{"figure": n, "reason": note} for n, note in missing],
+                "n_runs": len(report.traces),
+                "skipped": [s.as_dict() for s in report.skipped],
+            }
+        )
+    else:
+        print(
+            f"wbpower: wrote {len(written) - 1} figure(s) into {out / 'figures'}", file=sys.stderr
+        )
+        print(f"report: {page}")
+    raise typer.Exit(report_skipped(list(report.skipped)))

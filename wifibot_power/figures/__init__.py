@@ -1,0 +1,108 @@
+"""Figures: one function per figure, each returning a `matplotlib.figure.Figure` built from
+result objects (never re-reading logs), so tests inspect its axes, labels and artists.
+
+`FIGURES` is the one list: name -> what it draws and the function that draws it. matplotlib
+(Agg backend, no pyplot) is imported inside the drawing functions only, so importing this
+package costs no start-up time. `style.save_figure` writes a figure as PNG or SVG.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from wifibot_power.figures.diagnosis import findings_figure, heldout_error_figure
+from wifibot_power.figures.paper_figures import figure5, figure7
+from wifibot_power.figures.power_speed import power_speed_figure
+from wifibot_power.figures.style import PHASE_COLOURS, save_figure
+from wifibot_power.figures.trace import TraceView, trace_figure, trace_view
+
+
+@dataclass(frozen=True)
+class FigureSpec:
+    name: str
+    title: str
+    #: what the figure is drawn from
+    source: str
+    draw: Callable[..., object]
+    #: how to read it (docs/report.md says more)
+    how_to_read: str
+
+
+FIGURES: dict[str, FigureSpec] = {
+    spec.name: spec
+    for spec in (
+        FigureSpec(
+            "trace",
+            "Power trace and phases",
+            "a run's samples and segmentation (TraceView)",
+            trace_figure,
+            "Each shaded span is one phase (colour by phase name, the same in every figure), "
+            "its mean power a thin line; triangles mark start-up spikes; the speed, when the "
+            "log has one, is on the right axis. Check that the spans sit on the edges of the "
+            "trace.",
+        ),
+        FigureSpec(
+            "power_speed",
+            "P_acc(v) and P_v(v)",
+            "fit (FitResult)",
+            power_speed_figure,
+            "A point per run: the mean power of its acceleration (left) and cruise (right) "
+            "phases at its speed; the fitted line with its 95% confidence band; the paper's "
+            "line dashed. A point far from the band is a run to look at.",
+        ),
+        FigureSpec(
+            "heldout_error",
+            "Held-out error against speed, steps, distance, session order",
+            "diagnose (Diagnosis)",
+            heldout_error_figure,
+            "Each run's motion energy predicted by a model fitted without it, minus the "
+            "measured energy, in %: the paper-form model (orange) and the model extended by "
+            "the named causes (green). A trend in orange that green removes is what a cause "
+            "explained; a trend left in green is unexplained.",
+        ),
+        FigureSpec(
+            "findings",
+            "Each finding's evidence",
+            "diagnose (Diagnosis), cruise blocks of the runs",
+            findings_figure,
+            "For the ripple: each run's spectral peak against its speed and the fitted "
+            "f = k v line, and one run's cruise spectrum. For an energy cause: what each "
+            "run's measured energy exceeds the prediction by, per step, before and after the "
+            "cause is added.",
+        ),
+        FigureSpec(
+            "figure5",
+            "Paper Figure 5: stop-and-go energy against speed",
+            "a model (PowerModel) and the measured overheads (FitResult.stop_and_go)",
+            figure5,
+            "Left: trip energy for 2 m and 10 m in one step and in 1 m steps, fitted model "
+            "solid, paper dashed, the logs' means as points. Right: the overhead of N steps "
+            "over one; points with bars are measured (95% CI), lines are the models.",
+        ),
+        FigureSpec(
+            "figure7",
+            "Paper Figure 7: relay lifetime gain",
+            "a model (PowerModel)",
+            figure7,
+            "Lifetime gain of the two-robot network over A alone against E0A, E0B, distance "
+            "and data rate, a line per rate (paper Table 2); fitted model solid, paper "
+            "dashed.",
+        ),
+    )
+}
+
+__all__ = [
+    "FIGURES",
+    "PHASE_COLOURS",
+    "FigureSpec",
+    "TraceView",
+    "figure5",
+    "figure7",
+    "findings_figure",
+    "heldout_error_figure",
+    "power_speed_figure",
+    "save_figure",
+    "trace_figure",
+    "trace_view",
+]

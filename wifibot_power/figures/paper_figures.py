@@ -1,0 +1,250 @@
+"""The paper's Figures 5 and 7 from a model, with the paper's model beside it.
+
+- `figure5`: trip energy against speed for 2 m and 10 m, in one step and in 1 m steps
+  (paper Figure 5, Eq. 5/6, `energy.speed_sweep`), and the stop-and-go overhead against
+  speed with the logs' measured overheads as points with their 95% intervals
+  (`overhead.StopAndGo`).
+- `figure7`: network lifetime gain of the relay scenario against E0A, E0B, distance and
+  data rate (paper Figure 7, Eq. 7-11, `lifetime.lifetime_sweep`), a line per data rate.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wifibot_power.figures.style import (
+    FIT_COLOUR,
+    PAPER_COLOUR,
+    RATE_COLOURS,
+    new_figure,
+)
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from wifibot_power.model import PowerModel
+    from wifibot_power.overhead import StopAndGo
+
+#: a colour per trip of Figure 5: (distance [m], in steps?)
+TRIP_COLOURS = {
+    (2.0, False): "#e69f00",
+    (2.0, True): "#d55e00",
+    (10.0, False): "#56b4e9",
+    (10.0, True): "#0072b2",
+}
+OTHER_COLOURS = ("#009e73", "#cc79a7", "#f0e442", "#999999")
+
+
+def _label(model: PowerModel) -> str:
+    if model.source == "paper":
+        return "paper"
+    return "fitted" if model.source == "fit" else f"fitted ({model.source})"
+
+
+def figure5(
+    model: PowerModel,
+    stop_and_go: Sequence[StopAndGo] | None = None,
+    *,
+    paper: PowerModel | None = None,
+    distances_m: Sequence[float] = (2.0, 10.0),
+    step_m: float = 1.0,
+    speeds_mps: Sequence[float] | None = None,
+    t_acc_s: float | None = None,
+) -> Figure:
+    """Left: trip energy [J] against speed [m/s] for each distance in one step and in
+    `step_m` steps, from `model` (solid) and the paper's model (dashed), the measured mean
+    energies of `stop_and_go`'s trips as points. Right: the stop-and-go overhead [%] of the
+    same trips, and of each measured trip, with the measured overheads as points with 95%
+    interval bars. Without `stop_and_go` (None: no logs, e.g. `energy --plot`), models only;
+    with an empty one, the figure says the logs hold no trip in both 1 and N steps."""
+    from wifibot_power.energy import energy_report
+    from wifibot_power.model import paper_model
+
+    paper = paper or paper_model()
+    speeds = np.linspace(0.1, 0.9, 33) if speeds_mps is None else np.asarray(speeds_mps, float)
+    figure = new_figure(11.0, 4.4)
+    ax_energy, ax_over = figure.subplots(1, 2)
+    # the trips drawn: Figure 5's, plus every measured (distance, steps) pair
+    trips = [(float(d), max(1, int(np.ceil(d / step_m - 1e-9)))) for d in distances_m]
+    for row in stop_and_go or ():
+        if (row.distance_m, row.steps) not in trips:
+            trips.append((row.distance_m, row.steps))
+    models = [(model, "-")] + ([(paper, "--")] if model != paper else [])
+    for i, (distance, steps) in enumerate(trips):
+        # a distance Figure 5 does not have: a pair of colours of its own
+        extra_one = OTHER_COLOURS[(2 * i) % len(OTHER_COLOURS)]
+        extra_n = OTHER_COLOURS[(2 * i + 1) % len(OTHER_COLOURS)]
+        for which, (m, style) in enumerate(models):
+            reports = [energy_report(m, v, distance, steps, t_acc_s=t_acc_s) for v in speeds]
+            tag = _label(m)
+            one_colour = TRIP_COLOURS.get((distance, False), extra_one)
+            n_colour = TRIP_COLOURS.get((distance, True), extra_n)
+            ax_energy.plot(
+                speeds,
+                [r.one_step.energy_J for r in reports],
+                style,
+                color=one_colour,
+                lw=1.4,
+                label=f"{distance:g} m, 1 step ({tag})",
+                gid=f"model:{which}",
+            )
+            if steps > 1:
+                ax_energy.plot(
+                    speeds,
+                    [r.trip.energy_J for r in reports],
+                    style,
+                    color=n_colour,
+                    lw=1.4,
+                    label=f"{distance:g} m, {steps} steps ({tag})",
+                    gid=f"model:{which}",
+                )
+                ax_over.plot(
+                    speeds,
+                    [r.overhead_pct for r in reports],
+                    style,
+                    color=n_colour,
+                    lw=1.4,
+                    label=f"{distance:g} m in {steps} steps ({tag})",
+                    gid=f"model:{which}",
+                )
+    if stop_and_go:
+        for row in stop_and_go:
+            n_colour = TRIP_COLOURS.get((row.distance_m, True), "#009e73")
+            one_colour = TRIP_COLOURS.get((row.distance_m, False), "#009e73")
+            ax_energy.plot(
+                row.speed_mps,
+                row.energy_J,
+                "o",
+                color=n_colour,
+                mec="black",
+                mew=0.6,
+                ms=5,
+                gid="measured",
+            )
+            ax_energy.plot(
+                row.speed_mps,
+                row.one_step_energy_J,
+                "o",
+                color=one_colour,
+                mec="black",
+                mew=0.6,
+                ms=5,
+                gid="measured",
+            )
+        speed = np.array([r.speed_mps for r in stop_and_go])
+        value = np.array([r.overhead_pct for r in stop_and_go])
+        low = np.array([r.overhead_ci95[0] for r in stop_and_go])
+        high = np.array([r.overhead_ci95[1] for r in stop_and_go])
+        bars = np.vstack([value - low, high - value])
+        bars = np.where(np.isfinite(bars), bars, 0.0)
+        ax_over.errorbar(
+            speed,
+            value,
+            yerr=bars,
+            fmt="o",
+            color="black",
+            mfc="white",
+            ms=5,
+            capsize=3,
+            lw=1.0,
+            label="measured (logs), 95% CI",
+            gid="measured",
+        )
+        ax_energy.plot([], [], "o", color="white", mec="black", label="measured (logs)")
+    elif stop_and_go is not None:
+        ax_over.text(
+            0.5,
+            0.9,
+            "no trip in the logs in both 1 and N steps",
+            transform=ax_over.transAxes,
+            ha="center",
+            fontsize=8,
+            color="#555555",
+        )
+    ax_energy.set_xlabel("speed [m/s]")
+    ax_energy.set_ylabel("trip energy [J]")
+    ax_energy.set_title("Figure 5: trip energy against speed (Eq. 5/6)", fontsize=10, loc="left")
+    ax_over.set_xlabel("speed [m/s]")
+    ax_over.set_ylabel("stop-and-go overhead [%]")
+    ax_over.set_title("overhead of N steps over one step", fontsize=10, loc="left")
+    for ax in (ax_energy, ax_over):
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7, loc="upper right" if ax is ax_energy else "upper left")
+    return figure
+
+
+#: sweep name -> (axis label, scale of the x values for the axis)
+SWEEP_AXES = {
+    "e0a": ("E0A, initial energy of A [kJ]", 1e-3),
+    "e0b": ("E0B, initial energy of B [kJ]", 1e-3),
+    "dist": ("distance B drives [m]", 1.0),
+    "rate": ("data rate [Mbit/s]", 1.0),
+}
+
+
+def figure7(
+    model: PowerModel,
+    *,
+    paper: PowerModel | None = None,
+    sweeps: Sequence[str] = ("e0a", "e0b", "dist", "rate"),
+    rates_mbps: Sequence[float] | None = None,
+    **scenario: float | None,
+) -> Figure:
+    """Lifetime gain [%] of the relay scenario (paper Eq. 7-11) against each swept input,
+    a line per data rate (paper Table 2) for E0A, E0B and distance; `model` solid, the
+    paper's dashed. `scenario`: the other inputs (`lifetime.network_lifetime` keywords)."""
+    from wifibot_power.lifetime import TABLE2, lifetime_sweep
+    from wifibot_power.model import paper_model
+
+    paper = paper or paper_model()
+    rates = tuple(TABLE2) if rates_mbps is None else tuple(rates_mbps)
+    n = len(sweeps)
+    columns = 2 if n > 1 else 1
+    figure = new_figure(5.5 * columns, 3.8 * ((n + 1) // 2))
+    axes = np.atleast_1d(figure.subplots((n + 1) // 2, columns)).ravel()
+    models = [(model, "-")] + ([(paper, "--")] if model != paper else [])
+    for ax, sweep in zip(axes, sweeps, strict=False):
+        label, scale = SWEEP_AXES[sweep]
+        for which, (m, style) in enumerate(models):
+            tag = _label(m)
+            if sweep == "rate":
+                rows = lifetime_sweep("rate", m, 0.0, **scenario)
+                x = np.array([r.rate_mbps for r in rows])
+                ax.plot(
+                    x,
+                    [r.improvement_pct for r in rows],
+                    style + "o",
+                    color=FIT_COLOUR if which == 0 else PAPER_COLOUR,
+                    ms=4,
+                    label=tag,
+                    gid=f"model:{which}",
+                )
+                continue
+            for rate in rates:
+                rows = lifetime_sweep(sweep, m, rate, **scenario)
+                x = np.array([getattr(r, _X[sweep]) for r in rows]) * scale
+                ax.plot(
+                    x,
+                    [r.improvement_pct for r in rows],
+                    style,
+                    color=RATE_COLOURS.get(float(rate), "#999999"),
+                    lw=1.4,
+                    label=f"{rate:g} Mbit/s ({tag})",
+                    gid=f"model:{which}",
+                )
+        if sweep == "dist":
+            ax.set_xscale("symlog", linthresh=1.0)
+        ax.set_xlabel(label)
+        ax.set_ylabel("lifetime gain [%]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
+    for ax in axes[n:]:
+        ax.set_axis_off()
+    figure.suptitle("Figure 7: network lifetime gain with B relaying (Eq. 7-11)", fontsize=10)
+    return figure
+
+
+_X = {"e0a": "e0a_J", "e0b": "e0b_J", "dist": "distance_m"}

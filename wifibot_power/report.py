@@ -1,0 +1,380 @@
+"""`wbpower report`: read, segment, fit and diagnose logs once, then draw every figure.
+
+Each log is read and segmented once (`map_runs`, one file in memory per worker); what comes
+back per run is what `fit` keeps (its row and phases), what `diagnose` keeps (its trace
+statistics) and the trace's envelope for its figure (`figures.trace.TraceView`), never the
+samples. The fit and the diagnosis are then `fit.fit_rows` and
+`diagnose.diagnose_summaries`, the same as `wbpower fit` and `wbpower diagnose` give.
+
+A log set the fit or the diagnosis cannot use (no motion metadata, too few runs) still gets
+its trace figures; the report says what it cannot draw and why.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import re
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wifibot_power.errors import WbpowerError
+from wifibot_power.io import LogSource, ReadOptions, Skipped
+from wifibot_power.io.batch import ProblemHook, map_runs
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from wifibot_power.diagnose import Diagnosis, RunSummary
+    from wifibot_power.figures.trace import TraceView
+    from wifibot_power.fit import FitResult
+    from wifibot_power.run import Run
+
+
+@dataclass(frozen=True, eq=False)
+class Report:
+    """Everything the report draws: a trace view per run, the fit, the diagnosis (None, with
+    the reason, where the logs do not allow one)."""
+
+    paths: tuple[str, ...]
+    traces: tuple[TraceView, ...]
+    fit: FitResult | None
+    fit_problem: str | None
+    diagnosis: Diagnosis | None
+    diagnosis_problem: str | None
+    #: run_id -> (detrended cruise power in blocks [W], block length [s]), for the spectrum
+    cruise_blocks: dict[str, tuple[np.ndarray, float]]
+    skipped: tuple[Skipped, ...] = ()
+
+
+def _work(run: Run) -> tuple[dict, list[dict], RunSummary, TraceView]:
+    """One log: fit's row and phases, diagnose's summary, the trace view (one segmentation).
+
+    The rows are made exactly as `fit_logs` and `diagnose.summarize_run` make them."""
+    from wifibot_power.diagnose import RunSummary
+    from wifibot_power.figures.trace import trace_view
+    from wifibot_power.fit import segment_checked
+    from wifibot_power.phases import Segmentation
+    from wifibot_power.runtable import run_row
+    from wifibot_power.traces import EMPTY, trace_stats
+
+    segmentation = segment_checked(run)
+    empty = Segmentation(run.meta.run_id, ())
+    if run.meta.mode == "unknown":  # as fit: nothing to fit it to
+        row, phases = run_row(run, empty), []
+    else:
+        row = run_row(run, segmentation)
+        phases = [{"run_id": segmentation.run_id, **p.as_dict()} for p in segmentation.phases]
+    if run.meta.mode == "motion":
+        summary = RunSummary(row, trace_stats(run, segmentation))
+    else:
+        summary = RunSummary(run_row(run, empty) if run.meta.mode != "unknown" else row, EMPTY)
+    return row, phases, summary, trace_view(run, segmentation)
+
+
+def build_report(
+    paths: str | Path | Sequence[str | Path],
+    options: ReadOptions | None = None,
+    *,
+    wrap: Callable[[list[LogSource]], Iterator[LogSource]] | None = None,
+    jobs: int | None = 1,
+    on_problems: ProblemHook | None = None,
+) -> Report:
+    """Read every log under `paths` once, fit and diagnose them (module docstring)."""
+    from wifibot_power.diagnose import diagnose_summaries
+    from wifibot_power.fit import _import_work_modules, _tables, fit_rows
+
+    paths = [paths] if isinstance(paths, str | Path) else list(paths)
+    results, read_skipped = map_runs(
+        [Path(p) for p in paths],
+        options or ReadOptions(),
+        _work,
+        wrap=wrap,
+        jobs=jobs,
+        on_problems=on_problems,
+        prepare=_import_work_modules,
+    )
+    rows = [r[0] for r in results]
+    phase_rows = [p for r in results for p in r[1]]
+    summaries = [r[2] for r in results]
+    unusable = [
+        Skipped(str(row["file"]), f"{row['file']}: {row['skip_reason']}")
+        for row in rows
+        if not row["usable"]
+    ]
+    skipped = tuple(read_skipped) + tuple(unusable)
+    fit = fit_problem = None
+    if any(row["usable"] for row in rows):
+        fit = fit_rows(rows, lambda: _tables(rows, phase_rows), skipped)
+    else:
+        fit_problem = (
+            f"none of the {len(rows)} run(s) read can be fitted: the paper's models need "
+            "motion runs with speed, distance and steps in their metadata (log-format.md)"
+        )
+    diagnosis = diagnosis_problem = None
+    if fit is not None:
+        try:
+            diagnosis = diagnose_summaries(summaries, read_skipped)
+        except WbpowerError as exc:
+            diagnosis_problem = exc.one_line()
+    else:
+        diagnosis_problem = "no fit to diagnose"
+    blocks = {
+        s.row["run_id"]: (s.trace.cruise_blocks_W, s.trace.block_s)
+        for s in summaries
+        if s.trace.cruise_blocks_W.size
+    }
+    return Report(
+        paths=tuple(str(p) for p in paths),
+        traces=tuple(r[3] for r in results),
+        fit=fit,
+        fit_problem=fit_problem,
+        diagnosis=diagnosis,
+        diagnosis_problem=diagnosis_problem,
+        cruise_blocks=blocks,
+        skipped=skipped,
+    )
+
+
+@dataclass(frozen=True)
+class Drawn:
+    """A figure of the report, or why it is missing."""
+
+    name: str
+    title: str
+    file: str | None
+    note: str = ""
+    how_to_read: str = ""
+
+
+def report_figures(report: Report) -> Iterator[tuple[str, str, Callable[[], Figure] | None, str]]:
+    """(name, title, draw() or None, note) of every figure of the report, in its order:
+    the model figures first, then one trace per run."""
+    from wifibot_power.figures import (
+        figure5,
+        figure7,
+        findings_figure,
+        heldout_error_figure,
+        power_speed_figure,
+        trace_figure,
+    )
+
+    fit, diagnosis = report.fit, report.diagnosis
+    if fit is None:
+        for name, title in (
+            ("power_speed", "P_acc(v) and P_v(v)"),
+            ("figure5", "Paper Figure 5"),
+            ("figure7", "Paper Figure 7"),
+        ):
+            yield name, title, None, f"not drawn: {report.fit_problem}"
+    else:
+        yield "power_speed", "P_acc(v) and P_v(v)", lambda: power_speed_figure(fit), ""
+        complete = fit.model_complete
+        why = f"not drawn: the model is incomplete ({'; '.join(fit.notes) or 'see fit'})"
+        yield (
+            "figure5",
+            "Paper Figure 5: stop-and-go energy against speed",
+            (lambda: figure5(fit.model, fit.stop_and_go)) if complete else None,
+            "" if complete else why,
+        )
+        yield (
+            "figure7",
+            "Paper Figure 7: relay lifetime gain",
+            (lambda: figure7(fit.model)) if complete else None,
+            "" if complete else why,
+        )
+    if diagnosis is None:
+        why = f"not drawn: {report.diagnosis_problem}"
+        yield "heldout_error", "Held-out error (diagnose)", None, why
+        yield "findings", "Findings (diagnose)", None, why
+    else:
+        yield (
+            "heldout_error",
+            "Held-out error against speed, steps, distance, session order",
+            lambda: heldout_error_figure(diagnosis),
+            "",
+        )
+        yield (
+            "findings",
+            "Each finding's evidence",
+            lambda: findings_figure(diagnosis, report.cruise_blocks),
+            "",
+        )
+    for view in report.traces:
+        yield f"trace_{_safe(view.run_id)}", f"Trace: {view.run_id}", _bind(trace_figure, view), ""
+
+
+def _bind(function: Callable[..., Figure], value: object) -> Callable[[], Figure]:
+    return lambda: function(value)
+
+
+def _safe(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", name)[:120] or "run"
+
+
+def write_report(report: Report, out_dir: str | Path, *, jobs: int | None = 1) -> list[Path]:
+    """`DIR/figures/*.png` and `DIR/report.html` (every image embedded as base64 PNG, so the
+    one file opens offline), written atomically. `jobs` worker processes draw the figures
+    (None or 0: all cores). Returns the files written."""
+    from wifibot_power.figures import FIGURES
+    from wifibot_power.outputs import write_text
+    from wifibot_power.parallel import map_ordered
+
+    out_dir = Path(out_dir)
+    figures_dir = out_dir / "figures"
+    items = list(report_figures(report))
+
+    def draw_one(item: tuple[str, str, Callable[[], Figure] | None, str]) -> bytes | None:
+        from wifibot_power.figures.style import save_figure
+
+        name, _, draw, _ = item
+        if draw is None:
+            return None
+        figure = draw()
+        path = save_figure(figure, figures_dir / f"{name}.png")
+        figure.clear()  # one figure in memory at a time per worker
+        return path.read_bytes()
+
+    import matplotlib.figure  # noqa: F401 - once, before workers are forked
+
+    images = map_ordered(items, draw_one, jobs=jobs)
+    written: list[Path] = []
+    drawn: list[tuple[Drawn, bytes | None]] = []
+    for (name, title, _, note), data in zip(items, images, strict=True):
+        spec = FIGURES.get("trace" if name.startswith("trace_") else name)
+        how = spec.how_to_read if spec else ""
+        file = f"{name}.png" if data is not None else None
+        if file:
+            written.append(figures_dir / file)
+        drawn.append((Drawn(name, title, file, note, how), data))
+    written.append(write_text(out_dir / "report.html", render_html(report, drawn)))
+    return written
+
+
+def render_html(report: Report, drawn: list[tuple[Drawn, bytes | None]]) -> str:
+    """The self-contained report page: tables of the fit and diagnosis, every figure inline."""
+    e = html.escape
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        "<title>wbpower report</title>",
+        "<style>body{font-family:sans-serif;max-width:1200px;margin:1em auto;padding:0 1em;"
+        "color:#222}img{max-width:100%;height:auto;border:1px solid #ddd}"
+        "table{border-collapse:collapse;font-size:0.9em;margin:0.5em 0}"
+        "td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}"
+        "td:first-child,th:first-child{text-align:left}.note{color:#a00}"
+        ".how{color:#555;font-size:0.9em}figure{margin:1em 0}</style>",
+        "</head><body>",
+        "<h1>wbpower report</h1>",
+        f"<p>Logs: {e(', '.join(report.paths))}: {len(report.traces)} run(s) read"
+        + (f", {len(report.skipped)} skipped or not usable" if report.skipped else "")
+        + ".</p>",
+    ]
+    parts += _summary_html(report)
+    # a table of contents: the model figures by name, then the runs' traces on one line
+    links = [
+        f'<a href="#{e(item.name)}">{e(item.title)}</a>'
+        for item, _ in drawn
+        if not item.name.startswith("trace_")
+    ]
+    runs = [
+        f'<a href="#{e(item.name)}">{e(item.name.removeprefix("trace_"))}</a>'
+        for item, _ in drawn
+        if item.name.startswith("trace_")
+    ]
+    parts.append("<h2>Figures</h2><ul>" + "".join(f"<li>{link}</li>" for link in links))
+    if runs:
+        parts.append(f"<li>Runs' traces: {' · '.join(runs)}</li>")
+    parts.append("</ul>")
+    traces_started = False
+    for item, data in drawn:
+        if item.name.startswith("trace_") and not traces_started:
+            parts.append("<h2>Runs: power traces with their phases</h2>")
+            parts.append(f'<p class="how">{e(item.how_to_read)}</p>')
+            traces_started = True
+        tag = "h3" if item.name.startswith("trace_") else "h2"
+        parts.append(f'<section id="{e(item.name)}"><{tag}>{e(item.title)}</{tag}>')
+        if item.how_to_read and not item.name.startswith("trace_"):
+            parts.append(f'<p class="how">{e(item.how_to_read)}</p>')
+        if data is None:
+            parts.append(f'<p class="note">{e(item.note)}</p>')
+        else:
+            encoded = base64.b64encode(data).decode("ascii")
+            parts.append(
+                f'<figure><img alt="{e(item.title)}" src="data:image/png;base64,{encoded}">'
+                f"<figcaption>figures/{e(item.file or '')}</figcaption></figure>"
+            )
+        parts.append("</section>")
+    if report.skipped:
+        parts.append("<h2>Skipped or not usable</h2><ul>")
+        parts += [f"<li>{e(s.reason)}</li>" for s in report.skipped]
+        parts.append("</ul>")
+    # after loading, the page records how many of its images decoded (the Chromium test and
+    # anyone opening the console can read it): <body data-images-loaded="N/M">
+    parts.append(
+        "<script>window.addEventListener('load',function(){var i=document.images,n=0;"
+        "for(var k=0;k<i.length;k++){if(i[k].complete&&i[k].naturalWidth>0){n++;}}"
+        "document.body.setAttribute('data-images-loaded',n+'/'+i.length);});</script>"
+    )
+    parts.append("</body></html>")
+    return "\n".join(parts) + "\n"
+
+
+def _summary_html(report: Report) -> list[str]:
+    from wifibot_power.fit import format_number as num
+
+    e = html.escape
+    out: list[str] = []
+    if report.fit is None:
+        out.append(f'<p class="note">Fit: {e(report.fit_problem or "")}</p>')
+    else:
+        out.append("<h2>Fitted model (95% CI: OLS t intervals by run)</h2><table>")
+        out.append(
+            "<tr><th>parameter</th><th>unit</th><th>fitted</th><th>95% CI</th><th>R²</th>"
+            "<th>paper</th><th>n runs</th></tr>"
+        )
+        for r in report.fit.table_rows():
+            low = r["ci95_low"]
+            ci = f"[{num(low)}, {num(r['ci95_high'])}]" if np.isfinite(low) else "-"
+            out.append(
+                f"<tr><td>{e(str(r['parameter']))}</td><td>{e(str(r['unit']))}</td>"
+                f"<td>{num(r['value'])}</td><td>{ci}</td><td>{num(r['r2'], 4)}</td>"
+                f"<td>{num(r['paper'], 1)}</td><td>{r['n_runs']}</td></tr>"
+            )
+        out.append("</table>")
+        if report.fit.stop_and_go:
+            out.append("<h3>Stop-and-go overhead: measured vs model (Eq. 5/6)</h3><table>")
+            out.append(
+                "<tr><th>speed m/s</th><th>dist m</th><th>steps</th><th>N steps J</th>"
+                "<th>1 step J</th><th>measured %</th><th>95% CI %</th><th>model %</th></tr>"
+            )
+            for s in report.fit.stop_and_go:
+                low, high = s.overhead_ci95
+                out.append(
+                    f"<tr><td>{s.speed_mps:g}</td><td>{s.distance_m:g}</td><td>{s.steps}</td>"
+                    f"<td>{s.energy_J:.1f}</td><td>{s.one_step_energy_J:.1f}</td>"
+                    f"<td>{s.overhead_pct:.2f}</td><td>[{num(low, 2)}, {num(high, 2)}]</td>"
+                    f"<td>{num(s.model_overhead_pct, 2)}</td></tr>"
+                )
+            out.append("</table>")
+    d = report.diagnosis
+    if d is None:
+        out.append(f'<p class="note">Diagnosis: {e(report.diagnosis_problem or "")}</p>')
+    else:
+        out.append("<h2>Diagnosis</h2><ul>")
+        for f in d.findings:
+            out.append(f"<li><b>{e(f.cause)}</b> (gain {f.gain_pct:.1f}%): {e(f.summary)}</li>")
+        if not d.findings:
+            out.append("<li>no cause named</li>")
+        out.append(
+            f"<li>held-out RMSE of run energy: {d.baseline_rmse_J:.3g} J ({e(d.baseline_label)})"
+            f" → {d.extended_rmse_J:.3g} J extended; gain {d.gain_pct:.1f}%</li>"
+        )
+        if d.unexplained:
+            out.append(f'<li class="note">unexplained: {e("; ".join(d.unexplained_reasons))}</li>')
+        out.append("</ul>")
+    return out
