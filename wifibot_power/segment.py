@@ -97,10 +97,9 @@ class MotionParams:
     #: after a wavy cruise (a ripple): a drop of this many sd of the jump statistic, whose
     #: lines are this long [s] (short: a slow ripple hardly bends them)
     decel_z: float = 4.0
-    decel_half_widths_s: tuple[float, ...] = (0.025, 0.08)
+    decel_half_widths_s: tuple[float, ...] = (0.025, 0.08, 0.2)
     #: a stop phase ends closer to idle than this fraction of the cruise power above idle
     decel_end_fraction: float = 0.45
-    decel_half_widths_s: tuple[float, ...] = (0.025, 0.08, 0.2)
 
 
 @dataclass(frozen=True)
