@@ -103,6 +103,43 @@ class MotionParams:
 
 
 @dataclass(frozen=True)
+class SpeedParams:
+    """Parameters of segmentation from a speed column (docs/segmentation.md, "With a speed
+    column")."""
+
+    #: block length [s] everything works on (at least one sample)
+    block_s: float = 0.001
+    #: the speed is smoothed over this long [s] (a centred moving average) before the
+    #: moving test and the slope
+    smooth_s: float = 0.04
+    #: moving where the smoothed speed exceeds this fraction of the run's top speed (99th
+    #: percentile) and `moving_z` sd of its noise
+    moving_fraction: float = 0.02
+    moving_z: float = 5.0
+    #: a motion's ends are where the raw speed last / first reads standstill: its standing
+    #: median plus this many noise sd
+    standing_z: float = 3.0
+    #: ... on the speed averaged over this long [s] (the raw speed where a sample is longer)
+    edge_s: float = 0.009
+    #: moving or standing stretches shorter than this are merged into their neighbours [s]
+    min_stretch_s: float = 0.1
+    #: accelerating (braking) where the slope of the smoothed speed exceeds this fraction of
+    #: the run's typical acceleration (95th percentile of |slope| while moving) and
+    #: `accel_z` sd of its noise; cruising otherwise
+    accel_fraction: float = 0.2
+    accel_z: float = 5.0
+    #: a steady stretch below this fraction of the top speed beside a slowing (speeding
+    #: up) phase is that phase's tail (head), not a speed level
+    creep_fraction: float = 0.1
+    #: phases shorter than this are merged into a neighbour [s]
+    min_phase_s: float = 0.06
+    #: each boundary with a power signature is refined on the power trace within this far [s]
+    refine_s: float = 0.06
+    #: and moved only when the power jump there exceeds this many noise sd (of a block)
+    refine_z: float = 5.0
+
+
+@dataclass(frozen=True)
 class _Step:
     t0: int  # accel start (block index)
     t1: int  # accel end = cruise start
@@ -114,13 +151,20 @@ def segment_run(
     run: Run,
     motion: MotionParams | None = None,
     levels: LevelParams | None = None,
+    speed: SpeedParams | None = None,
 ) -> Segmentation:
-    """Phases of one run: motion phases for a motion run, steady levels otherwise.
+    """Phases of one run: from its speed column when it has one (a motion run, or a run of
+    unknown mode whose speed shows motion), else motion phases from power for a motion run,
+    steady levels otherwise. `Segmentation.doubts` says why the phases may be wrong.
 
     Raises `LogError` (naming the file) when a motion run shows no motion.
     """
     if run.samples == 0:
         raise LogError("the log holds no samples", file=run.file, fix="check the file")
+    if run.speed_mps is not None and run.meta.mode in ("motion", "unknown"):
+        found = _segment_kinematic(run, speed or SpeedParams())
+        if found is not None:
+            return found
     if run.meta.mode == "motion":
         return _segment_motion(run, motion or MotionParams())
     return _segment_levels(run, levels or LevelParams())
@@ -154,6 +198,223 @@ def _segment_levels(run: Run, params: LevelParams) -> Segmentation:
         for s in found.spikes
     )
     return Segmentation(run.meta.run_id, tuple(phases), spikes)
+
+
+# -- runs with a speed column --------------------------------------------------------------
+
+#: power refinement of a kinematic boundary, by (phase before, phase after): polynomial
+#: degrees of the pieces either side and the sign of the power jump the physics gives (the
+#: drive switching on, the inertial term ending, the drive stopping or shorting). A motion
+#: end (-> idle) is never moved by power: a coasting robot moves on after its power drops.
+_REFINE = {
+    ("idle", "accel"): (0, 1, 1),
+    ("accel", "cruise"): (1, 1, -1),
+    ("cruise", "accel"): (1, 1, 1),
+    ("accel", "decel"): (1, 1, -1),
+    ("cruise", "decel"): (1, 1, -1),
+    ("decel", "cruise"): (1, 1, 1),
+    ("decel", "accel"): (1, 1, 1),
+}
+
+
+def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
+    """Phases from the speed column: standing (`idle`), speeding up (`accel`), holding a
+    level (`cruise`), slowing (`decel`), each boundary refined on the power trace where
+    power marks it. None when the speed never shows motion and the run is not a motion run
+    (its levels are then segmented as any log's)."""
+    dt = run.sample_period_s
+    block = max(1, round(params.block_s / dt))
+    y = block_means(run.power_W, block)
+    v = block_means(np.abs(np.nan_to_num(run.speed_mps, nan=0.0)), block)
+    n = y.size
+    block_dt = block * dt
+
+    def blocks(seconds: float) -> int:
+        return max(1, round(seconds / block_dt))
+
+    half = blocks(params.smooth_s) // 2
+    vs = _centred_mean(v, half)
+    sigma_v = robust_sigma_W(v)
+    top = float(np.percentile(vs, 99)) if n else 0.0
+    smooth_sd = sigma_v / np.sqrt(2 * half + 1)
+    threshold = max(params.moving_fraction * top, params.moving_z * smooth_sd)
+    moving = vs > threshold
+    if n < 3 or top <= threshold or not moving.any():
+        if run.meta.mode != "motion":
+            return None
+        raise LogError(
+            "no motion found: the speed column never rises clearly above standstill",
+            file=run.file,
+            fix="check the speed column (--speed-column) and its unit (m/s)",
+        )
+    stretches = _merge_stretches(moving, blocks(params.min_stretch_s))
+    standing = ~moving
+    # standstill: its median reading and noise (0 and 0 for an encoder that reads 0)
+    standing_mps = float(np.median(v[standing])) if standing.any() else 0.0
+    floor = standing_mps + params.standing_z * robust_sigma_W(v[standing])
+    # each motion runs from the last standstill reading before it to the first after it
+    # (the smoothed speed crosses its threshold late at a start and early at an end), on
+    # speed averaged over `edge_s` (one reading of 0 amid a slow coast is not a stop)
+    v_edge = _centred_mean(v, round(params.edge_s / 2 / block_dt))
+    motions: list[tuple[int, int]] = []
+    for a, b in stretches:
+        lo = motions[-1][1] if motions else 0
+        hi = n
+        still_before = np.flatnonzero(v_edge[lo:a] <= floor)
+        start = lo + int(still_before[-1]) + 1 if still_before.size else lo
+        still_after = np.flatnonzero(v_edge[b:hi] <= floor)
+        end = b + int(still_after[0]) if still_after.size else hi
+        motions.append((start, max(end, start + 1)))
+    # slope of the smoothed speed (per second), its noise, and the class of each block
+    h = max(1, half)
+    slope = np.zeros(n)
+    if n > 2 * h:
+        slope[h:-h] = (vs[2 * h :] - vs[: -2 * h]) / (2 * h * block_dt)
+    slope_sd = smooth_sd * np.sqrt(2.0) / (2 * h * block_dt)
+    in_motion = np.zeros(n, dtype=bool)
+    for a, b in motions:
+        in_motion[a:b] = True
+    typical = float(np.percentile(np.abs(slope[in_motion]), 95))
+    accel_threshold = max(params.accel_fraction * typical, params.accel_z * slope_sd)
+    kind = np.where(slope > accel_threshold, 1, np.where(slope < -accel_threshold, -1, 0))
+    names = {1: "accel", 0: "cruise", -1: "decel"}
+    sigma_b = robust_sigma_W(y)
+    refine = blocks(params.refine_s)
+    cuts: list[tuple[int, str, int]] = []  # (first block, phase, step)
+    cursor = 0
+    for number, (a, b) in enumerate(motions, start=1):
+        if a > cursor:
+            cuts.append((cursor, "idle", number - 1))
+        pieces = _merge_runs(kind[a:b], blocks(params.min_phase_s))
+        # a "level" far below the top speed next to a slowing (speeding up) phase is the
+        # tail (head) of that phase, e.g. the slow end of an exponential coast
+        ends = [p[0] for p in pieces[1:]] + [b - a]
+        kept: list[tuple[int, int]] = []
+        for k, (start, label) in enumerate(pieces):
+            level = float(np.mean(v[a + start : a + ends[k]]))
+            creep = label == 0 and level < params.creep_fraction * top
+            if creep and kept and kept[-1][1] == -1:
+                continue  # joins the slowing before it
+            if creep and k + 1 < len(pieces) and pieces[k + 1][1] == 1:
+                pieces[k + 1] = (start, 1)
+                continue  # joins the speeding up after it
+            kept.append((start, label))
+        for start, label in kept:
+            cuts.append((a + start, names[label], number))
+        cursor = b
+    if cursor < n:
+        cuts.append((cursor, "idle", len(motions)))
+    # refine the boundaries that power marks, each inside its neighbours
+    starts = [c[0] for c in cuts] + [n]
+    for k in range(1, len(cuts)):
+        rule = _REFINE.get((cuts[k - 1][1], cuts[k][1]))
+        if rule is None:
+            continue
+        deg_left, deg_right, sign = rule
+        min_len = max(3, blocks(0.005))
+        lo = max(starts[k - 1] + 1, starts[k] - refine)
+        hi = min(starts[k + 1] - 1, starts[k] + refine)
+        split = best_split(y, lo, hi, deg_left, deg_right, min_len, jump_sign=sign)
+        if split is not None and abs(split.jump_W) > params.refine_z * sigma_b:
+            starts[k] = split.index
+    phases = []
+    speed_sum = np.concatenate(([0.0], np.cumsum(np.abs(np.nan_to_num(run.speed_mps)))))
+    for k, (_, name, number) in enumerate(cuts):
+        i_start = starts[k] * block
+        i_end = run.samples if starts[k + 1] >= n else starts[k + 1] * block
+        if i_end > i_start:
+            mean_speed = float((speed_sum[i_end] - speed_sum[i_start]) / (i_end - i_start))
+            phases.append(_phase(run, number, name, i_start, i_end, mean_speed))
+    doubts = _kinematic_doubts(run, v, floor, motions, n)
+    return Segmentation(run.meta.run_id, tuple(phases), (), tuple(doubts))
+
+
+def _kinematic_doubts(
+    run: Run, v: np.ndarray, floor: float, motions: list[tuple[int, int]], n: int
+) -> list[str]:
+    """Why phases from the speed column may not describe the run as a fit needs it."""
+    doubts = []
+    if v[0] > floor:
+        doubts.append(
+            f"the run starts moving ({v[0]:.3g} m/s at its first sample): its first "
+            "acceleration is not in the log"
+        )
+    if v[-1] > floor:
+        doubts.append(
+            f"the run ends moving ({v[-1]:.3g} m/s at its last sample): its last stop is "
+            "not in the log"
+        )
+    if run.meta.mode == "motion" and len(motions) != run.meta.steps:
+        doubts.append(
+            f"the speed column shows {len(motions)} motion(s) between standstills, the "
+            f"metadata says {run.meta.steps} step(s)"
+        )
+    return doubts
+
+
+def _centred_mean(values: np.ndarray, half: int) -> np.ndarray:
+    """Mean over the centred window of 2 half + 1 values at every index (shorter, still
+    centred where the window meets an end), by prefix sums."""
+    n = values.size
+    if half <= 0 or n == 0:
+        return values.astype(np.float64, copy=True)
+    prefix = np.concatenate(([0.0], np.cumsum(values, dtype=np.float64)))
+    idx = np.arange(n)
+    reach = np.minimum(np.minimum(idx, n - 1 - idx), half)
+    return (prefix[idx + reach + 1] - prefix[idx - reach]) / (2 * reach + 1)
+
+
+def _merge_stretches(mask: np.ndarray, min_len: int) -> list[tuple[int, int]]:
+    """Stretches [a, b) where `mask` holds, after closing gaps shorter than `min_len` and
+    dropping stretches shorter than `min_len`."""
+    padded = np.concatenate(([False], mask, [False]))
+    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
+    stretches = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    merged: list[tuple[int, int]] = []
+    for a, b in stretches:
+        if merged and a - merged[-1][1] < min_len:
+            merged[-1] = (merged[-1][0], b)
+        else:
+            merged.append((a, b))
+    return [(a, b) for a, b in merged if b - a >= min_len]
+
+
+def _merge_runs(labels: np.ndarray, min_len: int) -> list[tuple[int, int]]:
+    """Runs of equal labels as (start, label), runs shorter than `min_len` merged into a
+    neighbour (the shortest first; into the neighbour it resembles, else the longer one)."""
+    if labels.size == 0:
+        return []
+    change = np.flatnonzero(np.diff(labels)) + 1
+    starts = [0, *change.tolist()]
+    runs = [[s, int(labels[s])] for s in starts]
+    ends = [*starts[1:], labels.size]
+    lengths = [e - s for s, e in zip(starts, ends, strict=True)]
+    while len(runs) > 1:
+        k = int(np.argmin(lengths))
+        if lengths[k] >= min_len:
+            break
+        left = k - 1 if k > 0 else None
+        right = k + 1 if k + 1 < len(runs) else None
+        if left is None or (right is not None and lengths[right] > lengths[left]):
+            target = right
+        else:
+            target = left
+        # a short cruise between two accelerations (or a blip) joins the longer side
+        if target == right:
+            runs[right][0] = runs[k][0]
+        lengths[target] += lengths[k]
+        del runs[k], lengths[k]
+        # neighbours now equal in label are one run
+        merged_runs: list[list[int]] = []
+        merged_lengths: list[int] = []
+        for r, length in zip(runs, lengths, strict=True):
+            if merged_runs and merged_runs[-1][1] == r[1]:
+                merged_lengths[-1] += length
+            else:
+                merged_runs.append(r)
+                merged_lengths.append(length)
+        runs, lengths = merged_runs, merged_lengths
+    return [(int(s), int(label)) for s, label in runs]
 
 
 # -- motion runs ---------------------------------------------------------------------------
@@ -477,7 +738,9 @@ def _time_at(run: Run, index: int) -> float:
     return float(run.time_s[-1] + run.sample_period_s)
 
 
-def _phase(run: Run, step: int, name: str, i_start: int, i_end: int) -> Phase:
+def _phase(
+    run: Run, step: int, name: str, i_start: int, i_end: int, speed_mps: float | None = None
+) -> Phase:
     power = run.power_W[i_start:i_end]
     total_W = np.sum(power, dtype=np.float64)  # one pass: the mean is the same sum / n
     energy = float(total_W * run.sample_period_s)
@@ -490,7 +753,8 @@ def _phase(run: Run, step: int, name: str, i_start: int, i_end: int) -> Phase:
         t_end_s=_time_at(run, i_end),
         mean_power_W=float(total_W / power.size),
         energy_J=energy,
+        speed_mps=speed_mps,
     )
 
 
-__all__ = ["MotionParams", "segment_file", "segment_run"]
+__all__ = ["MotionParams", "SpeedParams", "segment_file", "segment_run"]
