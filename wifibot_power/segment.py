@@ -100,6 +100,10 @@ class MotionParams:
     decel_half_widths_s: tuple[float, ...] = (0.025, 0.08, 0.2)
     #: a stop phase ends closer to idle than this fraction of the cruise power above idle
     decel_end_fraction: float = 0.45
+    #: a doubt: a cruise whose two parts (the best split into flat pieces of a quarter or
+    #: more) differ by this fraction of the motion's swing above idle (and by more than
+    #: noise and twice the scatter within the parts) holds two levels
+    level_fraction: float = 0.25
 
 
 @dataclass(frozen=True)
@@ -463,7 +467,180 @@ def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
         if i_end > i_start:
             phases.append(_phase(run, number, name, i_start, i_end))
     spikes = tuple(_start_spikes(run, y, block, sigma_b, steps))
-    return Segmentation(run.meta.run_id, tuple(phases), spikes)
+    doubts = _motion_doubts(run, y, block_dt, bounds, len(steps), params)
+    return Segmentation(run.meta.run_id, tuple(phases), spikes, tuple(doubts))
+
+
+def _motion_doubts(
+    run: Run,
+    y: np.ndarray,
+    block_dt: float,
+    bounds: list[tuple[int, int, str, int]],
+    steps_found: int,
+    params: MotionParams,
+) -> list[str]:
+    """Why the phases found from power alone may not describe the run (plain sentences);
+    empty when the phase model fits the trace.
+
+    On 10 ms means, against the trace's own noise (σ₁₀, `robust_sigma_W`) and its motion
+    swing (median cruise power above idle), each test looks for structure the phase model
+    cannot hold (docs/segmentation.md, "Doubts"):
+
+    1. the run starts or ends with power well above idle (it starts / ends moving);
+    2. an idle phase holds power well above idle (motion labelled idle);
+    3. an accel or cruise phase holds a stretch at idle power (the drive off, labelled motion);
+    4. power steps where the model has no boundary (a second speed level, a stop);
+    5. a decel phase whose power neither falls nor sits clearly below the cruise before it;
+    6. idle at ~0 W (a motors-only log) and power dropping straight to it: the robot may
+       coast on, unseen (shorted motors, free wheel);
+    7. the step count against the metadata.
+    """
+    group = max(1, round(0.01 / block_dt))
+    y10 = block_means(y, group)
+    dt10 = group * block_dt
+    m = y10.size
+    if m < 10:
+        return []
+    sigma10 = robust_sigma_W(y10)
+    # each phase in 10 ms means (its whole 10 ms means only)
+    spans = [(-(-a // group), min(b // group, m), name, k) for a, b, name, k in bounds]
+    idle_parts = [y10[a:b] for a, b, name, _ in spans if name == "idle" and b > a]
+    idle_W = float(np.median(np.concatenate(idle_parts))) if idle_parts else float(y10.min())
+    cruise_W = [float(np.mean(y10[a:b])) for a, b, name, _ in spans if name == "cruise" and b > a]
+    swing_W = float(np.median(cruise_W)) - idle_W if cruise_W else float(y10.max()) - idle_W
+    swing_W = max(swing_W, params.min_excess_W)
+    # "well above idle": clear of noise and a fifth of the motion's swing
+    on_W = idle_W + max(params.motion_z * sigma10, 0.2 * swing_W, params.min_excess_W)
+    # "at idle": within noise and a tenth of the swing
+    near_W = max(3.0 * sigma10, 0.1 * swing_W)
+
+    def when(index10: int) -> float:
+        return float(run.time_s[0]) + index10 * dt10
+
+    def name_of(name: str, step: int) -> str:
+        return f"the {name} phase before step 1" if step == 0 else f"the {name} of step {step}"
+
+    doubts: list[str] = []
+    edge = min(5, m)
+    starts_moving = float(np.median(y10[:edge])) > on_W
+    ends_moving = float(np.median(y10[-edge:])) > on_W
+    if starts_moving:
+        doubts.append(
+            f"the run starts moving (power {float(np.median(y10[:edge])) - idle_W:.3g} W above "
+            "idle from its first sample): its first acceleration is not in the log"
+        )
+    if ends_moving:
+        doubts.append(
+            f"the run ends moving (power {float(np.median(y10[-edge:])) - idle_W:.3g} W above "
+            "idle at its last sample): its last stop is not in the log"
+        )
+    for k, (a, b, name, step) in enumerate(spans):
+        if b - a < 1:
+            continue
+        values = y10[a:b]
+        if name == "idle":
+            if (k == 0 and starts_moving) or (k == len(spans) - 1 and ends_moving):
+                continue
+            above = values > on_W
+            if above.sum() * dt10 >= 0.03:
+                doubts.append(
+                    f"{name_of(name, step)} ({when(a):.3f}-{when(b):.3f} s) holds "
+                    f"{above.sum() * dt10:.2f} s of power well above idle (up to "
+                    f"{float(values.max()) - idle_W:.3g} W over it): motion labelled idle?"
+                )
+        elif name in ("accel", "cruise"):
+            longest, at = _longest_run(np.abs(values - idle_W) < near_W)
+            if name == "cruise" and b - a >= 20:
+                # two levels in one cruise: the best split into two flat pieces of at
+                # least a quarter each, their means further apart than noise, than twice
+                # the scatter left within the pieces (a ripple's: it does not split into
+                # levels) and `level_fraction` of the swing
+                quarter = (b - a) // 4
+                split = best_split(values, 0, b - a, 0, 0, quarter)
+                if split is not None:
+                    step_W = split.jump_W
+                    sd = sigma10 * np.sqrt(1.0 / (split.index) + 1.0 / (b - a - split.index))
+                    scatter_W = np.sqrt(split.sse / (b - a))
+                    bar_W = max(6.0 * sd, 2.0 * scatter_W, params.level_fraction * swing_W)
+                    if abs(step_W) > bar_W:
+                        doubts.append(
+                            f"{name_of(name, step)} holds two levels ({step_W:+.3g} W at "
+                            f"{when(a + split.index):.3f} s): a second speed level inside "
+                            "one cruise?"
+                        )
+            if longest * dt10 >= 0.05:
+                doubts.append(
+                    f"{name_of(name, step)} holds {longest * dt10:.2f} s at idle power from "
+                    f"{when(a + at):.3f} s: the drive off, labelled {name}?"
+                )
+        elif name == "decel" and b - a >= 5:
+            # the least-squares line over the phase: its fall, against the fall's own sd
+            # sigma sqrt(12 / n) and a tenth of its start's height above idle
+            slope, start_W = _line(values)
+            n10 = b - a
+            end_W = start_W + slope * (n10 - 1)
+            fall_sd = sigma10 * np.sqrt(12.0 / n10)
+            falls = start_W - end_W > max(3.0 * fall_sd, 0.1 * (start_W - idle_W))
+            # or it sits clearly below the cruise before it (a ripple can tilt its line)
+            before = spans[k - 1] if k > 0 else None
+            lower = False
+            if before is not None and before[2] == "cruise" and before[1] > before[0]:
+                level_W = float(np.mean(y10[before[0] : before[1]]))
+                lower = level_W - float(np.mean(values)) > 0.25 * (level_W - idle_W)
+            if not (falls or lower):
+                doubts.append(
+                    f"{name_of(name, step)} ({when(a):.3f}-{when(b):.3f} s) does not fall "
+                    f"({start_W:.3g} W at its start, {end_W:.3g} W at its end): a steady "
+                    "stretch labelled decel?"
+                )
+    # power steps where the phase model has no boundary
+    w = 5
+    if m > 2 * w + 2:
+        jump = jump_statistic_W(y10, w)
+        threshold = max(6.0 * jump_sd_factor(w) * sigma10, 0.25 * swing_W)
+        found = peaks(np.abs(jump), threshold, w)
+        edges10 = np.array([b / group for _, b, _, _ in bounds[:-1]], dtype=np.float64)
+        tolerance = max(0.06 / dt10, 1.5)
+        unexplained = [
+            int(k)
+            for k in found
+            if edges10.size == 0 or float(np.min(np.abs(edges10 - k))) > tolerance
+        ]
+        for k in unexplained[:3]:
+            inside = next((sp for sp in spans if sp[0] <= k < sp[1]), spans[-1])
+            doubts.append(
+                f"power steps by {float(jump[k]):+.3g} W at {when(k):.3f} s inside "
+                f"{name_of(inside[2], inside[3])}, where the phase model has no boundary "
+                "(a second speed level, or a stop?)"
+            )
+    # a motors-only log: idle ~0 W, and the drive stops straight into it
+    peak_W = float(np.percentile(y10, 99))
+    abrupt = [k for _, _, name, k in bounds if name == "cruise"]
+    with_decel = {k for _, _, name, k in bounds if name == "decel"}
+    abrupt = [k for k in abrupt if k not in with_decel]
+    if abs(idle_W) < 0.05 * max(peak_W, 1e-9) and abrupt:
+        doubts.append(
+            f"idle is {idle_W:.2g} W (the log sees the motors only) and power drops straight "
+            f"to it at the end of {len(abrupt)} step(s): a robot that coasts or brakes by "
+            "shorting its motors moves on unseen, so the motion ends may be early (a speed "
+            "column would tell)"
+        )
+    if run.meta.mode == "motion" and steps_found != run.meta.steps:
+        doubts.append(
+            f"found {steps_found} step(s) separated by idle, the metadata says {run.meta.steps}"
+        )
+    return doubts
+
+
+def _longest_run(mask: np.ndarray) -> tuple[int, int]:
+    """Length and start of the longest run of True in `mask` ((0, 0) without one)."""
+    padded = np.concatenate(([False], mask, [False]))
+    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
+    if edges.size == 0:
+        return 0, 0
+    lengths = edges[1::2] - edges[::2]
+    k = int(np.argmax(lengths))
+    return int(lengths[k]), int(edges[2 * k])
 
 
 def _coarse_motion(
@@ -666,7 +843,11 @@ def _decel_start(
     end_W = intercept + slope * (t3 - t2 - 0.5)
     # the mean over the whole cruise: a ripple averages out of it
     cruise_W = float(np.mean(y[t1 + 2 : t2 - 1])) if t2 - t1 > 4 else float(y[t2 - 1])
-    if slope < 0 and (end_W - idle_W) < params.decel_end_fraction * (cruise_W - idle_W):
+    # after a wavy cruise the line over a short stop phase has the ripple's slope (a 1 W
+    # ripple at 0.25 Hz rises 0.5 W over 0.3 s, the stop at 0.1 m/s falls 0.3 W): there
+    # the clear drop that starts it and its end near idle must do
+    falls = slope < 0 or wavy
+    if falls and (end_W - idle_W) < params.decel_end_fraction * (cruise_W - idle_W):
         return t2
     return t3
 
