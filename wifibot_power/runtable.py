@@ -15,7 +15,11 @@ Column meanings (units in the names):
 - `decel_duration_s`: mean `decel` duration per step (0 when no stopping phase was found).
 - `steps_found`: steps the segmentation found (motion runs), to check against `steps`.
 - `spike_energy_J`: energy of the start-up spikes above their phase's level.
-- `usable`, `skip_reason`: whether `fit` can use the run, and why not.
+- `doubts`: the segmentation's doubts (`Segmentation.doubts`) joined by "; ", empty when
+  the phases fit the trace.
+- `usable`, `skip_reason`: whether `fit` can use the run, and why not. A run whose
+  segmentation is in doubt is not usable (its reason starts with `DOUBT_REASON`) unless
+  `admit_doubtful` lets it in (`fit`/`diagnose --keep-doubtful`).
 """
 
 from __future__ import annotations
@@ -63,9 +67,13 @@ RUN_COLUMNS = (
     "idle_mean_power_W",
     "idle_duration_s",
     "spike_energy_J",
+    "doubts",
     "usable",
     "skip_reason",
 )
+
+#: How the skip reason of a run left out for its segmentation's doubts starts.
+DOUBT_REASON = "segmentation in doubt: "
 
 
 def _phase_sums(run: Run, phases: Sequence[Phase]) -> tuple[np.ndarray, np.ndarray]:
@@ -119,6 +127,7 @@ def run_row(run: Run, segmentation: Segmentation) -> dict[str, object]:
         "energy_J": run.energy_J,
         "mean_power_W": run.mean_power_W,
         "spike_energy_J": float(sum(s.energy_above_level_J for s in segmentation.spikes)),
+        "doubts": "; ".join(segmentation.doubts),
     }
     cover_problem = _check_cover(run, segmentation)
     phases = segmentation.phases if cover_problem is None else ()
@@ -185,7 +194,21 @@ def usability(row: dict[str, object]) -> str | None:
         )
     if not np.isfinite(row["accel_mean_power_W"]):
         return "no acceleration phase found (check the log holds motion)"
+    if row.get("doubts"):
+        return (
+            f"{DOUBT_REASON}{row['doubts']} (check it with 'wbpower segment'; "
+            "--keep-doubtful uses it anyway)"
+        )
     return None
+
+
+def admit_doubtful(row: dict[str, object]) -> dict[str, object]:
+    """The row with a run left out only for its segmentation's doubts made usable
+    (`--keep-doubtful`); any other row unchanged. The doubt test comes last in
+    `usability`, so such a run passed every other test."""
+    if row["usable"] or not str(row["skip_reason"]).startswith(DOUBT_REASON):
+        return row
+    return {**row, "usable": True, "skip_reason": ""}
 
 
 def runs_frame(rows: Sequence[dict[str, object]]) -> pd.DataFrame:

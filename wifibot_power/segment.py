@@ -102,7 +102,8 @@ class MotionParams:
     decel_end_fraction: float = 0.45
     #: a doubt: a cruise whose two parts (the best split into flat pieces of a quarter or
     #: more) differ by this fraction of the motion's swing above idle (and by more than
-    #: noise and twice the scatter within the parts) holds two levels
+    #: noise and twice the scatter within them, and fit better than one line) holds two
+    #: levels
     level_fraction: float = 0.25
 
 
@@ -125,6 +126,8 @@ class SpeedParams:
     standing_z: float = 3.0
     #: ... on the speed averaged over this long [s] (the raw speed where a sample is longer)
     edge_s: float = 0.009
+    #: ... where it then stays at standstill this long [s] (at least one sample)
+    still_s: float = 0.1
     #: moving or standing stretches shorter than this are merged into their neighbours [s]
     min_stretch_s: float = 0.1
     #: accelerating (braking) where the slope of the smoothed speed exceeds this fraction of
@@ -259,15 +262,18 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     # each motion runs from the last standstill reading before it to the first after it
     # (the smoothed speed crosses its threshold late at a start and early at an end), on
     # speed averaged over `edge_s` (one reading of 0 amid a slow coast is not a stop)
+    # and standing still for `still_s` (a coast can read 0 once before it reads its last
+    # count)
     v_edge = _centred_mean(v, round(params.edge_s / 2 / block_dt))
+    still = v_edge <= floor
+    hold = max(1, round(params.still_s / block_dt))
     motions: list[tuple[int, int]] = []
     for a, b in stretches:
         lo = motions[-1][1] if motions else 0
-        hi = n
-        still_before = np.flatnonzero(v_edge[lo:a] <= floor)
-        start = lo + int(still_before[-1]) + 1 if still_before.size else lo
-        still_after = np.flatnonzero(v_edge[b:hi] <= floor)
-        end = b + int(still_after[0]) if still_after.size else hi
+        before = _held(still[lo:a][::-1], hold)  # counted back from a
+        start = a - before if before is not None else lo
+        after = _held(still[b:], hold)
+        end = b + after if after is not None else n
         motions.append((start, max(end, start + 1)))
     # slope of the smoothed speed (per second), its noise, and the class of each block
     h = max(1, half)
@@ -354,6 +360,16 @@ def _kinematic_doubts(
             f"metadata says {run.meta.steps} step(s)"
         )
     return doubts
+
+
+def _held(mask: np.ndarray, hold: int) -> int | None:
+    """Index of the first True in `mask` that starts a run of `hold` Trues (or a shorter one
+    reaching its end); None without one."""
+    padded = np.concatenate(([False], mask, [False]))
+    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
+    starts, ends = edges[::2], edges[1::2]
+    ok = ((ends - starts) >= hold) | (ends == mask.size)
+    return int(starts[ok][0]) if ok.any() else None
 
 
 def _centred_mean(values: np.ndarray, half: int) -> np.ndarray:
@@ -465,7 +481,9 @@ def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
         i_start = a * block
         i_end = run.samples if b >= n_blocks else b * block
         if i_end > i_start:
-            phases.append(_phase(run, number, name, i_start, i_end))
+            # without a speed column, a cruise is at the run's commanded speed (cli.md)
+            speed = run.meta.speed_mps if name == "cruise" else None
+            phases.append(_phase(run, number, name, i_start, i_end, speed))
     spikes = tuple(_start_spikes(run, y, block, sigma_b, steps))
     doubts = _motion_doubts(run, y, block_dt, bounds, len(steps), params)
     return Segmentation(run.meta.run_id, tuple(phases), spikes, tuple(doubts))
@@ -504,8 +522,11 @@ def _motion_doubts(
     sigma10 = robust_sigma_W(y10)
     # each phase in 10 ms means (its whole 10 ms means only)
     spans = [(-(-a // group), min(b // group, m), name, k) for a, b, name, k in bounds]
-    idle_parts = [y10[a:b] for a, b, name, _ in spans if name == "idle" and b > a]
-    idle_W = float(np.median(np.concatenate(idle_parts))) if idle_parts else float(y10.min())
+    # idle: the lowest of the idle phases' medians (an "idle" holding motion is higher)
+    idle_levels = [
+        float(np.median(y10[a:b])) for a, b, name, _ in spans if name == "idle" and b > a
+    ]
+    idle_W = min(idle_levels) if idle_levels else float(y10.min())
     cruise_W = [float(np.mean(y10[a:b])) for a, b, name, _ in spans if name == "cruise" and b > a]
     swing_W = float(np.median(cruise_W)) - idle_W if cruise_W else float(y10.max()) - idle_W
     swing_W = max(swing_W, params.min_excess_W)
@@ -541,8 +562,9 @@ def _motion_doubts(
         if name == "idle":
             if (k == 0 and starts_moving) or (k == len(spans) - 1 and ends_moving):
                 continue
+            # more than the 50 ms a boundary may be off and still right
             above = values > on_W
-            if above.sum() * dt10 >= 0.03:
+            if above.sum() * dt10 > 0.05:
                 doubts.append(
                     f"{name_of(name, step)} ({when(a):.3f}-{when(b):.3f} s) holds "
                     f"{above.sum() * dt10:.2f} s of power well above idle (up to "
@@ -554,21 +576,25 @@ def _motion_doubts(
                 # two levels in one cruise: the best split into two flat pieces of at
                 # least a quarter each, their means further apart than noise, than twice
                 # the scatter left within the pieces (a ripple's: it does not split into
-                # levels) and `level_fraction` of the swing
+                # levels) and `level_fraction` of the swing, and fitting better than one
+                # line (a slow drift is one line, not two levels)
                 quarter = (b - a) // 4
                 split = best_split(values, 0, b - a, 0, 0, quarter)
                 if split is not None:
                     step_W = split.jump_W
-                    sd = sigma10 * np.sqrt(1.0 / (split.index) + 1.0 / (b - a - split.index))
+                    sd = sigma10 * np.sqrt(1.0 / split.index + 1.0 / (b - a - split.index))
+                    slope, intercept = _line(values)
+                    line_resid = values - (intercept + slope * np.arange(b - a))
+                    beats_line = split.sse < float(np.einsum("i,i->", line_resid, line_resid))
                     scatter_W = np.sqrt(split.sse / (b - a))
                     bar_W = max(6.0 * sd, 2.0 * scatter_W, params.level_fraction * swing_W)
-                    if abs(step_W) > bar_W:
+                    if beats_line and abs(step_W) > bar_W:
                         doubts.append(
                             f"{name_of(name, step)} holds two levels ({step_W:+.3g} W at "
                             f"{when(a + split.index):.3f} s): a second speed level inside "
                             "one cruise?"
                         )
-            if longest * dt10 >= 0.05:
+            if longest * dt10 > 0.05:
                 doubts.append(
                     f"{name_of(name, step)} holds {longest * dt10:.2f} s at idle power from "
                     f"{when(a + at):.3f} s: the drive off, labelled {name}?"

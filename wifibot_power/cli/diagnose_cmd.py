@@ -14,6 +14,7 @@ from wifibot_power.cli.common import (
     EXIT_SKIPPED,
     Jobs,
     JsonFlag,
+    KeepDoubtful,
     OutDir,
     handles_errors,
     print_json,
@@ -132,6 +133,7 @@ def diagnose_command(
     fail_on_discrepancy: Annotated[
         bool, typer.Option("--fail-on-discrepancy", help="Exit 1 when any finding is made (CI).")
     ] = False,
+    keep_doubtful: KeepDoubtful = False,
 ) -> None:
     """What the paper's model gets wrong on these logs, the named cause, the held-out gain."""
     # imported here: scipy.stats alone costs a second, which no other command should pay
@@ -147,6 +149,7 @@ def diagnose_command(
         jobs=jobs,
         on_problems=warn_problems,
         reference=reference,
+        keep_doubtful=keep_doubtful,
     )
     if out is not None:
         write_diagnosis(result, out)

@@ -14,6 +14,7 @@ from wifibot_power.cli.common import (
     CacheDir,
     Jobs,
     JsonFlag,
+    KeepDoubtful,
     OutDir,
     handles_errors,
     parse_cache,
@@ -79,6 +80,7 @@ def fit_command(
     out: OutDir = None,
     jobs: Jobs = 0,
     cache: CacheDir = None,
+    keep_doubtful: KeepDoubtful = False,
 ) -> None:
     """Segment every run and fit the paper's power models by least squares over runs."""
     from wifibot_power.fit import fit_logs, write_fit  # pandas and numerics load only here
@@ -90,6 +92,7 @@ def fit_command(
         jobs=jobs,
         cache=parse_cache(cache),
         on_problems=warn_problems,
+        keep_doubtful=keep_doubtful,
     )
     if out is not None:
         written = write_fit(result, out)
@@ -105,4 +108,6 @@ def fit_command(
         stdout.print(render_table(result))
     for note in result.notes:
         warn(note)
+    for warning in result.warnings:  # cli.md: also in `fit --json` `warnings`
+        warn(warning)
     raise typer.Exit(report_skipped(list(result.skipped)))

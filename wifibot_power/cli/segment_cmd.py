@@ -14,6 +14,7 @@ from wifibot_power.cli.common import (
     handles_errors,
     print_json,
     stdout,
+    warn,
     warn_problems,
     with_reading_options,
 )
@@ -35,6 +36,8 @@ def segment_command(
 
     run, segmentation = segment_file(path, options)
     warn_problems(run.file, run.problems)
+    for doubt in segmentation.doubts:  # cli.md: a doubt is also a warning on stderr
+        warn(f"{run.file}: segmentation in doubt: {doubt}")
     if json_out:
         print_json(
             {
@@ -43,6 +46,7 @@ def segment_command(
                 "mode": run.meta.mode,
                 "phases": [p.as_dict() for p in segmentation.phases],
                 "spikes": [asdict(s) for s in segmentation.spikes],
+                "doubts": list(segmentation.doubts),
             }
         )
         return
@@ -50,10 +54,12 @@ def segment_command(
         title=f"{segmentation.run_id} ({run.meta.mode}): {len(segmentation.phases)} phase(s)",
         title_justify="left",
     )
-    for name in ("step", "phase", "start s", "end s", "duration s", "mean W", "energy J"):
+    with_speed = any(p.speed_mps is not None for p in segmentation.phases)
+    columns = ["step", "phase", "start s", "end s", "duration s", "mean W", "energy J"]
+    for name in columns + (["speed m/s"] if with_speed else []):
         table.add_column(name, justify="left" if name == "phase" else "right")
     for p in segmentation.phases:
-        table.add_row(
+        cells = [
             str(p.step),
             p.phase,
             f"{p.t_start_s:.4f}",
@@ -61,7 +67,10 @@ def segment_command(
             f"{p.duration_s:.4f}",
             f"{p.mean_power_W:.3f}",
             f"{p.energy_J:.2f}",
-        )
+        ]
+        if with_speed:
+            cells.append("-" if p.speed_mps is None else f"{p.speed_mps:.3f}")
+        table.add_row(*cells)
     stdout.print(table)
     if segmentation.spikes:
         spikes = Table(title=f"{len(segmentation.spikes)} start-up spike(s)", title_justify="left")
