@@ -257,3 +257,16 @@ def test_fit_leaves_doubtful_runs_out_unless_kept(sim_dir, tmp_path, wbpower) ->
     kept = json.loads(wbpower("fit", sim_dir, "--json", "--jobs", "1", "--keep-doubtful").stdout)
     assert kept["n_runs"] == doc["n_runs"] + 1
     assert not any("ends_moving" in s["file"] for s in kept["skipped"])
+
+
+def test_run_table_takes_the_measured_speed_and_refuses_two_levels() -> None:
+    from wifibot_power.runtable import run_row
+
+    run, _ = realistic_run(Scenario(levels_mps=(0.42,), idle_W=5.0, brake="drive"))
+    run = replace(run, meta=replace(run.meta, speed_mps=0.5))  # commanded 0.5, drove 0.42
+    row = run_row(run, segment_run(run))
+    assert row["speed_mps"] == pytest.approx(0.42, abs=0.005) and row["usable"]
+    run, _ = realistic_run(Scenario(levels_mps=(0.3, 0.6), idle_W=5.0, brake="drive"))
+    row = run_row(run, segment_run(run))
+    assert row["cruise_levels"] == 2 and not row["usable"]
+    assert "2 speed levels" in row["skip_reason"]
