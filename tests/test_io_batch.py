@@ -58,8 +58,8 @@ def test_batch_commands_keep_good_files_and_list_bad_ones(mixed_folder, wbpower,
 
 
 def test_map_runs_lists_an_unexpected_failure_and_goes_on(tmp_path):
-    for name in ("a", "b", "c"):
-        (tmp_path / f"{name}.csv").write_text(f"# run_id: {name}\npower_W\n23.3\n23.4\n")
+    for k, name in enumerate(("a", "b", "c")):  # other samples each: not one log thrice
+        (tmp_path / f"{name}.csv").write_text(f"# run_id: {name}\npower_W\n23.3\n23.{4 + k}\n")
 
     def work(run):
         if run.meta.run_id == "b":

@@ -15,7 +15,7 @@ from wifibot_power.cli.common import (
     progress,
     report_skipped,
     stdout,
-    warn,
+    warn_problems,
     with_reading_options,
 )
 from wifibot_power.cli.typer_app import app
@@ -32,10 +32,9 @@ def inspect_command(
     json_out: JsonFlag = False,
 ) -> None:
     """What is in each log: format, samples, period, duration, mean power, energy, metadata."""
-    rows, skipped = inspect_logs(paths, options, wrap=lambda s: progress(s, "reading"))
-    for row in rows:
-        for problem in row["problems"]:
-            warn(f"{row['file']}: {problem}")
+    rows, skipped = inspect_logs(
+        paths, options, wrap=lambda s: progress(s, "reading"), on_problems=warn_problems
+    )
     if json_out:
         # the JSON document stays the list of cli.md; skipped inputs go to stderr (and exit 1)
         print_json(rows)
@@ -69,6 +68,13 @@ def inspect_command(
                 _problems_cell(row["problems"]),
             )
         stdout.print(table)
+        for row in rows:
+            if row["channels"]:
+                summed = ", ".join(
+                    f"{c['name']} {c['mean_power_W']:.3f} W" for c in row["channels"]
+                )
+                name = Path(str(row["file"])).name
+                stdout.print(f"{name}: power is the sum of channels {summed}", highlight=False)
     raise typer.Exit(report_skipped(skipped))
 
 

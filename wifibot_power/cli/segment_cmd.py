@@ -32,9 +32,16 @@ def segment_command(
 ) -> None:
     """Split one log into phases: idle/accel/cruise/decel per step for a motion run, steady
     levels otherwise. Short start-up spikes stay in the phase they start and are listed."""
-    from wifibot_power.segment import segment_file  # its numerics load only when used
+    from wifibot_power.errors import LogError
+    from wifibot_power.io import read_log, single_source
+    from wifibot_power.segment import segment_run  # its numerics load only when used
 
-    run, segmentation = segment_file(path, options)
+    source = single_source(path)  # with the row of the runs.csv beside it (log-format.md)
+    run = read_log(source.path, options, source.overrides, origin=source.origin)
+    try:
+        segmentation = segment_run(run)
+    except LogError as exc:
+        raise exc.with_file(path) from None
     warn_problems(run.file, run.problems)
     for doubt in segmentation.doubts:  # cli.md: a doubt is also a warning on stderr
         warn(f"{run.file}: segmentation in doubt: {doubt}")

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from wifibot_power.io.discover import LogSource, Skipped, find_logs
+from wifibot_power.io.discover import LogSource, Skipped, find_logs, single_source
 from wifibot_power.io.options import FORMAT_CANONICAL, FORMAT_N6705, ReadOptions
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -22,6 +22,7 @@ __all__ = [
     "Skipped",
     "find_logs",
     "read_log",
+    "single_source",
 ]
 
 

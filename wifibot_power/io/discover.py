@@ -88,3 +88,16 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
             values, origin = overrides.get(file.resolve(), ({}, None))
             sources.append(LogSource(file, values, origin))
     return sources, skipped
+
+
+def single_source(path: Path) -> LogSource:
+    """One log named on the command line, with the row of the `runs.csv` beside it, if any
+    (log-format.md: "A command given a single file also reads the runs.csv beside it").
+
+    A manifest beside it that cannot be read is an error: its metadata (mode, speed) would
+    otherwise be silently missing.
+    """
+    sources, skipped = find_logs([Path(path)])
+    if skipped:
+        raise LogError(skipped[0].reason)
+    return sources[0]
