@@ -21,9 +21,10 @@ For every log:
    stopped with an error message); else `silently wrong`.
 
 Logs that are **truly broken** are found from their raw columns (`broken_reason`) and kept
-out of the counts (they are listed): a dead current sensor (a motor driven at >= 1 V whose
-|current| has a median under 0.02 A: its power is lost) or a reversed current sign (power
-negative in most samples that are not ~0 W).
+out of the counts (they are listed), per motor, over the samples where it is driven at
+>= `DRIVEN_V`: a dead current sensor (median |current| under `DEAD_CURRENT_A`: its power is
+lost) or a reversed current sign (median voltage x current negative: a driven motor draws
+power, so its sensor or wiring reads backwards).
 
 The summary gives issue 12's criteria: with the speed column >= 90% of the logs right; without
 it zero silently wrong.
@@ -70,8 +71,6 @@ STANDING_MPS = 0.05
 DRIVEN_V = 1.0
 #: ... at least this much in median [A]; less is a dead current sensor
 DEAD_CURRENT_A = 0.02
-#: power magnitudes under this are ~0 and say nothing about the sign [W]
-SIGN_POWER_W = 0.1
 
 OUTCOMES = ("right", "doubted", "silently wrong")
 
@@ -125,20 +124,25 @@ def true_interval(time_s: np.ndarray, speed_mps: np.ndarray) -> Interval:
 
 def broken_reason(frame: pd.DataFrame) -> str | None:
     """Why a log cannot be trusted, from its raw columns (module docstring), or None."""
-    dead = []
+    dead, reversed_ = [], []
     for side in ("left", "right"):
-        driven = np.abs(frame[f"u_{side}_V"].to_numpy()) >= DRIVEN_V
-        if driven.any():
-            current = np.median(np.abs(frame[f"i_{side}_A"].to_numpy()[driven]))
-            if current < DEAD_CURRENT_A:
-                dead.append(f"{side} (median {current * 1e3:.0f} mA)")
+        voltage_V = frame[f"u_{side}_V"].to_numpy()
+        current_A = frame[f"i_{side}_A"].to_numpy()
+        driven = np.abs(voltage_V) >= DRIVEN_V
+        if not driven.any():
+            continue
+        current = float(np.median(np.abs(current_A[driven])))
+        if current < DEAD_CURRENT_A:
+            dead.append(f"{side} (median {current * 1e3:.0f} mA)")
+        elif np.median(voltage_V[driven] * current_A[driven]) < 0:
+            share = np.mean(voltage_V[driven] * current_A[driven] < 0)
+            reversed_.append(f"{side} (power negative in {share:.0%} of driven samples)")
+    reasons = []
     if dead:
-        return f"dead current sensor: {', '.join(dead)} while driven at >= {DRIVEN_V:g} V"
-    power = frame["power_W"].to_numpy()
-    signed = power[np.abs(power) > SIGN_POWER_W]
-    if signed.size and np.mean(signed < 0) > 0.5:
-        return f"reversed current sign (power negative in {np.mean(signed < 0):.0%} of samples)"
-    return None
+        reasons.append(f"dead current sensor: {', '.join(dead)} while driven at >= {DRIVEN_V:g} V")
+    if reversed_:
+        reasons.append(f"current sign reversed: {', '.join(reversed_)}")
+    return "; ".join(reasons) or None
 
 
 def segmented_interval(seg: Segmentation) -> Interval | None:

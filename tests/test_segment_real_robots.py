@@ -188,7 +188,8 @@ def test_truly_broken_logs_are_found_from_the_raw_columns(scores) -> None:
     assert "left" in broken["initial_current_13_olivia"]
     assert "right" in broken["initial_current_13_olivia"]
     assert "right" in broken["vel_step_18"] and "left" not in broken["vel_step_18"]
-    assert "reversed current sign" in broken["initial_current_78_melina"]
+    assert "reversed: left" in broken["initial_current_78_melina"]
+    assert "right" in broken["initial_current_78_melina"]
 
 
 def test_script_prints_a_table_per_set() -> None:
