@@ -33,16 +33,20 @@ Shortcut until the reader fills `Run.speed_mps` from a `speed_mps` column (branc
 the reader leaves it None, this script reads the column itself (`_speed_from_file`) and puts
 it on the Run. Once the reader does, the shortcut is not taken (the reader's array is used).
 
-Usage: `.venv/bin/python benchmarks/score_segmentation_real.py [SET_FOLDER ...] [--markdown]`
-(default: every folder under tests/data/real/).
+Usage: `.venv/bin/python benchmarks/score_segmentation_real.py [SET_FOLDER ...] [--markdown]
+[--write-docs [FILE]]` (default: every folder under tests/data/real/). `--write-docs` puts the
+Markdown tables between the `<!-- real-logs score: begin/end -->` lines of FILE (default
+docs/real-logs.md).
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
 import re
 import sys
+import textwrap
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -58,6 +62,8 @@ from wifibot_power.segment import segment_run
 
 ROOT = Path(__file__).resolve().parent.parent
 REAL_DIR = ROOT / "tests" / "data" / "real"
+DOCS = ROOT / "docs" / "real-logs.md"
+BEGIN, END = "<!-- real-logs score: begin -->", "<!-- real-logs score: end -->"
 
 #: both ends of the motion interval within this of the truth count as right [s] (issue 12)
 TOLERANCE_S = 0.050
@@ -305,14 +311,41 @@ def _summary_line(summary: Summary) -> str:
     )
 
 
+def _wrap(text: str, first: str = "") -> str:
+    return textwrap.fill(text, 80, initial_indent=first, subsequent_indent=" " * (len(first) + 2))
+
+
+_SHORT = {"right": "right", "doubted": "doubted", "silently wrong": "WRONG", "refused": "refused"}
+
+
 def render_text(set_name: str, scores: list[LogScore]) -> str:
-    rows = [HEADER, *table_rows(scores)]
-    widths = [max(len(r[i]) for r in rows) for i in range(len(HEADER))]
-    lines = [f"== {set_name}  (errors in ms; segmented interval without the speed column)"]
+    """The table of one set for an 80-column terminal (the Markdown one has every column)."""
+    names = [s.log for s in scores]
+    prefix = os.path.commonprefix(names) if len(names) > 1 else ""
+    if not prefix.endswith("_") or any(n == prefix for n in names):
+        prefix = ""
+    rows = [
+        ["", "", "with speed", "", "", "without speed", "", "", ""],
+        ["log", "true s", "Δstart", "Δend", "outcome", "Δstart", "Δend", "doubts", "outcome"],
+    ]
+    for s, full in zip(scores, table_rows(scores), strict=True):
+        with_cells, without_cells = full[3:7], full[7:11]
+        without_cells[3] = without_cells[3].replace("silently wrong", "WRONG")
+        rows.append(
+            [
+                s.log.removeprefix(prefix),
+                full[1],
+                *with_cells[:2],
+                _SHORT[with_cells[3]],
+                *without_cells,
+            ]
+        )
+    widths = [max(len(r[i]) for r in rows[1:]) for i in range(len(rows[1]))]
+    lines = [f"== {set_name}: motion interval vs the wheels (errors in ms)"]
     for r in rows:
         lines.append("  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip())
-    lines += [f"  note: {n}" for n in _notes(scores)]
-    lines.append(_summary_line(summarize(scores)))
+    lines += [_wrap(n, "  note: ") for n in _notes(scores)]
+    lines.append(_wrap(_summary_line(summarize(scores))))
     return "\n".join(lines)
 
 
@@ -326,21 +359,49 @@ def render_markdown(set_name: str, scores: list[LogScore]) -> str:
     return "\n".join(lines)
 
 
+def report(folders: list[Path], markdown: bool) -> str:
+    """The tables of every set and, for several sets, the summary over all of them."""
+    render = render_markdown if markdown else render_text
+    parts, everything = [], []
+    for folder in folders:
+        scores = score_set(folder)
+        everything += scores
+        parts.append(render(folder.name, scores))
+    if len(folders) > 1:
+        line = _summary_line(summarize(everything))
+        parts.append(f"**All sets**: {line}" if markdown else _wrap(f"== all sets: {line}"))
+    return "\n\n".join(parts) + "\n"
+
+
+def write_docs(path: Path, text: str) -> None:
+    """Replace what stands between the BEGIN and END lines of `path` with `text`."""
+    doc = path.read_text()
+    if BEGIN not in doc or END not in doc:
+        raise SystemExit(f"{path}: no '{BEGIN}' ... '{END}' lines to write the tables between")
+    head, rest = doc.split(BEGIN, 1)
+    tail = rest.split(END, 1)[1]
+    path.write_text(f"{head}{BEGIN}\n{text}{END}{tail}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("sets", nargs="*", type=Path, help="set folders (default: all)")
     parser.add_argument("--markdown", action="store_true", help="Markdown tables (for docs/)")
+    parser.add_argument(
+        "--write-docs",
+        nargs="?",
+        type=Path,
+        const=DOCS,
+        help=f"write the tables into FILE ({DOCS.name})",
+    )
     args = parser.parse_args(argv)
     folders = args.sets or sorted(p for p in REAL_DIR.iterdir() if p.is_dir())
-    everything: list[LogScore] = []
-    for folder in folders:
-        scores = score_set(folder)
-        everything += scores
-        render = render_markdown if args.markdown else render_text
-        print(render(folder.name, scores), end="\n\n")
-    if len(folders) > 1:
-        print(("**All sets**: " if args.markdown else "== all sets: ") + _summary_line(
-            summarize(everything)))  # fmt: skip
+    text = report(folders, markdown=args.markdown or args.write_docs is not None)
+    if args.write_docs is not None:
+        write_docs(args.write_docs, text)
+        print(f"tables written to {args.write_docs}", file=sys.stderr)
+    else:
+        print(text, end="")
     return 0
 
 
