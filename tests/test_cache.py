@@ -44,6 +44,10 @@ def assert_same_run(a: Run, b: Run) -> None:
     assert a.power_W.dtype == b.power_W.dtype == np.float64
     np.testing.assert_array_equal(a.power_W, b.power_W)
     np.testing.assert_array_equal(a.time_s, b.time_s)
+    assert (a.speed_mps is None) == (b.speed_mps is None)
+    if a.speed_mps is not None:
+        assert a.speed_mps.dtype == b.speed_mps.dtype == np.float64
+        np.testing.assert_array_equal(a.speed_mps, b.speed_mps)
 
 
 class Spy:
@@ -94,6 +98,8 @@ GAP_ROWS = "".join(f"{k / 1000:.3f},23.{k % 7}\n" for k in range(301) if k != 15
         ("gap.csv", "# mode: idle\ntime_s,power_W\n" + GAP_ROWS),
         # semicolons and decimal commas
         ("comma.csv", "# mode: idle\ntime_s;power_W\n0;23,1\n0,001;23,3\n0,002;23,2\n"),
+        # a speed column travels with the run
+        ("speed.csv", "time_s,power_W,Speed_MPS\n0,23.1,0\n0.001,25.3,0.125\n0.002,26.2,0.25\n"),
     ],
 )
 def test_hit_round_trips_every_kind_of_log(tmp_path: Path, name: str, text: str, settled) -> None:
@@ -103,6 +109,7 @@ def test_hit_round_trips_every_kind_of_log(tmp_path: Path, name: str, text: str,
     cache.read_log(log)
     assert_same_run(cache.read_log(log), read_log(log))
     assert bool(read_log(log).problems) == (name == "gap.csv")
+    assert (cache.read_log(log).speed_mps is not None) == (name == "speed.csv")
 
 
 def test_gzip_log(tmp_path: Path, monkeypatch, settled) -> None:
@@ -185,6 +192,22 @@ def test_reading_options_and_manifest_values_are_part_of_the_key(tmp_path: Path,
     assert overridden.meta.speed_mps == 0.7
     assert cache.read_log(log).meta.speed_mps == 0.5
     assert_same_run(cache.read_log(log, options), read_log(log, options))
+
+
+def test_speed_is_kept_and_its_option_is_part_of_the_key(
+    tmp_path: Path, monkeypatch, settled
+) -> None:
+    log = tmp_path / "wheels.csv"
+    log.write_text("time_s,power_W,wheel_v\n0,23.1,0\n0.001,25.3,0.125\n0.002,26.2,0.25\n")
+    cache = ParseCache(tmp_path / "cache")
+    spy = Spy(monkeypatch)
+    assert cache.read_log(log).speed_mps is None  # no speed_mps column: no speed
+    options = ReadOptions(speed_column="wheel_v")
+    assert cache.read_log(log, options).speed_mps.tolist() == [0.0, 0.125, 0.25]
+    assert spy.calls == 2  # another entry
+    assert cache.read_log(log, options).speed_mps.tolist() == [0.0, 0.125, 0.25]
+    assert cache.read_log(log).speed_mps is None  # not the entry read with the option
+    assert spy.calls == 2  # both served from the cache, the speed with them
 
 
 def test_a_new_reader_reads_afresh(tmp_path: Path, monkeypatch) -> None:

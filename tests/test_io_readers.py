@@ -244,3 +244,44 @@ def test_custom_column_names_with_options(tmp_path, wbpower):
     (row,) = json.loads(result.stdout)
     assert_allclose(row["mean_power_W"], 21.0, rtol=1e-15)
     assert "not a power log" in wbpower("inspect", path).stderr  # without the options
+
+
+# -- the speed column (log-format.md, "Speed") -------------------------------------------------
+
+
+def test_speed_column_is_read_per_sample(tmp_path, wbpower):
+    text = "time_s,power_W,SPEED_MPS\n0,23.3,0\n0.001,30.1,0.25\n0.002,35.2,0.5\n"
+    run = read_log(_write(tmp_path / "v.csv.gz", text))
+    assert run.speed_mps.dtype == np.float64
+    assert run.speed_mps.tolist() == [0.0, 0.25, 0.5]  # case-insensitive name
+    assert read_log(_write(tmp_path / "none.csv", "power_W\n23\n")).speed_mps is None
+    # another name, given with --speed-column (also case-insensitive); negative speed is kept
+    text = "time_s,power_W,wheel_v\n0,23.3,0\n0.001,30.1,-0.25\n"
+    path = _write(tmp_path / "w.csv", text)
+    assert read_log(path).speed_mps is None  # not a name wbpower knows: not guessed
+    assert read_log(path, ReadOptions(speed_column="Wheel_V")).speed_mps.tolist() == [0, -0.25]
+    result = wbpower("inspect", "--json", "--speed-column", "wheel_v", path)
+    assert result.exit_code == 0, result.stderr
+    result = wbpower("inspect", "--speed-column", "odometry", path)
+    assert result.exit_code == 2
+    assert "no column 'odometry'" in result.stderr and "--speed-column" in result.stderr
+
+
+@pytest.mark.parametrize(
+    "cell, found",
+    [("nan", "NaN"), ("inf", "inf"), ("", "missing"), ("fast", "where a number belongs")],
+)
+def test_speed_column_bad_values_are_errors_naming_the_line(tmp_path, cell, found):
+    text = f"time_s,power_W,speed_mps\n0,23.3,0\n0.001,30.1,{cell}\n0.002,35.2,0.5\n"
+    path = _write(tmp_path / "bad.csv", text)
+    with pytest.raises(LogError, match=found) as error:
+        read_log(path)
+    message = error.value.one_line()
+    assert "bad.csv" in message and "line 3" in message and "speed_mps" in message
+
+
+def test_speed_in_mm_per_s_is_an_error(tmp_path):
+    path = _write(tmp_path / "mm.csv", "time_s,power_W,speed_mps\n0,23.3,0\n0.001,30.1,250\n")
+    with pytest.raises(LogError, match="absurd speed.*m/s") as error:
+        read_log(path)
+    assert "line 3" in error.value.one_line()

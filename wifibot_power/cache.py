@@ -1,10 +1,11 @@
 """A Parquet cache of parsed logs, so a second run over the same files skips the CSV parsing.
 
-An entry is the `Run` a log parses to: `<key>.parquet` (power and time columns; metadata and
-problems in the Parquet key-value metadata) and `<key>.json` beside it (what the entry is
-valid for: the file's stat and content hash). It is looked up by what the parse depends on: the path
-as given, the reading options, the manifest values, and a digest of the reader's own source
-code (a new wbpower reads the logs afresh). It is valid only for the file's content:
+An entry is the `Run` a log parses to: `<key>.parquet` (power, time and speed columns;
+metadata and problems in the Parquet key-value metadata) and `<key>.json` beside it (what the
+entry is valid for: the file's stat and content hash). It is looked up by what the parse
+depends on: the path as given, the reading options, the manifest values, and a digest of the
+reader's own source code (a new wbpower reads the logs afresh). It is valid only for the
+file's content:
 
 - The content key is the SHA-256 of the file's bytes as stored (compressed bytes for .gz/.zst).
 - Hashing a large corpus costs a fair share of parsing it, so, as git does for its index, a
@@ -50,8 +51,8 @@ from wifibot_power.errors import UsageError
 from wifibot_power.io.options import ReadOptions
 from wifibot_power.run import Problem, Run, RunMeta
 
-#: Version of the entry layout; part of every key.
-CACHE_FORMAT = 1
+#: Version of the entry layout; part of every key (2: the speed column).
+CACHE_FORMAT = 2
 #: A file whose times are this close to when it was read may still change unseen [s].
 SETTLE_S = 2.0
 SETTLE_NS = int(SETTLE_S * 1e9)
@@ -377,6 +378,7 @@ def _load_run(entry: Path, content_sha256: str) -> Run | None:
         else:
             time_s = np.arange(power_W.size) * meta.sample_period_s
         problems = tuple(Problem(**p) for p in stored["problems"])
+        speed_mps = table["speed_mps"].to_numpy() if stored["speed"] else None
     except (OSError, KeyError, TypeError, ValueError, pa.ArrowException):
         return None
     return Run(
@@ -386,6 +388,7 @@ def _load_run(entry: Path, content_sha256: str) -> Run | None:
         time_s=time_s,
         power_W=power_W,
         problems=problems,
+        speed_mps=speed_mps,
     )
 
 
@@ -405,10 +408,13 @@ def _store(entry: Path, run: Run, validity: dict[str, object]) -> None:
         "meta": meta,
         "problems": [dataclasses.asdict(p) for p in run.problems],
         "time": "arange" if regular else "column",
+        "speed": run.speed_mps is not None,
     }
     columns = {"power_W": run.power_W}
     if not regular:
         columns["time_s"] = run.time_s
+    if run.speed_mps is not None:
+        columns["speed_mps"] = run.speed_mps
     table = pa.table(columns).replace_schema_metadata({_METADATA_KEY: json.dumps(header)})
     # no compression, dictionary or statistics: measured power does not compress, and this is
     # the fastest layout to read back

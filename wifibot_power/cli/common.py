@@ -50,6 +50,12 @@ CurrentColumn = Annotated[
 VoltageColumn = Annotated[
     str | None, typer.Option("--voltage-column", help="Name of the voltage column to use.")
 ]
+SpeedColumn = Annotated[
+    str | None,
+    typer.Option(
+        "--speed-column", help="Name of the speed column [m/s] (default: speed_mps, if any)."
+    ),
+]
 SamplePeriod = Annotated[
     float | None,
     typer.Option("--sample-period", min=0.0, help="Sample spacing [s] for logs without time."),
@@ -69,6 +75,7 @@ READING_OPTIONS = (
     ("current_column", CurrentColumn),
     ("voltage_column", VoltageColumn),
     ("sample_period", SamplePeriod),
+    ("speed_column", SpeedColumn),
 )
 
 
@@ -77,18 +84,20 @@ def read_options(
     current_column: str | None = None,
     voltage_column: str | None = None,
     sample_period: float | None = None,
+    speed_column: str | None = None,
 ) -> ReadOptions:
     return ReadOptions(
         supply_voltage_V=supply_voltage,
         current_column=current_column,
         voltage_column=voltage_column,
         sample_period_s=sample_period,
+        speed_column=speed_column,
     )
 
 
 def with_reading_options(command: Callable[..., object]) -> Callable[..., object]:
     """Give a command the shared reading options (cli.md); it receives them as one
-    `options: ReadOptions` parameter instead of four."""
+    `options: ReadOptions` parameter instead of one per option."""
     signature = inspect.signature(command)
     hints = typing.get_type_hints(command, include_extras=True)  # resolves string annotations
     kept = [

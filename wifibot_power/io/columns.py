@@ -1,7 +1,7 @@
 """Column names and units: the one place that maps a log's columns to power in W.
 
 Canonical logs name columns with their unit (`power_W`, `power_mW`, `voltage_V`,
-`current_A`, `current_mA`, `time_s`); the N6705 export names them after the
+`current_A`, `current_mA`, `time_s`, `speed_mps`); the N6705 export names them after the
 analyser's outputs (`Curr avg 3`, `Volt avg 4`, `Power avg 1`). Both resolve here.
 """
 
@@ -19,6 +19,7 @@ CANONICAL_COLUMNS: dict[str, tuple[str, float]] = {
     "current_a": ("current", 1.0),
     "current_ma": ("current", 1e-3),
     "time_s": ("time", 1.0),
+    "speed_mps": ("speed", 1.0),
 }
 
 #: N6705 datalog columns: "Curr avg 3", "Volt max 4", "Power avg 1" -> quantity, statistic, output.

@@ -22,6 +22,8 @@ class ReadOptions:
     current_column: str | None = None
     voltage_column: str | None = None
     sample_period_s: float | None = None
+    #: the column holding the robot's speed [m/s] (default: `speed_mps`, log-format.md "Speed")
+    speed_column: str | None = None
 
 
 def is_log_name(path: Path) -> bool:

@@ -41,7 +41,7 @@ from wifibot_power.io.options import (
     LOG_SUFFIXES,
     ReadOptions,
 )
-from wifibot_power.io.validate import check_samples
+from wifibot_power.io.validate import check_samples, check_speed
 from wifibot_power.run import Run
 
 #: The canonical format versions this reader knows (`# wbpower-log: 1`).
@@ -178,17 +178,19 @@ def read_log(
     """
     options = options or ReadOptions()
     path = Path(path)
-    named = tuple(c for c in (options.current_column, options.voltage_column) if c)
+    named = tuple(
+        c for c in (options.current_column, options.voltage_column, options.speed_column) if c
+    )
     content, head = _decode(path, _Content(path, data))
     pre = _parse_preamble(path, content, head, named)
     source = _power_source(path, pre, pre.header, options)
     time_column = find_column(pre.header, "time_s" if pre.format == FORMAT_CANONICAL else "Sample")
+    speed_column = _speed_column(path, pre, options)
     # only the columns used are converted to numbers (about a third of the parse time saved
     # on the 4-column canonical log); every line's field count is still checked
     used = [spec[0] for spec in (source.power, source.current, source.voltage) if spec]
-    columns = _read_columns(
-        path, content, pre, head, named, [*used, *([time_column] * bool(time_column))]
-    )
+    used += [name for name in (time_column, speed_column) if name]
+    columns = _read_columns(path, content, pre, head, named, used)
     lines = columns.lines
     values = dict(pre.metadata)
     where = {k: f"metadata {w}" for k, w in pre.metadata_where.items()}
@@ -209,6 +211,7 @@ def read_log(
     meta = build_meta(values, file=str(path), stem=_stem(path), where="metadata", origins=where)
     power_W, measured = _power(path, columns, source)
     time_s = _time(path, pre, columns, meta.sample_period_s)
+    speed_mps = _column(path, columns, (speed_column, 1.0)) if speed_column else None
     columns.values.clear()  # the arrays live on in power_W, measured and time_s only
     period_s, problems = check_samples(
         str(path),
@@ -219,6 +222,8 @@ def read_log(
         measured=measured,
     )
     del measured
+    if speed_mps is not None:
+        check_speed(str(path), speed_column, speed_mps, line_of=lines.line_of)
     if time_s is None:
         time_s = np.arange(power_W.size) * period_s
     elif period_s != meta.sample_period_s:
@@ -231,7 +236,24 @@ def read_log(
         time_s=time_s,
         power_W=power_W,
         problems=tuple(problems),
+        speed_mps=speed_mps,
     )
+
+
+def _speed_column(path: Path, pre: _Preamble, options: ReadOptions) -> str | None:
+    """The speed column (log-format.md, "Speed"): `--speed-column`, which must exist, else a
+    `speed_mps` column if the log has one."""
+    if options.speed_column:
+        found = find_column(pre.header, options.speed_column)
+        if found is None:
+            raise LogError(
+                f"no column '{options.speed_column}' (columns: {', '.join(pre.header)})",
+                file=path,
+                where=f"line {pre.header_line + 1}",
+                fix="check --speed-column",
+            )
+        return found
+    return find_column(pre.header, "speed_mps")
 
 
 def _stem(path: Path) -> str:

@@ -17,6 +17,8 @@ from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem
 
 #: Above this the robot cannot be drawing power: a unit or column mistake.
 ABSURD_POWER_W = 1000.0
+#: Above this a speed column is not in m/s (a small robot; mm/s or rpm by mistake) [m/s].
+ABSURD_SPEED_MPS = 50.0
 #: Below this a reading is negative, not an offset around zero.
 NEGATIVE_POWER_W = -1.0
 #: A single dropped-sample gap longer than this stops the analysis [s].
@@ -60,6 +62,32 @@ def check_samples(
     for name, values in (measured or {"power": power_W}).items():
         _check_saturation(file, name, values, time_s, period_s, line_of)
     return period_s, problems
+
+
+def check_speed(
+    file: str, name: str, speed_mps: np.ndarray, *, line_of: Callable[[int], int]
+) -> None:
+    """A speed column must hold a finite number in every sample (a gap in it would be a
+    quietly wrong phase); any sign is kept (a robot may reverse)."""
+    if not speed_mps.size:
+        return
+    if not (np.isfinite(speed_mps.min()) and np.isfinite(speed_mps.max())):
+        index = int(np.argmax(~np.isfinite(speed_mps)))
+        raise LogError(
+            f"speed is missing, NaN or inf ({speed_mps[index]})",
+            file=file,
+            where=f"line {line_of(index)}, column '{name}'",
+            fix="fix or delete that line",
+        )
+    high = float(np.max(np.abs(speed_mps)))
+    if high > ABSURD_SPEED_MPS:
+        index = int(np.argmax(np.abs(speed_mps) > ABSURD_SPEED_MPS))
+        raise LogError(
+            f"absurd speed ({speed_mps[index]:.4g} m/s, over {ABSURD_SPEED_MPS:g} m/s)",
+            file=file,
+            where=f"line {line_of(index)}, column '{name}'",
+            fix="the speed column must be in m/s (mm/s or rpm need converting)",
+        )
 
 
 def _check_time(
