@@ -29,9 +29,8 @@ power, so its sensor or wiring reads backwards).
 The summary gives issue 12's criteria: with the speed column >= 90% of the logs right; without
 it zero silently wrong.
 
-Shortcut until the reader fills `Run.speed_mps` from a `speed_mps` column (branch `io`): when
-the reader leaves it None, this script reads the column itself (`_speed_from_file`) and puts
-it on the Run. Once the reader does, the shortcut is not taken (the reader's array is used).
+The speed column reaches the segmenter as the reader puts it: `Run.speed_mps` (log-format.md,
+"Speed"); a log whose reader leaves it None is an error here (the truth needs it).
 
 Usage: `.venv/bin/python benchmarks/score_segmentation_real.py [SET_FOLDER ...] [--markdown]
 [--write-docs [FILE]]` (default: every folder under tests/data/real/). `--write-docs` puts the
@@ -183,11 +182,6 @@ def _attempt(run: Run, truth: Interval) -> Attempt:
     return Attempt(found, tuple(seg.doubts), None, outcome, start_err, end_err)
 
 
-def _speed_from_file(path: Path) -> np.ndarray:
-    """The shortcut of the module docstring: the `speed_mps` column, read here."""
-    return pd.read_csv(path, comment="#", usecols=["speed_mps"])["speed_mps"].to_numpy()
-
-
 def score_log(path: Path, set_name: str) -> LogScore:
     frame = pd.read_csv(path, comment="#")
     truth = true_interval(frame["time_s"].to_numpy(), frame["speed_mps"].to_numpy())
@@ -198,7 +192,7 @@ def score_log(path: Path, set_name: str) -> LogScore:
     except WbpowerError as exc:
         return LogScore(set_name, log, truth, broken, exc.one_line(), None, None)
     if run.speed_mps is None:
-        run = dataclasses.replace(run, speed_mps=_speed_from_file(path))
+        raise SystemExit(f"{path}: the reader found no speed column (speed_mps)")
     with_speed = _attempt(run, truth)
     without_speed = _attempt(dataclasses.replace(run, speed_mps=None), truth)
     return LogScore(set_name, log, truth, broken, None, with_speed, without_speed)

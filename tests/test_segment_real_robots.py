@@ -96,6 +96,16 @@ def test_power_and_speed_come_from_the_raw_columns(set_name: str) -> None:
         assert_allclose(frame.speed_mps, speed, atol=1e-5)  # 5 decimals
 
 
+@pytest.mark.parametrize("set_name", SETS)
+def test_the_reader_gives_the_segmenter_the_speed_column(set_name: str) -> None:
+    from wifibot_power.io import ReadOptions, read_log
+
+    stem = Path(next(iter(ROWS[set_name]))).stem
+    run = read_log(REAL / set_name / f"{stem}.csv.gz", ReadOptions())
+    assert run.speed_mps is not None
+    assert_allclose(run.speed_mps, _frame(set_name, stem).speed_mps, atol=0)
+
+
 def test_first_rows_match_the_source_file() -> None:
     # initial_current_01_emma.txt, rows 1-2 as published:
     # "0.001 2 2 0 2.0 2.0 0.005 -0.009 -0.0000 -0.0000 11.01"
