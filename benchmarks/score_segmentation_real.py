@@ -248,28 +248,29 @@ def _ms(value: float | None) -> str:
 
 
 def _cells(a: Attempt | None) -> list[str]:
+    """Segmented interval, end errors, doubts, outcome of one attempt."""
     if a is None:
-        return ["—", "—", "—", "refused"]
+        return ["—", "—", "—", "—", "refused"]
+    found = "—" if a.interval is None else f"{a.interval.start_s:.3f}–{a.interval.end_s:.3f}"
     doubt = "error" if a.error else ("yes" if a.doubts else "no")
-    return [_ms(a.start_error_s), _ms(a.end_error_s), doubt, a.outcome]
+    return [found, _ms(a.start_error_s), _ms(a.end_error_s), doubt, a.outcome]
 
 
 def table_rows(scores: list[LogScore]) -> list[list[str]]:
     rows = []
     for s in scores:
         true = f"{s.truth.start_s:.3f}–{s.truth.end_s:.3f}"
-        found = s.without_speed.interval if s.without_speed else None
-        seg = "—" if found is None else f"{found.start_s:.3f}–{found.end_s:.3f}"
-        row = [s.log, true, seg, *_cells(s.with_speed), *_cells(s.without_speed)]
+        row = [s.log, true, *_cells(s.with_speed), *_cells(s.without_speed)]
         if s.broken:
             row[-1] += " (broken)"
         rows.append(row)
     return rows
 
 
+#: the Markdown header: log, truth, then per attempt interval, errors [ms], doubts, outcome
 HEADER = [
-    "log", "true s", "segmented s", "Δstart", "Δend", "doubts", "with speed",
-    "Δstart", "Δend", "doubts", "without speed",
+    "log", "true s", "with speed: found s", "Δstart", "Δend", "doubts", "outcome",
+    "without: found s", "Δstart", "Δend", "doubts", "outcome",
 ]  # fmt: skip
 
 
@@ -323,7 +324,7 @@ def render_text(set_name: str, scores: list[LogScore]) -> str:
         ["log", "true s", "Δstart", "Δend", "outcome", "Δstart", "Δend", "doubts", "outcome"],
     ]
     for s, full in zip(scores, table_rows(scores), strict=True):
-        with_cells, without_cells = full[3:7], full[7:11]
+        with_cells, without_cells = full[3:7], full[8:12]  # the intervals left out
         without_cells[3] = without_cells[3].replace("silently wrong", "WRONG")
         rows.append(
             [

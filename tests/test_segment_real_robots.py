@@ -203,6 +203,16 @@ def test_truly_broken_logs_are_found_from_the_raw_columns(scores) -> None:
     assert "right" in broken["initial_current_78_melina"]
 
 
+def test_write_docs_replaces_only_between_the_markers(tmp_path: Path) -> None:
+    doc = tmp_path / "doc.md"
+    doc.write_text(f"intro\n{score.BEGIN}\nold table\n{score.END}\noutro\n")
+    score.write_docs(doc, "new table\n")
+    assert doc.read_text() == f"intro\n{score.BEGIN}\nnew table\n{score.END}\noutro\n"
+    doc.write_text("no markers\n")
+    with pytest.raises(SystemExit, match="no '<!-- real-logs score: begin -->'"):
+        score.write_docs(doc, "new table\n")
+
+
 def test_script_prints_a_table_per_set() -> None:
     result = subprocess.run(
         [sys.executable, str(ROOT / "benchmarks" / "score_segmentation_real.py")],
