@@ -48,6 +48,9 @@ def assert_same_run(a: Run, b: Run) -> None:
     if a.speed_mps is not None:
         assert a.speed_mps.dtype == b.speed_mps.dtype == np.float64
         np.testing.assert_array_equal(a.speed_mps, b.speed_mps)
+    assert list(a.channels_W) == list(b.channels_W)
+    for name, channel_W in a.channels_W.items():
+        np.testing.assert_array_equal(channel_W, b.channels_W[name])
 
 
 class Spy:
@@ -100,16 +103,23 @@ GAP_ROWS = "".join(f"{k / 1000:.3f},23.{k % 7}\n" for k in range(301) if k != 15
         ("comma.csv", "# mode: idle\ntime_s;power_W\n0;23,1\n0,001;23,3\n0,002;23,2\n"),
         # a speed column travels with the run
         ("speed.csv", "time_s,power_W,Speed_MPS\n0,23.1,0\n0.001,25.3,0.125\n0.002,26.2,0.25\n"),
+        # two motors' channels, summed, each kept
+        ("two.csv", "time_ms,power_left_W,power_right_W\n0,1.5,2\n1,1.25,2.5\n2,3,1\n"),
     ],
 )
-def test_hit_round_trips_every_kind_of_log(tmp_path: Path, name: str, text: str, settled) -> None:
+def test_hit_round_trips_every_kind_of_log(
+    tmp_path: Path, name: str, text: str, monkeypatch, settled
+) -> None:
     log = tmp_path / name
     log.write_text(text)
     cache = ParseCache(tmp_path / "cache")
+    spy = Spy(monkeypatch)
     cache.read_log(log)
     assert_same_run(cache.read_log(log), read_log(log))
+    assert spy.calls == 1  # the second read came from the cache
     assert bool(read_log(log).problems) == (name == "gap.csv")
     assert (cache.read_log(log).speed_mps is not None) == (name == "speed.csv")
+    assert list(cache.read_log(log).channels_W) == (["left", "right"] * (name == "two.csv"))
 
 
 def test_gzip_log(tmp_path: Path, monkeypatch, settled) -> None:

@@ -235,14 +235,17 @@ def test_inspect_table_tells_formats_apart(tmp_path, wbpower, monkeypatch):
 
 def test_custom_column_names_with_options(tmp_path, wbpower):
     # a home-made log: no column wbpower knows by name, so the options must name them;
-    # I_mA is in mA (1500 mA = 1.5 A), supply 12 V: 18 W and 24 W
+    # I_mA is in mA (1500 mA = 1.5 A), supply 12 V: 18 W and 24 W; `t` is time, in s
     path = _write(tmp_path / "home.csv", "t,I_mA\n0,1500\n1,2000\n")
-    result = wbpower(
-        "inspect", "--json", "--current-column", "I_mA", "--supply-voltage", "12", path
-    )
+    options = ("--current-column", "I_mA", "--supply-voltage", "12", "--time-unit", "s")
+    result = wbpower("inspect", "--json", *options, path)
     assert result.exit_code == 0, result.stderr
     (row,) = json.loads(result.stdout)
     assert_allclose(row["mean_power_W"], 21.0, rtol=1e-15)
+    assert row["sample_period_s"] == 1.0 and row["duration_s"] == 2.0
+    # without --time-unit, `t` is not silently replaced by an assumed period
+    result = wbpower("inspect", *options[:4], path)
+    assert result.exit_code == 2 and "column 't' looks like time" in result.stderr
     assert "not a power log" in wbpower("inspect", path).stderr  # without the options
 
 

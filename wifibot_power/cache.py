@@ -1,6 +1,6 @@
 """A Parquet cache of parsed logs, so a second run over the same files skips the CSV parsing.
 
-An entry is the `Run` a log parses to: `<key>.parquet` (power, time and speed columns;
+An entry is the `Run` a log parses to: `<key>.parquet` (power, time, speed and channel columns;
 metadata and problems in the Parquet key-value metadata) and `<key>.json` beside it (what the
 entry is valid for: the file's stat and content hash). It is looked up by what the parse
 depends on: the path as given, the reading options, the manifest values, and a digest of the
@@ -51,7 +51,7 @@ from wifibot_power.errors import UsageError
 from wifibot_power.io.options import ReadOptions
 from wifibot_power.run import Problem, Run, RunMeta
 
-#: Version of the entry layout; part of every key (2: the speed column).
+#: Version of the entry layout; part of every key (2: the speed and channel columns).
 CACHE_FORMAT = 2
 #: A file whose times are this close to when it was read may still change unseen [s].
 SETTLE_S = 2.0
@@ -379,6 +379,7 @@ def _load_run(entry: Path, content_sha256: str) -> Run | None:
             time_s = np.arange(power_W.size) * meta.sample_period_s
         problems = tuple(Problem(**p) for p in stored["problems"])
         speed_mps = table["speed_mps"].to_numpy() if stored["speed"] else None
+        channels_W = {name: table[f"channel:{name}"].to_numpy() for name in stored["channels"]}
     except (OSError, KeyError, TypeError, ValueError, pa.ArrowException):
         return None
     return Run(
@@ -389,6 +390,7 @@ def _load_run(entry: Path, content_sha256: str) -> Run | None:
         power_W=power_W,
         problems=problems,
         speed_mps=speed_mps,
+        channels_W=channels_W,
     )
 
 
@@ -409,12 +411,15 @@ def _store(entry: Path, run: Run, validity: dict[str, object]) -> None:
         "problems": [dataclasses.asdict(p) for p in run.problems],
         "time": "arange" if regular else "column",
         "speed": run.speed_mps is not None,
+        "channels": list(run.channels_W),
     }
     columns = {"power_W": run.power_W}
     if not regular:
         columns["time_s"] = run.time_s
     if run.speed_mps is not None:
         columns["speed_mps"] = run.speed_mps
+    for name, channel_W in run.channels_W.items():
+        columns[f"channel:{name}"] = channel_W
     table = pa.table(columns).replace_schema_metadata({_METADATA_KEY: json.dumps(header)})
     # no compression, dictionary or statistics: measured power does not compress, and this is
     # the fastest layout to read back

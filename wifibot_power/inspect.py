@@ -6,7 +6,7 @@ from pathlib import Path
 
 from wifibot_power.io import ReadOptions, Skipped
 from wifibot_power.io.batch import map_runs
-from wifibot_power.run import Run
+from wifibot_power.run import Run, energy_J
 
 
 def summarize(run: Run) -> dict[str, object]:
@@ -21,6 +21,16 @@ def summarize(run: Run) -> dict[str, object]:
         "mean_power_W": run.mean_power_W,
         "energy_J": run.energy_J,
         "meta": run.meta.as_dict(),
+        # the channels summed into the power (log-format.md "Several channels"); [] for one
+        "channels": [
+            {
+                "name": name,
+                "mean_power_W": float(channel_W.mean()) if channel_W.size else float("nan"),
+                "energy_J": energy_J(channel_W, run.sample_period_s),
+            }
+            for name, channel_W in run.channels_W.items()
+        ],
+        "speed_column": run.speed_mps is not None,
         "problems": [p.message for p in run.problems],
         "problem_details": [
             {

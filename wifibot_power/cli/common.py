@@ -9,6 +9,7 @@ import os
 import sys
 import typing
 from collections.abc import Callable, Iterable, Iterator
+from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, TypeVar
 
@@ -56,6 +57,31 @@ SpeedColumn = Annotated[
         "--speed-column", help="Name of the speed column [m/s] (default: speed_mps, if any)."
     ),
 ]
+PowerColumn = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--power-column", help="Name of a power column; repeat it to sum several (two motors)."
+    ),
+]
+TimeColumn = Annotated[
+    str | None, typer.Option("--time-column", help="Name of the time column (see --time-unit).")
+]
+
+
+class TimeUnit(StrEnum):
+    s = "s"
+    ms = "ms"
+    us = "us"
+
+
+TimeUnitOption = Annotated[
+    TimeUnit | None,
+    typer.Option("--time-unit", help="Unit of the time column, when its name does not say."),
+]
+FlipCurrent = Annotated[
+    bool,
+    typer.Option("--flip-current", help="Negate the current (and power): a reversed sensor."),
+]
 SamplePeriod = Annotated[
     float | None,
     typer.Option("--sample-period", min=0.0, help="Sample spacing [s] for logs without time."),
@@ -69,13 +95,18 @@ ModelSpec = Annotated[
 ]
 
 
-#: the reading options, as (parameter name, annotated type): one declaration for every command
+#: the reading options, as (parameter name, annotated type, default): one declaration for
+#: every command
 READING_OPTIONS = (
-    ("supply_voltage", SupplyVoltage),
-    ("current_column", CurrentColumn),
-    ("voltage_column", VoltageColumn),
-    ("sample_period", SamplePeriod),
-    ("speed_column", SpeedColumn),
+    ("supply_voltage", SupplyVoltage, None),
+    ("current_column", CurrentColumn, None),
+    ("voltage_column", VoltageColumn, None),
+    ("power_column", PowerColumn, None),
+    ("time_column", TimeColumn, None),
+    ("time_unit", TimeUnitOption, None),
+    ("speed_column", SpeedColumn, None),
+    ("sample_period", SamplePeriod, None),
+    ("flip_current", FlipCurrent, False),
 )
 
 
@@ -83,8 +114,12 @@ def read_options(
     supply_voltage: float | None = None,
     current_column: str | None = None,
     voltage_column: str | None = None,
-    sample_period: float | None = None,
+    power_column: list[str] | None = None,
+    time_column: str | None = None,
+    time_unit: TimeUnit | str | None = None,
     speed_column: str | None = None,
+    sample_period: float | None = None,
+    flip_current: bool = False,
 ) -> ReadOptions:
     return ReadOptions(
         supply_voltage_V=supply_voltage,
@@ -92,6 +127,10 @@ def read_options(
         voltage_column=voltage_column,
         sample_period_s=sample_period,
         speed_column=speed_column,
+        power_columns=tuple(power_column or ()),
+        time_column=time_column,
+        time_unit=TimeUnit(time_unit).value if time_unit is not None else None,
+        flip_current=bool(flip_current),
     )
 
 
@@ -106,19 +145,19 @@ def with_reading_options(command: Callable[..., object]) -> Callable[..., object
         if p.name != "options"
     ]
     added = [
-        inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=None, annotation=kind)
-        for name, kind in READING_OPTIONS
+        inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default, annotation=kind)
+        for name, kind, default in READING_OPTIONS
     ]
 
     @functools.wraps(command)
     def wrapper(*args: object, **kwargs: object) -> object:
-        values = {name: kwargs.pop(name, None) for name, _ in READING_OPTIONS}
+        values = {name: kwargs.pop(name, default) for name, _, default in READING_OPTIONS}
         return command(*args, options=read_options(**values), **kwargs)
 
     wrapper.__signature__ = signature.replace(parameters=kept + added)  # type: ignore[attr-defined]
     wrapper.__annotations__ = {
         **{k: v for k, v in hints.items() if k != "options"},
-        **dict(READING_OPTIONS),
+        **{name: kind for name, kind, _ in READING_OPTIONS},
     }
     del wrapper.__wrapped__  # typer must see the new signature, not the wrapped one
     return wrapper

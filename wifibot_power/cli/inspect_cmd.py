@@ -69,6 +69,13 @@ def inspect_command(
                 _problems_cell(row["problems"]),
             )
         stdout.print(table)
+        for row in rows:
+            if row["channels"]:
+                summed = ", ".join(
+                    f"{c['name']} {c['mean_power_W']:.3f} W" for c in row["channels"]
+                )
+                name = Path(str(row["file"])).name
+                stdout.print(f"{name}: power is the sum of channels {summed}", highlight=False)
     raise typer.Exit(report_skipped(skipped))
 
 

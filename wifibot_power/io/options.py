@@ -14,9 +14,14 @@ FORMAT_N6705 = "n6705"
 LOG_SUFFIXES = (".csv", ".csv.gz", ".csv.zst")
 
 
+#: `--time-unit` values and their scale to seconds.
+TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
+
+
 @dataclass(frozen=True)
 class ReadOptions:
-    """Options every log-reading command shares (cli.md: reading options)."""
+    """Options every log-reading command shares (cli.md: reading options; docs/log-format.md
+    says what each does)."""
 
     supply_voltage_V: float | None = None
     current_column: str | None = None
@@ -24,6 +29,28 @@ class ReadOptions:
     sample_period_s: float | None = None
     #: the column holding the robot's speed [m/s] (default: `speed_mps`, log-format.md "Speed")
     speed_column: str | None = None
+    #: power columns whose sum is the robot's power (`--power-column`, repeatable)
+    power_columns: tuple[str, ...] = ()
+    #: the time column (`--time-column`) and the unit of time columns (`--time-unit`)
+    time_column: str | None = None
+    time_unit: str | None = None
+    #: negate the current (and so the power): a sensor wired the other way (`--flip-current`)
+    flip_current: bool = False
+
+    def __post_init__(self) -> None:
+        if self.time_unit is not None and self.time_unit not in TIME_UNITS:
+            from wifibot_power.errors import UsageError
+
+            raise UsageError(
+                f"time unit '{self.time_unit}'", fix=f"give --time-unit {'|'.join(TIME_UNITS)}"
+            )
+        if self.power_columns and (self.current_column or self.voltage_column):
+            from wifibot_power.errors import UsageError
+
+            raise UsageError(
+                "--power-column with --current-column/--voltage-column",
+                fix="name either the power columns or the current and voltage columns",
+            )
 
 
 def is_log_name(path: Path) -> bool:

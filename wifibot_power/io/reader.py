@@ -31,7 +31,9 @@ from wifibot_power.io.columns import (
     N6705_COLUMN,
     N6705_QUANTITY,
     PowerSource,
+    channel_of,
     find_column,
+    time_unit_of,
     unit_scale,
 )
 from wifibot_power.io.metadata import build_meta
@@ -39,10 +41,11 @@ from wifibot_power.io.options import (
     FORMAT_CANONICAL,
     FORMAT_N6705,
     LOG_SUFFIXES,
+    TIME_UNITS,
     ReadOptions,
 )
 from wifibot_power.io.validate import check_samples, check_speed
-from wifibot_power.run import Run
+from wifibot_power.run import Problem, Run
 
 #: The canonical format versions this reader knows (`# wbpower-log: 1`).
 KNOWN_VERSIONS = ("1",)
@@ -54,6 +57,10 @@ _BLOCK_BYTES = 1 << 20
 #: Bytes read at a time when a file is scanned again for line numbers.
 _SCAN_BYTES = 1 << 20
 _UTF8_BOM = b"\xef\xbb\xbf"
+#: The scale of a time "column" that is a sample index (N6705 `Sample`): x the sample period.
+_INDEX = 0.0
+#: Canonical time columns (log-format.md): these win over other time-like columns.
+CANONICAL_TIME_COLUMNS = ("time_s", "time_ms", "time_us")
 #: Data lines of the head looked at to tell the decimal mark and the field count.
 _SNIFF_LINES = 50
 _LINE_END = re.compile(r"\r\n|\r|\n")
@@ -179,27 +186,34 @@ def read_log(
     options = options or ReadOptions()
     path = Path(path)
     named = tuple(
-        c for c in (options.current_column, options.voltage_column, options.speed_column) if c
+        c
+        for c in (
+            options.current_column,
+            options.voltage_column,
+            options.speed_column,
+            options.time_column,
+            *options.power_columns,
+        )
+        if c
     )
     content, head = _decode(path, _Content(path, data))
     pre = _parse_preamble(path, content, head, named)
-    source = _power_source(path, pre, pre.header, options)
-    time_column = find_column(pre.header, "time_s" if pre.format == FORMAT_CANONICAL else "Sample")
+    sources = _power_sources(path, pre, pre.header, options)
+    time_spec, time_problems = _time_source(path, pre, options)
     speed_column = _speed_column(path, pre, options)
     # only the columns used are converted to numbers (about a third of the parse time saved
     # on the 4-column canonical log); every line's field count is still checked
-    used = [spec[0] for spec in (source.power, source.current, source.voltage) if spec]
-    used += [name for name in (time_column, speed_column) if name]
-    columns = _read_columns(path, content, pre, head, named, used)
+    used = list(dict.fromkeys(name for source in sources for name in source.columns()))
+    used += [name for name in (time_spec and time_spec[0], speed_column) if name]
+    columns = _read_columns(path, content, pre, head, used)
     lines = columns.lines
     values = dict(pre.metadata)
     where = {k: f"metadata {w}" for k, w in pre.metadata_where.items()}
     for key, value in (overrides or {}).items():
         values[key] = value
         where[key] = origin or "manifest"
-    time_name = "time_s" if pre.format == FORMAT_CANONICAL else "Sample"
-    has_time = find_column(columns.names, time_name) is not None
-    if options.sample_period_s is not None and (pre.format == FORMAT_N6705 or not has_time):
+    has_time = time_spec is not None and time_spec[1] != _INDEX
+    if options.sample_period_s is not None and not has_time:
         values["sample_period_s"] = repr(options.sample_period_s)
         where["sample_period_s"] = "--sample-period"
     if pre.format == FORMAT_N6705 and "sample_period_s" not in values:
@@ -209,8 +223,8 @@ def read_log(
             fix="give the sample spacing with --sample-period S, or re-export the datalog",
         )
     meta = build_meta(values, file=str(path), stem=_stem(path), where="metadata", origins=where)
-    power_W, measured = _power(path, columns, source)
-    time_s = _time(path, pre, columns, meta.sample_period_s)
+    power_W, channels_W, measured = _power(path, columns, sources, options.flip_current)
+    time_s = _time(path, pre, columns, time_spec, meta.sample_period_s)
     speed_mps = _column(path, columns, (speed_column, 1.0)) if speed_column else None
     columns.values.clear()  # the arrays live on in power_W, measured and time_s only
     period_s, problems = check_samples(
@@ -235,8 +249,9 @@ def read_log(
         meta=meta,
         time_s=time_s,
         power_W=power_W,
-        problems=tuple(problems),
+        problems=(*time_problems, *problems),
         speed_mps=speed_mps,
+        channels_W=channels_W,
     )
 
 
@@ -254,6 +269,69 @@ def _speed_column(path: Path, pre: _Preamble, options: ReadOptions) -> str | Non
             )
         return found
     return find_column(pre.header, "speed_mps")
+
+
+def _time_source(
+    path: Path, pre: _Preamble, options: ReadOptions
+) -> tuple[tuple[str, float] | None, list[Problem]]:
+    """The time column and its scale to seconds (log-format.md: a column whose name says it is
+    time is never silently ignored in favour of an assumed sample period), and a problem to
+    report when one is left out because `--sample-period` was given instead.
+
+    An N6705 export's time is its `Sample` index (scale: the sample interval, applied later).
+    """
+    unit_scale_s = TIME_UNITS[options.time_unit] if options.time_unit else None
+    if options.time_column:
+        found = find_column(pre.header, options.time_column)
+        if found is None:
+            raise LogError(
+                f"no column '{options.time_column}' (columns: {', '.join(pre.header)})",
+                file=path,
+                where=f"line {pre.header_line + 1}",
+                fix="check --time-column",
+            )
+        scale = unit_scale_s if unit_scale_s is not None else time_unit_of(found)[1]
+        if scale is None:
+            raise LogError(
+                f"the unit of time column '{found}' is unknown",
+                file=path,
+                where=f"line {pre.header_line + 1}",
+                fix="give --time-unit s|ms|us",
+            )
+        return (found, scale), []
+    if pre.format == FORMAT_N6705:
+        sample = find_column(pre.header, "Sample")
+        return ((sample, _INDEX) if sample else None), []
+    timelike = [(name, time_unit_of(name)[1]) for name in pre.header if time_unit_of(name)[0]]
+    if not timelike:
+        return None, []
+    canonical = [t for t in timelike if t[0].strip().lower() in CANONICAL_TIME_COLUMNS]
+    if len(timelike) > 1 and len(canonical) == 1:
+        timelike = canonical  # time_s beside, say, a clock-time column: time_s is the time
+    if len(timelike) > 1:
+        raise LogError(
+            f"several time columns ({', '.join(repr(t[0]) for t in timelike)})",
+            file=path,
+            where=f"line {pre.header_line + 1}",
+            fix="name the one to use with --time-column (and --time-unit)",
+        )
+    ((name, scale),) = timelike
+    if unit_scale_s is not None:
+        return (name, unit_scale_s), []
+    if scale is not None:
+        return (name, scale), []
+    if options.sample_period_s is not None:
+        note = (
+            f"column '{name}' looks like time but its unit is unknown: not used, samples "
+            f"spaced at --sample-period {options.sample_period_s:g} s instead"
+        )
+        return None, [Problem("time_ignored", note)]
+    raise LogError(
+        f"column '{name}' looks like time, but its name gives no unit",
+        file=path,
+        where=f"line {pre.header_line + 1}",
+        fix="give --time-unit s|ms|us, or --sample-period S to space samples evenly instead",
+    )
 
 
 def _stem(path: Path) -> str:
@@ -437,7 +515,9 @@ def _canonical_preamble(path: Path, lines: list[str], extra_columns: tuple[str, 
             continue
         delimiter = _delimiter(stripped)
         header = _header_cells(stripped, delimiter)
-        if not any(h.lower() in wanted for h in header):
+        # with columns named by options, the first such line is the header whatever it holds
+        # (a named column it lacks is then reported by name)
+        if not extra_columns and not any(h.lower() in wanted or channel_of(h) for h in header):
             if any(ch.isdigit() for ch in stripped) and not any(ch.isalpha() for ch in stripped):
                 raise _not_a_log(path, "data but no header row", where=f"line {index + 1}")
             raise _not_a_log(
@@ -644,21 +724,6 @@ def _cut_start(tail: bytes, size: int, header_start: int) -> int | None:
     return start if tail[last + 1 :].strip() and start > header_start else None
 
 
-def _float_columns(pre: _Preamble, extra_columns: tuple[str, ...]) -> list[str]:
-    wanted = {c.strip().lower() for c in extra_columns}
-    out = []
-    for name in pre.header:
-        lowered = name.lower()
-        if (
-            lowered in CANONICAL_COLUMNS
-            or lowered in wanted
-            or N6705_COLUMN.match(name)
-            or (pre.format == FORMAT_N6705 and lowered == "sample")
-        ):
-            out.append(name)
-    return out
-
-
 @dataclass
 class _Columns:
     """The columns read from a log, as numpy arrays (a column of text is named, not held)."""
@@ -670,12 +735,7 @@ class _Columns:
 
 
 def _read_columns(
-    path: Path,
-    content: _Content,
-    pre: _Preamble,
-    head: bytes,
-    extra_columns: tuple[str, ...] = (),
-    include_columns: list[str] | None = None,
+    path: Path, content: _Content, pre: _Preamble, head: bytes, include_columns: list[str]
 ) -> _Columns:
     """Parse the data lines into numpy arrays of the included columns.
 
@@ -707,7 +767,7 @@ def _read_columns(
             ),
             parse_options=pacsv.ParseOptions(delimiter=pre.delimiter),
             convert_options=pacsv.ConvertOptions(
-                column_types={name: pa.float64() for name in _float_columns(pre, extra_columns)},
+                column_types=dict.fromkeys(include_columns, pa.float64()),
                 decimal_point="," if pre.decimal_comma else ".",
                 include_columns=include_columns,
                 strings_can_be_null=False,
@@ -827,50 +887,105 @@ def _cells(line: bytes, delimiter: str) -> list[str]:
     return next(csv.reader([text], delimiter=delimiter), [""])
 
 
-def _power_source(
+def _power_sources(
     path: Path, pre: _Preamble, names: list[str], options: ReadOptions
-) -> PowerSource:
+) -> list[PowerSource]:
+    """The channels whose power, summed, is the robot's power (one, unless the log has several
+    channels or several `--power-column`s)."""
+    if options.power_columns:
+        return [
+            PowerSource(power=_lookup(path, names, wanted, "--power-column"), name=wanted)
+            for wanted in dict.fromkeys(options.power_columns)
+        ]
     if options.current_column or options.voltage_column:
-        return _named_source(path, names, options)
+        return [_named_source(path, names, options)]
     if pre.format == FORMAT_CANONICAL:
-        lowered = {n.lower(): n for n in names}
-        for key in ("power_w", "power_mw"):
-            if key in lowered:
-                return PowerSource(power=(lowered[key], CANONICAL_COLUMNS[key][1]))
-        current = next(
-            (
-                (lowered[k], CANONICAL_COLUMNS[k][1])
-                for k in ("current_a", "current_ma")
-                if k in lowered
-            ),
-            None,
-        )
-        voltage = next(
-            (
-                (lowered[k], CANONICAL_COLUMNS[k][1])
-                for k in ("voltage_v", "voltage_mv")
-                if k in lowered
-            ),
-            None,
-        )
-        if current and voltage:
-            return PowerSource(current=current, voltage=voltage)
-        if current and options.supply_voltage_V:
-            return PowerSource(current=current, supply_voltage_V=options.supply_voltage_V)
-        if current:
-            raise LogError(
-                "current only, no power or voltage column",
-                file=path,
-                fix="give --supply-voltage V, or name the voltage column with --voltage-column",
-            )
+        return _canonical_sources(path, pre, names, options)
+    return [_n6705_source(path, pre, names, options)]
+
+
+def _canonical_sources(
+    path: Path, pre: _Preamble, names: list[str], options: ReadOptions
+) -> list[PowerSource]:
+    lowered = {n.strip().lower(): n for n in names}
+
+    def first(*keys: str) -> tuple[str, float] | None:
+        key = next((k for k in keys if k in lowered), None)
+        return (lowered[key], CANONICAL_COLUMNS[key][1]) if key else None
+
+    power = first("power_w", "power_mw")
+    if power:
+        return [PowerSource(power=power)]
+    current, voltage = first("current_a", "current_ma"), first("voltage_v", "voltage_mv")
+    if current and voltage:
+        return [PowerSource(current=current, voltage=voltage)]
+    channels = _channels(path, pre, names, voltage, options)
+    if channels:
+        return channels
+    if current and options.supply_voltage_V:
+        return [PowerSource(current=current, supply_voltage_V=options.supply_voltage_V)]
+    if current:
         raise LogError(
-            "no power_W, power_mW, or voltage_V x current_A columns",
+            "current only, no power or voltage column",
             file=path,
-            where=f"line {pre.header_line + 1}",
-            fix="name the columns as in docs/log-format.md, or use --current-column and "
-            "--voltage-column",
+            fix="give --supply-voltage V, or name the voltage column with --voltage-column",
         )
-    return _n6705_source(path, pre, names, options)
+    raise LogError(
+        "no power_W, power_mW, or voltage_V x current_A columns",
+        file=path,
+        where=f"line {pre.header_line + 1}",
+        fix="name the columns as in docs/log-format.md, or use --power-column, or "
+        "--current-column and --voltage-column",
+    )
+
+
+def _channels(
+    path: Path,
+    pre: _Preamble,
+    names: list[str],
+    shared_voltage: tuple[str, float] | None,
+    options: ReadOptions,
+) -> list[PowerSource]:
+    """Canonical channels (log-format.md, "Several channels"): `power_<name>_W`, else
+    `current_<name>_A` x `voltage_<name>_V`, else x the shared `voltage_V` (motors on one
+    bus), else x `--supply-voltage`. A lone `voltage_<name>_V` is not power and is not read."""
+    found: dict[str, dict[str, tuple[str, float]]] = {}
+    for name in names:
+        parsed = channel_of(name)
+        if parsed is not None:
+            quantity, channel, scale = parsed
+            if quantity in found.setdefault(channel, {}):
+                raise LogError(
+                    f"channel '{channel}' has two {quantity} columns "
+                    f"('{found[channel][quantity][0]}', '{name}')",
+                    file=path,
+                    where=f"line {pre.header_line + 1}",
+                    fix="keep one of them",
+                )
+            found[channel][quantity] = (name, scale)
+    sources = []
+    for channel, quantities in found.items():
+        if "power" in quantities:
+            sources.append(PowerSource(power=quantities["power"], name=channel))
+        elif "current" in quantities:
+            voltage = quantities.get("voltage", shared_voltage)
+            if voltage is None and options.supply_voltage_V is None:
+                raise LogError(
+                    f"channel '{channel}' has a current column "
+                    f"('{quantities['current'][0]}') but no voltage",
+                    file=path,
+                    where=f"line {pre.header_line + 1}",
+                    fix=f"add voltage_{channel}_V or voltage_V, or give --supply-voltage V",
+                )
+            sources.append(
+                PowerSource(
+                    current=quantities["current"],
+                    voltage=voltage,
+                    supply_voltage_V=None if voltage else options.supply_voltage_V,
+                    name=channel,
+                )
+            )
+    return sources
 
 
 def _n6705_source(
@@ -911,7 +1026,8 @@ def _n6705_source(
             raise LogError(
                 f"several analyser outputs log power (outputs {', '.join(sorted(candidates))})",
                 file=path,
-                fix="name the columns to use with --current-column and --voltage-column",
+                fix="name the columns to use with --current-column and --voltage-column, or "
+                "sum outputs with --power-column 'Power avg 1' --power-column 'Power avg 2'",
             )
     if currents:
         have = ", ".join(f"'{n}'" for q in outputs.values() for n in q.values())
@@ -929,25 +1045,28 @@ def _n6705_source(
     )
 
 
-def _named_source(path: Path, names: list[str], options: ReadOptions) -> PowerSource:
-    def lookup(wanted: str, option: str) -> tuple[str, float]:
-        found = find_column(names, wanted)
-        if found is None:
-            raise LogError(
-                f"no column '{wanted}' (columns: {', '.join(names)})",
-                file=path,
-                fix=f"check {option}",
-            )
-        return found, unit_scale(found)
+def _lookup(path: Path, names: list[str], wanted: str, option: str) -> tuple[str, float]:
+    """A column named with an option, and its scale from its unit suffix."""
+    found = find_column(names, wanted)
+    if found is None:
+        raise LogError(
+            f"no column '{wanted}' (columns: {', '.join(names)})",
+            file=path,
+            fix=f"check {option}",
+        )
+    return found, unit_scale(found)
 
+
+def _named_source(path: Path, names: list[str], options: ReadOptions) -> PowerSource:
     if not options.current_column:
         raise LogError(
             "--voltage-column needs --current-column too", file=path, fix="name both columns"
         )
-    current = lookup(options.current_column, "--current-column")
+    current = _lookup(path, names, options.current_column, "--current-column")
     if options.voltage_column:
         return PowerSource(
-            current=current, voltage=lookup(options.voltage_column, "--voltage-column")
+            current=current,
+            voltage=_lookup(path, names, options.voltage_column, "--voltage-column"),
         )
     if options.supply_voltage_V is None:
         raise LogError(
@@ -981,28 +1100,43 @@ def _scaled(values: np.ndarray, scale: float) -> np.ndarray:
 
 
 def _power(
-    path: Path, columns: _Columns, source: PowerSource
-) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """Power [W] and the measured columns it comes from (checked for clipping)."""
-    if source.power:
-        power_W = _column(path, columns, source.power)
-        return power_W, {source.power[0]: power_W}
-    current_A = _column(path, columns, source.current)
-    measured = {source.current[0]: current_A}
-    if source.voltage:
-        voltage_V = _column(path, columns, source.voltage)
-        measured[source.voltage[0]] = voltage_V
-        return current_A * voltage_V, measured
-    return current_A * float(source.supply_voltage_V), measured
+    path: Path, columns: _Columns, sources: list[PowerSource], flip: bool
+) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Power [W] (the sum of the channels), each channel's power when there are several, and
+    the measured columns power comes from (checked for clipping)."""
+    measured: dict[str, np.ndarray] = {}
+    channels: dict[str, np.ndarray] = {}
+    for source in sources:
+        if source.power:
+            power_W = _column(path, columns, source.power)
+            measured[source.power[0]] = power_W
+        else:
+            current_A = _column(path, columns, source.current)
+            measured[source.current[0]] = current_A
+            if source.voltage:
+                voltage_V = _column(path, columns, source.voltage)
+                measured[source.voltage[0]] = voltage_V
+                power_W = current_A * voltage_V
+            else:
+                power_W = current_A * float(source.supply_voltage_V)
+        if flip:
+            power_W = -power_W  # a new array: the measured columns stay as measured
+        channels[source.name] = power_W
+    if len(channels) == 1:
+        return next(iter(channels.values())), {}, measured
+    total_W = np.sum(list(channels.values()), axis=0)
+    return total_W, channels, measured
 
 
-def _time(path: Path, pre: _Preamble, columns: _Columns, period_s: float) -> np.ndarray | None:
-    if pre.format == FORMAT_CANONICAL:
-        name = find_column(columns.names, "time_s")
-        if name is not None:
-            return _column(path, columns, (name, 1.0))
+def _time(
+    path: Path,
+    pre: _Preamble,
+    columns: _Columns,
+    spec: tuple[str, float] | None,
+    period_s: float,
+) -> np.ndarray | None:
+    """Time stamps [s] from the time column (an index x the sample period for N6705)."""
+    if spec is None:
         return None
-    name = find_column(columns.names, "Sample")
-    if name is None:
-        return None
-    return _scaled(_column(path, columns, (name, 1.0)), period_s)
+    name, scale = spec
+    return _scaled(_column(path, columns, (name, 1.0)), period_s if scale == _INDEX else scale)
