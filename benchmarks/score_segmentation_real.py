@@ -131,8 +131,8 @@ def broken_reason(frame: pd.DataFrame) -> str | None:
     """Why a log cannot be trusted, from its raw columns (module docstring), or None."""
     dead, reversed_ = [], []
     for side in ("left", "right"):
-        voltage_V = frame[f"u_{side}_V"].to_numpy()
-        current_A = frame[f"i_{side}_A"].to_numpy()
+        voltage_V = frame[f"voltage_{side}_V"].to_numpy()
+        current_A = frame[f"current_{side}_A"].to_numpy()
         driven = np.abs(voltage_V) >= DRIVEN_V
         if not driven.any():
             continue

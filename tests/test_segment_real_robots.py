@@ -87,32 +87,37 @@ def test_every_row_kept_with_its_own_time_stamps(set_name: str) -> None:
 
 
 @pytest.mark.parametrize("set_name", SETS)
-def test_power_and_speed_come_from_the_raw_columns(set_name: str) -> None:
+def test_speed_is_the_mean_of_the_wheels(set_name: str) -> None:
     for source in ROWS[set_name]:
         frame = _frame(set_name, Path(source).stem)
-        power_W = frame.u_left_V * frame.i_left_A + frame.u_right_V * frame.i_right_A
-        assert_allclose(frame.power_W, power_W, atol=1e-6)  # written to 6 decimals
-        speed = (frame.v_left_mps + frame.v_right_mps) / 2
-        assert_allclose(frame.speed_mps, speed, atol=1e-5)  # 5 decimals
+        speed = (frame.speed_left_mps + frame.speed_right_mps) / 2
+        assert_allclose(frame.speed_mps, speed, atol=1e-5)  # written to 5 decimals
+
+
+def test_first_rows_match_the_source_file() -> None:
+    # initial_current_01_emma.txt, rows 1-2 as published (time, mission, state, thread,
+    # voltage L R, current L R, wheel velocity L R, battery voltage):
+    # "0.001 2 2 0 2.0 2.0 0.005 -0.009 -0.0000 -0.0000 11.01"
+    # "0.002 2 2 0 2.0 2.0 0.184 0.124 -0.0000 0.0000 11.00"
+    frame = _frame("regbot_initial_current", "initial_current_01_emma")
+    columns = ["voltage_left_V", "voltage_right_V", "current_left_A", "current_right_A"]
+    assert_allclose(frame[columns][:2], [[2, 2, 0.005, -0.009], [2, 2, 0.184, 0.124]], atol=0)
 
 
 @pytest.mark.parametrize("set_name", SETS)
-def test_the_reader_gives_the_segmenter_the_speed_column(set_name: str) -> None:
+def test_the_reader_sums_the_two_motors_and_gives_the_speed(set_name: str) -> None:
     from wifibot_power.io import ReadOptions, read_log
 
     # logs main reads (no voltage reversal in them)
     stem = {"regbot_initial_current": "initial_current_12_josefine"}.get(set_name, "vel_step_2")
+    frame = _frame(set_name, stem)
     run = read_log(REAL / set_name / f"{stem}.csv.gz", ReadOptions())
-    assert run.speed_mps is not None
-    assert_allclose(run.speed_mps, _frame(set_name, stem).speed_mps, atol=0)
-
-
-def test_first_rows_match_the_source_file() -> None:
-    # initial_current_01_emma.txt, rows 1-2 as published:
-    # "0.001 2 2 0 2.0 2.0 0.005 -0.009 -0.0000 -0.0000 11.01"
-    # "0.002 2 2 0 2.0 2.0 0.184 0.124 -0.0000 0.0000 11.00"
-    frame = _frame("regbot_initial_current", "initial_current_01_emma")
-    assert_allclose(frame.power_W[:2], [2 * 0.005 - 2 * 0.009, 2 * 0.184 + 2 * 0.124], atol=1e-9)
+    left_W = frame.voltage_left_V * frame.current_left_A
+    right_W = frame.voltage_right_V * frame.current_right_A
+    assert_allclose(run.channels_W["left"], left_W, rtol=1e-12)
+    assert_allclose(run.power_W, left_W + right_W, rtol=1e-12, atol=1e-15)
+    assert_allclose(run.speed_mps, frame.speed_mps, atol=0)
+    assert_allclose(run.time_s, frame.time_s, atol=0)
 
 
 @pytest.mark.parametrize("set_name", SETS)

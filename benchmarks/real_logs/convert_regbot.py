@@ -15,14 +15,15 @@ numbers per sample. Two public sets are converted (docs/real-logs.md):
 Each log becomes one `.csv.gz` with every row kept and its own time stamps:
 
 - `time_s`: the log's time column [s] (1 ms steps);
-- `power_W`: motor voltage x motor current, left + right (the logs record the motors only,
-  so a standing robot reads 0 W); the voltage is the one the controller commands (the log's
-  "Motor voltage" column), the current the one it measures;
+- `voltage_left_V`, `current_left_A`, `voltage_right_V`, `current_right_A`: the two motors
+  as two channels (log-format.md, "Several channels": wbpower sums their voltage x current
+  into the robot's power). The logs record the motors only, so a standing robot reads 0 W;
+  the voltage is the one the controller commands (the log's "Motor voltage" column), the
+  current the one it measures;
 - `speed_mps`: (left + right wheel velocity) / 2, signed (negative = backwards). The logs'
   "Wheel velocity [m/s]" is already a speed: the robot's firmware converts encoder ticks
   with its configured wheel radius (0.03 m on REGBOT), so no radius is applied here;
-- the raw columns, renamed with units and kept out of the analysis: `u_left_V`,
-  `u_right_V`, `i_left_A`, `i_right_A`, `v_left_mps`, `v_right_mps`.
+- `speed_left_mps`, `speed_right_mps`: the two wheel velocities as logged.
 
 Metadata: `run_id` (set + file stem), `mode: motion`, `speed_mps` = the largest |speed|
 of the log (the tests command voltages, not speeds), `steps: 1`, and provenance keys
@@ -156,19 +157,28 @@ def parse_regbot(text: str, source: str) -> dict[str, np.ndarray | str]:
     }
 
 
+#: output columns: (name, source key, printf format as logged: 3 decimals of time, 0.1 V,
+#: mA, 0.1 mm/s)
+COLUMNS = (
+    ("time_s", "time_s", "%.3f"),
+    ("speed_mps", None, "%.5f"),
+    ("voltage_left_V", "u_left_V", "%.2f"),
+    ("current_left_A", "i_left_A", "%.3f"),
+    ("voltage_right_V", "u_right_V", "%.2f"),
+    ("current_right_A", "i_right_A", "%.3f"),
+    ("speed_left_mps", "v_left_mps", "%.4f"),
+    ("speed_right_mps", "v_right_mps", "%.4f"),
+)
+
+
 def to_canonical(cols: dict[str, np.ndarray | str], meta: dict[str, str]) -> str:
     """The canonical wbpower CSV text of one parsed log."""
-    power_W = cols["u_left_V"] * cols["i_left_A"] + cols["u_right_V"] * cols["i_right_A"]
-    speed_mps = (cols["v_left_mps"] + cols["v_right_mps"]) / 2
+    speed_mps = (cols["v_left_mps"] + cols["v_right_mps"]) / 2 + 0.0  # + 0.0: no "-0"
     meta = {**meta, "speed_mps": f"{np.max(np.abs(speed_mps)):.2f}"}
     head = ["# wbpower-log: 1", *(f"# {k}: {v}" for k, v in meta.items())]
-    names = ["time_s", "power_W", "speed_mps"]
-    raw = ["u_left_V", "u_right_V", "i_left_A", "i_right_A", "v_left_mps", "v_right_mps"]
-    table = np.column_stack([cols["time_s"], power_W, speed_mps, *(cols[k] for k in raw)])
-    # time as logged (1 ms, 3 decimals); products to 6 decimals (inputs have 1-4)
-    fmt = ["%.3f", "%.6f", "%.5f", "%.2f", "%.2f", "%.3f", "%.3f", "%.4f", "%.4f"]
-    lines = [",".join(names + raw)]
-    lines += [",".join(f % x for f, x in zip(fmt, row, strict=True)) for row in table]
+    table = np.column_stack([speed_mps if k is None else cols[k] for _, k, _ in COLUMNS])
+    lines = [",".join(name for name, _, _ in COLUMNS)]
+    lines += [",".join(f % x for (_, _, f), x in zip(COLUMNS, row, strict=True)) for row in table]
     return "\n".join(head + lines) + "\n"
 
 
