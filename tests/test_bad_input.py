@@ -92,7 +92,11 @@ ERRORS: list[tuple[str, str | bytes, tuple[str, ...]]] = [
     ),
     # samples 0-99, then a jump to t = 0.2 s: 0.2 - 99*T - T of samples missing (> 0.05 s)
     ("long_gap", log(rows([23.3] * 100) + "0.2000000,23.3\n"), ("line 105", "gap(s) of dropped")),
-    ("negative_power", log("0.0000000,23.3\n0.0001024,-5.0\n"), ("line 6", "negative power")),
+    (
+        "power_negative_most_of_the_time",
+        log("0.0000000,-23.3\n0.0001024,-5.0\n0.0002048,1.0\n"),
+        ("negative most of the time", "--flip-current"),
+    ),
     (
         "absurd_power",
         log("0.0000000,23.3\n0.0001024,2000\n"),

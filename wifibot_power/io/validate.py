@@ -19,10 +19,19 @@ from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem
 ABSURD_POWER_W = 1000.0
 #: Above this a speed column is not in m/s (a small robot; mm/s or rpm by mistake) [m/s].
 ABSURD_SPEED_MPS = 50.0
-#: Below this a reading is negative, not an offset around zero.
+#: Below this a reading is negative, not an offset around zero: such samples are data
+#: (regenerative braking, current lagging a voltage reversal by a sample), read and reported.
 NEGATIVE_POWER_W = -1.0
-#: A single dropped-sample gap longer than this stops the analysis [s].
+#: Negative samples holding more than this share of the log's absolute energy mean the power
+#: is negative most of the time: the current sign is reversed (an error). At 2/3 the negative
+#: energy is twice the positive: a zero-mean noise trace (a motor log idling at 0 W) sits
+#: near 1/2, a log with brief regeneration far below.
+REVERSED_ENERGY_SHARE = 2.0 / 3.0
+#: A single dropped-sample gap longer than this stops the analysis [s] ...
 MAX_GAP_S = 0.05
+#: ... unless it is at most this many sample periods of the log's own spacing: a slow logger
+#: (~18 Hz: 55 ms a sample) that drops a sample, or three in a row, is not refused.
+MAX_GAP_PERIODS = 3
 #: Dropped samples adding up to more than this share of the log stop the analysis [%].
 MAX_GAP_PCT = 1.0
 #: A step between time stamps above this many sample periods is a gap (jitter stays below).
@@ -59,6 +68,9 @@ def check_samples(
         problems: list[Problem] = []
     else:
         period_s, problems = _check_time(file, time_s, line_of, default_period_s)
+    negative = _negative_samples(power_W, time_s, period_s)
+    if negative is not None:
+        problems.insert(0, negative)
     for name, values in (measured or {"power": power_W}).items():
         _check_saturation(file, name, values, time_s, period_s, line_of)
     return period_s, problems
@@ -134,12 +146,14 @@ def _check_time(
         f"({missing_pct:.2g}% of the log), longest {missing_s[longest]:.4g} s after "
         f"t = {time_s[gaps[longest]]:.6g} s"
     )
-    if missing_s[longest] > MAX_GAP_S or missing_pct > MAX_GAP_PCT:
+    limit_s = max(MAX_GAP_S, MAX_GAP_PERIODS * period_s)
+    if missing_s[longest] > limit_s or missing_pct > MAX_GAP_PCT:
         raise LogError(
             summary,
             file=file,
             where=f"line {line_of(int(gaps[longest]) + 1)}",
-            fix=f"a gap over {MAX_GAP_S:g} s, or gaps over {MAX_GAP_PCT:g}% of the log, make "
+            fix=f"a gap over {limit_s:.4g} s (the longer of {MAX_GAP_S:g} s and "
+            f"{MAX_GAP_PERIODS} sample periods), or gaps over {MAX_GAP_PCT:g}% of the log, make "
             "energies wrong; re-record, or cut the log at the gap",
         )
     problems = [
@@ -168,14 +182,17 @@ def _check_power(file: str, power_W: np.ndarray, line_of: Callable[[int], int]) 
             where=f"line {line_of(index)}",
             fix="fix or delete that line",
         )
-    if low_W < NEGATIVE_POWER_W:
-        index = int(np.argmax(power_W < NEGATIVE_POWER_W))
-        raise LogError(
-            f"negative power ({power_W[index]:.4g} W)",
-            file=file,
-            where=f"line {line_of(index)}",
-            fix="check the current sign and the columns used (--current-column/--voltage-column)",
-        )
+    if low_W < 0:
+        negative_J = -float(np.sum(power_W, where=power_W < 0))
+        total_J = negative_J + float(np.sum(power_W, where=power_W > 0))
+        if negative_J > REVERSED_ENERGY_SHARE * total_J:
+            raise LogError(
+                f"power is negative most of the time (mean {power_W.mean():.4g} W; negative "
+                f"samples hold {100 * negative_J / total_J:.0f}% of its energy)",
+                file=file,
+                fix="the current sign looks reversed: give --flip-current (or drop it if "
+                "given), or check the columns used",
+            )
     if high_W > ABSURD_POWER_W:
         index = int(np.argmax(power_W > ABSURD_POWER_W))
         raise LogError(
@@ -184,6 +201,31 @@ def _check_power(file: str, power_W: np.ndarray, line_of: Callable[[int], int]) 
             where=f"line {line_of(index)}",
             fix="check the units (mA vs A, mW vs W) and the columns used",
         )
+
+
+def _negative_samples(
+    power_W: np.ndarray, time_s: np.ndarray | None, period_s: float
+) -> Problem | None:
+    """Samples below `NEGATIVE_POWER_W` in a log whose power is positive on the whole: data,
+    read and counted in the energy, reported as one problem (log-format.md, negative power)."""
+    if not power_W.size or power_W.min() >= NEGATIVE_POWER_W:
+        return None
+    below = power_W < NEGATIVE_POWER_W
+    count = int(np.count_nonzero(below))
+    lowest = int(np.argmin(power_W))
+    first = int(np.argmax(below))
+    t_first_s = float(time_s[first]) if time_s is not None else first * period_s
+    t_lowest_s = float(time_s[lowest]) if time_s is not None else lowest * period_s
+    energy_J = float(np.sum(power_W, where=below)) * period_s
+    return Problem(
+        "negative",
+        f"{count} sample(s) of negative power below {NEGATIVE_POWER_W:g} W, the lowest "
+        f"{power_W[lowest]:.4g} W at t = {t_lowest_s:.6g} s, {energy_J:.3g} J in all: read as "
+        "data (regenerative braking, or current lagging a voltage reversal) and counted in "
+        "the energy",
+        t_first_s,
+        count * period_s,
+    )
 
 
 def _check_saturation(

@@ -1,0 +1,149 @@
+"""Negative power and gaps as real loggers give them (issue 12, log-format.md "Bad input").
+
+- brief negative samples (current lagging a drive-voltage reversal by one sample) are data:
+  read, counted in the energy, reported; power negative most of the time is a reversed
+  current sign: an error naming --flip-current;
+- a gap is judged against the log's own sample spacing: a ~18 Hz logger dropping a sample is
+  read (with a warning), a long gap is still refused.
+
+Expected numbers are computed here from the values written.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from wifibot_power.errors import LogError
+from wifibot_power.io import ReadOptions, read_log
+from wifibot_power.io.validate import check_samples
+
+
+def _motor_log(path: Path, sign: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """A 1 kHz motor log (voltage, current) that drives forward, then reverses: the current
+    lags the voltage reversal by one sample, so one sample at each reversal is negative
+    (-1.5 W and -2.4 W here, as in the real logs). Returns the written voltage and current."""
+    n = 3000
+    volts = np.where(np.arange(n) < 1500, 6.0, -6.0)
+    volts[:200] = 0.0  # standing, 0 W (only the motor is logged)
+    amps = np.zeros(n)
+    amps[200:1500] = 0.5
+    amps[1501:2800] = -0.4
+    amps[1500] = 0.25  # the current still positive one sample after the voltage reversed
+    amps[2800:] = 0.0
+    volts[2800] = -6.0
+    amps[2800] = 0.4  # a last lag as the drive stops: -6 V x 0.4 A = -2.4 W
+    amps = amps * sign
+    lines = [
+        f"{k / 1000:.3f},{v:.1f},{a:.3f}" for k, (v, a) in enumerate(zip(volts, amps, strict=True))
+    ]
+    path.write_text("time_s,voltage_V,current_A\n" + "\n".join(lines) + "\n")
+    return volts, amps
+
+
+def test_reproduction_brief_negative_samples_are_data(tmp_path, wbpower):
+    path = tmp_path / "reversal.csv"
+    volts, amps = _motor_log(path)
+    power_W = volts * amps
+    # what real logs showed: single samples of -1 to -2.5 W
+    assert_allclose(sorted(power_W[power_W < 0]), [-2.4, -1.5], rtol=1e-12)
+    run = read_log(path)  # was: "negative power (-1.5 W)" and the log refused
+    assert_allclose(run.power_W, power_W, rtol=1e-15)
+    assert_allclose(run.energy_J, power_W.sum() * 1e-3, rtol=1e-12)  # negatives counted
+    (problem,) = run.problems
+    assert problem.kind == "negative" and problem.message.startswith("2 sample(s)")
+    assert "-2.4 W at t = 2.8 s" in problem.message
+    assert problem.t_start_s == pytest.approx(1.5)
+    result = wbpower("inspect", "--json", path)
+    assert result.exit_code == 0, result.stderr
+    assert "warning" in result.stderr and "negative power" in result.stderr
+    (row,) = json.loads(result.stdout)
+    assert_allclose(row["energy_J"], power_W.sum() * 1e-3, rtol=1e-12)
+
+
+def test_power_negative_most_of_the_time_names_the_option_to_flip(tmp_path, wbpower):
+    path = tmp_path / "reversed.csv"
+    volts, amps = _motor_log(path, sign=-1.0)
+    with pytest.raises(LogError, match="negative most of the time") as error:
+        read_log(path)
+    assert "--flip-current" in error.value.one_line()
+    result = wbpower("inspect", path)
+    assert result.exit_code == 2 and "--flip-current" in result.stderr
+    run = read_log(path, ReadOptions(flip_current=True))
+    assert_allclose(run.power_W, -(volts * amps), rtol=1e-15)
+    result = wbpower("inspect", "--json", "--flip-current", path)
+    assert result.exit_code == 0, result.stderr
+
+
+def test_zero_mean_noise_of_a_motor_log_at_rest_is_neither_reversed_nor_reported(tmp_path):
+    rng = np.random.default_rng(3)
+    noise = np.round(rng.normal(0.0, 0.2, 5000), 3)  # within +-1 W: an offset, not negative
+    noise = np.clip(noise, -0.9, 0.9)
+    lines = [f"{k / 1000:.3f},{p:.3f}" for k, p in enumerate(noise)]
+    path = tmp_path / "rest.csv"
+    path.write_text("time_s,power_W\n" + "\n".join(lines) + "\n")
+    run = read_log(path)
+    assert run.problems == ()
+    assert_allclose(run.energy_J, noise.sum() * 1e-3, rtol=1e-9, atol=1e-15)
+
+
+def test_absurd_power_is_still_an_error(tmp_path):
+    path = tmp_path / "kw.csv"
+    path.write_text("time_s,power_W\n0,23\n0.001,1500\n")
+    with pytest.raises(LogError, match="absurd power"):
+        read_log(path)
+
+
+# -- gaps against the log's own spacing -------------------------------------------------------
+
+
+def _slow_logger(path: Path, dropped: list[int], n: int = 1200) -> np.ndarray:
+    """A ~18 Hz logger (55.6 ms, with +-2 ms of jitter) over ~67 s, less the samples
+    `dropped`; returns the time stamps written."""
+    rng = np.random.default_rng(18)
+    time_s = np.round(np.arange(n) / 18.0 + rng.uniform(-0.002, 0.002, n), 4)
+    keep = np.setdiff1d(np.arange(n), dropped)
+    lines = [f"{time_s[k]:.4f},{5 + (k % 3)}" for k in keep]
+    path.write_text("time_s,power_W\n" + "\n".join(lines) + "\n")
+    return time_s[keep]
+
+
+def test_reproduction_slow_logger_dropping_one_sample_is_read(tmp_path):
+    path = tmp_path / "slow.csv"
+    written = _slow_logger(path, dropped=[600])
+    run = read_log(path)  # was: refused, the 55.6 ms gap over an absolute 0.05 s
+    assert run.time_s.tolist() == written.tolist()
+    assert run.sample_period_s == pytest.approx(1 / 18, rel=0.02)
+    (gap,) = run.problems
+    assert gap.kind == "gap" and gap.duration_s == pytest.approx(1 / 18, abs=0.005)
+    assert gap.t_start_s == pytest.approx(600 / 18, abs=0.005)
+    # three in a row is still a short gap for this logger
+    (gap,) = read_log(_write_slow(tmp_path, [600, 601, 602])).problems
+    assert gap.duration_s == pytest.approx(3 / 18, abs=0.005)
+
+
+def _write_slow(tmp_path: Path, dropped: list[int]) -> Path:
+    path = tmp_path / f"slow{len(dropped)}.csv"
+    _slow_logger(path, dropped)
+    return path
+
+
+def test_long_gap_against_the_logs_spacing_is_still_refused(tmp_path):
+    # 5 samples in a row at 18 Hz: 0.28 s missing, over 3 periods (0.167 s), 0.4% of the log
+    with pytest.raises(LogError, match="1 gap") as error:
+        read_log(_write_slow(tmp_path, [600, 601, 602, 603, 604]))
+    assert "3 sample periods" in error.value.one_line()
+    # at 10 kHz the absolute 0.05 s still holds: 0.06 s dropped (0.6% of 10 s) is refused,
+    # 0.04 s is read
+    for missing, refused in ((600, True), (400, False)):
+        time_s = np.concatenate((np.arange(50_000), np.arange(50_000 + missing, 100_000))) * 1e-4
+        power_W = np.full(time_s.size, 23.3)
+        if refused:
+            with pytest.raises(LogError, match="gap"):
+                check_samples("fast.csv", time_s, power_W)
+        else:
+            assert len(check_samples("fast.csv", time_s, power_W)[1]) == 1
