@@ -4,10 +4,11 @@ The fixtures (tests/data/real/<set>/, docs/real-logs.md) are public REGBOT motor
 1 ms, converted by benchmarks/real_logs/convert_regbot.py; their `speed_mps` column is the
 ground truth. The scoring itself is benchmarks/score_segmentation_real.py.
 
-The first tests check the fixtures and the scoring (they pass today). The last ones state
-issue 12's "Done when" criteria and fail on main's segmenter (the `segment` and `io` branches
-are building what they need): they are `xfail(strict=False)` with the numbers measured on
-main in the reason, so the suite stays green and whoever merges sees them turn XPASS.
+The first tests check the fixtures, the reading (with branch io merged: two motor channels,
+the speed column, brief negative power read as data) and the scoring; they pass. The last
+ones state issue 12's segmentation criteria and fail on main's segmenter (branch `segment`
+is building what they need): they are `xfail(strict=False)` with the numbers measured in
+the reason, so the suite stays green and whoever merges sees them turn XPASS.
 """
 
 from __future__ import annotations
@@ -108,8 +109,8 @@ def test_first_rows_match_the_source_file() -> None:
 def test_the_reader_sums_the_two_motors_and_gives_the_speed(set_name: str) -> None:
     from wifibot_power.io import ReadOptions, read_log
 
-    # logs main reads (no voltage reversal in them)
-    stem = {"regbot_initial_current": "initial_current_12_josefine"}.get(set_name, "vel_step_2")
+    # emma holds the reversal sample of -1.256 W (line 363 of the source): read as data
+    stem = {"regbot_initial_current": "initial_current_01_emma"}.get(set_name, "vel_step_2")
     frame = _frame(set_name, stem)
     run = read_log(REAL / set_name / f"{stem}.csv.gz", ReadOptions())
     left_W = frame.voltage_left_V * frame.current_left_A
@@ -118,6 +119,9 @@ def test_the_reader_sums_the_two_motors_and_gives_the_speed(set_name: str) -> No
     assert_allclose(run.power_W, left_W + right_W, rtol=1e-12, atol=1e-15)
     assert_allclose(run.speed_mps, frame.speed_mps, atol=0)
     assert_allclose(run.time_s, frame.time_s, atol=0)
+    if set_name == "regbot_initial_current":
+        # "0.352 ... -4.0 -4.0 0.182 0.132 ...": the current lags the voltage reversal by a sample
+        assert run.power_W.min() == pytest.approx(-4 * 0.182 - 4 * 0.132)
 
 
 @pytest.mark.parametrize("set_name", SETS)
@@ -233,29 +237,23 @@ def test_script_prints_a_table_per_set() -> None:
 # -- issue 12's criteria (what the segment and io branches are building) -------------------------
 
 
-@pytest.mark.parametrize(
-    "set_name",
-    [
-        pytest.param(
-            "regbot_initial_current",
-            marks=pytest.mark.xfail(
-                strict=False,
-                reason="main's reader refuses 4 of 10 sound logs (one sample of -1.0 to -2.5 W "
-                "where the voltage reverses: the current lags one sample; branch io reads it)",
-            ),
-        ),
-        "regbot_rev2b_vel_step",  # main reads all 7 sound logs
-    ],
-)
-def test_no_sound_log_refused(scores, set_name: str) -> None:
-    refused = [s.log for s in scores[set_name] if s.broken is None and s.refused]
-    assert refused == []
+@pytest.mark.parametrize("set_name", SETS)
+def test_only_truly_broken_logs_are_refused(scores, set_name: str) -> None:
+    # before branch io, main's reader refused 4 of the 10 sound logs of regbot_initial_current
+    # (one sample of -1.0 to -2.5 W where the voltage reverses: the current lags one sample)
+    refused = {s.log: s.refused for s in scores[set_name] if s.refused}
+    assert all(s.broken for s in scores[set_name] if s.refused), refused
+
+
+def test_a_reversed_log_is_refused_with_the_option_that_flips_it(scores) -> None:
+    (melina,) = [s for s in scores["regbot_initial_current"] if "melina" in s.log]
+    assert melina.refused is not None and "--flip-current" in melina.refused
 
 
 @pytest.mark.xfail(
     strict=False,
-    reason="main's segmenter ignores the speed column: 0 of 10 (initial_current, 4 refused) and "
-    "0 of 7 (rev2b_vel_step) sound logs within 50 ms; branch segment adds speed-based phases",
+    reason="main's segmenter ignores the speed column: 0 of 10 (initial_current) and 0 of 7 "
+    "(rev2b_vel_step) sound logs within 50 ms; branch segment adds speed-based phases",
 )
 @pytest.mark.parametrize("set_name", SETS)
 def test_with_speed_90_percent_within_50_ms(scores, set_name: str) -> None:
@@ -266,9 +264,8 @@ def test_with_speed_90_percent_within_50_ms(scores, set_name: str) -> None:
 
 @pytest.mark.xfail(
     strict=False,
-    reason="main's segmenter: 6 of 10 (initial_current, 4 refused) and 6 of 7 (rev2b_vel_step; "
-    "1 stops with 'no motion found') sound logs silently wrong, no doubts; branch segment "
-    "adds doubts",
+    reason="main's segmenter: 10 of 10 (initial_current) and 6 of 7 (rev2b_vel_step; 1 stops "
+    "with 'no motion found') sound logs silently wrong, no doubts; branch segment adds doubts",
 )
 @pytest.mark.parametrize("set_name", SETS)
 def test_without_speed_zero_silently_wrong(scores, set_name: str) -> None:
