@@ -9,8 +9,9 @@ A small differential-drive robot whose logger sees the motors only (idle 0 W unl
 - electrical power while driving: P = P_on + c1 v + c2 v² + k m a v (friction, copper
   losses, the inertial term while speeding up), plus PWM noise: white noise growing with
   the motor current and an aliased PWM tone at `pwm_tone_hz`;
-- braking `short`: the drive shorts the motors: power falls to ~0 at once while the speed
-  decays exponentially (time constant `coast_tau_s`); `drive`: a controlled linear ramp
+- braking `short`: the drive shorts the motors: power falls to ~0 at once while the wheels
+  coast to a stop under viscous (`coast_tau_s`) and Coulomb (`coast_friction_mps2`)
+  friction; `drive`: a controlled linear ramp
   down with power falling with the speed (P_on + c1 v); `none`: the log ends moving;
 - the velocity column is an encoder's: quantised to `speed_resolution_mps` (so a standing
   robot reads exactly 0) plus a little jitter while moving;
@@ -41,6 +42,7 @@ class Scenario:
     brake: str = "short"  # "short", "drive" or "none" (the log ends moving)
     decel_mps2: float = 1.0  # for brake="drive"
     coast_tau_s: float = 0.12
+    coast_friction_mps2: float = 0.5
     idle_W: float = 0.0
     period_s: float = 1e-3
     noise_W: float = 0.05  # white noise at standstill-free driving, per 1 ms
@@ -87,8 +89,12 @@ def realistic_run(sc: Scenario) -> tuple[Run, dict[str, object]]:
     for (name, _, v0, v1), count in zip(plan, counts, strict=True):
         frac = (np.arange(count) + 0.5) / count
         if name == "coast":
+            # viscous (tau) and Coulomb friction: dv/dt = -v / tau - a_c, so the wheels stop
+            # in finite time, at t = tau ln(1 + v0 / (tau a_c))
             t = (np.arange(count) + 0.5) * fine_dt
-            cmd[start : start + count] = v0 * np.exp(-t / sc.coast_tau_s)
+            tau, a_c = sc.coast_tau_s, sc.coast_friction_mps2
+            coast = (v0 + tau * a_c) * np.exp(-t / tau) - tau * a_c
+            cmd[start : start + count] = np.clip(coast, 0.0, None)
             driving[start : start + count] = False
         else:
             cmd[start : start + count] = v0 + (v1 - v0) * frac

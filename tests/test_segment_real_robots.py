@@ -5,10 +5,11 @@ The fixtures (tests/data/real/<set>/, docs/real-logs.md) are public REGBOT motor
 ground truth. The scoring itself is benchmarks/score_segmentation_real.py.
 
 The first tests check the fixtures, the reading (with branch io merged: two motor channels,
-the speed column, brief negative power read as data) and the scoring; they pass. The last
-ones state issue 12's segmentation criteria and fail on main's segmenter (branch `segment`
-is building what they need): they are `xfail(strict=False)` with the numbers measured in
-the reason, so the suite stays green and whoever merges sees them turn XPASS.
+the speed column, brief negative power read as data) and the scoring. The last ones state
+issue 12's segmentation criteria; main's segmenter failed them (0 of 17 sound logs within
+50 ms with the speed column, 16 of 17 silently wrong without it). With segmentation from
+the speed column and doubts (branch segment): 16 of 17 within 50 ms (9/10 and 7/7), and
+without the speed column every one of the 17 doubted, none silently wrong.
 """
 
 from __future__ import annotations
@@ -234,7 +235,7 @@ def test_script_prints_a_table_per_set() -> None:
     assert "== all sets:" in result.stdout
 
 
-# -- issue 12's criteria (what the segment and io branches are building) -------------------------
+# -- issue 12's criteria ------------------------------------------------------------------
 
 
 @pytest.mark.parametrize("set_name", SETS)
@@ -250,11 +251,6 @@ def test_a_reversed_log_is_refused_with_the_option_that_flips_it(scores) -> None
     assert melina.refused is not None and "--flip-current" in melina.refused
 
 
-@pytest.mark.xfail(
-    strict=False,
-    reason="main's segmenter ignores the speed column: 0 of 10 (initial_current) and 0 of 7 "
-    "(rev2b_vel_step) sound logs within 50 ms; branch segment adds speed-based phases",
-)
 @pytest.mark.parametrize("set_name", SETS)
 def test_with_speed_90_percent_within_50_ms(scores, set_name: str) -> None:
     summary = score.summarize(scores[set_name])
@@ -262,11 +258,6 @@ def test_with_speed_90_percent_within_50_ms(scores, set_name: str) -> None:
     assert summary.right_with_speed_share >= 0.9
 
 
-@pytest.mark.xfail(
-    strict=False,
-    reason="main's segmenter: 10 of 10 (initial_current) and 6 of 7 (rev2b_vel_step; 1 stops "
-    "with 'no motion found') sound logs silently wrong, no doubts; branch segment adds doubts",
-)
 @pytest.mark.parametrize("set_name", SETS)
 def test_without_speed_zero_silently_wrong(scores, set_name: str) -> None:
     summary = score.summarize(scores[set_name])

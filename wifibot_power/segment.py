@@ -266,13 +266,17 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     # count)
     v_edge = _centred_mean(v, round(params.edge_s / 2 / block_dt))
     still = v_edge <= floor
+    # a motion ends where the speed falls below the moving threshold's share of the top
+    # speed, not where the reading reaches 0: a filtered speed reading decays for tens of
+    # ms after the wheels stop (at the start nothing comes before the first count)
+    stopped = v_edge <= max(floor, params.moving_fraction * top)
     hold = max(1, round(params.still_s / block_dt))
     motions: list[tuple[int, int]] = []
     for a, b in stretches:
         lo = motions[-1][1] if motions else 0
         before = _held(still[lo:a][::-1], hold)  # counted back from a
         start = a - before if before is not None else lo
-        after = _held(still[b:], hold)
+        after = _held(stopped[b:], hold)
         end = b + after if after is not None else n
         motions.append((start, max(end, start + 1)))
     # slope of the smoothed speed (per second), its noise, and the class of each block
