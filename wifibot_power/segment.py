@@ -1,8 +1,13 @@
 """Segmentation of a run into phases: what `wbpower segment` computes (and `fit` uses).
 
-A motion run (`meta.mode == "motion"`, `meta.steps = N`) is cut into: idle, then for each
-step `accel`, `cruise`, `decel` (only when the data shows one), idle between steps. Any
-other log is cut into steady `level` segments by the generic layer
+A run with a speed column (`Run.speed_mps`) whose speed shows motion is cut from
+kinematics: standing (`idle`), speeding up (`accel`), holding a level (`cruise`), slowing
+(`decel`), several levels per run allowed, the power trace refining the boundaries it marks
+(`_segment_kinematic`, `SpeedParams`). Otherwise a motion run (`meta.mode == "motion"`,
+`meta.steps = N`) is cut from power into: idle, then for each step `accel`, `cruise`,
+`decel` (only when the data shows one), idle between steps, and the phase model is then
+tested against the trace (`_motion_doubts`): where it does not fit, `Segmentation.doubts`
+says why. Any other log is cut into steady `level` segments by the generic layer
 (`wifibot_power.changepoint.detect_levels`).
 
 Motion runs, on 1 ms block means (docs/segmentation.md has the details and figures):
