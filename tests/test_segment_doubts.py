@@ -66,6 +66,12 @@ def test_speed_column_motion_interval_within_50_ms(name: str, seed: int) -> None
     tolerance = max(TOLERANCE_S, run.sample_period_s)
     assert start == pytest.approx(truth["motion_start_s"], abs=tolerance)
     assert end == pytest.approx(truth["motion_end_s"], abs=tolerance)
+    # a motion from standstill starts speeding up; one that stops ends slowing
+    moving = [p.phase for p in seg.phases if p.phase != "idle"]
+    if not truth["starts_moving"]:
+        assert moving[0] == "accel", moving
+    if not truth["ends_moving"]:
+        assert moving[-1] == "decel", moving
     # phases cover the run once, and each carries its mean measured speed
     assert seg.phases[0].i_start == 0 and seg.phases[-1].i_end == run.samples
     assert all(a.i_end == b.i_start for a, b in zip(seg.phases, seg.phases[1:], strict=False))

@@ -136,7 +136,7 @@ class SpeedParams:
     #: moving or standing stretches shorter than this are merged into their neighbours [s]
     min_stretch_s: float = 0.1
     #: accelerating (braking) where the slope of the smoothed speed exceeds this fraction of
-    #: the run's typical acceleration (95th percentile of |slope| while moving) and
+    #: the top speed per second [1/s] (a change of 2% of the top speed in 0.1 s) and
     #: `accel_z` sd of its noise; cruising otherwise
     accel_fraction: float = 0.2
     accel_z: float = 5.0
@@ -290,11 +290,7 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     if n > 2 * h:
         slope[h:-h] = (vs[2 * h :] - vs[: -2 * h]) / (2 * h * block_dt)
     slope_sd = smooth_sd * np.sqrt(2.0) / (2 * h * block_dt)
-    in_motion = np.zeros(n, dtype=bool)
-    for a, b in motions:
-        in_motion[a:b] = True
-    typical = float(np.percentile(np.abs(slope[in_motion]), 95))
-    accel_threshold = max(params.accel_fraction * typical, params.accel_z * slope_sd)
+    accel_threshold = max(params.accel_fraction * top, params.accel_z * slope_sd)
     kind = np.where(slope > accel_threshold, 1, np.where(slope < -accel_threshold, -1, 0))
     names = {1: "accel", 0: "cruise", -1: "decel"}
     sigma_b = robust_sigma_W(y)
