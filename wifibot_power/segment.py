@@ -460,9 +460,11 @@ def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
     coarse = _coarse_motion(y, block_dt, max(1, run.meta.steps), params)
     if not coarse:
         raise LogError(
-            "no motion found: power never rises clearly above the idle level",
+            "no motion found: power never rises clearly above the idle level (read from "
+            "the first and last 0.5 s: a run moving at both ends shows none)",
             file=run.file,
-            fix="check the run's mode, or the reading options (--supply-voltage)",
+            fix="check the run's mode, or the reading options (--supply-voltage); a run "
+            "without idle at either end needs a speed column",
         )
     sigma_b = robust_sigma_W(y)
     steps: list[_Step] = []
