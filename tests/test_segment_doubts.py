@@ -276,3 +276,32 @@ def test_run_table_takes_the_measured_speed_and_refuses_two_levels() -> None:
     row = run_row(run, segment_run(run))
     assert row["cruise_levels"] == 2 and not row["usable"]
     assert "2 speed levels" in row["skip_reason"]
+
+
+def test_diagnose_leaves_doubtful_runs_out_unless_kept() -> None:
+    from wifibot_power.diagnose import diagnose_summaries, summarize_run
+    from wifibot_power.phases import Segmentation
+    from wifibot_power.simulate import simulate_runs
+
+    config = SimConfig(
+        speeds_mps=(0.2, 0.5, 0.8),
+        trips=((2.0, 1),),
+        repeats=3,
+        modes=(),
+        seed=9,
+        sample_period_s=1.024e-3,
+    )
+    runs = [sim.run for sim in simulate_runs(config)]
+    doubtful = runs[0].meta.run_id
+
+    def segmenter(run: Run) -> Segmentation:
+        seg = segment_run(run)
+        return replace(seg, doubts=("a doubt",)) if run.meta.run_id == doubtful else seg
+
+    summaries = [summarize_run(run, segmenter) for run in runs]
+    left_out = diagnose_summaries(summaries)
+    kept = diagnose_summaries(summaries, keep_doubtful=True)
+    assert kept.n_runs == left_out.n_runs + 1 == len(runs)
+    (skip,) = left_out.skipped
+    assert "segmentation in doubt: a doubt" in skip.reason
+    assert kept.skipped == ()
