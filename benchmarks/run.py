@@ -286,7 +286,7 @@ print(json.dumps({
     "import wifibot_power.cli": import_s,
     "fit_logs (whole, 1 job)": cumulative("fit.py", "fit_logs"),
     "read_log": cumulative("reader.py", "read_log"),
-    "  CSV parse to numpy (_read_columns)": cumulative("reader.py", "_read_columns"),
+    "  CSV parse to numpy (read_columns)": cumulative("transport.py", "read_columns"),
     "  sample checks (check_samples)": cumulative("validate.py", "check_samples"),
     "segment_run": cumulative("segment.py", "segment_run"),
     "run_row": cumulative("runtable.py", "run_row"),

@@ -128,3 +128,13 @@ def test_single_file_commands_read_the_manifest_beside_it(tmp_path: Path, wbpowe
         assert {p["phase"] for p in without["phases"]} == {"level"}
         assert found["run_id"] == "from_manifest"
         assert {"accel", "cruise"} <= {p["phase"] for p in found["phases"]}
+
+
+def test_segment_reads_a_single_file_whatever_its_name(tmp_path: Path, wbpower) -> None:
+    log = tmp_path / "run.txt"  # not named like a log: still read when named alone
+    log.write_text(
+        "# mode: idle\ntime_s,power_W\n" + "".join(f"{k / 100},23.{k % 7}\n" for k in range(50))
+    )
+    result = wbpower("segment", "--json", log)
+    assert result.exit_code == 0, result.stderr
+    assert json.loads(result.stdout)["phases"]

@@ -13,19 +13,19 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "errors.md"
-RAISERS = {"LogError", "_not_a_log"}
+RAISERS = {"LogError", "not_a_log"}
 
 
 def _messages() -> list[tuple[str, str]]:
     found = []
-    for path in sorted((ROOT / "wifibot_power" / "io").glob("*.py")):
+    for path in sorted((ROOT / "wifibot_power" / "io").rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text())):
             if not isinstance(node, ast.Call) or not node.args:
                 continue
             name = getattr(node.func, "id", getattr(node.func, "attr", ""))
             if name not in RAISERS:
                 continue
-            first = node.args[1] if name == "_not_a_log" else node.args[0]
+            first = node.args[1] if name == "not_a_log" else node.args[0]
             if isinstance(first, ast.Constant) and isinstance(first.value, str):
                 pieces = [first.value]
             elif isinstance(first, ast.JoinedStr):

@@ -147,3 +147,34 @@ def test_long_gap_against_the_logs_spacing_is_still_refused(tmp_path):
                 check_samples("fast.csv", time_s, power_W)
         else:
             assert len(check_samples("fast.csv", time_s, power_W)[1]) == 1
+
+
+def test_one_channel_wired_the_other_way_is_an_error_naming_it(tmp_path):
+    """Left motor's sensor reversed: the sum (right - left) would look like a small robot,
+    quietly wrong; the channel is named instead."""
+    rows = [f"{k / 1000:.3f},{-(2.0 + k % 3):.1f},{2.5 + k % 2:.1f}" for k in range(300)]
+    path = tmp_path / "two.csv"
+    path.write_text("time_s,power_left_W,power_right_W\n" + "\n".join(rows) + "\n")
+    with pytest.raises(LogError, match="channel 'left' is negative most of the time"):
+        read_log(path)
+    # both reversed: the sum is, and --flip-current mends it
+    rows = [f"{k / 1000:.3f},{-2.0:.1f},{-2.5:.1f}" for k in range(300)]
+    path.write_text("time_s,power_left_W,power_right_W\n" + "\n".join(rows) + "\n")
+    with pytest.raises(LogError, match="--flip-current"):
+        read_log(path)
+    run = read_log(path, ReadOptions(flip_current=True))
+    assert_allclose(run.power_W, 4.5, rtol=1e-15)
+    assert_allclose(run.channels_W["left"], 2.0, rtol=1e-15)
+
+
+def test_a_dead_channel_is_named_as_dead_not_reversed(tmp_path):
+    """As the real REGBOT log vel_step_18: the right current sensor reads -2 to -4 mA while
+    the motor is driven at 2.1 V, the left one 0.5 A."""
+    rows = [f"{k / 1000:.3f},2.1,{0.5 + 0.01 * (k % 3):.3f},2.1,{-0.002 - 0.001 * (k % 3):.3f}"
+            for k in range(300)]  # fmt: skip
+    path = tmp_path / "dead.csv"
+    header = "time_s,voltage_left_V,current_left_A,voltage_right_V,current_right_A\n"
+    path.write_text(header + "\n".join(rows) + "\n")
+    with pytest.raises(LogError, match="channel 'right' is negative") as error:
+        read_log(path)
+    assert "sensor looks dead" in error.value.one_line()

@@ -20,7 +20,8 @@ from hypothesis import strategies as st
 
 from wifibot_power.errors import LogError
 from wifibot_power.io import read_log
-from wifibot_power.io.reader import _iter_lines, _scan_lines
+from wifibot_power.io.transport import iter_lines as _iter_lines
+from wifibot_power.io.transport import scan_lines as _scan_lines
 
 PERIOD_S = 0.1024e-3
 HEAD = "# wbpower-log: 1\n# run_id: s\n# mode: idle\ntime_s,power_W\n"  # header: line 4

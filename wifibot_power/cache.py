@@ -48,7 +48,7 @@ from typing import Generic, TypeVar
 import numpy as np
 
 from wifibot_power.errors import UsageError
-from wifibot_power.io.options import ReadOptions
+from wifibot_power.io.options import ReadOptions, codec_of
 from wifibot_power.run import Problem, Run, RunMeta
 
 #: Version of the entry layout; part of every key (2: the speed and channel columns).
@@ -61,7 +61,6 @@ _CONTENT_KEY = b"wbpower.content_sha256"
 #: What `ParseCache.kept_result` returns when nothing is kept for the content.
 MISSING = object()
 T = TypeVar("T")
-_COMPRESSED = {".gz": "gzip", ".zst": "zstd"}
 
 
 @functools.lru_cache(maxsize=1)
@@ -71,7 +70,7 @@ def reader_digest() -> str:
     digest = hashlib.sha256(f"cache format {CACHE_FORMAT}".encode())
     for source in sorted(
         [
-            *package.joinpath("io").glob("*.py"),
+            *package.joinpath("io").rglob("*.py"),  # the formats/ modules too
             package / "run.py",
             package / "errors.py",
             Path(__file__),
@@ -324,7 +323,7 @@ def _store_result(path: Path, result: object, content_sha256: str) -> None:
 
 def _decompressed(path: Path, raw: bytes) -> bytes | None:
     """The bytes `read_log` parses (None: let it read the file and name the problem)."""
-    codec = next((c for s, c in _COMPRESSED.items() if path.name.lower().endswith(s)), None)
+    codec = codec_of(path)
     if codec is None:
         return raw
     import pyarrow as pa

@@ -1,41 +1,14 @@
-"""Column names and units: the one place that maps a log's columns to power in W.
+"""Columns whatever the format: how power is made from them (`PowerSource`), finding a
+column by name, and what a name says of its unit (`_mA` -> 1e-3; `Time [ms]` is time in ms).
 
-Canonical logs name columns with their unit (`power_W`, `power_mW`, `voltage_V`,
-`current_A`, `current_mA`, `time_s`, `speed_mps`); the N6705 export names them after the
-analyser's outputs (`Curr avg 3`, `Volt avg 4`, `Power avg 1`). Both resolve here.
+Each format's own column names live in its module (`formats/canonical.py`,
+`formats/n6705.py`); the names here are what any CSV may use, and what column options name.
 """
 
 from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-
-#: canonical column name (lower case) -> (quantity, scale to SI)
-CANONICAL_COLUMNS: dict[str, tuple[str, float]] = {
-    "power_w": ("power", 1.0),
-    "power_mw": ("power", 1e-3),
-    "voltage_v": ("voltage", 1.0),
-    "voltage_mv": ("voltage", 1e-3),
-    "current_a": ("current", 1.0),
-    "current_ma": ("current", 1e-3),
-    "time_s": ("time", 1.0),
-    "time_ms": ("time", 1e-3),
-    "time_us": ("time", 1e-6),
-    "speed_mps": ("speed", 1.0),
-}
-
-#: N6705 datalog columns: "Curr avg 3", "Volt max 4", "Power avg 1" -> quantity, statistic, output.
-N6705_COLUMN = re.compile(r"^\s*(curr|volt|power)\s+(avg|min|max)\s+([1-4])\s*$", re.IGNORECASE)
-N6705_QUANTITY = {"curr": "current", "volt": "voltage", "power": "power"}
-
-
-#: Canonical channel columns (log-format.md, "Several channels"): `power_<name>_W`,
-#: `voltage_<name>_V`, `current_<name>_A` (and their milli units).
-CHANNEL_COLUMN = re.compile(
-    r"^\s*(?P<quantity>power|voltage|current)_(?P<name>.+)_(?P<unit>w|mw|v|mv|a|ma)\s*$",
-    re.IGNORECASE,
-)
-_CHANNEL_UNITS = {"power": ("w", "mw"), "voltage": ("v", "mv"), "current": ("a", "ma")}
 
 #: Units a time column's name may carry, and their scale to seconds.
 TIME_NAME_UNITS: dict[str, float] = {
@@ -66,17 +39,6 @@ class PowerSource:
 
     def columns(self) -> list[str]:
         return [spec[0] for spec in (self.power, self.current, self.voltage) if spec]
-
-
-def channel_of(name: str) -> tuple[str, str, float] | None:
-    """(quantity, channel name, scale to SI) of a canonical channel column, else None."""
-    match = CHANNEL_COLUMN.match(name)
-    if match is None:
-        return None
-    quantity, unit = match["quantity"].lower(), match["unit"].lower()
-    if unit not in _CHANNEL_UNITS[quantity]:
-        return None  # `power_x_A`: not a channel column
-    return quantity, match["name"], 1e-3 if unit.startswith("m") else 1.0
 
 
 def time_unit_of(name: str) -> tuple[bool, float | None]:

@@ -100,4 +100,5 @@ def single_source(path: Path) -> LogSource:
     sources, skipped = find_logs([Path(path)])
     if skipped:
         raise LogError(skipped[0].reason)
-    return sources[0]
+    # a file not named like a log (`run.txt`) is still read when named on its own
+    return sources[0] if sources else LogSource(Path(path))

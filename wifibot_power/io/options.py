@@ -11,7 +11,16 @@ from pathlib import Path
 
 FORMAT_CANONICAL = "wbpower-csv"
 FORMAT_N6705 = "n6705"
-LOG_SUFFIXES = (".csv", ".csv.gz", ".csv.zst")
+#: The compressions read, by file-name suffix, as pyarrow names the codec: the one place
+#: compression is told (the reader, the parse cache and finding logs all ask `codec_of`).
+COMPRESSIONS = {".gz": "gzip", ".zst": "zstd"}
+LOG_SUFFIXES = (".csv", *(f".csv{suffix}" for suffix in COMPRESSIONS))
+
+
+def codec_of(path: Path) -> str | None:
+    """The compression of a file, from its name ("gzip", "zstd"), or None."""
+    name = path.name.lower()
+    return next((codec for suffix, codec in COMPRESSIONS.items() if name.endswith(suffix)), None)
 
 
 #: `--time-unit` values and their scale to seconds.

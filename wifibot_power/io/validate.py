@@ -17,6 +17,9 @@ from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem
 
 #: Above this the robot cannot be drawing power: a unit or column mistake.
 ABSURD_POWER_W = 1000.0
+#: A mostly negative channel whose mean power is under this share of another channel's mean
+#: absolute power reads almost nothing: a dead sensor with an offset, not a reversed one.
+DEAD_CHANNEL_SHARE = 0.05
 #: Above this a speed column is not in m/s (a small robot; mm/s or rpm by mistake) [m/s].
 ABSURD_SPEED_MPS = 50.0
 #: Below this a reading is negative, not an offset around zero: such samples are data
@@ -183,16 +186,13 @@ def _check_power(file: str, power_W: np.ndarray, line_of: Callable[[int], int]) 
             fix="fix or delete that line",
         )
     if low_W < 0:
-        negative_J = -float(np.sum(power_W, where=power_W < 0))
-        total_J = negative_J + float(np.sum(power_W, where=power_W > 0))
-        if negative_J > REVERSED_ENERGY_SHARE * total_J:
-            raise LogError(
-                f"power is negative most of the time (mean {power_W.mean():.4g} W; negative "
-                f"samples hold {100 * negative_J / total_J:.0f}% of its energy)",
-                file=file,
-                fix="the current sign looks reversed: give --flip-current (or drop it if "
-                "given), or check the columns used",
-            )
+        _check_sign(
+            file,
+            power_W,
+            "power",
+            "the current sign looks reversed: give --flip-current (or drop it if given), or "
+            "check the columns used",
+        )
     if high_W > ABSURD_POWER_W:
         index = int(np.argmax(power_W > ABSURD_POWER_W))
         raise LogError(
@@ -201,6 +201,44 @@ def _check_power(file: str, power_W: np.ndarray, line_of: Callable[[int], int]) 
             where=f"line {line_of(index)}",
             fix="check the units (mA vs A, mW vs W) and the columns used",
         )
+
+
+def _check_sign(file: str, power_W: np.ndarray, what: str, fix: str) -> None:
+    """Power negative most of the time (`REVERSED_ENERGY_SHARE`): a reversed current sign."""
+    negative_J = -float(np.sum(power_W, where=power_W < 0))
+    total_J = negative_J + float(np.sum(power_W, where=power_W > 0))
+    if negative_J > REVERSED_ENERGY_SHARE * total_J:
+        raise LogError(
+            f"{what} is negative most of the time (mean {power_W.mean():.4g} W; negative "
+            f"samples hold {100 * negative_J / total_J:.0f}% of its energy)",
+            file=file,
+            fix=fix,
+        )
+
+
+def check_channels(file: str, channels_W: dict[str, np.ndarray]) -> None:
+    """Each channel of a summed log is checked for a reversed sign on its own: one motor's
+    sensor wired the other way would otherwise cancel the other's power in the sum, quietly.
+    A channel that is mostly negative but reads almost nothing (under `DEAD_CHANNEL_SHARE`
+    of the others' mean absolute power) is named as a dead sensor instead: a current offset
+    of a few mA, not a reversal."""
+    for name, channel_W in channels_W.items():
+        if not (channel_W.size and channel_W.min() < 0):
+            continue
+        others_W = [float(np.mean(np.abs(c))) for n, c in channels_W.items() if n != name]
+        level_W = abs(float(channel_W.mean()))
+        if others_W and level_W < DEAD_CHANNEL_SHARE * max(others_W):
+            fix = (
+                f"its sensor looks dead: it reads {level_W:.3g} W against {max(others_W):.3g} W "
+                "on another channel; check its current sensor (to read one channel alone, "
+                "name its columns with --current-column and --voltage-column)"
+            )
+        else:
+            fix = (
+                "that channel's current sign looks reversed: negate its column in the log "
+                "(--flip-current negates every channel), or check the columns used"
+            )
+        _check_sign(file, channel_W, f"the power of channel '{name}'", fix)
 
 
 def _negative_samples(
@@ -245,8 +283,10 @@ def _check_saturation(
     at_peak = values == peak
     if np.count_nonzero(at_peak) < SATURATION_SAMPLES:
         return
-    if not peak > SATURATION_ABOVE_MEDIAN * np.median(values):
-        return  # the flat top is the trace's typical level (a steady load), not a clip
+    if not (peak > 0 and peak > SATURATION_ABOVE_MEDIAN * np.median(values)):
+        # the flat top is the trace's typical level (a steady load), not a clip; a column
+        # negative throughout (a reversed sensor, checked elsewhere) has no top to clip
+        return
     if np.mean(np.diff(values[~at_peak]) == 0) > QUANTISED_SHARE:
         return  # noise-free or coarsely quantised: a flat top is a level, not clipping
     edges = np.diff(np.concatenate(([0], at_peak.view(np.int8), [0])))

@@ -1,0 +1,541 @@
+"""The bytes of a log, whatever its format: opening, decompression, text and lines.
+
+What every format shares (issue 12: one transport, one module per format, as pvlib's
+iotools): the file's bytes read as a stream (decompressed on the fly for .gz/.zst: the codec
+comes from `options.codec_of`, the one place compression is told), a UTF-16 file converted,
+the head decoded and split into lines for the format's preamble, the data lines parsed by
+pyarrow's CSV reader into numpy columns, line numbers for messages, and a cut last line
+found. Every line is split by one pattern, `LINE_END` (the line ends pyarrow knows: \\r\\n,
+\\r, \\n); `scan_lines` is its vectorised twin for counting, checked against it.
+
+Parsing goes through pyarrow's CSV reader, reading the file itself in 1 MiB blocks parsed in
+parallel: the file's bytes are never held whole, only the numeric columns used are kept, and
+they are copied to numpy a column at a time, so memory follows the columns kept, not the
+file (docs/log-format.md, "Memory"). Line numbers for messages are worked out only when a
+message needs one, by reading the file again.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import re
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pacsv
+
+from wifibot_power.errors import LogError
+from wifibot_power.io.options import codec_of
+
+HEAD_BYTES = 1 << 16
+
+#: pyarrow parses blocks of this size in parallel and holds a few at once, whatever the file's
+#: size. 1 MiB: fastest on the corpus's 41 MB logs and the smallest parse buffers (16 MiB
+#: blocks hold ~70 MB of buffers; docs/log-format.md, "Memory").
+_BLOCK_BYTES = 1 << 20
+
+#: Bytes read at a time when a file is scanned again for line numbers.
+_SCAN_BYTES = 1 << 20
+
+UTF8_BOM = b"\xef\xbb\xbf"
+
+LINE_END = re.compile(rb"\r\n|\r|\n")
+
+_COLUMN_IN_MESSAGE = re.compile(r"column #(\d+)")
+
+_INVALID_VALUE = re.compile(r"invalid value '(.*)'")
+
+
+@contextmanager
+def read_errors(path: Path) -> Iterator[None]:
+    """Errors opening, reading or decompressing a file, as one-line `LogError`s."""
+    try:
+        yield
+    except FileNotFoundError:
+        raise LogError("no such file", file=path, fix="check the path") from None
+    except IsADirectoryError:
+        raise LogError("is a folder, not a log", file=path, fix="name a log file") from None
+    except PermissionError:
+        raise LogError("permission denied", file=path, fix="check the file's permissions") from None
+    except (OSError, pa.ArrowException) as exc:
+        first = (str(exc).splitlines() or [exc.__class__.__name__])[0][:80]
+        raise LogError(
+            f"cannot read or decompress ({first})",
+            file=path,
+            fix="check the file is complete and its extension matches its compression",
+        ) from None
+
+
+def read_bytes(path: Path) -> bytes:
+    """The file's bytes, decompressed by extension (.gz, .zst)."""
+    with read_errors(path):
+        codec = codec_of(path)
+        if codec is not None:
+            with pa.input_stream(str(path), compression=codec) as stream:
+                return stream.read()
+        return path.read_bytes()
+
+
+@dataclass(frozen=True)
+class Content:
+    """A log's (decompressed) bytes, opened afresh for each pass over them: from the file, or
+    from `data` when the caller already holds them."""
+
+    path: Path
+    data: bytes | None = None
+
+    def open(self) -> pa.NativeFile:
+        """A stream of the bytes from the start (errors surface as they are read)."""
+        if self.data is not None:
+            return pa.BufferReader(self.data)
+        return pa.input_stream(str(self.path), compression=codec_of(self.path))
+
+    def head(self) -> bytes:
+        """The first bytes: `HEAD_BYTES` after a byte-order mark, and one more to tell whether
+        the content goes on."""
+        with read_errors(self.path), self.open() as stream:
+            return stream.read(HEAD_BYTES + len(UTF8_BOM) + 1)
+
+    def chunks(self, limit: int | None = None, size: int = _SCAN_BYTES) -> Iterator[bytes]:
+        """The bytes in pieces of `size`, up to `limit` bytes if given."""
+        left = limit
+        with read_errors(self.path), self.open() as stream:
+            while left is None or left > 0:
+                chunk = stream.read(size if left is None else min(size, left))
+                if not chunk:
+                    return
+                if left is not None:
+                    left -= len(chunk)
+                yield chunk
+
+    def tail(self) -> tuple[bytes, int] | None:
+        """The last `HEAD_BYTES` bytes and the size of the whole, when they can be had without
+        reading the rest (bytes in memory, an uncompressed file); else None."""
+        if self.data is not None:
+            return self.data[-HEAD_BYTES:], len(self.data)
+        if codec_of(self.path) is not None:
+            return None
+        with read_errors(self.path), pa.OSFile(str(self.path)) as stream:
+            size = stream.size()
+            stream.seek(max(size - HEAD_BYTES, 0))
+            return stream.read(), size
+
+    def is_blank(self) -> bool:
+        """Nothing but blanks (or nothing) after a UTF-8 byte-order mark."""
+        chunks = self.chunks()
+        first = next(chunks, b"").removeprefix(UTF8_BOM)
+        return (not first or first.isspace()) and all(chunk.isspace() for chunk in chunks)
+
+
+def not_a_log(path: Path, why: str, where: str | None = None) -> LogError:
+    return LogError(
+        f"not a power log ({why})",
+        file=path,
+        where=where,
+        fix="give a wbpower CSV (see docs/log-format.md) or a Keysight N6705 datalog export",
+    )
+
+
+def decode(path: Path, content: Content) -> tuple[Content, bytes]:
+    """A UTF-16 file (with its BOM, as spreadsheets save "Unicode text") is converted to UTF-8
+    in memory (such exports are small); anything else is read as it is. A UTF-8 BOM is left
+    in place: it sits in the first line, which the CSV parse skips, and the preamble drops it.
+    Both BOMs are unambiguous."""
+    head = content.head()
+    if not head.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return content, head
+    raw = read_bytes(path) if content.data is None else content.data
+    try:
+        utf8 = Content(path, raw.decode("utf-16").lstrip("\ufeff").encode("utf-8"))
+    except UnicodeDecodeError:
+        raise not_a_log(path, "broken UTF-16 text") from None
+    return utf8, utf8.head()
+
+
+@dataclass(frozen=True)
+class TextLayout:
+    """Where a log's data lines are and how they are written: what the CSV parse needs."""
+
+    header_line: int  # 0-based index of the header row in the file
+    header: list[str]
+    delimiter: str
+    decimal_comma: bool
+
+
+def split_lines(data: bytes) -> list[bytes]:
+    """The lines of `data`, split at the line ends pyarrow knows (str.splitlines knows more)."""
+    return LINE_END.split(data)
+
+
+def head_lines(path: Path, content: Content, head: bytes) -> list[str]:
+    """The lines of the content's first bytes (`Content.head`), as text: what a format's
+    preamble is read from. An empty, binary or non-UTF-8 head is an error here."""
+    head = head.removeprefix(UTF8_BOM)
+    more = len(head) > HEAD_BYTES
+    head = head[:HEAD_BYTES]
+    if not head or (head.isspace() and (not more or content.is_blank())):
+        raise LogError("the file is empty", file=path, fix="re-export the log")
+    if b"\x00" in head:
+        raise not_a_log(path, "binary data")
+    try:
+        head.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        if exc.start < len(head) - 4:  # not just a multi-byte char cut by the head limit
+            line = head[: exc.start].count(b"\n") + 1
+            raise LogError(
+                f"not UTF-8 text (byte {exc.start})",
+                file=path,
+                where=f"line {line}",
+                fix="save the file as UTF-8 (or plain ASCII) text",
+            ) from None
+        head = head[: exc.start]
+    # line ends are ASCII bytes, never inside a multi-byte character: split, then decode
+    lines = [line.decode("utf-8") for line in split_lines(head)]
+    if more:
+        lines = lines[:-1]  # the last line of the head may be cut by the head limit
+    return lines
+
+
+class LineMap:
+    """File line numbers (1-based) of data rows, worked out only when a message needs one, by
+    reading the content again up to `limit` bytes (where a cut last line starts)."""
+
+    def __init__(self, content: Content, header_line: int, limit: int | None = None) -> None:
+        self._content = content
+        self._header_line = header_line
+        self._limit = limit
+        self._rows: np.ndarray | None = None
+        self._line_ends = 0
+
+    def _scan(self) -> np.ndarray:
+        if self._rows is None:
+            self._rows, self._line_ends = scan_lines(
+                self._content.chunks(self._limit), self._header_line
+            )
+        return self._rows
+
+    def line_of(self, row: int) -> int:
+        """Line of data row `row` (pyarrow skips empty lines, so they are skipped here too)."""
+        rows = self._scan()
+        if not rows.size:
+            return self._header_line + 2
+        return int(rows[min(max(row, 0), rows.size - 1)])
+
+    def line_count(self) -> int:
+        """Line ends up to the limit (a \\r\\n counts once)."""
+        self._scan()
+        return self._line_ends
+
+    def find(self, match: Callable[[bytes], bool]) -> tuple[int, bytes] | None:
+        """First data line (1-based) for which `match(line bytes)` holds, and the line."""
+        for index, line in enumerate(iter_lines(self._content.chunks(self._limit))):
+            if index > self._header_line and line and match(line):
+                return index + 1, line
+        return None
+
+
+def iter_lines(chunks: Iterator[bytes]) -> Iterator[bytes]:
+    """The lines of the concatenated chunks, as `LINE_END.split` of the whole gives them."""
+    carry = b""
+    for chunk in chunks:
+        buffer = carry + chunk
+        # a \r at the end may be the first half of a \r\n: keep it for the next chunk
+        held = b"\r" if buffer.endswith(b"\r") else b""
+        parts = LINE_END.split(buffer[: len(buffer) - len(held)])
+        carry = parts.pop() + held
+        yield from parts
+    yield from LINE_END.split(carry)
+
+
+def scan_lines(chunks: Iterator[bytes], header_line: int) -> tuple[np.ndarray, int]:
+    """Line numbers (1-based) of the non-empty lines after line `header_line` (0-based), and
+    the number of line ends (\\r\\n, \\r or \\n, as pyarrow and `LINE_END` know them).
+    Vectorised over the bytes of each chunk; a line cut by a chunk's end is carried over."""
+    found: list[np.ndarray] = []
+    carry = b""
+    lines_before = 0  # complete lines in the chunks already done
+
+    def complete_lines(buffer: bytes) -> int:
+        """Note the data rows among the complete lines of `buffer`; return where they end."""
+        nonlocal lines_before
+        data = np.frombuffer(buffer, dtype=np.uint8)
+        is_cr, is_lf = data == 13, data == 10
+        after_cr = np.concatenate(([False], is_cr[:-1]))
+        starts = np.flatnonzero(is_cr | (is_lf & ~after_cr))  # first byte of each line end
+        if not starts.size:
+            return 0
+        before_lf = np.concatenate((is_lf[1:], [False]))
+        ends = starts + 1 + before_lf[starts]  # one past each line end
+        lengths = starts - np.concatenate(([0], ends[:-1]))
+        index = lines_before + np.arange(starts.size)
+        keep = (lengths > 0) & (index > header_line)
+        found.append(index[keep] + 1)
+        lines_before += int(starts.size)
+        return int(ends[-1])
+
+    for chunk in chunks:
+        buffer = carry + chunk
+        held = 1 if buffer.endswith(b"\r") else 0  # may be the first half of a \r\n
+        done = complete_lines(buffer[: len(buffer) - held])
+        carry = buffer[done:]
+    done = complete_lines(carry)
+    if carry[done:] and lines_before > header_line:
+        found.append(np.array([lines_before + 1]))  # a last line without a line end
+    rows = np.concatenate(found) if found else np.zeros(0, dtype=np.int64)
+    return rows, lines_before
+
+
+def _line_start(head: bytes, index: int) -> int:
+    """Byte offset of line `index` (0-based) in `head`."""
+    if index == 0:
+        return 0
+    for count, match in enumerate(LINE_END.finditer(head), start=1):
+        if count == index:
+            return match.end()
+    return len(head)
+
+
+class _HoldBackCutLine(io.RawIOBase):
+    """The content as a stream for pyarrow, less a last line that has no line end.
+
+    A last data line with no line end is what a full disk or a cut copy leaves: it may hold a
+    shortened number (23.3102 -> 23.3), so it is never parsed, and the read stops with an
+    error (`_cut_line`). What follows the last line end seen so far is held back until more
+    comes; at the end, what is held is kept out if it is more than blanks and starts after
+    `header_start` (a header with no line end stays: "header only" follows). `cut_at` is then
+    where that line starts.
+    """
+
+    def __init__(self, stream: pa.NativeFile, header_start: int) -> None:
+        super().__init__()
+        self._stream = stream
+        self._header_start = header_start
+        self._ready = b""  # bytes that can be handed out
+        self._held = b""  # the bytes after the last line end seen
+        self._consumed = 0  # bytes taken from `stream`
+        self._ended = False
+        self.cut_at: int | None = None
+        #: the exception reading the file raised (pyarrow may wrap it in its own)
+        self.error: BaseException | None = None
+
+    def readable(self) -> bool:
+        return True
+
+    def read(self, size: int | None = -1) -> bytes:
+        if size == 0:
+            return b""
+        want = _BLOCK_BYTES if size is None or size < 0 else size
+        while not self._ready and not self._ended:
+            # what is held and what is read fit in `want`: handed out whole, not re-cut
+            self._pull(max(want - len(self._held), 1))
+        out, self._ready = self._ready[:want], self._ready[want:]
+        return out
+
+    def readinto(self, buffer: memoryview) -> int:  # pragma: no cover - pyarrow calls read()
+        data = self.read(len(buffer))
+        buffer[: len(data)] = data
+        return len(data)
+
+    def _pull(self, size: int) -> None:
+        try:
+            chunk = self._stream.read(size)
+        except (OSError, pa.ArrowException) as exc:
+            self.error = exc
+            raise
+        if not chunk:
+            self._ended = True
+            tail_start = self._consumed - len(self._held)
+            if self._held.strip() and tail_start > self._header_start:
+                self.cut_at = tail_start
+            else:
+                self._ready += self._held
+            self._held = b""
+            return
+        self._consumed += len(chunk)
+        buffer = self._held + chunk
+        last = max(buffer.rfind(b"\n"), buffer.rfind(b"\r"))
+        if last < 0:
+            self._held = buffer  # a line longer than `size`: read on until it ends
+        else:
+            self._ready += buffer[: last + 1]
+            self._held = buffer[last + 1 :]
+
+
+def _cut_start(tail: bytes, size: int, header_start: int) -> int | None:
+    """Where a last data line without a line end starts (see `_HoldBackCutLine`), from the
+    content's last bytes `tail` and its `size`; -1 when the tail holds no line end at all."""
+    if not tail or tail.endswith((b"\n", b"\r")):
+        return None
+    last = max(tail.rfind(b"\n"), tail.rfind(b"\r"))
+    if last < 0 and len(tail) < size:
+        return -1  # a last line longer than the tail: let the stream find where it starts
+    start = size - len(tail) + last + 1
+    return start if tail[last + 1 :].strip() and start > header_start else None
+
+
+@dataclass
+class Columns:
+    """The columns read from a log, as numpy arrays (a column of text is named, not held)."""
+
+    names: list[str]
+    values: dict[str, np.ndarray]
+    text: set[str]
+    lines: LineMap
+
+
+def read_columns(
+    path: Path, content: Content, pre: TextLayout, head: bytes, include_columns: list[str]
+) -> Columns:
+    """Parse the data lines into numpy arrays of the included columns.
+
+    pyarrow reads the file itself, in blocks of `_BLOCK_BYTES` parsed in parallel, so neither
+    the file's bytes nor more than a few blocks' parse buffers are held at once; its table
+    (the included columns only) is turned into numpy arrays a column at a time, each column
+    dropped from the table once copied, so at most one column is held twice.
+    """
+    header_start = _line_start(head, pre.header_line)
+    tail = content.tail()
+    cut_at = -1 if tail is None else _cut_start(*tail, header_start)
+    with read_errors(path):
+        stream = content.open()
+    held_back: _HoldBackCutLine | None = None
+    # a last line without a line end is never parsed; the lines before it are, so that an
+    # error earlier in the file is the one reported, whatever the source (file, .gz, bytes)
+    if cut_at is None:
+        source = stream  # pyarrow reads the file itself: no Python in the loop
+    elif cut_at >= 0 and content.data is not None:
+        source = pa.BufferReader(pa.py_buffer(content.data).slice(0, cut_at))
+    else:  # compressed, or cut: the stream is watched for a last line without a line end
+        held_back = _HoldBackCutLine(stream, header_start)
+        source = pa.PythonFile(held_back, mode="r")
+    try:
+        table = pacsv.read_csv(
+            source,
+            read_options=pacsv.ReadOptions(
+                skip_rows=pre.header_line + 1, column_names=pre.header, block_size=_BLOCK_BYTES
+            ),
+            parse_options=pacsv.ParseOptions(delimiter=pre.delimiter),
+            convert_options=pacsv.ConvertOptions(
+                column_types=dict.fromkeys(include_columns, pa.float64()),
+                decimal_point="," if pre.decimal_comma else ".",
+                include_columns=include_columns,
+                strings_can_be_null=False,
+                quoted_strings_can_be_null=False,
+            ),
+        )
+    except (OSError, pa.ArrowException) as exc:
+        if held_back is not None:
+            cut_at = held_back.cut_at
+        read_error = held_back.error if held_back is not None else None
+        if read_error is None and held_back is None and not isinstance(exc, pa.ArrowInvalid):
+            read_error = exc  # the file itself (a disk error), not its text
+        if read_error is not None:
+            with read_errors(path):
+                raise read_error from None
+        if "Could not skip initial" in str(exc):  # the header is the last line, unended
+            raise _header_only(path, pre) from None
+        if isinstance(exc, pa.ArrowInvalid):
+            lines = LineMap(content, pre.header_line, cut_at)
+            raise _parse_error(path, pre, str(exc), lines) from None
+        raise LogError(
+            f"cannot parse the CSV ({str(exc)[:100]})",
+            file=path,
+            fix="check the delimiter and quoting",
+        ) from None
+    finally:
+        stream.close()
+    if held_back is not None:
+        cut_at = held_back.cut_at
+    if cut_at is not None:
+        raise _cut_line(path, content, pre, cut_at)
+    if table.num_rows == 0:
+        raise _header_only(path, pre)
+    names = table.column_names
+    numeric = (pa.types.is_floating, pa.types.is_integer)
+    text = {f.name for f in table.schema if not any(is_type(f.type) for is_type in numeric)}
+    values = {}
+    pool = pa.default_memory_pool()
+    for name in names:
+        if name not in text:
+            pieces = [chunk.to_numpy(zero_copy_only=False) for chunk in table[name].chunks]
+            joined = np.concatenate(pieces) if len(pieces) > 1 else pieces[0].copy()
+            values[name] = joined.astype(np.float64, copy=False)
+            del pieces
+        table = table.drop_columns([name])
+        # pyarrow's allocator keeps freed blocks for its own reuse; the copies (and what
+        # follows: checks, segmentation) allocate through numpy, so give each column back
+        # before the next is copied: at most one column is held twice
+        pool.release_unused()
+    del table
+    return Columns(names, values, text, LineMap(content, pre.header_line))
+
+
+def _cut_line(path: Path, content: Content, pre: TextLayout, cut_at: int) -> LogError:
+    """The last line has no line end (log-format.md: a truncated last line is bad input)."""
+    line = LineMap(content, pre.header_line, cut_at).line_count() + 1
+    return LogError(
+        "the last line has no line end: the file may be cut short, and a cut line can hold a "
+        "shortened number (23.3102 -> 23.3)",
+        file=path,
+        where=f"line {line}",
+        fix="re-copy the file; if the line is complete, end it with a line break, or delete "
+        "it to read the rest",
+    )
+
+
+def _header_only(path: Path, pre: TextLayout) -> LogError:
+    return LogError(
+        "header only: no samples",
+        file=path,
+        where=f"line {pre.header_line + 1}",
+        fix="the log holds no data; re-export it",
+    )
+
+
+def _parse_error(path: Path, pre: TextLayout, message: str, lines: LineMap) -> LogError:
+    first = (message.splitlines() or [""])[0]
+    col = _COLUMN_IN_MESSAGE.search(first)
+    value = _INVALID_VALUE.search(first)
+    if col and value and int(col.group(1)) < len(pre.header):
+        index, text = int(col.group(1)), value.group(1)
+        name = pre.header[index]
+
+        def holds(line: bytes) -> bool:
+            cells = _cells(line, pre.delimiter)
+            return index < len(cells) and cells[index].strip() == text.strip()
+
+        found = lines.find(holds)
+        where = f"line {found[0]}, column '{name}'" if found else f"column '{name}'"
+        return LogError(
+            f"'{text[:40]}' where a number belongs",
+            file=path,
+            where=where,
+            fix="fix or delete that line",
+        )
+    if "Expected" in first and "columns" in first:
+        expected = len(pre.header)
+        found = lines.find(lambda line: len(_cells(line, pre.delimiter)) != expected)
+        what = (
+            f"{len(_cells(found[1], pre.delimiter))} field(s) where the header has {expected}"
+            if found
+            else "a line with the wrong number of fields"
+        )
+        return LogError(
+            what,
+            file=path,
+            where=f"line {found[0]}" if found else None,
+            fix="the line is truncated or malformed; delete it or re-export the log",
+        )
+    return LogError(
+        f"cannot parse the CSV ({first[:100]})", file=path, fix="check the delimiter and quoting"
+    )
+
+
+def _cells(line: bytes, delimiter: str) -> list[str]:
+    text = line.decode("utf-8", "replace")
+    return next(csv.reader([text], delimiter=delimiter), [""])
