@@ -387,9 +387,8 @@ def fit_rows(
         idle_source = "idle runs"
     else:
         idle = MeanEstimate.of(column(motion, "idle_mean_power_W"))
+        # said in `warnings` (fit_warnings), not twice
         idle_source = "idle phases of motion runs" if idle.n_runs else "none"
-        if idle.n_runs:
-            notes.append("no idle-mode runs: idle power is the mean of motion runs' idle phases")
 
     components: dict[str, MeanEstimate | None] = {}
     for mode in COMPONENT_MODES:
