@@ -237,7 +237,11 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     dt = run.sample_period_s
     block = max(1, round(params.block_s / dt))
     y = block_means(run.power_W, block)
-    v = block_means(np.abs(np.nan_to_num(run.speed_mps, nan=0.0)), block)
+    # signed speed averaged first, |.| after: the noise of a standing speed estimate
+    # averages to 0 (its absolute value would average to 0.8 sd above 0), and so does a
+    # vibration of the wheels back and forth in place
+    signed = block_means(np.nan_to_num(run.speed_mps, nan=0.0), block)
+    v = np.abs(signed)
     n = y.size
     block_dt = block * dt
 
@@ -245,8 +249,8 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
         return max(1, round(seconds / block_dt))
 
     half = blocks(params.smooth_s) // 2
-    vs = _centred_mean(v, half)
-    sigma_v = robust_sigma_W(v)
+    vs = np.abs(_centred_mean(signed, half))
+    sigma_v = robust_sigma_W(signed)
     top = float(np.percentile(vs, 99)) if n else 0.0
     smooth_sd = sigma_v / np.sqrt(2 * half + 1)
     threshold = max(params.moving_fraction * top, params.moving_z * smooth_sd)
@@ -262,14 +266,16 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     stretches = _merge_stretches(moving, blocks(params.min_stretch_s))
     standing = ~moving
     # standstill: its median reading and noise (0 and 0 for an encoder that reads 0)
-    standing_mps = float(np.median(v[standing])) if standing.any() else 0.0
-    floor = standing_mps + params.standing_z * robust_sigma_W(v[standing])
+    edge_half = round(params.edge_s / 2 / block_dt)
+    v_edge = np.abs(_centred_mean(signed, edge_half))
+    standing_mps = float(np.median(v_edge[standing])) if standing.any() else 0.0
+    edge_sd = robust_sigma_W(signed[standing]) / np.sqrt(2 * edge_half + 1)
+    floor = standing_mps + params.standing_z * edge_sd
     # each motion runs from the last standstill reading before it to the first after it
     # (the smoothed speed crosses its threshold late at a start and early at an end), on
     # speed averaged over `edge_s` (one reading of 0 amid a slow coast is not a stop)
     # and standing still for `still_s` (a coast can read 0 once before it reads its last
     # count)
-    v_edge = _centred_mean(v, round(params.edge_s / 2 / block_dt))
     still = v_edge <= floor
     # a motion ends where the speed falls below the moving threshold's share of the top
     # speed, not where the reading reaches 0: a filtered speed reading decays for tens of
@@ -278,11 +284,18 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     hold = max(1, round(params.still_s / block_dt))
     motions: list[tuple[int, int]] = []
     for a, b in stretches:
-        lo = motions[-1][1] if motions else 0
-        before = _held(still[lo:a][::-1], hold)  # counted back from a
-        start = a - before if before is not None else lo
-        after = _held(stopped[b:], hold)
-        end = b + after if after is not None else n
+        lo = max(motions[-1][1] if motions else 0, 0)
+        # from the first and last clearly moving reading of the stretch (the averaged
+        # speed's window reaches half of it before and after the motion)
+        inside = np.flatnonzero(~stopped[a:b])
+        first, last = (a + int(inside[0]), a + int(inside[-1])) if inside.size else (a, b - 1)
+        lo = min(lo, first)
+        # the start: just after the last standstill reading before it (a noise blip above
+        # the floor earlier on is not motion); the end: where the speed then stays low
+        standstill = np.flatnonzero(still[lo:first])
+        start = lo + int(standstill[-1]) + 1 if standstill.size else lo
+        after = _held(stopped[last + 1 :], hold)
+        end = last + 1 + after if after is not None else n
         motions.append((start, max(end, start + 1)))
     # slope of the smoothed speed (per second), its noise, and the class of each block
     h = max(1, half)
@@ -340,23 +353,28 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
         if i_end > i_start:
             mean_speed = float((speed_sum[i_end] - speed_sum[i_start]) / (i_end - i_start))
             phases.append(_phase(run, number, name, i_start, i_end, mean_speed))
-    doubts = _kinematic_doubts(run, v, floor, motions, n)
+    ends = blocks(0.05)
+    end_speeds = (abs(float(np.mean(signed[:ends]))), abs(float(np.mean(signed[-ends:]))))
+    moving_floor = max(floor, params.moving_fraction * top)
+    doubts = _kinematic_doubts(run, end_speeds, moving_floor, motions)
     return Segmentation(run.meta.run_id, tuple(phases), (), tuple(doubts))
 
 
 def _kinematic_doubts(
-    run: Run, v: np.ndarray, floor: float, motions: list[tuple[int, int]], n: int
+    run: Run, end_speeds: tuple[float, float], floor: float, motions: list[tuple[int, int]]
 ) -> list[str]:
-    """Why phases from the speed column may not describe the run as a fit needs it."""
+    """Why phases from the speed column may not describe the run as a fit needs it
+    (`end_speeds`: |mean speed| over the first and last 50 ms; moving above `floor`)."""
     doubts = []
-    if v[0] > floor:
+    first, last = end_speeds
+    if first > floor:
         doubts.append(
-            f"the run starts moving ({v[0]:.3g} m/s at its first sample): its first "
+            f"the run starts moving ({first:.3g} m/s over its first 50 ms): its first "
             "acceleration is not in the log"
         )
-    if v[-1] > floor:
+    if last > floor:
         doubts.append(
-            f"the run ends moving ({v[-1]:.3g} m/s at its last sample): its last stop is "
+            f"the run ends moving ({last:.3g} m/s over its last 50 ms): its last stop is "
             "not in the log"
         )
     if run.meta.mode == "motion" and len(motions) != run.meta.steps:
