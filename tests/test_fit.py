@@ -198,7 +198,7 @@ def test_idle_falls_back_to_idle_phases_and_components_are_null_without_mode_run
     assert result.idle_source == "idle phases of motion runs"
     assert abs(result.model.idle_W - TRUE["idle_W"]) <= TOL_IDLE_W
     assert result.summary()["components_W"] == {"network": None, "video": None, "cpu": None}
-    assert any("idle phases" in note for note in result.notes)
+    assert any("idle phases" in warning for warning in result.warnings)
 
 
 def test_unusable_runs_are_left_out_of_the_fit():

@@ -35,7 +35,7 @@ from wifibot_power.model import PowerModel
 from wifibot_power.outputs import write_json, write_parquet
 from wifibot_power.phases import Segmentation
 from wifibot_power.run import Run
-from wifibot_power.runtable import run_row, runs_frame
+from wifibot_power.runtable import admit_doubtful, run_row, runs_frame
 from wifibot_power.traces import EMPTY, TraceStats, ripple_trace_rmse_W, trace_stats
 
 #: Smallest held-out gain that makes a significant cause a finding [%].
@@ -168,10 +168,11 @@ def diagnose_logs(
     jobs: int | None = 1,
     on_problems: ProblemHook | None = None,
     reference: PowerModel | None = None,
+    keep_doubtful: bool = False,
 ) -> Diagnosis:
     """Read, segment and summarise every log under `paths` (`jobs` files at a time, one file
-    in memory per worker), then diagnose them (module docstring). `reference`: see
-    `diagnose_summaries`."""
+    in memory per worker), then diagnose them (module docstring). `reference`,
+    `keep_doubtful`: see `diagnose_summaries`."""
     summaries, skipped = map_runs(
         [Path(p) for p in paths],
         options or ReadOptions(),
@@ -180,7 +181,7 @@ def diagnose_logs(
         jobs=jobs,
         on_problems=on_problems,
     )
-    return diagnose_summaries(summaries, skipped, reference=reference)
+    return diagnose_summaries(summaries, skipped, reference=reference, keep_doubtful=keep_doubtful)
 
 
 def diagnose_runs(
@@ -425,8 +426,12 @@ def diagnose_summaries(
     skipped: Iterable[Skipped] = (),
     *,
     reference: PowerModel | None = None,
+    keep_doubtful: bool = False,
 ) -> Diagnosis:
     """The diagnosis of summarised runs (module docstring).
+
+    Runs whose segmentation is in doubt are left out (listed in `skipped` with the doubt)
+    unless `keep_doubtful` (`runtable.admit_doubtful`).
 
     With a `reference` model (`diagnose --model`: e.g. the robot's stored model.json, or
     the paper's), the baseline is that model as given, predicting every run; it is not
@@ -437,6 +442,8 @@ def diagnose_summaries(
     skipped = list(skipped)
     if not summaries:
         raise LogError("no readable logs", fix="see 'wbpower inspect' for what each log holds")
+    if keep_doubtful:
+        summaries = [RunSummary(admit_doubtful(s.row), s.trace) for s in summaries]
     runs = summary_table(summaries)
     blocks = {s.row["run_id"]: (s.trace.cruise_blocks_W, s.trace.block_s) for s in summaries}
     for row in runs[~runs["usable"]].itertuples():

@@ -165,6 +165,9 @@ class FitResult:
     #: the measured stop-and-go overhead of every trip held in 1 and N > 1 steps, beside the
     #: model's (`overhead.stop_and_go_overheads`)
     stop_and_go: tuple[StopAndGo, ...] = ()
+    #: why the fitted model is physically implausible or weakly determined (cli.md
+    #: `fit --json` `warnings`; `fit_warnings`)
+    warnings: tuple[str, ...] = ()
 
     @functools.cached_property
     def _frames(self) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -231,6 +234,7 @@ class FitResult:
             "stop_and_go": [s.as_dict() for s in self.stop_and_go],
             "skipped": [s.as_dict() for s in self.skipped],
             "notes": list(self.notes),
+            "warnings": list(self.warnings),
         }
         del out["t_acc"]["paper"]
         return json_safe(out)  # type: ignore[return-value]
@@ -391,9 +395,8 @@ def fit_rows(
         idle_source = "idle runs"
     else:
         idle = MeanEstimate.of(column(motion, "idle_mean_power_W"))
+        # said in `warnings` (fit_warnings), not twice
         idle_source = "idle phases of motion runs" if idle.n_runs else "none"
-        if idle.n_runs:
-            notes.append("no idle-mode runs: idle power is the mean of motion runs' idle phases")
 
     components: dict[str, MeanEstimate | None] = {}
     for mode in COMPONENT_MODES:
@@ -402,6 +405,7 @@ def fit_rows(
             components[mode] = None
             continue
         components[mode] = net_of_idle(MeanEstimate.of(column(mode_runs, "mean_power_W")), idle)
+    warnings = fit_warnings(accel, cruise, speed, idle_source, idle.value_W)
     model = PowerModel(
         accel=accel,
         cruise=cruise,
@@ -421,6 +425,7 @@ def fit_rows(
         skipped=tuple(skipped),
         notes=tuple(notes),
         stop_and_go=stop_and_go_overheads(used, model),
+        warnings=tuple(warnings),
     )
 
 
@@ -428,6 +433,76 @@ def _speed_range(speed_mps: np.ndarray) -> tuple[float, float] | None:
     """The lowest and highest speed the motion runs were fitted on (None without any)."""
     finite = speed_mps[np.isfinite(speed_mps)]
     return (float(finite.min()), float(finite.max())) if finite.size else None
+
+
+#: Two speeds closer than this are one speed level: the larger of an absolute floor [m/s]
+#: and a fraction of the speed (what a commanded or measured robot speed can be trusted to:
+#: wheel slip, encoder counts, a controller's steady error). docs/fit.md, "Warnings".
+SPEED_RESOLUTION_MPS = 0.005
+SPEED_RESOLUTION_FRACTION = 0.02
+
+
+def speed_levels(speeds_mps: np.ndarray) -> list[list[float]]:
+    """The distinct speeds grouped into levels: sorted, a speed joins the level before it
+    when it is closer to that level's largest speed than the resolution
+    (max(`SPEED_RESOLUTION_MPS`, `SPEED_RESOLUTION_FRACTION` x the larger speed))."""
+    distinct = sorted(
+        {float(v) for v in np.asarray(speeds_mps, dtype=np.float64) if np.isfinite(v)}
+    )
+    levels: list[list[float]] = []
+    for v in distinct:
+        if levels and v - levels[-1][-1] < max(SPEED_RESOLUTION_MPS, SPEED_RESOLUTION_FRACTION * v):
+            levels[-1].append(v)
+        else:
+            levels.append([v])
+    return levels
+
+
+def fit_warnings(
+    accel: LinearFit,
+    cruise: LinearFit,
+    speeds_mps: np.ndarray,
+    idle_source: str,
+    idle_W: float,
+) -> list[str]:
+    """Why a fitted model is physically implausible or weakly determined (cli.md `fit`):
+    a negative slope or intercept (power cannot fall with speed, nor be negative at rest),
+    fewer than three distinct speed levels (two points fix a line but cannot check it),
+    speeds closer than their resolution (grouped by `speed_levels`), and idle power taken
+    from the idle phases of motion runs (no idle-mode run measured it)."""
+    warnings: list[str] = []
+    for label, fit in (("P_acc", accel), ("P_v", cruise)):
+        for name, value, unit in (
+            ("slope", fit.slope, "W/(m/s)"),
+            ("intercept", fit.intercept, "W"),
+        ):
+            if math.isfinite(value) and value < 0:
+                warnings.append(
+                    f"{label} {name} is negative ({value:.3g} {unit}): not physical; check the "
+                    "runs' speeds and their segmentation (wbpower segment)"
+                )
+    if math.isfinite(idle_W) and idle_W < 0:
+        warnings.append(f"idle power is negative ({idle_W:.3g} W): check the current sign")
+    levels = speed_levels(speeds_mps)
+    if speeds_mps.size and len(levels) < 3:
+        listed = ", ".join(f"{lv[0]:g}" for lv in levels)
+        warnings.append(
+            f"the motion runs hold {len(levels)} distinct speed level(s) ({listed} m/s): "
+            "a line through fewer than three speeds cannot be checked against them"
+        )
+    for level in levels:
+        if len(level) > 1:
+            warnings.append(
+                f"speeds {', '.join(f'{v:g}' for v in level)} m/s are closer than their "
+                f"resolution (max({SPEED_RESOLUTION_MPS:g} m/s, "
+                f"{SPEED_RESOLUTION_FRACTION:.0%})): counted as one speed level"
+            )
+    if idle_source == "idle phases of motion runs":
+        warnings.append(
+            "idle power is taken from the idle phases of motion runs (no idle-mode run): "
+            "it holds whatever the segmentation called idle"
+        )
+    return warnings
 
 
 def _default_segmenter() -> Segmenter:
@@ -484,6 +559,7 @@ def fit_logs(
     jobs: int | None = 1,
     cache: ParseCache | None = None,
     on_problems: ProblemHook | None = None,
+    keep_doubtful: bool = False,
 ) -> FitResult:
     """Read every log under `paths` (one file in memory at a time per worker), segment it,
     build the per-run table and fit the paper's models over the usable runs (see module
@@ -494,7 +570,8 @@ def fit_logs(
     `cache` (`wifibot_power.cache.ParseCache`) skips parsing files parsed before.
 
     Unreadable logs and runs the fit cannot use are listed in `FitResult.skipped` with the
-    reason. Raises `LogError` when no run at all can be used (nothing to fit).
+    reason; runs whose segmentation is in doubt are among them unless `keep_doubtful`.
+    Raises `LogError` when no run at all can be used (nothing to fit).
     """
     paths = [paths] if isinstance(paths, str | Path) else list(paths)
 
@@ -525,6 +602,10 @@ def fit_logs(
         prepare=_import_work_modules,
     )
     rows = [row for row, _ in results]
+    if keep_doubtful:
+        from wifibot_power.runtable import admit_doubtful
+
+        rows = [admit_doubtful(row) for row in rows]
     phase_rows = [phase for _, phases in results for phase in phases]
     unusable = [
         Skipped(str(row["file"]), f"{row['file']}: {row['skip_reason']}")

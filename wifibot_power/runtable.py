@@ -15,7 +15,15 @@ Column meanings (units in the names):
 - `decel_duration_s`: mean `decel` duration per step (0 when no stopping phase was found).
 - `steps_found`: steps the segmentation found (motion runs), to check against `steps`.
 - `spike_energy_J`: energy of the start-up spikes above their phase's level.
-- `usable`, `skip_reason`: whether `fit` can use the run, and why not.
+- `speed_mps`: the run's speed: the time-weighted mean of its cruise phases' speeds when
+  they carry one (phases from a speed column, or the commanded speed), else the metadata's.
+- `cruise_levels`: how many speed levels its cruise phases hold (`fit.speed_levels`); a
+  run with more than one is not usable (`fit` takes one speed per run).
+- `doubts`: the segmentation's doubts (`Segmentation.doubts`) joined by "; ", empty when
+  the phases fit the trace.
+- `usable`, `skip_reason`: whether `fit` can use the run, and why not. A run whose
+  segmentation is in doubt is not usable (its reason starts with `DOUBT_REASON`) unless
+  `admit_doubtful` lets it in (`fit`/`diagnose --keep-doubtful`).
 """
 
 from __future__ import annotations
@@ -63,9 +71,14 @@ RUN_COLUMNS = (
     "idle_mean_power_W",
     "idle_duration_s",
     "spike_energy_J",
+    "doubts",
+    "cruise_levels",
     "usable",
     "skip_reason",
 )
+
+#: How the skip reason of a run left out for its segmentation's doubts starts.
+DOUBT_REASON = "segmentation in doubt: "
 
 
 def _phase_sums(run: Run, phases: Sequence[Phase]) -> tuple[np.ndarray, np.ndarray]:
@@ -95,6 +108,22 @@ def _check_cover(run: Run, segmentation: Segmentation) -> str | None:
     return None
 
 
+def _cruise_speed(segmentation: Segmentation) -> tuple[float | None, int]:
+    """The run's speed from its cruise phases' measured speeds (a speed column: their
+    time-weighted mean), and how many speed levels they hold (`fit.speed_levels`); None
+    and 0 when no cruise phase carries a speed."""
+    from wifibot_power.fit import speed_levels
+
+    cruises = [p for p in segmentation.phases if p.phase == "cruise" and p.speed_mps is not None]
+    if not cruises:
+        return None, 0
+    durations = np.array([p.duration_s for p in cruises])
+    speeds = np.array([p.speed_mps for p in cruises], dtype=np.float64)
+    if durations.sum() <= 0:
+        return None, 0
+    return float(np.sum(speeds * durations) / durations.sum()), len(speed_levels(speeds))
+
+
 def run_row(run: Run, segmentation: Segmentation) -> dict[str, object]:
     """One row of the per-run table (the columns of `RUN_COLUMNS`).
 
@@ -104,11 +133,14 @@ def run_row(run: Run, segmentation: Segmentation) -> dict[str, object]:
     """
     meta = run.meta
     period_s = run.sample_period_s
+    speed_mps, cruise_levels = _cruise_speed(segmentation)
+    if speed_mps is None:
+        speed_mps = meta.speed_mps
     row: dict[str, object] = {
         "run_id": meta.run_id,
         "file": run.file,
         "mode": meta.mode,
-        "speed_mps": meta.speed_mps if meta.speed_mps is not None else np.nan,
+        "speed_mps": speed_mps if speed_mps is not None else np.nan,
         "distance_m": meta.distance_m if meta.distance_m is not None else np.nan,
         "steps": int(meta.steps),
         "payload_kg": float(meta.payload_kg),
@@ -119,6 +151,8 @@ def run_row(run: Run, segmentation: Segmentation) -> dict[str, object]:
         "energy_J": run.energy_J,
         "mean_power_W": run.mean_power_W,
         "spike_energy_J": float(sum(s.energy_above_level_J for s in segmentation.spikes)),
+        "doubts": "; ".join(segmentation.doubts),
+        "cruise_levels": cruise_levels,
     }
     cover_problem = _check_cover(run, segmentation)
     phases = segmentation.phases if cover_problem is None else ()
@@ -178,6 +212,11 @@ def usability(row: dict[str, object]) -> str | None:
         return "motion run without a speed (set speed_mps in its metadata or runs.csv)"
     if not np.isfinite(row["distance_m"]) or row["distance_m"] <= 0:
         return "motion run without a distance (set distance_m in its metadata or runs.csv)"
+    if int(row.get("cruise_levels", 0) or 0) > 1:
+        return (
+            f"its cruises hold {row['cruise_levels']} speed levels; fit takes one speed per "
+            "run (split the log at the level change)"
+        )
     if row["steps_found"] != row["steps"]:
         return (
             f"segmentation found {row['steps_found']} step(s), metadata says {row['steps']} "
@@ -185,7 +224,21 @@ def usability(row: dict[str, object]) -> str | None:
         )
     if not np.isfinite(row["accel_mean_power_W"]):
         return "no acceleration phase found (check the log holds motion)"
+    if row.get("doubts"):
+        return (
+            f"{DOUBT_REASON}{row['doubts']} (check it with 'wbpower segment'; "
+            "--keep-doubtful uses it anyway)"
+        )
     return None
+
+
+def admit_doubtful(row: dict[str, object]) -> dict[str, object]:
+    """The row with a run left out only for its segmentation's doubts made usable
+    (`--keep-doubtful`); any other row unchanged. The doubt test comes last in
+    `usability`, so such a run passed every other test."""
+    if row["usable"] or not str(row["skip_reason"]).startswith(DOUBT_REASON):
+        return row
+    return {**row, "usable": True, "skip_reason": ""}
 
 
 def runs_frame(rows: Sequence[dict[str, object]]) -> pd.DataFrame:
@@ -193,6 +246,6 @@ def runs_frame(rows: Sequence[dict[str, object]]) -> pd.DataFrame:
     frame = pd.DataFrame(list(rows), columns=list(RUN_COLUMNS))
     frame["started_at"] = pd.to_datetime(frame["started_at"], utc=True)
     frame["usable"] = frame["usable"].astype(bool)
-    for column in ("steps", "samples", "steps_found"):
+    for column in ("steps", "samples", "steps_found", "cruise_levels"):
         frame[column] = frame[column].astype(np.int64)
     return frame

@@ -1,8 +1,13 @@
 """Segmentation of a run into phases: what `wbpower segment` computes (and `fit` uses).
 
-A motion run (`meta.mode == "motion"`, `meta.steps = N`) is cut into: idle, then for each
-step `accel`, `cruise`, `decel` (only when the data shows one), idle between steps. Any
-other log is cut into steady `level` segments by the generic layer
+A run with a speed column (`Run.speed_mps`) whose speed shows motion is cut from
+kinematics: standing (`idle`), speeding up (`accel`), holding a level (`cruise`), slowing
+(`decel`), several levels per run allowed, the power trace refining the boundaries it marks
+(`_segment_kinematic`, `SpeedParams`). Otherwise a motion run (`meta.mode == "motion"`,
+`meta.steps = N`) is cut from power into: idle, then for each step `accel`, `cruise`,
+`decel` (only when the data shows one), idle between steps, and the phase model is then
+tested against the trace (`_motion_doubts`): where it does not fit, `Segmentation.doubts`
+says why. Any other log is cut into steady `level` segments by the generic layer
 (`wifibot_power.changepoint.detect_levels`).
 
 Motion runs, on 1 ms block means (docs/segmentation.md has the details and figures):
@@ -97,10 +102,53 @@ class MotionParams:
     #: after a wavy cruise (a ripple): a drop of this many sd of the jump statistic, whose
     #: lines are this long [s] (short: a slow ripple hardly bends them)
     decel_z: float = 4.0
-    decel_half_widths_s: tuple[float, ...] = (0.025, 0.08)
+    decel_half_widths_s: tuple[float, ...] = (0.025, 0.08, 0.2)
     #: a stop phase ends closer to idle than this fraction of the cruise power above idle
     decel_end_fraction: float = 0.45
-    decel_half_widths_s: tuple[float, ...] = (0.025, 0.08, 0.2)
+    #: a doubt: a cruise whose two parts (the best split into flat pieces of a quarter or
+    #: more) differ by this fraction of the motion's swing above idle (and by more than
+    #: noise and twice the scatter within them, and fit better than one line) holds two
+    #: levels
+    level_fraction: float = 0.25
+
+
+@dataclass(frozen=True)
+class SpeedParams:
+    """Parameters of segmentation from a speed column (docs/segmentation.md, "With a speed
+    column")."""
+
+    #: block length [s] everything works on (at least one sample)
+    block_s: float = 0.001
+    #: the speed is smoothed over this long [s] (a centred moving average) before the
+    #: moving test and the slope
+    smooth_s: float = 0.04
+    #: moving where the smoothed speed exceeds this fraction of the run's top speed (99th
+    #: percentile) and `moving_z` sd of its noise
+    moving_fraction: float = 0.02
+    moving_z: float = 5.0
+    #: a motion's ends are where the raw speed last / first reads standstill: its standing
+    #: median plus this many noise sd
+    standing_z: float = 3.0
+    #: ... on the speed averaged over this long [s] (the raw speed where a sample is longer)
+    edge_s: float = 0.009
+    #: ... where it then stays at standstill this long [s] (at least one sample)
+    still_s: float = 0.1
+    #: moving or standing stretches shorter than this are merged into their neighbours [s]
+    min_stretch_s: float = 0.1
+    #: accelerating (braking) where the slope of the smoothed speed exceeds this fraction of
+    #: the top speed per second [1/s] (a change of 2% of the top speed in 0.1 s) and
+    #: `accel_z` sd of its noise; cruising otherwise
+    accel_fraction: float = 0.2
+    accel_z: float = 5.0
+    #: a steady stretch below this fraction of the top speed beside a slowing (speeding
+    #: up) phase is that phase's tail (head), not a speed level
+    creep_fraction: float = 0.1
+    #: phases shorter than this are merged into a neighbour [s]
+    min_phase_s: float = 0.06
+    #: each boundary with a power signature is refined on the power trace within this far [s]
+    refine_s: float = 0.06
+    #: and moved only when the power jump there exceeds this many noise sd (of a block)
+    refine_z: float = 5.0
 
 
 @dataclass(frozen=True)
@@ -115,13 +163,20 @@ def segment_run(
     run: Run,
     motion: MotionParams | None = None,
     levels: LevelParams | None = None,
+    speed: SpeedParams | None = None,
 ) -> Segmentation:
-    """Phases of one run: motion phases for a motion run, steady levels otherwise.
+    """Phases of one run: from its speed column when it has one (a motion run, or a run of
+    unknown mode whose speed shows motion), else motion phases from power for a motion run,
+    steady levels otherwise. `Segmentation.doubts` says why the phases may be wrong.
 
     Raises `LogError` (naming the file) when a motion run shows no motion.
     """
     if run.samples == 0:
         raise LogError("the log holds no samples", file=run.file, fix="check the file")
+    if run.speed_mps is not None and run.meta.mode in ("motion", "unknown"):
+        found = _segment_kinematic(run, speed or SpeedParams())
+        if found is not None:
+            return found
     if run.meta.mode == "motion":
         return _segment_motion(run, motion or MotionParams())
     return _segment_levels(run, levels or LevelParams())
@@ -157,6 +212,254 @@ def _segment_levels(run: Run, params: LevelParams) -> Segmentation:
     return Segmentation(run.meta.run_id, tuple(phases), spikes)
 
 
+# -- runs with a speed column --------------------------------------------------------------
+
+#: power refinement of a kinematic boundary, by (phase before, phase after): polynomial
+#: degrees of the pieces either side and the sign of the power jump the physics gives (the
+#: drive switching on, the inertial term ending, the drive stopping or shorting). A motion
+#: end (-> idle) is never moved by power: a coasting robot moves on after its power drops.
+_REFINE = {
+    ("idle", "accel"): (0, 1, 1),
+    ("accel", "cruise"): (1, 1, -1),
+    ("cruise", "accel"): (1, 1, 1),
+    ("accel", "decel"): (1, 1, -1),
+    ("cruise", "decel"): (1, 1, -1),
+    ("decel", "cruise"): (1, 1, 1),
+    ("decel", "accel"): (1, 1, 1),
+}
+
+
+def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
+    """Phases from the speed column: standing (`idle`), speeding up (`accel`), holding a
+    level (`cruise`), slowing (`decel`), each boundary refined on the power trace where
+    power marks it. None when the speed never shows motion and the run is not a motion run
+    (its levels are then segmented as any log's)."""
+    dt = run.sample_period_s
+    block = max(1, round(params.block_s / dt))
+    y = block_means(run.power_W, block)
+    # signed speed averaged first, |.| after: the noise of a standing speed estimate
+    # averages to 0 (its absolute value would average to 0.8 sd above 0), and so does a
+    # vibration of the wheels back and forth in place
+    signed = block_means(np.nan_to_num(run.speed_mps, nan=0.0), block)
+    v = np.abs(signed)
+    n = y.size
+    block_dt = block * dt
+
+    def blocks(seconds: float) -> int:
+        return max(1, round(seconds / block_dt))
+
+    half = blocks(params.smooth_s) // 2
+    vs = np.abs(_centred_mean(signed, half))
+    sigma_v = robust_sigma_W(signed)
+    top = float(np.percentile(vs, 99)) if n else 0.0
+    smooth_sd = sigma_v / np.sqrt(2 * half + 1)
+    threshold = max(params.moving_fraction * top, params.moving_z * smooth_sd)
+    moving = vs > threshold
+    if n < 3 or top <= threshold or not moving.any():
+        if run.meta.mode != "motion":
+            return None
+        raise LogError(
+            "no motion found: the speed column never rises clearly above standstill",
+            file=run.file,
+            fix="check the speed column (--speed-column) and its unit (m/s)",
+        )
+    stretches = _merge_stretches(moving, blocks(params.min_stretch_s))
+    standing = ~moving
+    # standstill: its median reading and noise (0 and 0 for an encoder that reads 0)
+    edge_half = round(params.edge_s / 2 / block_dt)
+    v_edge = np.abs(_centred_mean(signed, edge_half))
+    standing_mps = float(np.median(v_edge[standing])) if standing.any() else 0.0
+    edge_sd = robust_sigma_W(signed[standing]) / np.sqrt(2 * edge_half + 1)
+    floor = standing_mps + params.standing_z * edge_sd
+    # each motion runs from the last standstill reading before it to the first after it
+    # (the smoothed speed crosses its threshold late at a start and early at an end), on
+    # speed averaged over `edge_s` (one reading of 0 amid a slow coast is not a stop)
+    # and standing still for `still_s` (a coast can read 0 once before it reads its last
+    # count)
+    still = v_edge <= floor
+    # a motion ends where the speed falls below the moving threshold's share of the top
+    # speed, not where the reading reaches 0: a filtered speed reading decays for tens of
+    # ms after the wheels stop (at the start nothing comes before the first count)
+    stopped = v_edge <= max(floor, params.moving_fraction * top)
+    hold = max(1, round(params.still_s / block_dt))
+    motions: list[tuple[int, int]] = []
+    for a, b in stretches:
+        lo = max(motions[-1][1] if motions else 0, 0)
+        # from the first and last clearly moving reading of the stretch (the averaged
+        # speed's window reaches half of it before and after the motion)
+        inside = np.flatnonzero(~stopped[a:b])
+        first, last = (a + int(inside[0]), a + int(inside[-1])) if inside.size else (a, b - 1)
+        lo = min(lo, first)
+        # the start: just after the last standstill reading before it (a noise blip above
+        # the floor earlier on is not motion); the end: where the speed then stays low
+        standstill = np.flatnonzero(still[lo:first])
+        start = lo + int(standstill[-1]) + 1 if standstill.size else lo
+        after = _held(stopped[last + 1 :], hold)
+        end = last + 1 + after if after is not None else n
+        motions.append((start, max(end, start + 1)))
+    # slope of the smoothed speed (per second), its noise, and the class of each block
+    h = max(1, half)
+    slope = np.zeros(n)
+    if n > 2 * h:
+        slope[h:-h] = (vs[2 * h :] - vs[: -2 * h]) / (2 * h * block_dt)
+    slope_sd = smooth_sd * np.sqrt(2.0) / (2 * h * block_dt)
+    accel_threshold = max(params.accel_fraction * top, params.accel_z * slope_sd)
+    kind = np.where(slope > accel_threshold, 1, np.where(slope < -accel_threshold, -1, 0))
+    names = {1: "accel", 0: "cruise", -1: "decel"}
+    sigma_b = robust_sigma_W(y)
+    refine = blocks(params.refine_s)
+    cuts: list[tuple[int, str, int]] = []  # (first block, phase, step)
+    cursor = 0
+    for number, (a, b) in enumerate(motions, start=1):
+        if a > cursor:
+            cuts.append((cursor, "idle", number - 1))
+        pieces = _merge_runs(kind[a:b], blocks(params.min_phase_s))
+        # a "level" far below the top speed next to a slowing (speeding up) phase is the
+        # tail (head) of that phase, e.g. the slow end of an exponential coast
+        ends = [p[0] for p in pieces[1:]] + [b - a]
+        kept: list[tuple[int, int]] = []
+        for k, (start, label) in enumerate(pieces):
+            level = float(np.mean(v[a + start : a + ends[k]]))
+            creep = label == 0 and level < params.creep_fraction * top
+            if creep and kept and kept[-1][1] == -1:
+                continue  # joins the slowing before it
+            if creep and k + 1 < len(pieces) and pieces[k + 1][1] == 1:
+                pieces[k + 1] = (start, 1)
+                continue  # joins the speeding up after it
+            kept.append((start, label))
+        for start, label in kept:
+            cuts.append((a + start, names[label], number))
+        cursor = b
+    if cursor < n:
+        cuts.append((cursor, "idle", len(motions)))
+    # refine the boundaries that power marks, each inside its neighbours
+    starts = [c[0] for c in cuts] + [n]
+    for k in range(1, len(cuts)):
+        rule = _REFINE.get((cuts[k - 1][1], cuts[k][1]))
+        if rule is None:
+            continue
+        deg_left, deg_right, sign = rule
+        min_len = max(3, blocks(0.005))
+        lo = max(starts[k - 1] + 1, starts[k] - refine)
+        hi = min(starts[k + 1] - 1, starts[k] + refine)
+        split = best_split(y, lo, hi, deg_left, deg_right, min_len, jump_sign=sign)
+        if split is not None and abs(split.jump_W) > params.refine_z * sigma_b:
+            starts[k] = split.index
+    phases = []
+    speed_sum = np.concatenate(([0.0], np.cumsum(np.abs(np.nan_to_num(run.speed_mps)))))
+    for k, (_, name, number) in enumerate(cuts):
+        i_start = starts[k] * block
+        i_end = run.samples if starts[k + 1] >= n else starts[k + 1] * block
+        if i_end > i_start:
+            mean_speed = float((speed_sum[i_end] - speed_sum[i_start]) / (i_end - i_start))
+            phases.append(_phase(run, number, name, i_start, i_end, mean_speed))
+    ends = blocks(0.05)
+    end_speeds = (abs(float(np.mean(signed[:ends]))), abs(float(np.mean(signed[-ends:]))))
+    moving_floor = max(floor, params.moving_fraction * top)
+    doubts = _kinematic_doubts(run, end_speeds, moving_floor, motions)
+    return Segmentation(run.meta.run_id, tuple(phases), (), tuple(doubts))
+
+
+def _kinematic_doubts(
+    run: Run, end_speeds: tuple[float, float], floor: float, motions: list[tuple[int, int]]
+) -> list[str]:
+    """Why phases from the speed column may not describe the run as a fit needs it
+    (`end_speeds`: |mean speed| over the first and last 50 ms; moving above `floor`)."""
+    doubts = []
+    first, last = end_speeds
+    if first > floor:
+        doubts.append(
+            f"the run starts moving ({first:.3g} m/s over its first 50 ms): its first "
+            "acceleration is not in the log"
+        )
+    if last > floor:
+        doubts.append(
+            f"the run ends moving ({last:.3g} m/s over its last 50 ms): its last stop is "
+            "not in the log"
+        )
+    if run.meta.mode == "motion" and len(motions) != run.meta.steps:
+        doubts.append(
+            f"the speed column shows {len(motions)} motion(s) between standstills, the "
+            f"metadata says {run.meta.steps} step(s)"
+        )
+    return doubts
+
+
+def _held(mask: np.ndarray, hold: int) -> int | None:
+    """Index of the first True in `mask` that starts a run of `hold` Trues (or a shorter one
+    reaching its end); None without one."""
+    padded = np.concatenate(([False], mask, [False]))
+    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
+    starts, ends = edges[::2], edges[1::2]
+    ok = ((ends - starts) >= hold) | (ends == mask.size)
+    return int(starts[ok][0]) if ok.any() else None
+
+
+def _centred_mean(values: np.ndarray, half: int) -> np.ndarray:
+    """Mean over the centred window of 2 half + 1 values at every index (shorter, still
+    centred where the window meets an end), by prefix sums."""
+    n = values.size
+    if half <= 0 or n == 0:
+        return values.astype(np.float64, copy=True)
+    prefix = np.concatenate(([0.0], np.cumsum(values, dtype=np.float64)))
+    idx = np.arange(n)
+    reach = np.minimum(np.minimum(idx, n - 1 - idx), half)
+    return (prefix[idx + reach + 1] - prefix[idx - reach]) / (2 * reach + 1)
+
+
+def _merge_stretches(mask: np.ndarray, min_len: int) -> list[tuple[int, int]]:
+    """Stretches [a, b) where `mask` holds, after closing gaps shorter than `min_len` and
+    dropping stretches shorter than `min_len`."""
+    padded = np.concatenate(([False], mask, [False]))
+    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
+    stretches = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    merged: list[tuple[int, int]] = []
+    for a, b in stretches:
+        if merged and a - merged[-1][1] < min_len:
+            merged[-1] = (merged[-1][0], b)
+        else:
+            merged.append((a, b))
+    return [(a, b) for a, b in merged if b - a >= min_len]
+
+
+def _merge_runs(labels: np.ndarray, min_len: int) -> list[tuple[int, int]]:
+    """Runs of equal labels as (start, label), runs shorter than `min_len` merged into a
+    neighbour (the shortest first; into the neighbour it resembles, else the longer one)."""
+    if labels.size == 0:
+        return []
+    change = np.flatnonzero(np.diff(labels)) + 1
+    starts = [0, *change.tolist()]
+    runs = [[s, int(labels[s])] for s in starts]
+    ends = [*starts[1:], labels.size]
+    lengths = [e - s for s, e in zip(starts, ends, strict=True)]
+    while len(runs) > 1:
+        k = int(np.argmin(lengths))
+        if lengths[k] >= min_len:
+            break
+        left = k - 1 if k > 0 else None
+        right = k + 1 if k + 1 < len(runs) else None
+        if left is None or (right is not None and lengths[right] > lengths[left]):
+            target = right
+        else:
+            target = left
+        # a short cruise between two accelerations (or a blip) joins the longer side
+        if target == right:
+            runs[right][0] = runs[k][0]
+        lengths[target] += lengths[k]
+        del runs[k], lengths[k]
+        # neighbours now equal in label are one run
+        merged_runs: list[list[int]] = []
+        merged_lengths: list[int] = []
+        for r, length in zip(runs, lengths, strict=True):
+            if merged_runs and merged_runs[-1][1] == r[1]:
+                merged_lengths[-1] += length
+            else:
+                merged_runs.append(r)
+                merged_lengths.append(length)
+        runs, lengths = merged_runs, merged_lengths
+    return [(int(s), int(label)) for s, label in runs]
+
+
 # -- motion runs ---------------------------------------------------------------------------
 
 
@@ -175,9 +478,11 @@ def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
     coarse = _coarse_motion(y, block_dt, max(1, run.meta.steps), params)
     if not coarse:
         raise LogError(
-            "no motion found: power never rises clearly above the idle level",
+            "no motion found: power never rises clearly above the idle level (read from "
+            "the first and last 0.5 s: a run moving at both ends shows none)",
             file=run.file,
-            fix="check the run's mode, or the reading options (--supply-voltage)",
+            fix="check the run's mode, or the reading options (--supply-voltage); a run "
+            "without idle at either end needs a speed column",
         )
     sigma_b = robust_sigma_W(y)
     steps: list[_Step] = []
@@ -201,9 +506,192 @@ def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
         i_start = a * block
         i_end = run.samples if b >= n_blocks else b * block
         if i_end > i_start:
-            phases.append(_phase(run, number, name, i_start, i_end))
+            # without a speed column, a cruise is at the run's commanded speed (cli.md)
+            speed = run.meta.speed_mps if name == "cruise" else None
+            phases.append(_phase(run, number, name, i_start, i_end, speed))
     spikes = tuple(_start_spikes(run, y, block, sigma_b, steps))
-    return Segmentation(run.meta.run_id, tuple(phases), spikes)
+    doubts = _motion_doubts(run, y, block_dt, bounds, len(steps), params)
+    return Segmentation(run.meta.run_id, tuple(phases), spikes, tuple(doubts))
+
+
+def _motion_doubts(
+    run: Run,
+    y: np.ndarray,
+    block_dt: float,
+    bounds: list[tuple[int, int, str, int]],
+    steps_found: int,
+    params: MotionParams,
+) -> list[str]:
+    """Why the phases found from power alone may not describe the run (plain sentences);
+    empty when the phase model fits the trace.
+
+    On 10 ms means, against the trace's own noise (σ₁₀, `robust_sigma_W`) and its motion
+    swing (median cruise power above idle), each test looks for structure the phase model
+    cannot hold (docs/segmentation.md, "Doubts"):
+
+    1. the run starts or ends with power well above idle (it starts / ends moving);
+    2. an idle phase holds power well above idle (motion labelled idle);
+    3. an accel or cruise phase holds a stretch at idle power (the drive off, labelled motion);
+    4. power steps where the model has no boundary (a second speed level, a stop);
+    5. a decel phase whose power neither falls nor sits clearly below the cruise before it;
+    6. idle at ~0 W (a motors-only log) and power dropping straight to it: the robot may
+       coast on, unseen (shorted motors, free wheel);
+    7. the step count against the metadata.
+    """
+    group = max(1, round(0.01 / block_dt))
+    y10 = block_means(y, group)
+    dt10 = group * block_dt
+    m = y10.size
+    if m < 10:
+        return []
+    sigma10 = robust_sigma_W(y10)
+    # each phase in 10 ms means (its whole 10 ms means only)
+    spans = [(-(-a // group), min(b // group, m), name, k) for a, b, name, k in bounds]
+    # idle: the lowest of the idle phases' medians (an "idle" holding motion is higher)
+    idle_levels = [
+        float(np.median(y10[a:b])) for a, b, name, _ in spans if name == "idle" and b > a
+    ]
+    idle_W = min(idle_levels) if idle_levels else float(y10.min())
+    cruise_W = [float(np.mean(y10[a:b])) for a, b, name, _ in spans if name == "cruise" and b > a]
+    swing_W = float(np.median(cruise_W)) - idle_W if cruise_W else float(y10.max()) - idle_W
+    swing_W = max(swing_W, params.min_excess_W)
+    # "well above idle": clear of noise and a fifth of the motion's swing
+    on_W = idle_W + max(params.motion_z * sigma10, 0.2 * swing_W, params.min_excess_W)
+    # "at idle": within noise and a tenth of the swing
+    near_W = max(3.0 * sigma10, 0.1 * swing_W)
+
+    def when(index10: int) -> float:
+        return float(run.time_s[0]) + index10 * dt10
+
+    def name_of(name: str, step: int) -> str:
+        return f"the {name} phase before step 1" if step == 0 else f"the {name} of step {step}"
+
+    doubts: list[str] = []
+    edge = min(5, m)
+    starts_moving = float(np.median(y10[:edge])) > on_W
+    ends_moving = float(np.median(y10[-edge:])) > on_W
+    if starts_moving:
+        doubts.append(
+            f"the run starts moving (power {float(np.median(y10[:edge])) - idle_W:.3g} W above "
+            "idle from its first sample): its first acceleration is not in the log"
+        )
+    if ends_moving:
+        doubts.append(
+            f"the run ends moving (power {float(np.median(y10[-edge:])) - idle_W:.3g} W above "
+            "idle at its last sample): its last stop is not in the log"
+        )
+    for k, (a, b, name, step) in enumerate(spans):
+        if b - a < 1:
+            continue
+        values = y10[a:b]
+        if name == "idle":
+            if (k == 0 and starts_moving) or (k == len(spans) - 1 and ends_moving):
+                continue
+            # more than the 50 ms a boundary may be off and still right
+            above = values > on_W
+            if above.sum() * dt10 > 0.05:
+                doubts.append(
+                    f"{name_of(name, step)} ({when(a):.3f}-{when(b):.3f} s) holds "
+                    f"{above.sum() * dt10:.2f} s of power well above idle (up to "
+                    f"{float(values.max()) - idle_W:.3g} W over it): motion labelled idle?"
+                )
+        elif name in ("accel", "cruise"):
+            longest, at = _longest_run(np.abs(values - idle_W) < near_W)
+            if name == "cruise" and b - a >= 20:
+                # two levels in one cruise: the best split into two flat pieces of at
+                # least a quarter each, their means further apart than noise, than twice
+                # the scatter left within the pieces (a ripple's: it does not split into
+                # levels) and `level_fraction` of the swing, and fitting better than one
+                # line (a slow drift is one line, not two levels)
+                quarter = (b - a) // 4
+                split = best_split(values, 0, b - a, 0, 0, quarter)
+                if split is not None:
+                    step_W = split.jump_W
+                    sd = sigma10 * np.sqrt(1.0 / split.index + 1.0 / (b - a - split.index))
+                    slope, intercept = _line(values)
+                    line_resid = values - (intercept + slope * np.arange(b - a))
+                    beats_line = split.sse < float(np.einsum("i,i->", line_resid, line_resid))
+                    scatter_W = np.sqrt(split.sse / (b - a))
+                    bar_W = max(6.0 * sd, 2.0 * scatter_W, params.level_fraction * swing_W)
+                    if beats_line and abs(step_W) > bar_W:
+                        doubts.append(
+                            f"{name_of(name, step)} holds two levels ({step_W:+.3g} W at "
+                            f"{when(a + split.index):.3f} s): a second speed level inside "
+                            "one cruise?"
+                        )
+            if longest * dt10 > 0.05:
+                doubts.append(
+                    f"{name_of(name, step)} holds {longest * dt10:.2f} s at idle power from "
+                    f"{when(a + at):.3f} s: the drive off, labelled {name}?"
+                )
+        elif name == "decel" and b - a >= 5:
+            # the least-squares line over the phase: its fall, against the fall's own sd
+            # sigma sqrt(12 / n) and a tenth of its start's height above idle
+            slope, start_W = _line(values)
+            n10 = b - a
+            end_W = start_W + slope * (n10 - 1)
+            fall_sd = sigma10 * np.sqrt(12.0 / n10)
+            falls = start_W - end_W > max(3.0 * fall_sd, 0.1 * (start_W - idle_W))
+            # or it sits clearly below the cruise before it (a ripple can tilt its line)
+            before = spans[k - 1] if k > 0 else None
+            lower = False
+            if before is not None and before[2] == "cruise" and before[1] > before[0]:
+                level_W = float(np.mean(y10[before[0] : before[1]]))
+                lower = level_W - float(np.mean(values)) > 0.25 * (level_W - idle_W)
+            if not (falls or lower):
+                doubts.append(
+                    f"{name_of(name, step)} ({when(a):.3f}-{when(b):.3f} s) does not fall "
+                    f"({start_W:.3g} W at its start, {end_W:.3g} W at its end): a steady "
+                    "stretch labelled decel?"
+                )
+    # power steps where the phase model has no boundary
+    w = 5
+    if m > 2 * w + 2:
+        jump = jump_statistic_W(y10, w)
+        threshold = max(6.0 * jump_sd_factor(w) * sigma10, 0.25 * swing_W)
+        found = peaks(np.abs(jump), threshold, w)
+        edges10 = np.array([b / group for _, b, _, _ in bounds[:-1]], dtype=np.float64)
+        tolerance = max(0.06 / dt10, 1.5)
+        unexplained = [
+            int(k)
+            for k in found
+            if edges10.size == 0 or float(np.min(np.abs(edges10 - k))) > tolerance
+        ]
+        for k in unexplained[:3]:
+            inside = next((sp for sp in spans if sp[0] <= k < sp[1]), spans[-1])
+            doubts.append(
+                f"power steps by {float(jump[k]):+.3g} W at {when(k):.3f} s inside "
+                f"{name_of(inside[2], inside[3])}, where the phase model has no boundary "
+                "(a second speed level, or a stop?)"
+            )
+    # a motors-only log: idle ~0 W, and the drive stops straight into it
+    peak_W = float(np.percentile(y10, 99))
+    abrupt = [k for _, _, name, k in bounds if name == "cruise"]
+    with_decel = {k for _, _, name, k in bounds if name == "decel"}
+    abrupt = [k for k in abrupt if k not in with_decel]
+    if abs(idle_W) < 0.05 * max(peak_W, 1e-9) and abrupt:
+        doubts.append(
+            f"idle is {idle_W:.2g} W (the log sees the motors only) and power drops straight "
+            f"to it at the end of {len(abrupt)} step(s): a robot that coasts or brakes by "
+            "shorting its motors moves on unseen, so the motion ends may be early (a speed "
+            "column would tell)"
+        )
+    if run.meta.mode == "motion" and steps_found != run.meta.steps:
+        doubts.append(
+            f"found {steps_found} step(s) separated by idle, the metadata says {run.meta.steps}"
+        )
+    return doubts
+
+
+def _longest_run(mask: np.ndarray) -> tuple[int, int]:
+    """Length and start of the longest run of True in `mask` ((0, 0) without one)."""
+    padded = np.concatenate(([False], mask, [False]))
+    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
+    if edges.size == 0:
+        return 0, 0
+    lengths = edges[1::2] - edges[::2]
+    k = int(np.argmax(lengths))
+    return int(lengths[k]), int(edges[2 * k])
 
 
 def _coarse_motion(
@@ -406,7 +894,11 @@ def _decel_start(
     end_W = intercept + slope * (t3 - t2 - 0.5)
     # the mean over the whole cruise: a ripple averages out of it
     cruise_W = float(np.mean(y[t1 + 2 : t2 - 1])) if t2 - t1 > 4 else float(y[t2 - 1])
-    if slope < 0 and (end_W - idle_W) < params.decel_end_fraction * (cruise_W - idle_W):
+    # after a wavy cruise the line over a short stop phase has the ripple's slope (a 1 W
+    # ripple at 0.25 Hz rises 0.5 W over 0.3 s, the stop at 0.1 m/s falls 0.3 W): there
+    # the clear drop that starts it and its end near idle must do
+    falls = slope < 0 or wavy
+    if falls and (end_W - idle_W) < params.decel_end_fraction * (cruise_W - idle_W):
         return t2
     return t3
 
@@ -478,7 +970,9 @@ def _time_at(run: Run, index: int) -> float:
     return float(run.time_s[-1] + run.sample_period_s)
 
 
-def _phase(run: Run, step: int, name: str, i_start: int, i_end: int) -> Phase:
+def _phase(
+    run: Run, step: int, name: str, i_start: int, i_end: int, speed_mps: float | None = None
+) -> Phase:
     power = run.power_W[i_start:i_end]
     total_W = np.sum(power, dtype=np.float64)  # one pass: the mean is the same sum / n
     energy = float(total_W * run.sample_period_s)
@@ -491,7 +985,8 @@ def _phase(run: Run, step: int, name: str, i_start: int, i_end: int) -> Phase:
         t_end_s=_time_at(run, i_end),
         mean_power_W=float(total_W / power.size),
         energy_J=energy,
+        speed_mps=speed_mps,
     )
 
 
-__all__ = ["MotionParams", "segment_file", "segment_run"]
+__all__ = ["MotionParams", "SpeedParams", "segment_file", "segment_run"]

@@ -390,3 +390,12 @@ def parse_cache(directory: Path | None) -> ParseCache | None:
     from wifibot_power.cache import ParseCache  # pyarrow.parquet loads only when asked for
 
     return ParseCache(directory)
+
+
+KeepDoubtful = Annotated[
+    bool,
+    typer.Option(
+        "--keep-doubtful",
+        help="Use runs whose segmentation is in doubt (left out and listed by default).",
+    ),
+]

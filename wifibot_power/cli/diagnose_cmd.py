@@ -13,6 +13,7 @@ from wifibot_power.cli.common import (
     EXIT_SKIPPED,
     Jobs,
     JsonFlag,
+    KeepDoubtful,
     OutDir,
     check_out_dir,
     handles_errors,
@@ -157,6 +158,7 @@ def diagnose_command(
         bool, typer.Option("--fail-on-discrepancy", help="Exit 1 when any finding is made (CI).")
     ] = False,
     plot: PlotFile = None,
+    keep_doubtful: KeepDoubtful = False,
 ) -> None:
     """What the paper's model gets wrong on these logs, the named cause, the held-out gain."""
     check_out_dir(out)
@@ -174,6 +176,7 @@ def diagnose_command(
         jobs=jobs,
         on_problems=warn_problems,
         reference=reference,
+        keep_doubtful=keep_doubtful,
     )
     plot_to(plot, "heldout_error", result)
     if out is not None:

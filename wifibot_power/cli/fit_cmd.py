@@ -14,6 +14,7 @@ from wifibot_power.cli.common import (
     CacheDir,
     Jobs,
     JsonFlag,
+    KeepDoubtful,
     OutDir,
     check_out_dir,
     handles_errors,
@@ -96,6 +97,7 @@ def fit_command(
     cache: CacheDir = None,
     runs: Annotated[bool, typer.Option("--runs", help="Also print each run's energy.")] = False,
     plot: PlotFile = None,
+    keep_doubtful: KeepDoubtful = False,
 ) -> None:
     """Segment every run and fit the paper's power models by least squares over runs."""
     check_out_dir(out)
@@ -109,6 +111,7 @@ def fit_command(
         jobs=jobs,
         cache=parse_cache(cache),
         on_problems=warn_problems,
+        keep_doubtful=keep_doubtful,
     )
     plot_to(plot, "power_speed", result)
     if out is not None:
@@ -130,6 +133,8 @@ def fit_command(
             print_runs_table(result)
     for note in result.notes:
         warn(note)
+    for warning in result.warnings:  # cli.md: also in `fit --json` `warnings`
+        warn(warning)
     code = report_skipped(list(result.skipped))
     if not result.model_complete:
         # a fit that cannot give the model (e.g. one speed: no slope) is not a success: exit 1,

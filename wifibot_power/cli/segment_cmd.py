@@ -13,6 +13,7 @@ from wifibot_power.cli.common import (
     handles_errors,
     print_json,
     stdout,
+    warn,
     warn_problems,
     with_reading_options,
 )
@@ -70,6 +71,8 @@ def segment_command(
         raise exc.with_file(path) from None
     plot_to(plot, "trace", run, segmentation)
     warn_problems(run.file, run.problems)
+    for doubt in segmentation.doubts:  # cli.md: a doubt is also a warning on stderr
+        warn(f"{run.file}: segmentation in doubt: {doubt}")
     if json_out:
         print_json(
             {
@@ -78,9 +81,11 @@ def segment_command(
                 "mode": run.meta.mode,
                 "phases": [p.as_dict() for p in segmentation.phases],
                 "spikes": [asdict(s) for s in segmentation.spikes],
+                "doubts": list(segmentation.doubts),
             }
         )
         return
+    with_speed = any(p.speed_mps is not None for p in segmentation.phases)
     cells = [
         [
             str(p.step),
@@ -91,10 +96,12 @@ def segment_command(
             f"{p.mean_power_W:.3f}",
             f"{p.energy_J:.2f}",
         ]
+        + (["-" if p.speed_mps is None else f"{p.speed_mps:.3f}"] if with_speed else [])
         for p in segmentation.phases
     ]
     title = f"{segmentation.run_id} ({run.meta.mode}): {len(segmentation.phases)} phase(s)"
-    print_table(stdout, title, _PHASE_COLUMNS, cells)
+    columns = _PHASE_COLUMNS + ((Col("speed m/s"),) if with_speed else ())
+    print_table(stdout, title, columns, cells)
     if segmentation.spikes:
         spikes = [
             [

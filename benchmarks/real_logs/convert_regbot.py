@@ -1,0 +1,234 @@
+"""Convert public REGBOT motor logs into canonical wbpower CSV (log-format.md §1).
+
+REGBOT is DTU's small two-wheeled teaching robot (DC motors with encoders, a Teensy
+controller that logs at 1 ms). Its log files are plain text: `%` comment lines that name
+each column (`%  5  6 Motor voltage [V] left, right: ...`), then one row of space separated
+numbers per sample. Two public sets are converted (docs/real-logs.md):
+
+- `regbot_initial_current`: zachasme/regbot, `qtgui/initial_current_*.txt` (2016-17): one
+  start-up test per robot of a whole class fleet: commanded motor voltage 2 (or 1.2-1.6) V
+  for 0.2 s, then 4 V, then for most -4 V (the wheels reverse) and 0 V (the motors shorted:
+  power 0 while the wheels coast to a stop); some hold 1.2 V then 4 V and never stop.
+- `regbot_rev2b_vel_step`: tarasz98/Robot_cup_Saga, `Pi/regbot/matlab/rev2b/vel_step*.txt`
+  (2015, hardware rev. 2b): a voltage step 2.1 -> 4.1 V (two speed levels), never stopping.
+
+Each log becomes one `.csv.gz` with every row kept and its own time stamps:
+
+- `time_s`: the log's time column [s] (1 ms steps);
+- `voltage_left_V`, `current_left_A`, `voltage_right_V`, `current_right_A`: the two motors
+  as two channels (log-format.md, "Several channels": wbpower sums their voltage x current
+  into the robot's power). The logs record the motors only, so a standing robot reads 0 W;
+  the voltage is the one the controller commands (the log's "Motor voltage" column), the
+  current the one it measures;
+- `speed_mps`: (left + right wheel velocity) / 2, signed (negative = backwards). The logs'
+  "Wheel velocity [m/s]" is already a speed: the robot's firmware converts encoder ticks
+  with its configured wheel radius (0.03 m on REGBOT), so no radius is applied here;
+- `speed_left_mps`, `speed_right_mps`: the two wheel velocities as logged.
+
+Metadata: `run_id` (set + file stem), `mode: motion`, `speed_mps` = the largest |speed|
+of the log (the tests command voltages, not speeds), `steps: 1`, and provenance keys
+(`source_repo`, `source_commit`, `source_path`, `source_licence`, `robot`).
+
+Usage (the mirror is a git directory, e.g. from the `fetch` tool, /work/.mirror/...):
+
+    python benchmarks/real_logs/convert_regbot.py regbot_initial_current \
+        /work/.mirror/zachasme+regbot/repo/.git --out tests/data/real/regbot_initial_current
+    python benchmarks/real_logs/convert_regbot.py regbot_rev2b_vel_step \
+        /work/.mirror/tarasz98+Robot_cup_Saga/repo --out tests/data/real/regbot_rev2b_vel_step
+
+By default only the set's fixture excerpt (`FIXTURE` below) is written; `--all` converts
+every log of the set (for the full benchmark, outside the repository). Standard library +
+numpy only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import fnmatch
+import gzip
+import re
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class LogSet:
+    repo: str
+    commit: str
+    pattern: str
+    licence: str
+    #: file names kept as the test fixture (an excerpt: the sets state no licence)
+    fixture: tuple[str, ...]
+
+
+NO_LICENCE = (
+    "no licence stated for the log files (the repository has no LICENSE file; "
+    "only an excerpt is kept)"
+)
+
+SETS = {
+    "regbot_initial_current": LogSet(
+        repo="zachasme/regbot",
+        commit="d34f38ec0ad36e95a5db6ed00413220ab575b11b",
+        pattern="qtgui/initial_current_*.txt",
+        licence=NO_LICENCE
+        + "; the repository's program sources carry GPL-2.0-or-later headers (DTU)",
+        fixture=(
+            "initial_current_01_emma.txt",
+            "initial_current_08_ella.txt",
+            "initial_current_12_josefine.txt",
+            "initial_current_13_olivia.txt",
+            "initial_current_16_sofie.txt",
+            "initial_current_19_lily.txt",
+            "initial_current_58_sigrid.txt",
+            "initial_current_62_tania.txt",
+            "initial_current_78_melina.txt",
+            "initial_current_85_haiyan_b.txt",
+            "initial_current_87_mia_c.txt",
+            "initial_current_88_vera.txt",
+        ),
+    ),
+    "regbot_rev2b_vel_step": LogSet(
+        repo="tarasz98/Robot_cup_Saga",
+        commit="1dfc83577c08d18df75e95d78ce9d5e792c7986b",
+        pattern="Pi/regbot/matlab/rev2b/vel_step*.txt",
+        licence=NO_LICENCE,
+        fixture=(
+            "vel_step.txt",
+            "vel_step_-2.txt",
+            "vel_step_2.txt",
+            "vel_step_18.txt",
+            "vel_step_19.txt",
+            "vel_step_24.txt",
+            "vel_step_30.txt",
+            "vel_step_35.txt",
+        ),
+    ),
+}
+
+#: a REGBOT header line: `%  5  6 Motor voltage [V] left, right: 2.0 2.0` (first column, 1-based)
+_HEADER = re.compile(r"^%\s+(\d+)\s+(?:\d+\s+)*(Motor voltage|Motor current|Wheel velocity)")
+_ROBOT = re.compile(r"^%%? ?logfile from robot\s+(.*?)\s*$")
+
+
+def _git(mirror: Path, *args: str) -> bytes:
+    return subprocess.run(
+        ["git", f"--git-dir={mirror}", *args], check=True, capture_output=True
+    ).stdout
+
+
+def parse_regbot(text: str, source: str) -> dict[str, np.ndarray | str]:
+    """Columns of one REGBOT log: time, per-motor voltage/current/wheel velocity, robot name."""
+    first: dict[str, int] = {}
+    robot = ""
+    rows = []
+    for line in text.splitlines():
+        if line.startswith("%"):
+            match = _HEADER.match(line)
+            if match:
+                first.setdefault(match.group(2), int(match.group(1)) - 1)
+            name = _ROBOT.match(line)
+            if name:
+                robot = name.group(1)
+            continue
+        if line.strip():
+            rows.append(line.split())
+    missing = {"Motor voltage", "Motor current", "Wheel velocity"} - set(first)
+    if missing:
+        raise SystemExit(f"{source}: no {', '.join(sorted(missing))} column in the header")
+    widths = {len(row) for row in rows}
+    if len(widths) != 1:
+        raise SystemExit(f"{source}: rows of different lengths {sorted(widths)}")
+    data = np.array(rows, dtype=np.float64)
+    u, i, v = (first[k] for k in ("Motor voltage", "Motor current", "Wheel velocity"))
+    return {
+        "time_s": data[:, 0],
+        "u_left_V": data[:, u],
+        "u_right_V": data[:, u + 1],
+        "i_left_A": data[:, i],
+        "i_right_A": data[:, i + 1],
+        "v_left_mps": data[:, v],
+        "v_right_mps": data[:, v + 1],
+        "robot": robot,
+    }
+
+
+#: output columns: (name, source key, printf format as logged: 3 decimals of time, 0.1 V,
+#: mA, 0.1 mm/s)
+COLUMNS = (
+    ("time_s", "time_s", "%.3f"),
+    ("speed_mps", None, "%.5f"),
+    ("voltage_left_V", "u_left_V", "%.2f"),
+    ("current_left_A", "i_left_A", "%.3f"),
+    ("voltage_right_V", "u_right_V", "%.2f"),
+    ("current_right_A", "i_right_A", "%.3f"),
+    ("speed_left_mps", "v_left_mps", "%.4f"),
+    ("speed_right_mps", "v_right_mps", "%.4f"),
+)
+
+
+def to_canonical(cols: dict[str, np.ndarray | str], meta: dict[str, str]) -> str:
+    """The canonical wbpower CSV text of one parsed log."""
+    speed_mps = (cols["v_left_mps"] + cols["v_right_mps"]) / 2 + 0.0  # + 0.0: no "-0"
+    meta = {**meta, "speed_mps": f"{np.max(np.abs(speed_mps)):.2f}"}
+    head = ["# wbpower-log: 1", *(f"# {k}: {v}" for k, v in meta.items())]
+    table = np.column_stack([speed_mps if k is None else cols[k] for _, k, _ in COLUMNS])
+    lines = [",".join(name for name, _, _ in COLUMNS)]
+    lines += [",".join(f % x for (_, _, f), x in zip(COLUMNS, row, strict=True)) for row in table]
+    return "\n".join(head + lines) + "\n"
+
+
+def convert(set_name: str, mirror: Path, out: Path, everything: bool) -> list[Path]:
+    spec = SETS[set_name]
+    paths = [
+        p
+        for p in _git(mirror, "ls-tree", "-r", "--name-only", spec.commit).decode().split("\n")
+        if fnmatch.fnmatch(p, spec.pattern)
+    ]
+    if not everything:
+        paths = [p for p in paths if Path(p).name in spec.fixture]
+        absent = set(spec.fixture) - {Path(p).name for p in paths}
+        if absent:
+            raise SystemExit(f"{mirror}: fixture logs not found: {sorted(absent)}")
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for path in sorted(paths):
+        source = f"{spec.repo}@{spec.commit[:12]}:{path}"
+        cols = parse_regbot(_git(mirror, "show", f"{spec.commit}:{path}").decode(), source)
+        stem = Path(path).stem
+        meta = {
+            "run_id": f"{set_name}/{stem}",
+            "mode": "motion",
+            "steps": "1",
+            "source_repo": f"https://github.com/{spec.repo}",
+            "source_commit": spec.commit,
+            "source_path": path,
+            "source_licence": spec.licence,
+            "robot": f"REGBOT {cols['robot']}".strip(),
+        }
+        target = out / f"{stem}.csv.gz"
+        # mtime 0: the same input gives the same bytes (no churn in git)
+        with open(target, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as gz:
+            gz.write(to_canonical(cols, meta).encode())
+        written.append(target)
+    return written
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("set", choices=sorted(SETS))
+    parser.add_argument("mirror", type=Path, help="git directory of the fetched repository")
+    parser.add_argument("--out", type=Path, required=True, help="folder for the .csv.gz files")
+    parser.add_argument("--all", action="store_true", help="every log of the set, not the excerpt")
+    args = parser.parse_args(argv)
+    written = convert(args.set, args.mirror, args.out, args.all)
+    print(f"{len(written)} logs written to {args.out}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,340 @@
+"""Segmentation of real-like motor logs (tests/realistic.py): from a speed column, and
+from power alone with doubts (issue 12). The truth is the generator's encoder speed, not
+anything segment.py computes.
+
+Tolerances: the motion interval within 50 ms of the truth (issue 12's criterion), or one
+sample where the logger's sample is longer (an ~18 Hz logger: 55 ms).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from realistic import Scenario, realistic_run
+
+from wifibot_power.io.writer import format_log, write_log
+from wifibot_power.run import Run, RunMeta
+from wifibot_power.segment import MotionParams, _motion_doubts, segment_run
+from wifibot_power.simulate import SimConfig, write_simulation
+
+TOLERANCE_S = 0.050
+
+#: realistic runs a new user brings (issue 12): starting moving, ending moving, idle at
+#: 0 W (motors only) or above it, braking by shorting or by the drive, two speed levels up
+#: or down, an ~18 Hz logger, slow and fast accelerations
+SCENARIOS = {
+    "short-brake": Scenario(),
+    "drive-brake": Scenario(brake="drive"),
+    "starts-moving": Scenario(start_moving=True),
+    "ends-moving": Scenario(brake="none"),
+    "two-levels-up": Scenario(levels_mps=(0.3, 0.6)),
+    "two-levels-down": Scenario(levels_mps=(0.6, 0.3), brake="drive"),
+    "logger-18Hz": Scenario(period_s=0.055),
+    "idle-5W-drive": Scenario(idle_W=5.0, brake="drive"),
+    "slow-accel-no-step": Scenario(accel_mps2=0.3, p_on_W=0.0, brake="drive"),
+    "fast-coast": Scenario(coast_tau_s=0.02, levels_mps=(0.8,)),
+    "noisy-pwm": Scenario(pwm_noise_frac=0.08, noise_W=0.2, brake="drive"),
+}
+
+
+def _interval(seg) -> tuple[float, float]:
+    moving = [p for p in seg.phases if p.phase != "idle"]
+    return moving[0].t_start_s, moving[-1].t_end_s
+
+
+def _right(run: Run, seg, truth: dict) -> bool:
+    tolerance = max(TOLERANCE_S, run.sample_period_s)
+    start, end = _interval(seg)
+    return (
+        abs(start - truth["motion_start_s"]) <= tolerance
+        and abs(end - truth["motion_end_s"]) <= tolerance
+    )
+
+
+# -- with a speed column -------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
+def test_speed_column_motion_interval_within_50_ms(name: str, seed: int) -> None:
+    run, truth = realistic_run(replace(SCENARIOS[name], seed=seed))
+    seg = segment_run(run)
+    start, end = _interval(seg)
+    tolerance = max(TOLERANCE_S, run.sample_period_s)
+    assert start == pytest.approx(truth["motion_start_s"], abs=tolerance)
+    assert end == pytest.approx(truth["motion_end_s"], abs=tolerance)
+    # a motion from standstill starts speeding up; one that stops ends slowing
+    moving = [p.phase for p in seg.phases if p.phase != "idle"]
+    if not truth["starts_moving"]:
+        assert moving[0] == "accel", moving
+    if not truth["ends_moving"]:
+        assert moving[-1] == "decel", moving
+    # phases cover the run once, and each carries its mean measured speed
+    assert seg.phases[0].i_start == 0 and seg.phases[-1].i_end == run.samples
+    assert all(a.i_end == b.i_start for a, b in zip(seg.phases, seg.phases[1:], strict=False))
+    for p in seg.phases:
+        assert p.speed_mps == pytest.approx(np.mean(run.speed_mps[p.i_start : p.i_end]))
+
+
+def test_speed_column_two_levels_each_its_own_accel_and_cruise() -> None:
+    run, truth = realistic_run(Scenario(levels_mps=(0.3, 0.6), brake="drive"))
+    seg = segment_run(run)
+    names = [p.phase for p in seg.phases]
+    assert names == ["idle", "accel", "cruise", "accel", "cruise", "decel", "idle"]
+    cruises = seg.of("cruise")
+    assert [c.speed_mps for c in cruises] == [
+        pytest.approx(0.3, abs=0.005),
+        pytest.approx(0.6, abs=0.005),
+    ]
+    # every boundary against the commanded plan (idle, accel, cruise, accel, cruise, decel,
+    # idle): the drive's 10 ms lag shifts the speed, not the power the boundaries are
+    # refined on; measured within 9 ms at seed 0, pinned at 15 ms
+    plan_starts = [p["t_start_s"] for p in truth["plan"]]
+    found_starts = [p.t_start_s for p in seg.phases]
+    assert np.abs(np.array(found_starts[1:]) - np.array(plan_starts[1:])).max() <= 0.015
+    assert not seg.doubts
+
+
+def test_speed_column_start_and_end_moving_are_doubts() -> None:
+    run, _ = realistic_run(Scenario(start_moving=True))
+    assert any("starts moving" in d for d in segment_run(run).doubts)
+    run, _ = realistic_run(Scenario(brake="none"))
+    assert any("ends moving" in d for d in segment_run(run).doubts)
+
+
+def test_speed_column_in_a_run_of_unknown_mode_and_a_standing_one() -> None:
+    run, _ = realistic_run(Scenario(mode="unknown"))
+    assert [p.phase for p in segment_run(run).phases][:3] == ["idle", "accel", "cruise"]
+    # a speed column that never moves: a log of unknown mode gets its steady levels
+    standing = replace(run, speed_mps=np.zeros(run.samples))
+    assert {p.phase for p in segment_run(standing).phases} == {"level"}
+
+
+# -- from power alone: right, or in doubt ------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
+def test_power_only_is_right_or_in_doubt(name: str, seed: int) -> None:
+    """Issue 12's key requirement: zero silently wrong segmentations."""
+    run, truth = realistic_run(replace(SCENARIOS[name], seed=seed))
+    seg = segment_run(replace(run, speed_mps=None))
+    assert _right(run, seg, truth) or seg.doubts, (
+        f"silently wrong: {_interval(seg)} vs {truth['motion_start_s']}-{truth['motion_end_s']}"
+    )
+
+
+def test_power_only_issue_reproductions() -> None:
+    """The observed failures of issue 12 each carry their doubt."""
+
+    def doubts(scenario: Scenario) -> str:
+        run, _ = realistic_run(scenario)
+        return " | ".join(segment_run(replace(run, speed_mps=None)).doubts)
+
+    # the first 0.2 s of real motion labelled idle: the run started moving
+    assert "starts moving" in doubts(Scenario(start_moving=True))
+    # stops invented before the end of runs that never stop
+    assert "ends moving" in doubts(Scenario(brake="none"))
+    # a whole first speed level buried inside accel / one cruise
+    assert "level" in doubts(Scenario(levels_mps=(0.3, 0.6), brake="drive"))
+    assert "two levels" in doubts(Scenario(levels_mps=(0.6, 0.3), brake="drive"))
+    # shorted motors: power drops to 0 W while the wheels coast on
+    assert "coasts" in doubts(Scenario())
+    # and a clean run with a controlled stop above 0 W idle has none
+    assert doubts(Scenario(idle_W=5.0, brake="drive")) == ""
+
+
+def _hand_run(power_W: np.ndarray) -> Run:
+    meta = RunMeta(
+        run_id="hand", mode="motion", speed_mps=0.5, distance_m=1.0, steps=1, sample_period_s=1e-3
+    )
+    return Run("hand.csv", "canonical", meta, np.arange(power_W.size) * 1e-3, power_W)
+
+
+def _trace(levels: list[tuple[float, float]], seed: int = 0) -> np.ndarray:
+    """Flat levels [(seconds, W)] at 1 ms with 0.05 W of noise."""
+    parts = [np.full(round(s * 1000), w) for s, w in levels]
+    power = np.concatenate(parts)
+    return power + np.random.default_rng(seed).normal(0, 0.05, power.size)
+
+
+def _doubts_of(power: np.ndarray, bounds: list[tuple[int, int, str, int]]) -> list[str]:
+    run = _hand_run(power)
+    return _motion_doubts(run, power, 1e-3, bounds, 1, MotionParams())
+
+
+def test_doubt_steady_cruise_labelled_decel() -> None:
+    # idle 5 W, accel, cruise 9 W; the last second of cruise labelled decel
+    power = _trace([(1, 5), (0.5, 10), (3, 9), (1, 5)])
+    right = [
+        (0, 1000, "idle", 0),
+        (1000, 1500, "accel", 1),
+        (1500, 4500, "cruise", 1),
+        (4500, 5500, "idle", 1),
+    ]
+    assert _doubts_of(power, right) == []
+    wrong = [*right[:2], (1500, 3500, "cruise", 1), (3500, 4500, "decel", 1), right[3]]
+    assert any("does not fall" in d for d in _doubts_of(power, wrong))
+
+
+def test_doubt_idle_stretch_after_power_off_labelled_cruise() -> None:
+    power = _trace([(1, 5), (0.5, 10), (3, 9), (1, 5)])
+    wrong = [
+        (0, 1000, "idle", 0),
+        (1000, 1500, "accel", 1),
+        (1500, 4800, "cruise", 1),
+        (4800, 5500, "idle", 1),
+    ]
+    assert any("at idle power" in d for d in _doubts_of(power, wrong))
+
+
+def test_doubt_first_motion_labelled_idle() -> None:
+    power = _trace([(1, 5), (0.5, 10), (3, 9), (1, 5)])
+    wrong = [
+        (0, 1200, "idle", 0),
+        (1200, 1500, "accel", 1),
+        (1500, 4500, "cruise", 1),
+        (4500, 5500, "idle", 1),
+    ]
+    assert any("motion labelled idle" in d for d in _doubts_of(power, wrong))
+
+
+def test_doubt_first_level_buried_in_accel() -> None:
+    # a first level at 8 W for 2 s, then a second at 11 W: labelled one accel and one cruise
+    power = _trace([(1, 5), (0.3, 8.5), (2, 8), (0.3, 11.5), (2, 11), (1, 5)])
+    wrong = [
+        (0, 1000, "idle", 0),
+        (1000, 3600, "accel", 1),
+        (3600, 5600, "cruise", 1),
+        (5600, 6600, "idle", 1),
+    ]
+    assert any("no boundary" in d for d in _doubts_of(power, wrong))
+
+
+def test_step_count_against_metadata_is_a_doubt() -> None:
+    run, _ = realistic_run(Scenario(idle_W=5.0, brake="drive", steps=2))
+    assert any("metadata says 2" in d for d in segment_run(replace(run, speed_mps=None)).doubts)
+
+
+# -- the command line ------------------------------------------------------------------------
+
+
+def _write(run: Run, path) -> None:
+    write_log(path, format_log(run.meta, run.power_W))
+
+
+@pytest.fixture
+def sim_dir(tmp_path):
+    config = SimConfig(
+        speeds_mps=(0.2, 0.5, 0.8),
+        trips=((2.0, 1),),
+        repeats=1,
+        modes=(),
+        seed=7,
+        sample_period_s=1.024e-3,
+    )
+    write_simulation(config, tmp_path / "logs")
+    return tmp_path / "logs"
+
+
+def test_segment_prints_doubts_on_stderr_and_in_json(tmp_path, wbpower) -> None:
+    run, _ = realistic_run(Scenario(brake="none", idle_W=5.0))
+    path = tmp_path / "ends.csv"
+    _write(replace(run, speed_mps=None), path)
+    result = wbpower("segment", path, "--json")
+    assert result.exit_code == 0
+    doc = json.loads(result.stdout)
+    assert any("ends moving" in d for d in doc["doubts"])
+    assert "warning" in result.stderr and "ends moving" in result.stderr
+    assert all("speed_mps" in p for p in doc["phases"])
+
+
+def test_fit_leaves_doubtful_runs_out_unless_kept(sim_dir, tmp_path, wbpower) -> None:
+    run, _ = realistic_run(Scenario(brake="none", idle_W=23.3, run_id="ends_moving"))
+    _write(replace(run, speed_mps=None), sim_dir / "ends_moving.csv")
+    result = wbpower("fit", sim_dir, "--json", "--jobs", "1")
+    doc = json.loads(result.stdout)
+    assert result.exit_code == 1
+    (skip,) = [s for s in doc["skipped"] if "ends_moving" in s["file"]]
+    assert "segmentation in doubt" in skip["reason"] and "ends moving" in skip["reason"]
+    kept = json.loads(wbpower("fit", sim_dir, "--json", "--jobs", "1", "--keep-doubtful").stdout)
+    assert kept["n_runs"] == doc["n_runs"] + 1
+    assert not any("ends_moving" in s["file"] for s in kept["skipped"])
+
+
+def test_run_table_takes_the_measured_speed_and_refuses_two_levels() -> None:
+    from wifibot_power.runtable import run_row
+
+    run, _ = realistic_run(Scenario(levels_mps=(0.42,), idle_W=5.0, brake="drive"))
+    run = replace(run, meta=replace(run.meta, speed_mps=0.5))  # commanded 0.5, drove 0.42
+    row = run_row(run, segment_run(run))
+    assert row["speed_mps"] == pytest.approx(0.42, abs=0.005) and row["usable"]
+    run, _ = realistic_run(Scenario(levels_mps=(0.3, 0.6), idle_W=5.0, brake="drive"))
+    row = run_row(run, segment_run(run))
+    assert row["cruise_levels"] == 2 and not row["usable"]
+    assert "2 speed levels" in row["skip_reason"]
+
+
+def test_diagnose_leaves_doubtful_runs_out_unless_kept() -> None:
+    from wifibot_power.diagnose import diagnose_summaries, summarize_run
+    from wifibot_power.phases import Segmentation
+    from wifibot_power.simulate import simulate_runs
+
+    config = SimConfig(
+        speeds_mps=(0.2, 0.5, 0.8),
+        trips=((2.0, 1),),
+        repeats=3,
+        modes=(),
+        seed=9,
+        sample_period_s=1.024e-3,
+    )
+    runs = [sim.run for sim in simulate_runs(config)]
+    doubtful = runs[0].meta.run_id
+
+    def segmenter(run: Run) -> Segmentation:
+        seg = segment_run(run)
+        return replace(seg, doubts=("a doubt",)) if run.meta.run_id == doubtful else seg
+
+    summaries = [summarize_run(run, segmenter) for run in runs]
+    left_out = diagnose_summaries(summaries)
+    kept = diagnose_summaries(summaries, keep_doubtful=True)
+    assert kept.n_runs == left_out.n_runs + 1 == len(runs)
+    (skip,) = left_out.skipped
+    assert "segmentation in doubt: a doubt" in skip.reason
+    assert kept.skipped == ()
+
+
+def test_speed_column_on_simulated_runs_with_a_noisy_speed_estimate() -> None:
+    """The simulator's runs (instant stops, the Wifibot's power) with a speed column from
+    their truth plus 5 mm/s of white noise, as a speed estimate (not an encoder) gives: a
+    standing robot then reads noise around 0, which must not count as motion. Measured
+    over this grid: every phase found, no doubt, accel and cruise starts exact (power
+    refines them), motion ends 4.1 ms late (half the 9 ms edge window); pinned at 6 ms."""
+    from wifibot_power.simulate import simulate_runs
+
+    config = SimConfig(
+        speeds_mps=(0.2, 0.5, 0.8),
+        trips=((2.0, 1), (10.0, 10)),
+        repeats=1,
+        modes=(),
+        seed=11,
+        sample_period_s=1.024e-3,
+    )
+    rng = np.random.default_rng(0)
+    for sim in simulate_runs(config):
+        dt, speed = sim.run.sample_period_s, np.zeros(sim.run.samples)
+        for p in sim.truth["phases"]:
+            a, b = round(p["t_start_s"] / dt), round(p["t_end_s"] / dt)
+            ramp = (np.arange(b - a) + 0.5) / (b - a)
+            v = {"accel": ramp, "cruise": 1.0, "idle": 0.0}[p["phase"]]
+            speed[a:b] = sim.truth["speed_mps"] * v
+        run = replace(sim.run, speed_mps=speed + rng.normal(0, 0.005, speed.size))
+        seg = segment_run(run)
+        assert seg.doubts == ()
+        truth = [(p["phase"], p["t_start_s"]) for p in sim.truth["phases"]]
+        found = [(p.phase, p.t_start_s) for p in seg.phases]
+        assert [n for n, _ in found] == [n for n, _ in truth]
+        assert max(abs(f - t) for (_, f), (_, t) in zip(found, truth, strict=True)) <= 0.006
