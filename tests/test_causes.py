@@ -6,7 +6,6 @@ used by `energy`; the catalogue's causes each declare what the spec asks of them
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
