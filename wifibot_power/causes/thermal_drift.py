@@ -28,7 +28,7 @@ if TYPE_CHECKING:
 ALPHA_PER_MIN = "alpha_per_min"
 #: each cruise loses this much at either end before its trend is taken (the ends hold the
 #: tails of acceleration and the start of the stop, not drift) [fraction of its length]
-CRUISE_TRIM = 0.1
+CRUISE_TRIM = 0.05
 
 
 class ThermalDrift(Cause):
