@@ -283,7 +283,14 @@ def heldout_folds(motion: pd.DataFrame, folds: int = FOLDS) -> np.ndarray | str:
     stratified[order] = np.arange(len(speed)) % k
     if ok(stratified):
         return stratified
-    return "held-out runs cannot be predicted: without some run, the others are all at one speed"
+    k = next(k for k in np.unique(stratified) if np.unique(speed[stratified != k]).size < 2)
+    rest_speeds = np.unique(speed[stratified != k])
+    out = ", ".join(f"{v:g}" for v in np.setdiff1d(speed[stratified == k], rest_speeds))
+    rest = ", ".join(f"{v:g}" for v in rest_speeds)
+    return (
+        f"runs at {out} m/s cannot be predicted held out: without them every other run is at "
+        f"{rest} m/s"
+    )
 
 
 def _missing_data(motion: pd.DataFrame) -> str:
@@ -291,8 +298,8 @@ def _missing_data(motion: pd.DataFrame) -> str:
     counts = motion["speed_mps"].value_counts().sort_index()
     have = ", ".join(f"{n} at {v:g} m/s" for v, n in counts.items())
     return (
-        f"add runs so that 2 or more speeds have 2 or more runs each (diagnose holds runs "
-        f"out, and a line needs 2 speeds); these logs have {have}"
+        f"add runs so that 2 or more speeds have 2 or more runs each (a line needs 2 "
+        f"speeds, and diagnose holds runs out); these logs have {have}"
     )
 
 
