@@ -169,3 +169,31 @@ def test_two_runs_at_the_second_speed_diagnose():
     result = diagnose_runs(_unbalanced(2))
     assert result.n_runs == 8
     assert np.isfinite(result.baseline_rmse_J) and np.isfinite(result.extended_rmse_J)
+
+
+def test_a_periodic_signal_whose_frequency_does_not_follow_speed_is_not_named():
+    """A 1 W, 4 Hz oscillation while moving at every speed (a fan, not a wheel): its
+    spectral peak is there in every cruise, but f ∝ v fails."""
+    sims = simulate_runs(SimConfig(**GRID, seed=107))
+
+    def hum(sim, moving):
+        return 1.0 * np.sin(2 * np.pi * 4.0 * sim.run.time_s)
+
+    result = diagnose_runs(_changed(sims, hum))
+    assert "cruise_ripple" not in [f.cause for f in result.findings]
+    assert result.unexplained
+    ripple = _candidate(result, "cruise_ripple")
+    failed = {c["check"] for c in ripple["checks"] if not c["passed"]}
+    assert "frequency scales with speed (f ∝ v) across runs" in failed
+
+
+def test_payload_that_also_raises_cruise_power_is_not_named_accel_inertial():
+    """Acceleration power rises with payload (the robot's real kI), but so does cruise power
+    (0.5 W per kg: e.g. tyres deflecting under load): 'only acceleration is affected' fails."""
+    sims = simulate_runs(SimConfig(**GRID, payloads_kg=(0.0, 3.0), seed=108))
+    result = diagnose_runs(_changed(sims, lambda sim, moving: 0.5 * sim.run.meta.payload_kg))
+    assert "accel_inertial" not in [f.cause for f in result.findings]
+    assert result.unexplained
+    inertial = _candidate(result, "accel_inertial")
+    failed = {c["check"] for c in inertial["checks"] if not c["passed"]}
+    assert "only acceleration is affected; cruise does not depend on payload" in failed
