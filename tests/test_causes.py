@@ -10,7 +10,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from wifibot_power.causes import CAUSES, Cause, Check, Evidence, RunTable, registered
-from wifibot_power.causes._common import coefficient_evidence
+from wifibot_power.causes.common import coefficient_evidence
 from wifibot_power.causes.design import column
 from wifibot_power.diagnose import diagnose_runs
 from wifibot_power.energy import trip_energy

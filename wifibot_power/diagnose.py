@@ -4,16 +4,19 @@
    trace statistics (`traces.trace_stats`): one run in memory at a time.
 2. The baseline is the paper's model (Eq. 1-6) fitted to these logs; it simulates each run's
    motion energy from (speed, distance, steps, payload) alone.
-3. Each named cause (`causes.CAUSES`, shared/spec/causes.md) runs its evidence test on all
-   runs. A cause is a candidate when its test is significant (p < 1e-3) and its estimated
-   size is worth naming; it becomes a finding when adding it to the model also improves
+3. Each named cause (the registry `causes.CAUSES`, shared/spec/causes.md) runs its evidence
+   test on all runs. A cause is a candidate when its test is significant (p < 1e-3) and its
+   estimated size is worth naming; it becomes a finding when adding it to the model also improves
    predictions of runs held out of the fit (>= 5% lower RMSE of run energy, or >= 10% on the
    cruise power trace for the ripple).
 4. The extended model holds every finding; its gain is measured on held-out runs the same way,
    nested: for each fold, the causes are chosen again, and fitted, without that fold.
    Held-out means K-fold by run: a run is predicted by a model fitted without it.
-5. Structure that remains in the extended model's held-out errors, or a periodic signal that
-   does not scale with speed, is reported as `unexplained` rather than forced onto a name.
+5. A candidate is named only when every consequence check of its physics passes (each
+   cause's `checks`, causes.md "How a cause earns its name"); one that would have predicted
+   but fails a check is reported (`rejected`) and makes the result `unexplained`, as does
+   structure left in the extended model's held-out errors (`unexplained_reasons`), rather
+   than forcing a name. A fit the training folds cannot identify is "not estimable".
 """
 
 from __future__ import annotations

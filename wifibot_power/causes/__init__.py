@@ -49,6 +49,17 @@ CAUSES.update(
     }
 )
 
+
+def __getattr__(name: str):
+    """`fit_model` and `predict_motion_energy_J` live in `causes.extended` (which loads the
+    fitting code); reached through the package for callers of the former causes.py."""
+    if name in ("fit_model", "predict_motion_energy_J", "NotEstimable"):
+        from wifibot_power.causes import extended
+
+        return getattr(extended, name)
+    raise AttributeError(f"module 'wifibot_power.causes' has no attribute '{name}'")
+
+
 __all__ = [
     "ALPHA",
     "CAUSES",

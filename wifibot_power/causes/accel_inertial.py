@@ -11,7 +11,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wifibot_power.causes._common import coefficient_evidence, distinct
 from wifibot_power.causes.base import (
     CHECK_ALPHA,
     Cause,
@@ -21,6 +20,7 @@ from wifibot_power.causes.base import (
     SimTrace,
     TripTerms,
 )
+from wifibot_power.causes.common import coefficient_evidence, distinct
 from wifibot_power.causes.design import column, stacked_design
 from wifibot_power.causes.design import power_factor as factor_of
 from wifibot_power.stats import ols
