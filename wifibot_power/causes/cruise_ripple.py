@@ -26,6 +26,8 @@ from wifibot_power.stats import ols, t_quantile
 if TYPE_CHECKING:
     import pandas as pd
 
+    from wifibot_power.model import PowerModel
+
 AMPLITUDE = "amplitude_W"
 HZ_PER_MPS = "hz_per_mps"
 #: A periodogram peak counts for a run below this p-value (Fisher's g-test).
@@ -121,7 +123,9 @@ class CruiseRipple(Cause):
         )
         return [scaling, rolls, self.plausible_check(evidence)]
 
-    def estimate(self, runs, coef, model) -> dict[str, float] | None:
+    def estimate(
+        self, runs: pd.DataFrame, coef: dict[str, float], model: PowerModel
+    ) -> dict[str, float] | None:
         evidence = self.evidence(RunTable(runs, model))
         if evidence.estimate > 0 and scales(evidence.parameters):
             return {key: evidence.parameters[key] for key in (AMPLITUDE, HZ_PER_MPS)}

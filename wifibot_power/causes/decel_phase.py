@@ -72,7 +72,9 @@ class DecelPhase(Cause):
             f"{t_dec:.3g} s at P_dec(v) = {params[P_DEC0]:.3g} + {params[P_DEC1]:.3g} v W",
         )
 
-    def estimate(self, runs, coef, model) -> dict[str, float]:
+    def estimate(
+        self, runs: pd.DataFrame, coef: dict[str, float], model: PowerModel
+    ) -> dict[str, float]:
         params = decel_parameters(runs, model, factor_of(runs, model.extensions))
         params.pop("t_dec_ci95")
         return params

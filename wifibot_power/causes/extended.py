@@ -29,7 +29,9 @@ def motion_of(runs: pd.DataFrame) -> pd.DataFrame:
     return runs[(runs["mode"] == "motion") & runs["usable"]]
 
 
-def fit_model(runs: pd.DataFrame, causes: Iterable[str] = (), *, strict: bool = False):
+def fit_model(
+    runs: pd.DataFrame, causes: Iterable[str] = (), *, strict: bool = False
+) -> PowerModel:
     """The paper's model fitted on `runs` (fit.fit_table: paper Eq. 1-4 by least squares
     over runs), extended jointly by `causes` in their fit stages (`Cause`): "scale" causes
     estimated against the column causes first, then one stacked least-squares fit of the

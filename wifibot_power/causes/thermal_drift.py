@@ -25,6 +25,8 @@ from wifibot_power.stats import ols, t_quantile
 if TYPE_CHECKING:
     import pandas as pd
 
+    from wifibot_power.model import PowerModel
+
 ALPHA_PER_MIN = "alpha_per_min"
 #: each cruise loses this much at either end before its trend is taken (the ends hold the
 #: tails of acceleration and the start of the stop, not drift) [fraction of its length]
@@ -79,7 +81,9 @@ class ThermalDrift(Cause):
     def power_factor(self, runs: pd.DataFrame, params: dict[str, float]) -> np.ndarray:
         return 1.0 + params[ALPHA_PER_MIN] * column(runs, "tau_mid_min")
 
-    def estimate(self, runs, coef, model) -> dict[str, float]:
+    def estimate(
+        self, runs: pd.DataFrame, coef: dict[str, float], model: PowerModel
+    ) -> dict[str, float]:
         return {ALPHA_PER_MIN: thermal_alpha(runs, coef, model.idle_W)[0]}
 
     def identifiable(self, runs: pd.DataFrame) -> str | None:
