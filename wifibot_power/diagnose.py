@@ -355,7 +355,9 @@ def select_causes(
 ) -> tuple[dict[str, float], dict[frozenset, float], tuple[Evidence, ...]]:
     """Forward selection on held-out error. At each round every cause not yet in the model
     runs its evidence test on top of the model holding the causes found so far; a cause
-    whose signature passes and whose consequence checks all pass is eligible, and the
+    whose signature passes and whose consequence checks all pass is eligible (when none
+    is, each passing candidate's checks are run again beside the other candidates: two
+    causes at once each leave structure where the other's checks look), and the
     eligible one that lowers the held-out RMSE of run energy most is added, while it lowers
     it by >= 5%. Trace causes are judged on their held-out trace gain. A trial whose fit
     the training folds cannot identify is "not estimable", never a number.
@@ -410,6 +412,17 @@ def select_causes(
             seen.gains[cause] = gain_pct(now, rmse) if np.isfinite(rmse) else None
         estimable = [c for c in passing if np.isfinite(rmse_of[frozenset(current) | {c}])]
         eligible = [c for c in estimable if all(ch.passed for ch in seen.checks[c])]
+        if not eligible and len(estimable) > 1:
+            # two causes at once each leave the other's structure in the view where the
+            # other's checks look: check each beside the other candidates
+            for cause in estimable:
+                beside = (*current, *(c for c in estimable if c != cause))
+                joint = RunTable(motion, fit_model(runs, beside), beside)
+                e = CAUSES[cause].evidence(joint)
+                checks = CAUSES[cause].checks(joint, e)
+                if e.passes and all(ch.passed for ch in checks):
+                    seen.checks[cause] = checks
+                    eligible.append(cause)
         for cause in passing:
             if cause not in estimable:
                 notes.append(
