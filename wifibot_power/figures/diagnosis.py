@@ -136,7 +136,7 @@ def _estimate_text(finding: Finding) -> str:
 
 
 def _ripple(ax: Axes, diagnosis: Diagnosis, finding: Finding) -> None:
-    from wifibot_power.causes import RIPPLE_RUN_ALPHA
+    from wifibot_power.causes.cruise_ripple import RUN_ALPHA as RIPPLE_RUN_ALPHA
 
     runs = diagnosis.runs
     speed = runs["speed_mps"].to_numpy(np.float64)
