@@ -105,7 +105,9 @@ def findings_figure(
     for finding in diagnosis.findings:
         panels.append(("finding", finding))
         known = set(diagnosis.runs["run_id"])
-        if finding.cause == "cruise_ripple" and any(r in known for r in cruise_blocks or {}):
+        # a cause measured on the power trace is shown by the trace's spectrum (its metric,
+        # not its name, picks the view: the registry is the only list of causes)
+        if finding.metric == "power_trace" and any(r in known for r in cruise_blocks or {}):
             panels.append(("spectrum", finding))
     if not panels:
         panels.append(("none", None))
@@ -117,7 +119,7 @@ def findings_figure(
             ax.set_axis_off()
         elif kind == "spectrum":
             _spectrum(ax, diagnosis, finding, cruise_blocks)
-        elif finding.cause == "cruise_ripple":
+        elif finding.metric == "power_trace":
             _ripple(ax, diagnosis, finding)
         else:
             _energy_cause(ax, diagnosis, finding)
