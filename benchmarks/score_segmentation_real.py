@@ -417,6 +417,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--data",
         type=Path,
+        metavar="DIR",
         help=f"folder holding the <set>/ folders (default: {regbot.ENV_VAR}, ...)",
     )
     parser.add_argument("--markdown", action="store_true", help="Markdown tables (for docs/)")
