@@ -1,7 +1,8 @@
 """Score wbpower's motion segmentation against the wheel velocities of real robot logs.
 
 Issue 12's yardstick. Each set is a folder of canonical logs with a `speed_mps` column
-(tests/data/real/<set>/, written by benchmarks/real_logs/convert_regbot.py; docs/real-logs.md).
+(written by benchmarks/real_logs/convert_regbot.py from fetched public repositories, kept
+outside the repository; docs/real-logs.md says where they are found).
 For every log:
 
 1. **Truth** from the velocity column (`true_interval`): the robot moves from the first
@@ -32,10 +33,13 @@ it zero silently wrong.
 The speed column reaches the segmenter as the reader puts it: `Run.speed_mps` (log-format.md,
 "Speed"); a log whose reader leaves it None is an error here (the truth needs it).
 
-Usage: `.venv/bin/python benchmarks/score_segmentation_real.py [SET_FOLDER ...] [--markdown]
-[--write-docs [FILE]]` (default: every folder under tests/data/real/). `--write-docs` puts the
-Markdown tables between the `<!-- real-logs score: begin/end -->` lines of FILE (default
-docs/real-logs.md).
+Usage: `.venv/bin/python benchmarks/score_segmentation_real.py [SET_FOLDER ...] [--data DIR]
+[--markdown] [--write-docs [FILE]]`. Without SET_FOLDERs it scores the excerpt of every set
+(`convert_regbot.SETS`), found by `convert_regbot.locate`: `--data DIR` (a folder holding
+`<set>/` folders) if given, else `WBPOWER_REAL_LOGS`, else ../shared/real_logs/regbot/, else
+converted from the fetched mirrors into `.cache/real_logs/` (git-ignored). `--write-docs`
+puts the Markdown tables between the `<!-- real-logs score: begin/end -->` lines of FILE
+(default docs/real-logs.md).
 """
 
 from __future__ import annotations
@@ -53,6 +57,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+sys.path.insert(0, str(Path(__file__).resolve().parent / "real_logs"))
+import convert_regbot as regbot  # noqa: E402  (a script beside this one, not a package)
+
 from wifibot_power.errors import WbpowerError
 from wifibot_power.io import ReadOptions, read_log
 from wifibot_power.phases import Segmentation
@@ -60,7 +67,8 @@ from wifibot_power.run import Run
 from wifibot_power.segment import segment_run
 
 ROOT = Path(__file__).resolve().parent.parent
-REAL_DIR = ROOT / "tests" / "data" / "real"
+#: where the fetched mirrors are converted when no converted logs are found (git-ignored)
+CACHE = ROOT / ".cache" / "real_logs"
 DOCS = ROOT / "docs" / "real-logs.md"
 BEGIN, END = "<!-- real-logs score: begin -->", "<!-- real-logs score: end -->"
 
@@ -198,8 +206,10 @@ def score_log(path: Path, set_name: str) -> LogScore:
     return LogScore(set_name, log, truth, broken, None, with_speed, without_speed)
 
 
-def score_set(folder: Path) -> list[LogScore]:
-    paths = sorted(p for p in folder.iterdir() if p.name.endswith((".csv", ".csv.gz")))
+def score_set(folder: Path, paths: Iterable[Path] | None = None) -> list[LogScore]:
+    """Score `paths` (default: every .csv/.csv.gz file of `folder`) as the set `folder.name`."""
+    if paths is None:
+        paths = sorted(p for p in folder.iterdir() if p.name.endswith((".csv", ".csv.gz")))
     return [score_log(p, folder.name) for p in paths]
 
 
@@ -354,15 +364,18 @@ def render_markdown(set_name: str, scores: list[LogScore]) -> str:
     return "\n".join(lines)
 
 
-def report(folders: list[Path], markdown: bool) -> str:
-    """The tables of every set and, for several sets, the summary over all of them."""
+def report(sets: dict[Path, list[Path] | None], markdown: bool) -> str:
+    """The tables of every set and, for several sets, the summary over all of them.
+
+    `sets` maps each set folder to the files to score (None: all of them).
+    """
     render = render_markdown if markdown else render_text
     parts, everything = [], []
-    for folder in folders:
-        scores = score_set(folder)
+    for folder, paths in sets.items():
+        scores = score_set(folder, paths)
         everything += scores
         parts.append(render(folder.name, scores))
-    if len(folders) > 1:
+    if len(sets) > 1:
         line = _summary_line(summarize(everything))
         parts.append(f"**All sets**: {line}" if markdown else _wrap(f"== all sets: {line}"))
     return "\n\n".join(parts) + "\n"
@@ -378,9 +391,35 @@ def write_docs(path: Path, text: str) -> None:
     path.write_text(f"{head}{BEGIN}\n{text}{END}{tail}")
 
 
+def _sets(folders: list[Path], data: Path | None) -> dict[Path, list[Path] | None]:
+    """The set folders given, else every set's excerpt where `convert_regbot.locate` finds it."""
+    if folders:
+        return dict.fromkeys(folders)
+    if data is not None:
+        located = regbot.Located(data, "--data")
+    else:
+        located = regbot.locate(CACHE)
+        if located is None:
+            raise SystemExit(regbot.UNAVAILABLE)
+    missing = [p for name in regbot.SETS for p in located.excerpt(name) if not p.is_file()]
+    if missing:
+        raise SystemExit(
+            f"--data {data}: {missing[0]} not found (a converted excerpt of every set is needed)"
+        )
+    return {located.folder(name): located.excerpt(name) for name in regbot.SETS}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("sets", nargs="*", type=Path, help="set folders (default: all)")
+    parser.add_argument(
+        "sets", nargs="*", type=Path, help="set folders to score, every file (default: located)"
+    )
+    parser.add_argument(
+        "--data",
+        type=Path,
+        metavar="DIR",
+        help=f"folder holding the <set>/ folders (default: {regbot.ENV_VAR}, ...)",
+    )
     parser.add_argument("--markdown", action="store_true", help="Markdown tables (for docs/)")
     parser.add_argument(
         "--write-docs",
@@ -390,8 +429,9 @@ def main(argv: list[str] | None = None) -> int:
         help=f"write the tables into FILE ({DOCS.name})",
     )
     args = parser.parse_args(argv)
-    folders = args.sets or sorted(p for p in REAL_DIR.iterdir() if p.is_dir())
-    text = report(folders, markdown=args.markdown or args.write_docs is not None)
+    text = report(
+        _sets(args.sets, args.data), markdown=args.markdown or args.write_docs is not None
+    )
     if args.write_docs is not None:
         write_docs(args.write_docs, text)
         print(f"tables written to {args.write_docs}", file=sys.stderr)

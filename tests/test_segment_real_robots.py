@@ -1,8 +1,12 @@
 """Segmentation scored against the wheel velocities of real robot logs (issue 12).
 
-The fixtures (tests/data/real/<set>/, docs/real-logs.md) are public REGBOT motor logs at
-1 ms, converted by benchmarks/real_logs/convert_regbot.py; their `speed_mps` column is the
-ground truth. The scoring itself is benchmarks/score_segmentation_real.py.
+The fixtures are public REGBOT motor logs at 1 ms, converted by
+benchmarks/real_logs/convert_regbot.py; their `speed_mps` column is the ground truth. The
+scoring itself is benchmarks/score_segmentation_real.py. Data from fetched repositories is
+kept out of the repository's commits, so the logs are found by `convert_regbot.locate`
+(WBPOWER_REAL_LOGS, else ../shared/real_logs/regbot/, else converted from the fetched
+mirrors into a per-session temporary folder; docs/real-logs.md); where none is there, the
+tests that need them are skipped with `convert_regbot.UNAVAILABLE`.
 
 The first tests check the fixtures, the reading (with branch io merged: two motor channels,
 the speed column, brief negative power read as data) and the scoring. The last ones state
@@ -27,7 +31,6 @@ import pytest
 from numpy.testing import assert_allclose
 
 ROOT = Path(__file__).resolve().parents[1]
-REAL = ROOT / "tests" / "data" / "real"
 SETS = ("regbot_initial_current", "regbot_rev2b_vel_step")
 
 
@@ -40,7 +43,8 @@ def _load(name: str, path: Path):
 
 
 score = _load("score_segmentation_real", ROOT / "benchmarks" / "score_segmentation_real.py")
-convert = _load("convert_regbot", ROOT / "benchmarks" / "real_logs" / "convert_regbot.py")
+#: the converter and the lookup, as the scoring script imports them
+convert = score.regbot
 
 #: rows of each fixture, counted in the source files (every row is kept)
 ROWS = {
@@ -60,28 +64,37 @@ ROWS = {
 }
 
 
-def _frame(set_name: str, stem: str) -> pd.DataFrame:
-    return pd.read_csv(REAL / set_name / f"{stem}.csv.gz", comment="#")
+@pytest.fixture(scope="module")
+def real(tmp_path_factory: pytest.TempPathFactory):
+    """The located logs (convert_regbot.Located); skipped with one reason where there are none."""
+    located = convert.locate(tmp_path_factory.mktemp("real_logs"))
+    if located is None:
+        pytest.skip(convert.UNAVAILABLE)
+    return located
 
 
-def _meta(set_name: str, stem: str) -> dict[str, str]:
-    with gzip.open(REAL / set_name / f"{stem}.csv.gz", "rt") as fh:
+def _frame(real, set_name: str, stem: str) -> pd.DataFrame:
+    return pd.read_csv(real.folder(set_name) / f"{stem}.csv.gz", comment="#")
+
+
+def _meta(real, set_name: str, stem: str) -> dict[str, str]:
+    with gzip.open(real.folder(set_name) / f"{stem}.csv.gz", "rt") as fh:
         lines = [line[2:].rstrip("\n") for line in fh if line.startswith("# ")]
     return dict(line.split(": ", 1) for line in lines)
 
 
 @pytest.fixture(scope="module")
-def scores() -> dict[str, list]:
-    return {name: score.score_set(REAL / name) for name in SETS}
+def scores(real) -> dict[str, list]:
+    return {name: score.score_set(real.folder(name), real.excerpt(name)) for name in SETS}
 
 
 # -- the fixtures are faithful conversions ----------------------------------------------------
 
 
 @pytest.mark.parametrize("set_name", SETS)
-def test_every_row_kept_with_its_own_time_stamps(set_name: str) -> None:
+def test_every_row_kept_with_its_own_time_stamps(real, set_name: str) -> None:
     for source, rows in ROWS[set_name].items():
-        frame = _frame(set_name, Path(source).stem)
+        frame = _frame(real, set_name, Path(source).stem)
         assert len(frame) == rows, source
         # the REGBOT logs sample every 1 ms from t = 1 ms (read in the source files)
         assert frame["time_s"].iloc[0] == pytest.approx(0.001), source
@@ -89,31 +102,31 @@ def test_every_row_kept_with_its_own_time_stamps(set_name: str) -> None:
 
 
 @pytest.mark.parametrize("set_name", SETS)
-def test_speed_is_the_mean_of_the_wheels(set_name: str) -> None:
+def test_speed_is_the_mean_of_the_wheels(real, set_name: str) -> None:
     for source in ROWS[set_name]:
-        frame = _frame(set_name, Path(source).stem)
+        frame = _frame(real, set_name, Path(source).stem)
         speed = (frame.speed_left_mps + frame.speed_right_mps) / 2
         assert_allclose(frame.speed_mps, speed, atol=1e-5)  # written to 5 decimals
 
 
-def test_first_rows_match_the_source_file() -> None:
+def test_first_rows_match_the_source_file(real) -> None:
     # initial_current_01_emma.txt, rows 1-2 as published (time, mission, state, thread,
     # voltage L R, current L R, wheel velocity L R, battery voltage):
     # "0.001 2 2 0 2.0 2.0 0.005 -0.009 -0.0000 -0.0000 11.01"
     # "0.002 2 2 0 2.0 2.0 0.184 0.124 -0.0000 0.0000 11.00"
-    frame = _frame("regbot_initial_current", "initial_current_01_emma")
+    frame = _frame(real, "regbot_initial_current", "initial_current_01_emma")
     columns = ["voltage_left_V", "voltage_right_V", "current_left_A", "current_right_A"]
     assert_allclose(frame[columns][:2], [[2, 2, 0.005, -0.009], [2, 2, 0.184, 0.124]], atol=0)
 
 
 @pytest.mark.parametrize("set_name", SETS)
-def test_the_reader_sums_the_two_motors_and_gives_the_speed(set_name: str) -> None:
+def test_the_reader_sums_the_two_motors_and_gives_the_speed(real, set_name: str) -> None:
     from wifibot_power.io import ReadOptions, read_log
 
     # emma holds the reversal sample of -1.256 W (line 363 of the source): read as data
     stem = {"regbot_initial_current": "initial_current_01_emma"}.get(set_name, "vel_step_2")
-    frame = _frame(set_name, stem)
-    run = read_log(REAL / set_name / f"{stem}.csv.gz", ReadOptions())
+    frame = _frame(real, set_name, stem)
+    run = read_log(real.folder(set_name) / f"{stem}.csv.gz", ReadOptions())
     left_W = frame.voltage_left_V * frame.current_left_A
     right_W = frame.voltage_right_V * frame.current_right_A
     assert_allclose(run.channels_W["left"], left_W, rtol=1e-12)
@@ -126,10 +139,10 @@ def test_the_reader_sums_the_two_motors_and_gives_the_speed(set_name: str) -> No
 
 
 @pytest.mark.parametrize("set_name", SETS)
-def test_provenance_in_every_file(set_name: str) -> None:
+def test_provenance_in_every_file(real, set_name: str) -> None:
     spec = convert.SETS[set_name]
     for source in ROWS[set_name]:
-        meta = _meta(set_name, Path(source).stem)
+        meta = _meta(real, set_name, Path(source).stem)
         assert meta["mode"] == "motion"
         assert meta["source_repo"] == f"https://github.com/{spec.repo}"
         assert meta["source_commit"] == spec.commit
@@ -137,43 +150,88 @@ def test_provenance_in_every_file(set_name: str) -> None:
         assert "licence" in meta["source_licence"]
 
 
-MIRRORS = {
-    "regbot_initial_current": Path(
-        os.environ.get("REGBOT_MIRROR", "/work/.mirror/zachasme+regbot/repo/.git")
-    ),
-    "regbot_rev2b_vel_step": Path(
-        os.environ.get("SAGA_MIRROR", "/work/.mirror/tarasz98+Robot_cup_Saga/repo")
-    ),
-}
-
-
 @pytest.mark.parametrize("set_name", SETS)
-def test_converter_regenerates_the_fixtures_byte_for_byte(set_name: str, tmp_path: Path) -> None:
-    mirror = MIRRORS[set_name]
+def test_converter_regenerates_the_fixtures_byte_for_byte(
+    real, set_name: str, tmp_path: Path
+) -> None:
+    mirror = convert.mirrors()[set_name]
     if not (mirror / "HEAD").exists():
         pytest.skip(f"no fetched mirror of {convert.SETS[set_name].repo} at {mirror}")
     try:
-        written = convert.convert(set_name, mirror, tmp_path, everything=False)
+        first = convert.convert(set_name, mirror, tmp_path / "first", everything=False)
+        second = convert.convert(set_name, mirror, tmp_path / "second", everything=False)
     except subprocess.CalledProcessError as exc:  # e.g. a mirror without that commit
         pytest.skip(f"mirror at {mirror} cannot give the set: {exc.stderr!r}")
-    assert len(written) == len(ROWS[set_name])
-    for path in written:
-        assert path.read_bytes() == (REAL / set_name / path.name).read_bytes(), path.name
+    assert len(first) == len(ROWS[set_name])
+    assert [p.name for p in first] == [p.name for p in second]
+    for a, b in zip(first, second, strict=True):
+        assert a.read_bytes() == b.read_bytes(), a.name  # no time stamp, no churn
+    if real.source != "mirrors":  # logs put there by someone else: the same bytes
+        for path in first:
+            assert path.read_bytes() == (real.folder(set_name) / path.name).read_bytes(), path
+
+
+# -- where the logs are found ----------------------------------------------------------------
+
+
+def _fill(root: Path) -> Path:
+    """`root` with an (empty) file for every excerpt log: what the lookup looks for."""
+    for name in SETS:
+        for path in convert.Located(root, "").excerpt(name):
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.touch()
+    return root
+
+
+def test_lookup_order(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    env, shared, cache = _fill(tmp_path / "env"), _fill(tmp_path / "shared"), tmp_path / "cache"
+    missing = tmp_path / "missing"
+    monkeypatch.setattr(convert, "SHARED", shared)
+    monkeypatch.setenv("REGBOT_MIRROR", str(missing))
+    monkeypatch.setenv("SAGA_MIRROR", str(missing))
+    monkeypatch.setenv(convert.ENV_VAR, str(env))
+    assert convert.locate(cache) == convert.Located(env, "env")
+    monkeypatch.delenv(convert.ENV_VAR)
+    assert convert.locate(cache) == convert.Located(shared, "shared")
+    (shared / SETS[1] / "vel_step_35.csv.gz").unlink()  # one log short: not a set
+    assert convert.locate(cache) is None
+    assert not cache.exists()
+
+
+def test_a_named_folder_without_the_logs_is_an_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the user named it: a one-line error naming it, not a quiet fall-back or skip
+    monkeypatch.setenv(convert.ENV_VAR, str(tmp_path))
+    with pytest.raises(SystemExit, match=f"WBPOWER_REAL_LOGS={tmp_path}: no converted excerpt"):
+        convert.locate(tmp_path / "cache")
+
+
+def test_lookup_converts_from_the_mirrors(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    mirrors = convert.mirrors()
+    if not all((m / "HEAD").exists() for m in mirrors.values()):
+        pytest.skip(convert.UNAVAILABLE)
+    monkeypatch.delenv(convert.ENV_VAR, raising=False)
+    monkeypatch.setattr(convert, "SHARED", tmp_path / "no_shared")
+    located = convert.locate(tmp_path / "cache")
+    assert located == convert.Located(tmp_path / "cache", "mirrors")
+    for name in SETS:
+        assert [p.is_file() for p in located.excerpt(name)] == [True] * len(ROWS[name])
 
 
 # -- the scoring ---------------------------------------------------------------------------------
 
 
-def test_true_interval_read_by_eye() -> None:
+def test_true_interval_read_by_eye(real) -> None:
     # initial_current_01_emma.txt: the left wheel's first encoder reading is 0.0743 m/s at
     # t = 0.010 (0 before); the mean of both wheels last exceeds 0.02 m/s at t = 0.596
     # ((-0.0145 - 0.0265) / 2), so the motion ends with that sample, at 0.597
-    frame = _frame("regbot_initial_current", "initial_current_01_emma")
+    frame = _frame(real, "regbot_initial_current", "initial_current_01_emma")
     truth = score.true_interval(frame.time_s.to_numpy(), frame.speed_mps.to_numpy())
     assert truth.start_s == pytest.approx(0.010) and truth.end_s == pytest.approx(0.597)
     # initial_current_12_josefine.txt: 0.0538 m/s (left) at t = 0.016, and still at 1.3 m/s
     # in the last row (t = 0.665): the run never stops, its motion ends with the log
-    frame = _frame("regbot_initial_current", "initial_current_12_josefine")
+    frame = _frame(real, "regbot_initial_current", "initial_current_12_josefine")
     truth = score.true_interval(frame.time_s.to_numpy(), frame.speed_mps.to_numpy())
     assert truth.start_s == pytest.approx(0.016) and truth.end_s == pytest.approx(0.666)
 
@@ -223,12 +281,14 @@ def test_write_docs_replaces_only_between_the_markers(tmp_path: Path) -> None:
         score.write_docs(doc, "new table\n")
 
 
-def test_script_prints_a_table_per_set() -> None:
+def test_script_prints_a_table_per_set(real) -> None:
+    # the script finds the logs by the same lookup: here through WBPOWER_REAL_LOGS
     result = subprocess.run(
         [sys.executable, str(ROOT / "benchmarks" / "score_segmentation_real.py")],
         capture_output=True,
         text=True,
         check=True,
+        env={**os.environ, convert.ENV_VAR: str(real.root)},
     )
     for name in SETS:
         assert f"== {name}" in result.stdout

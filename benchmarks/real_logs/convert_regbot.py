@@ -29,16 +29,24 @@ Metadata: `run_id` (set + file stem), `mode: motion`, `speed_mps` = the largest 
 of the log (the tests command voltages, not speeds), `steps: 1`, and provenance keys
 (`source_repo`, `source_commit`, `source_path`, `source_licence`, `robot`).
 
-Usage (the mirror is a git directory, e.g. from the `fetch` tool, /work/.mirror/...):
+Usage (the mirror is a git directory, e.g. from the `fetch` tool, /work/.mirror/...; the
+output goes outside the tracked tree: data from fetched repositories is never committed):
 
     python benchmarks/real_logs/convert_regbot.py regbot_initial_current \
-        /work/.mirror/zachasme+regbot/repo/.git --out tests/data/real/regbot_initial_current
+        /work/.mirror/zachasme+regbot/repo/.git --out DIR/regbot_initial_current
     python benchmarks/real_logs/convert_regbot.py regbot_rev2b_vel_step \
-        /work/.mirror/tarasz98+Robot_cup_Saga/repo --out tests/data/real/regbot_rev2b_vel_step
+        /work/.mirror/tarasz98+Robot_cup_Saga/repo --out DIR/regbot_rev2b_vel_step
 
-By default only the set's fixture excerpt (`FIXTURE` below) is written; `--all` converts
-every log of the set (for the full benchmark, outside the repository). Standard library +
-numpy only.
+By default only the set's excerpt (`fixture` below) is written; `--all` converts every log
+of the set. Standard library + numpy only.
+
+`locate` is the one place that finds the converted logs, for the tests and for
+benchmarks/score_segmentation_real.py, in this order: (a) the folder named by the
+environment variable `WBPOWER_REAL_LOGS` (holding one `<set>/` folder per set);
+(b) `../shared/real_logs/regbot/` beside the repository; (c) converted on the fly from the
+fetched mirrors (`REGBOT_MIRROR`, `SAGA_MIRROR`; defaults in `DEFAULT_MIRRORS`) into a
+cache folder the caller gives. None of these: `locate` returns None and the caller says
+`UNAVAILABLE`.
 """
 
 from __future__ import annotations
@@ -46,6 +54,7 @@ from __future__ import annotations
 import argparse
 import fnmatch
 import gzip
+import os
 import re
 import subprocess
 import sys
@@ -216,6 +225,83 @@ def convert(set_name: str, mirror: Path, out: Path, everything: bool) -> list[Pa
             gz.write(to_canonical(cols, meta).encode())
         written.append(target)
     return written
+
+
+#: the repository this file belongs to, and the shared folder beside it (steering team's)
+ROOT = Path(__file__).resolve().parents[2]
+SHARED = ROOT.parent / "shared" / "real_logs" / "regbot"
+#: a folder holding one `<set>/` folder of converted logs per set: looked at first
+ENV_VAR = "WBPOWER_REAL_LOGS"
+#: where the `fetch` tool puts the two repositories (git directories), and the environment
+#: variables that override them
+DEFAULT_MIRRORS = {
+    "regbot_initial_current": ("REGBOT_MIRROR", "/work/.mirror/zachasme+regbot/repo/.git"),
+    "regbot_rev2b_vel_step": ("SAGA_MIRROR", "/work/.mirror/tarasz98+Robot_cup_Saga/repo"),
+}
+UNAVAILABLE = (
+    f"real REGBOT logs not available: set {ENV_VAR}, or put them under "
+    "../shared/real_logs/regbot/, or fetch the mirrors (docs/real-logs.md)"
+)
+
+
+@dataclass(frozen=True)
+class Located:
+    """Where the converted logs were found: `root` holds one `<set>/` folder per set."""
+
+    root: Path
+    #: "env" (WBPOWER_REAL_LOGS), "shared" (../shared/real_logs/regbot/) or "mirrors"
+    #: (converted from the fetched repositories into the cache)
+    source: str
+
+    def folder(self, set_name: str) -> Path:
+        return self.root / set_name
+
+    def excerpt(self, set_name: str) -> list[Path]:
+        """The set's excerpt files (`fixture`), in name order: a folder may hold more."""
+        return sorted(
+            self.folder(set_name) / f"{Path(n).stem}.csv.gz" for n in SETS[set_name].fixture
+        )
+
+
+def mirrors() -> dict[str, Path]:
+    """The git directory of each set's fetched repository (environment, else default)."""
+    return {
+        name: Path(os.environ.get(var) or path) for name, (var, path) in DEFAULT_MIRRORS.items()
+    }
+
+
+def _holds_every_set(root: Path) -> bool:
+    return all(p.is_file() for name in SETS for p in Located(root, "").excerpt(name))
+
+
+def locate(cache: Path) -> Located | None:
+    """Find the converted logs of every set: (a) WBPOWER_REAL_LOGS, (b) ../shared, (c) mirrors.
+
+    A `WBPOWER_REAL_LOGS` that is set but lacks a set's excerpt is an error (SystemExit
+    naming the folder), not a reason to look elsewhere. For (c) both mirrors must hold their
+    commit; the excerpts are converted into `cache/<set>/` (written afresh each time).
+    """
+    named = os.environ.get(ENV_VAR)
+    if named:
+        root = Path(named)
+        if not _holds_every_set(root):
+            raise SystemExit(
+                f"{ENV_VAR}={root}: no converted excerpt of every set there (it needs "
+                f"{', '.join(f'{n}/' for n in SETS)} with the files of docs/real-logs.md; "
+                f"convert them with {Path(__file__).name}, or unset {ENV_VAR})"
+            )
+        return Located(root, "env")
+    if _holds_every_set(SHARED):
+        return Located(SHARED, "shared")
+    sources = mirrors()
+    if not all((git_dir / "HEAD").is_file() for git_dir in sources.values()):
+        return None
+    try:
+        for name, git_dir in sources.items():
+            convert(name, git_dir, cache / name, everything=False)
+    except subprocess.CalledProcessError:  # a mirror without the commit or a path
+        return None
+    return Located(cache, "mirrors")
 
 
 def main(argv: list[str] | None = None) -> int:
