@@ -10,7 +10,15 @@ from rich.table import Table
 
 from wifibot_power.cli.common import JsonFlag, handles_errors, print_json, stdout
 from wifibot_power.cli.typer_app import app
-from wifibot_power.simulate import EFFECTS, SimConfig, WriteOptions, parse_effects, write_simulation
+from wifibot_power.simulate import (
+    EFFECTS,
+    REALISM,
+    SimConfig,
+    WriteOptions,
+    parse_effects,
+    realism,
+    write_simulation,
+)
 
 
 def _floats(text: str, option: str) -> tuple[float, ...]:
@@ -62,9 +70,22 @@ def simulate_command(
     sample_period: Annotated[
         float, typer.Option("--sample-period", min=1e-6, help="Sample period [s].")
     ] = 0.1024e-3,
+    realism_name: Annotated[
+        str,
+        typer.Option(
+            "--realism",
+            help=f"{'|'.join(REALISM)}: 'field' adds what real logs carry (PWM tone, run-to-run "
+            "spread, 0.8 W noise); docs/simulator.md.",
+        ),
+    ] = "lab",
     noise: Annotated[
-        float, typer.Option("--noise", min=0.0, help="Analyser noise per 0.1024 ms sample [W].")
-    ] = 0.3,
+        float | None,
+        typer.Option(
+            "--noise",
+            min=0.0,
+            help="Analyser noise per 0.1024 ms sample [W] (default 0.3; 0.8 with field).",
+        ),
+    ] = None,
     columns: Annotated[
         str, typer.Option(help="'full' (time, voltage, current, power) or 'power'.")
     ] = "full",
@@ -77,6 +98,9 @@ def simulate_command(
     """Write synthetic logs of a physical Wifibot model, with runs.csv and truth.json."""
     if columns not in ("full", "power") or compress not in ("none", "gz"):
         raise typer.BadParameter("--columns is full|power and --compress is none|gz")
+    level = realism(realism_name)
+    if noise is not None:
+        level["noise_W"] = noise
     config = SimConfig(
         speeds_mps=_floats(speeds, "--speeds"),
         trips=_trips(trips),
@@ -85,7 +109,7 @@ def simulate_command(
         modes=tuple(m.strip() for m in modes.split(",") if m.strip()),
         mode_repeats=mode_repeats,
         sample_period_s=sample_period,
-        noise_W=noise,
+        **level,
         effects=parse_effects(effect or []),
         seed=seed,
     )
