@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from wifibot_power.causes import ALPHA, CAUSES, Evidence, fit_model, predict_motion_energy_J
+from wifibot_power.causes import CAUSES, Evidence, fit_model, predict_motion_energy_J
 from wifibot_power.errors import LogError
 from wifibot_power.fit import segment_checked
 from wifibot_power.io import LogSource, ReadOptions, Skipped
@@ -34,16 +34,13 @@ from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.model import PowerModel
 from wifibot_power.outputs import write_json, write_parquet
 from wifibot_power.phases import Segmentation
+from wifibot_power.residuals import residual_table, structure_reasons
 from wifibot_power.run import Run
 from wifibot_power.runtable import run_row, runs_frame
 from wifibot_power.traces import EMPTY, TraceStats, ripple_trace_rmse_W, trace_stats
 
 #: Smallest held-out gain that makes a significant cause a finding [%].
 MIN_GAIN_PCT = {"run_energy": 5.0, "power_trace": 10.0}
-#: Held-out relative error of run energy [%] above which structure is not mere noise.
-UNEXPLAINED_RMS_PCT = 1.0
-#: ...and above which the extended model is not good enough whatever the structure [%].
-UNEXPLAINED_ANY_PCT = 5.0
 #: A gap longer than this between one run's end and the next's start ends a session [s].
 SESSION_GAP_S = 30 * 60.0
 FOLDS = 5
@@ -587,28 +584,17 @@ def error_patterns(table: pd.DataFrame) -> dict[str, object]:
 def unexplained_reasons(
     table: pd.DataFrame, evidence: tuple[Evidence, ...], named: list[str]
 ) -> list[str]:
-    """Structure the named causes leave in the held-out errors of the extended model."""
-    reasons = []
-    error = table["extended_error_pct"].to_numpy(np.float64)
-    rms = float(np.sqrt(np.mean(error**2)))
-    if rms > UNEXPLAINED_ANY_PCT:
-        reasons.append(f"held-out error of run energy is {rms:.2g}% RMS after the named causes")
-    elif rms > UNEXPLAINED_RMS_PCT:
-        columns = [c for c in COVARIATES if table[c].nunique() > 1]
-        x = np.column_stack(
-            [np.ones(len(table))] + [table[c].to_numpy(np.float64) for c in columns]
+    """Structure the named causes leave in the held-out errors of the extended model,
+    judged against the spread of repeated runs (`residuals.py`), and a periodic signal in
+    the cruises whose frequency does not scale with speed."""
+    reasons = structure_reasons(
+        residual_table(
+            table["run_id"].to_numpy(),
+            table["measured_energy_J"].to_numpy(),
+            table["extended_energy_J"].to_numpy(),
+            table[["speed_mps", "distance_m", "steps", "payload_kg", "session_order"]],
         )
-        coef, *_ = np.linalg.lstsq(x, error, rcond=None)
-        sse = float(np.sum((error - x @ coef) ** 2))
-        sst = float(np.sum((error - error.mean()) ** 2))
-        df1, df2 = x.shape[1] - 1, len(error) - x.shape[1]
-        if df1 > 0 and df2 > 0 and sse > 0:
-            p = float(stats.f.sf(((sst - sse) / df1) / (sse / df2), df1, df2))
-            if p < ALPHA:
-                reasons.append(
-                    f"held-out error ({rms:.2g}% RMS) still depends on "
-                    f"{', '.join(COVARIATES[c] for c in columns)} (F-test p = {p:.2g})"
-                )
+    )
     ripple = next(e for e in evidence if e.cause == "cruise_ripple")
     does_not_scale = ripple.parameters and ripple.estimate == 0.0
     if "cruise_ripple" not in named and ripple.significant and does_not_scale:
