@@ -597,8 +597,12 @@ def unexplained_reasons(
     )
     ripple = next(e for e in evidence if e.cause == "cruise_ripple")
     does_not_scale = ripple.parameters and ripple.estimate == 0.0
-    if "cruise_ripple" not in named and ripple.significant and does_not_scale:
-        reasons.append(ripple.summary)
+    # as small as a ripple worth naming, or it is no claim about the robot (a PWM tone
+    # folded near 0 Hz by a 1 kHz analyser is a few mW, and significant)
+    amplitude_W = ripple.parameters.get("amplitude_W", 0.0) if ripple.parameters else 0.0
+    worth = amplitude_W >= CAUSES["cruise_ripple"].min_size
+    if "cruise_ripple" not in named and ripple.significant and does_not_scale and worth:
+        reasons.append(f"{ripple.summary}, {amplitude_W:.2g} W")
     return reasons
 
 
