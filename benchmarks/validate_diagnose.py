@@ -110,11 +110,11 @@ def _span(values: list[float]) -> str:
 if __name__ == "__main__":
     # `lab` (this file: simulate's clean robot), `field` (validate_field.py: the independent
     # generator at field realism, off-catalogue effects, false alarms), or both (default)
-    suites = sys.argv[1:] or ["lab", "field"]
+    suites = [a for a in sys.argv[1:] if not a.startswith("--")] or ["lab", "field"]
     if "lab" in suites:
         main()
     if "field" in suites:
         import validate_field
 
         print()
-        validate_field.main()
+        validate_field.main(sys.argv[1:])

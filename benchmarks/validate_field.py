@@ -16,9 +16,10 @@ fieldgen's grid: speeds 0.1, 0.3, 0.5, 0.7, 0.9 m/s x (2 m, 10 m, 10 m in 10 ste
 repeats + 2 idle runs (30 motion runs; 60 with payloads 0 and 3 kg), at 1 kHz (the
 analyser's 0.1024 ms samples averaged: the tests' statistics are run energies and phase
 means, which do not depend on the rate; the PWM tone then folds to 0-10 Hz, as it would).
-About 10-15 minutes on 2 cores.
+About 15 minutes on 2 idle cores; `--quick` (3 seeds per effect, 4 per cause, 8 null
+seeds, no pairs) about a third of that.
 
-    .venv/bin/python benchmarks/validate_field.py
+    .venv/bin/python benchmarks/validate_field.py [--quick]
 """
 
 from __future__ import annotations
@@ -91,18 +92,21 @@ def case(args: tuple[str, str, tuple[str, ...], int, float]) -> dict:
     }
 
 
-def cases() -> list[tuple[str, str, tuple[str, ...], int, float]]:
+def cases(
+    off_seeds: int = 5, seeds: int = 8, null_seeds: int = 24, pairs: bool = True
+) -> list[tuple[str, str, tuple[str, ...], int, float]]:
     out = []
     for kind in fieldgen.OFF_CATALOGUE:
-        out += [("off", kind, (kind,), seed, 0.0) for seed in range(1, 6)]
-    out += [("catalogue", "nothing", (), seed, 0.0) for seed in range(1, 9)]
+        out += [("off", kind, (kind,), seed, 0.0) for seed in range(1, off_seeds + 1)]
+    out += [("catalogue", "nothing", (), seed, 0.0) for seed in range(1, seeds + 1)]
     for cause in fieldgen.CATALOGUE:
-        out += [("catalogue", cause, (cause,), seed, 0.0) for seed in range(1, 9)]
-    for a, b in itertools.combinations(fieldgen.CATALOGUE, 2):
-        out.append(("catalogue", "pairs (15, seed 1)", (a, b), 1, 0.0))
-    out += [("null", "fieldgen null", (), seed, 0.0) for seed in range(101, 125)]
+        out += [("catalogue", cause, (cause,), seed, 0.0) for seed in range(1, seeds + 1)]
+    if pairs:
+        for a, b in itertools.combinations(fieldgen.CATALOGUE, 2):
+            out.append(("catalogue", "pairs (15, seed 1)", (a, b), 1, 0.0))
+    out += [("null", "fieldgen null", (), s, 0.0) for s in range(101, 101 + null_seeds)]
     out += [("simulate", "simulate --realism field", (), seed, 0.0) for seed in range(201, 241)]
-    out += [("jerk", "null, jerk-limited ramps (50 ms)", (), seed, 0.05) for seed in (1, 2, 3)]
+    out += [("jerk", "null, jerk-limited ramps (50 ms)", (), 1, 0.05)]
     return out
 
 
@@ -113,22 +117,17 @@ def _span(values: list[float]) -> str:
     return f"{low:.1f}%" if low == high else f"{low:.1f}-{high:.1f}%"
 
 
-def main() -> None:
-    todo = cases()
+def main(argv: list[str] | None = None) -> None:
+    """argv: `--quick` runs 3 seeds per off-catalogue kind, 4 per cause, 8 null seeds and
+    no pairs (for a loaded machine; the tables then say so by their counts)."""
+    quick = "--quick" in (argv if argv is not None else sys.argv[1:])
+    todo = cases(3, 4, 8, False) if quick else cases()
     started = time.perf_counter()
+    results = []
     with multiprocessing.Pool(2) as pool:
-        results = pool.map(case, todo, chunksize=1)
-    for r in results:
-        if r["error"]:
-            print(f"{r['label']:34s} seed {r['seed']:3d}: ERROR {r['error']}")
-            continue
-        print(
-            f"{r['label']:34s} seed {r['seed']:3d}: named {r['named']} "
-            f"unexplained {r['unexplained']} baseline flags {r['baseline_flags']} "
-            f"gain {r['gain_pct']:.1f}% est/size {_fmt(r['ratios'])} ({r['seconds']:.0f} s)"
-        )
-        for reason in r["reasons"]:
-            print(f"      {reason}")
+        for r in pool.imap(case, todo, chunksize=1):
+            results.append(r)
+            _print_case(r)
     print(f"\n{len(results)} batches in {time.perf_counter() - started:.0f} s\n")
 
     groups: dict[tuple[str, str], list[dict]] = {}
@@ -190,6 +189,20 @@ def main() -> None:
             f"| {label} | {len(rs)} | {sum(bool(r['named']) for r in ok)} "
             f"| {sum(r['unexplained'] for r in ok)} | {'; '.join(tests) or '-'} |"
         )
+
+
+def _print_case(r: dict) -> None:
+    if r["error"]:
+        print(f"{r['label']:34s} seed {r['seed']:3d}: ERROR {r['error']}", flush=True)
+        return
+    print(
+        f"{r['label']:34s} seed {r['seed']:3d}: named {r['named']} "
+        f"unexplained {r['unexplained']} baseline flags {r['baseline_flags']} "
+        f"gain {r['gain_pct']:.1f}% est/size {_fmt(r['ratios'])} ({r['seconds']:.0f} s)"
+    )
+    for reason in r["reasons"]:
+        print(f"      {reason}")
+    sys.stdout.flush()
 
 
 def _fmt(ratios: dict[str, float]) -> str:

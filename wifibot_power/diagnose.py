@@ -530,6 +530,7 @@ def diagnose_summaries(
     table["baseline_error_pct"] = 100 * (baseline_pred - measured) / measured
     table["extended_error_pct"] = 100 * (extended_pred - measured) / measured
     reasons = unexplained_reasons(table, evidence, causes)
+    notes.extend(n for n in [periodic_note(evidence, causes)] if n)
     return Diagnosis(
         n_runs=len(motion),
         baseline_model=baseline_model,
@@ -585,8 +586,10 @@ def unexplained_reasons(
     table: pd.DataFrame, evidence: tuple[Evidence, ...], named: list[str]
 ) -> list[str]:
     """Structure the named causes leave in the held-out errors of the extended model,
-    judged against the spread of repeated runs (`residuals.py`), and a periodic signal in
-    the cruises whose frequency does not scale with speed."""
+    judged against the spread of repeated runs (`residuals.py`, causes.md "Unexplained").
+    A periodic signal in the cruises that does not scale with speed is a note
+    (`periodic_note`): on field data, 1/f noise and a cruise's edges make such peaks."""
+    del evidence, named
     reasons = structure_reasons(
         residual_table(
             table["run_id"].to_numpy(),
@@ -595,15 +598,19 @@ def unexplained_reasons(
             table[["speed_mps", "distance_m", "steps", "payload_kg", "session_order"]],
         )
     )
-    ripple = next(e for e in evidence if e.cause == "cruise_ripple")
-    does_not_scale = ripple.parameters and ripple.estimate == 0.0
-    # as small as a ripple worth naming, or it is no claim about the robot (a PWM tone
-    # folded near 0 Hz by a 1 kHz analyser is a few mW, and significant)
-    amplitude_W = ripple.parameters.get("amplitude_W", 0.0) if ripple.parameters else 0.0
-    worth = amplitude_W >= CAUSES["cruise_ripple"].min_size
-    if "cruise_ripple" not in named and ripple.significant and does_not_scale and worth:
-        reasons.append(f"{ripple.summary}, {amplitude_W:.2g} W")
     return reasons
+
+
+def periodic_note(evidence: tuple[Evidence, ...], named: list[str]) -> str | None:
+    """A note when the cruises carry a significant periodic signal whose frequency does
+    not scale with speed, as large as a ripple worth naming: no cause of causes.md."""
+    ripple = next(e for e in evidence if e.cause == "cruise_ripple")
+    if "cruise_ripple" in named or not (ripple.significant and ripple.parameters):
+        return None
+    amplitude_W = ripple.parameters.get("amplitude_W", 0.0)
+    if ripple.estimate != 0.0 or amplitude_W < CAUSES["cruise_ripple"].min_size:
+        return None
+    return f"{ripple.summary}, {amplitude_W:.2g} W: not a cause of causes.md"
 
 
 def write_diagnosis(result: Diagnosis, out_dir: Path) -> list[Path]:
