@@ -134,7 +134,7 @@ def main(argv: list[str] | None = None) -> None:
     for r in results:
         groups.setdefault((r["suite"], r["label"]), []).append(r)
 
-    print("Off-catalogue effects (fieldgen, seeds 1-5):\n")
+    print(f"Off-catalogue effects (fieldgen, seeds {_seeds(results, 'off')}):\n")
     print(
         "| effect | no name forced | unexplained | replication tests flag the paper-form "
         "errors | names forced |"
@@ -152,7 +152,10 @@ def main(argv: list[str] | None = None) -> None:
             f"| {', '.join(forced) or '-'} |"
         )
 
-    print("\nCatalogue causes in other physical forms (fieldgen, seeds 1-8; pairs seed 1):\n")
+    print(
+        "\nCatalogue causes in other physical forms (fieldgen, seeds "
+        f"{_seeds(results, 'catalogue')}; pairs, when run, seed 1; jerk-limited seed 1):\n"
+    )
     print(
         "| hidden | named exactly | unexplained | smallest own gain | overall gain, nested "
         "| estimate / size | other names |"
@@ -189,6 +192,11 @@ def main(argv: list[str] | None = None) -> None:
             f"| {label} | {len(rs)} | {sum(bool(r['named']) for r in ok)} "
             f"| {sum(r['unexplained'] for r in ok)} | {'; '.join(tests) or '-'} |"
         )
+
+
+def _seeds(results: list[dict], suite: str) -> str:
+    seeds = sorted({r["seed"] for r in results if r["suite"] == suite})
+    return f"{seeds[0]}-{seeds[-1]}" if seeds else "-"
 
 
 def _print_case(r: dict) -> None:
