@@ -69,9 +69,11 @@ def test_each_energy_cause_is_named_alone_with_a_large_heldout_gain(cause, seed)
     assert finding.gain_pct >= 80.0
     assert result.gain_pct >= 80.0
     assert finding.p_value < 1e-3
-    # the estimate recovers the hidden size (docs/diagnose.md: within 3% for most causes,
-    # up to 7.5% for thermal drift, whose drift over a 30-run session is only a few %)
-    tolerance = 0.1 if cause == "thermal_drift" else 0.05
+    # the estimate recovers the hidden size. Measured (docs/diagnose.md, 8 seeds each): at
+    # most 0.1% off for every cause but thermal drift, so 1% (10x slack) catches a 4% bias;
+    # thermal drift, whose drift over a 30-run session is a few %, up to 5.2% (7.5% at other
+    # seeds): 10%. Its estimator's own exactness is pinned in test_causes.py.
+    tolerance = 0.1 if cause == "thermal_drift" else 0.01
     assert finding.estimate["value"] == pytest.approx(size, rel=tolerance)
     # and it is the value the extended model (model.json) carries
     extension = result.extended_model.extensions[cause]
@@ -115,7 +117,9 @@ def test_a_pair_of_effects_yields_both(pair):
     assert result.gain_pct >= 80.0
     for finding in result.findings:
         # each estimate is made with the other cause in the model, as model.json holds it
-        tolerance = 0.1 if finding.cause == "thermal_drift" else 0.05
+        # pairs: measured up to 6.1% for thermal drift beside another cause (docs), the others
+        # within 0.5%: 10% and 2%
+        tolerance = 0.1 if finding.cause == "thermal_drift" else 0.02
         assert finding.estimate["value"] == pytest.approx(sizes[finding.cause], rel=tolerance)
         extension = result.extended_model.extensions[finding.cause]
         assert extension[finding.estimate["parameter"]] == pytest.approx(finding.estimate["value"])

@@ -72,3 +72,34 @@ def test_t_quantile_is_scipys(p: float, dof: float) -> None:
     from scipy.special import stdtrit
 
     assert t_quantile(p, dof) == pytest.approx(float(stdtrit(dof, p)), rel=1e-11)
+
+
+def test_lack_of_fit_and_nested_f_test_by_hand():
+    # replicates at x = 1, 2, 3 with group means 2, 3, 7: pure error SS = 6 on 3 dof. The line
+    # through all six points is the line through the means: slope 5/2, intercept -1, fitted
+    # 1.5, 4, 6.5, so SS_lack_of_fit = 2 (0.5² + 1² + 0.5²) = 3 on 3 - 2 = 1 dof: F = 3 / 2.
+    from scipy import stats
+
+    x = np.array([1.0, 1.0, 2.0, 2.0, 3.0, 3.0])
+    y = np.array([1.0, 3.0, 2.0, 4.0, 6.0, 8.0])
+    line = ols(np.column_stack([np.ones_like(x), x]), y)
+    assert line.coef == pytest.approx([-1.0, 2.5])
+    p_value, df_lof, df_pe = line.lack_of_fit(x)
+    assert (df_lof, df_pe) == (1, 3)
+    assert p_value == pytest.approx(stats.f.sf(1.5, 1, 3), rel=1e-12)
+    # against the mean alone: SST = 34, SSE = 9 on 4 dof: F = 25 / (9 / 4)
+    mean = ols(np.ones((6, 1)), y)
+    assert line.f_test(mean) == pytest.approx(stats.f.sf(25 / (9 / 4), 1, 4), rel=1e-12)
+    assert line.r2 == pytest.approx(1 - 9 / 34)
+    # and the two-sided t test of the slope is the same F test (t² = F)
+    assert line.p_two_sided(1) == pytest.approx(line.f_test(mean), rel=1e-10)
+
+
+def test_an_ill_conditioned_design_is_not_estimable():
+    x = np.linspace(0.2, 0.9, 12)
+    good = ols(np.column_stack([np.ones_like(x), x]), 1 + x)
+    assert good.estimable and good.rank == 2
+    nearly = np.column_stack([np.ones_like(x), x, x + 1e-12 * np.arange(x.size)])
+    bad = ols(nearly, 1 + x)
+    assert not bad.estimable
+    assert math.isnan(bad.p_greater(2)) or bad.condition > 1e8

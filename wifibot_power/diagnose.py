@@ -4,16 +4,19 @@
    trace statistics (`traces.trace_stats`): one run in memory at a time.
 2. The baseline is the paper's model (Eq. 1-6) fitted to these logs; it simulates each run's
    motion energy from (speed, distance, steps, payload) alone.
-3. Each named cause (`causes.CAUSES`, shared/spec/causes.md) runs its evidence test on all
-   runs. A cause is a candidate when its test is significant (p < 1e-3) and its estimated
-   size is worth naming; it becomes a finding when adding it to the model also improves
+3. Each named cause (the registry `causes.CAUSES`, shared/spec/causes.md) runs its evidence
+   test on all runs. A cause is a candidate when its test is significant (p < 1e-3) and its
+   estimated size is worth naming; it becomes a finding when adding it to the model also improves
    predictions of runs held out of the fit (>= 5% lower RMSE of run energy, or >= 10% on the
    cruise power trace for the ripple).
 4. The extended model holds every finding; its gain is measured on held-out runs the same way,
    nested: for each fold, the causes are chosen again, and fitted, without that fold.
    Held-out means K-fold by run: a run is predicted by a model fitted without it.
-5. Structure that remains in the extended model's held-out errors, or a periodic signal that
-   does not scale with speed, is reported as `unexplained` rather than forced onto a name.
+5. A candidate is named only when every consequence check of its physics passes (each
+   cause's `checks`, causes.md "How a cause earns its name"); one that would have predicted
+   but fails a check is reported (`rejected`) and makes the result `unexplained`, as does
+   structure left in the extended model's held-out errors (`unexplained_reasons`), rather
+   than forcing a name. A fit the training folds cannot identify is "not estimable".
 """
 
 from __future__ import annotations
@@ -26,7 +29,15 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from wifibot_power.causes import CAUSES, Evidence, fit_model, predict_motion_energy_J
+from wifibot_power.causes import (
+    CAUSES,
+    POWER_TRACE,
+    RUN_ENERGY,
+    Check,
+    Evidence,
+    RunTable,
+)
+from wifibot_power.causes.extended import NotEstimable, fit_model, predict_motion_energy_J
 from wifibot_power.errors import LogError
 from wifibot_power.fit import segment_checked
 from wifibot_power.io import LogSource, ReadOptions, Skipped
@@ -37,7 +48,7 @@ from wifibot_power.phases import Segmentation
 from wifibot_power.residuals import residual_table, structure_reasons
 from wifibot_power.run import Run
 from wifibot_power.runtable import run_row, runs_frame
-from wifibot_power.traces import EMPTY, TraceStats, ripple_trace_rmse_W, trace_stats
+from wifibot_power.traces import EMPTY, TraceStats, trace_stats
 
 #: Smallest held-out gain that makes a significant cause a finding [%].
 MIN_GAIN_PCT = {"run_energy": 5.0, "power_trace": 10.0}
@@ -55,6 +66,8 @@ Segmenter = Callable[[Run], Segmentation]
 class RunSummary:
     row: dict[str, object]
     trace: TraceStats
+    #: the statistics each cause's tests need (`Cause.run_columns`)
+    cause_columns: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -65,6 +78,7 @@ class Finding:
     gain_pct: float
     p_value: float
     estimate: dict[str, object]
+    checks: tuple[Check, ...] = ()
 
     def as_dict(self) -> dict[str, object]:
         return {
@@ -74,6 +88,7 @@ class Finding:
             "gain_pct": self.gain_pct,
             "p_value": self.p_value,
             "estimate": self.estimate,
+            "checks": [c.as_dict() for c in self.checks],
         }
 
 
@@ -100,6 +115,10 @@ class Diagnosis:
     skipped: tuple[Skipped, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
     baseline_label: str = "paper (Eq. 1-6) fitted to these logs"
+    #: candidates that predicted but failed a consequence check (`rejected_candidates`)
+    rejected: tuple[dict[str, object], ...] = ()
+    #: every candidate's checks as last run, by cause
+    candidate_checks: dict[str, list[Check]] = field(default_factory=dict)
 
     @property
     def gain_pct(self) -> float:
@@ -123,7 +142,15 @@ class Diagnosis:
             "gain_pct": self.gain_pct,
             "unexplained": self.unexplained,
             "unexplained_reasons": list(self.unexplained_reasons),
-            "candidates": [_evidence_dict(e) for e in self.evidence],
+            "candidates": [
+                {
+                    **_evidence_dict(e),
+                    "named": e.cause in {f.cause for f in self.findings},
+                    "checks": [c.as_dict() for c in self.candidate_checks.get(e.cause, [])],
+                }
+                for e in self.evidence
+            ],
+            "rejected": list(self.rejected),
             "patterns": self.patterns,
             "notes": list(self.notes),
             "skipped": [s.as_dict() for s in self.skipped],
@@ -153,7 +180,10 @@ def summarize_run(run: Run, segmenter: Segmenter | None = None) -> RunSummary:
     if run.meta.mode != "motion":
         return RunSummary(run_row(run, Segmentation(run.meta.run_id, ())), EMPTY)
     segmentation = segment_checked(run, segmenter)
-    return RunSummary(run_row(run, segmentation), trace_stats(run, segmentation))
+    columns: dict[str, float] = {}
+    for cause in CAUSES.values():  # the statistics each cause's tests need
+        columns.update(cause.run_columns(run, segmentation))
+    return RunSummary(run_row(run, segmentation), trace_stats(run, segmentation), columns)
 
 
 def diagnose_logs(
@@ -232,50 +262,80 @@ def assign_folds(run_ids: pd.Series, folds: int = FOLDS) -> np.ndarray:
     return permuted % k
 
 
+def heldout_folds(motion: pd.DataFrame, folds: int = FOLDS) -> np.ndarray | str:
+    """K folds by run (`assign_folds`) such that the runs left without any one fold span 2
+    or more speeds (so the paper's lines can be fitted to predict it); when the plain deal
+    does not give that, runs are dealt round-robin within each speed. The reason, when no
+    deal can."""
+    speed = motion["speed_mps"].to_numpy(np.float64)
+
+    def ok(assigned: np.ndarray) -> bool:
+        return all(np.unique(speed[assigned != k]).size >= 2 for k in np.unique(assigned))
+
+    plain = assign_folds(motion["run_id"], folds)
+    if ok(plain):
+        return plain
+    k = int(plain.max()) + 1
+    order = np.lexsort((plain, speed))  # by speed, then by the plain deal
+    stratified = np.empty(len(speed), dtype=plain.dtype)
+    stratified[order] = np.arange(len(speed)) % k
+    if ok(stratified):
+        return stratified
+    k = next(k for k in np.unique(stratified) if np.unique(speed[stratified != k]).size < 2)
+    rest_speeds = np.unique(speed[stratified != k])
+    out = ", ".join(f"{v:g}" for v in np.setdiff1d(speed[stratified == k], rest_speeds))
+    rest = ", ".join(f"{v:g}" for v in rest_speeds)
+    return (
+        f"runs at {out} m/s cannot be predicted held out: without them every other run is at "
+        f"{rest} m/s"
+    )
+
+
+def _missing_data(motion: pd.DataFrame) -> str:
+    """One line saying which runs are missing for held-out prediction."""
+    counts = motion["speed_mps"].value_counts().sort_index()
+    have = ", ".join(f"{n} at {v:g} m/s" for v, n in counts.items())
+    return (
+        f"add runs so that 2 or more speeds have 2 or more runs each (a line needs 2 "
+        f"speeds, and diagnose holds runs out); these logs have {have}"
+    )
+
+
 def heldout_energy_J(
-    all_runs: pd.DataFrame, motion: pd.DataFrame, folds: np.ndarray, causes: Iterable[str]
+    all_runs: pd.DataFrame,
+    motion: pd.DataFrame,
+    folds: np.ndarray,
+    causes: Iterable[str],
+    *,
+    strict: bool = False,
 ) -> np.ndarray:
-    """Motion energy of each motion run predicted by a model fitted without its fold."""
+    """Motion energy of each motion run predicted by a model fitted without its fold.
+    `strict`: raise `NotEstimable` when a fold's training runs cannot identify the model,
+    or its prediction is not a finite, positive energy."""
     causes = list(causes)
     others = all_runs[all_runs["mode"] != "motion"]
     predicted = np.full(len(motion), np.nan)
     for k in np.unique(folds):
         train = pd.concat([others, motion[folds != k]])
-        model = fit_model(train, causes)
+        try:
+            model = fit_model(train, causes, strict=strict)
+        except NotEstimable as exc:
+            raise NotEstimable(f"without held-out fold {k}, {exc}") from None
         predicted[folds == k] = predict_motion_energy_J(model, motion[folds == k])
+    if strict and not (np.isfinite(predicted).all() and (predicted > 0).all()):
+        raise NotEstimable("a held-out prediction is not a finite, positive energy")
     return predicted
 
 
-def heldout_trace_gain_pct(
-    motion: pd.DataFrame, folds: np.ndarray, blocks: dict[str, tuple[np.ndarray, float]]
-) -> float:
-    """Held-out gain of the ripple term on the cruise power trace: amplitude and Hz per m/s
-    from the training folds, only the phase fitted to each held-out cruise."""
-    base_sq, ext_sq, count = 0.0, 0.0, 0
-    for k in np.unique(folds):
-        train, test = motion[folds != k], motion[folds == k]
-        evidence = CAUSES["cruise_ripple"].test(train)
-        found = evidence.estimate > 0  # else its runs count with the baseline's error
-        for row in test.itertuples(index=False):
-            x, block_s = blocks.get(row.run_id, (np.zeros(0), 0.0))
-            if x.size == 0:
-                continue
-            rmse = (
-                ripple_trace_rmse_W(
-                    x,
-                    block_s,
-                    evidence.parameters["hz_per_mps"] * row.speed_mps,
-                    evidence.parameters["amplitude_W"],
-                )
-                if found
-                else float(np.sqrt(np.mean(x**2)))
-            )
-            base_sq += float(np.mean(x**2)) * x.size
-            ext_sq += rmse**2 * x.size
-            count += x.size
-    if count == 0:
-        return 0.0
-    return gain_pct(np.sqrt(base_sq / count), np.sqrt(ext_sq / count))
+@dataclass
+class Selection:
+    """What forward selection saw, beyond its choice: the checks of every candidate as last
+    run, the held-out gain each candidate would have given when last tried [%] (None: not
+    estimable), and why a trial could not be estimated."""
+
+    checks: dict[str, list[Check]] = field(default_factory=dict)
+    gains: dict[str, float | None] = field(default_factory=dict)
+    not_estimable: dict[str, str] = field(default_factory=dict)
 
 
 def select_causes(
@@ -286,51 +346,81 @@ def select_causes(
     baseline_rmse: float,
     blocks: dict[str, tuple[np.ndarray, float]],
     notes: list[str],
+    seen: Selection | None = None,
 ) -> tuple[dict[str, float], dict[frozenset, float], tuple[Evidence, ...]]:
     """Forward selection on held-out error. At each round every cause not yet in the model
-    runs its evidence test on top of the model holding the causes found so far; among those
-    that pass, the one that lowers the held-out RMSE of run energy most is added, while it
-    lowers it by >= 5%. The ripple (a trace cause) is judged on its held-out trace gain.
+    runs its evidence test on top of the model holding the causes found so far; a cause
+    whose signature passes and whose consequence checks all pass is eligible, and the
+    eligible one that lowers the held-out RMSE of run energy most is added, while it lowers
+    it by >= 5%. Trace causes are judged on their held-out trace gain. A trial whose fit
+    the training folds cannot identify is "not estimable", never a number.
     Returns {cause: gain when added [%]}, the RMSE of every cause set tried, and the
-    evidence of every cause as last tested."""
+    evidence of every cause as last tested; `seen` (if given) is filled with the checks
+    and gains behind the choice (`Selection`)."""
+    seen = seen if seen is not None else Selection()
     selected: dict[str, float] = {}
     rmse_of: dict[frozenset, float] = {frozenset(): baseline_rmse}
-    ripple = CAUSES["cruise_ripple"].test(motion)
-    if ripple.passes:
-        gain = heldout_trace_gain_pct(motion, folds, blocks)
-        if gain >= MIN_GAIN_PCT["power_trace"]:
-            selected["cruise_ripple"] = gain
-        else:
+    latest: dict[str, Evidence] = {}
+    base_model = fit_model(runs)
+    for name, cause in CAUSES.items():  # trace causes: judged on their held-out trace gain
+        if cause.metric != POWER_TRACE:
+            continue
+        table = RunTable(motion, base_model)
+        latest[name] = e = cause.evidence(table)
+        if not e.passes:
+            continue
+        gain = cause.heldout_trace_gain_pct(motion, folds, blocks)
+        seen.gains[name] = gain
+        seen.checks[name] = cause.checks(table, e)
+        if gain < MIN_GAIN_PCT[POWER_TRACE]:
             notes.append(
-                f"cruise_ripple: significant (p = {ripple.p_value:.2g}) but held-out "
-                f"trace gain {gain:.1f}% is below {MIN_GAIN_PCT['power_trace']:g}%"
+                f"{name}: significant (p = {e.p_value:.2g}) but held-out "
+                f"trace gain {gain:.1f}% is below {MIN_GAIN_PCT[POWER_TRACE]:g}%"
             )
-    latest: dict[str, Evidence] = {"cruise_ripple": ripple}
+        elif all(c.passed for c in seen.checks[name]):
+            selected[name] = gain
     current: tuple[str, ...] = ()
-    energy_causes = [c for c in CAUSES if CAUSES[c].metric == "run_energy"]
+    energy_causes = [c for c in CAUSES if CAUSES[c].metric == RUN_ENERGY]
     while True:
         model = fit_model(runs, current)
+        table = RunTable(motion, model, current)
         for cause in energy_causes:
             if cause not in current:
-                latest[cause] = CAUSES[cause].test(motion, model, current)
+                latest[cause] = CAUSES[cause].evidence(table)
         passing = [c for c in energy_causes if c not in current and latest[c].passes]
         if not passing:
             break
+        now = rmse_of[frozenset(current)]
         for cause in passing:
             trial = frozenset(current) | {cause}
             if trial not in rmse_of:
-                pred = heldout_energy_J(runs, motion, folds, sorted(trial))
-                rmse_of[trial] = _rmse_mape(measured, pred)[0]
-        now = rmse_of[frozenset(current)]
-        best = min(passing, key=lambda c: rmse_of[frozenset(current) | {c}])
+                try:
+                    pred = heldout_energy_J(runs, motion, folds, sorted(trial), strict=True)
+                    rmse_of[trial] = _rmse_mape(measured, pred)[0]
+                except NotEstimable as exc:
+                    rmse_of[trial] = float("nan")
+                    seen.not_estimable[cause] = str(exc)
+            seen.checks[cause] = CAUSES[cause].checks(table, latest[cause])
+            rmse = rmse_of[trial]
+            seen.gains[cause] = gain_pct(now, rmse) if np.isfinite(rmse) else None
+        estimable = [c for c in passing if np.isfinite(rmse_of[frozenset(current) | {c}])]
+        eligible = [c for c in estimable if all(ch.passed for ch in seen.checks[c])]
+        for cause in passing:
+            if cause not in estimable:
+                notes.append(
+                    f"{cause}: significant (p = {latest[cause].p_value:.2g}) but its held-out "
+                    f"gain is not estimable ({seen.not_estimable.get(cause, '')}): not named"
+                )
+        if not eligible:
+            break
+        best = min(eligible, key=lambda c: rmse_of[frozenset(current) | {c}])
         gain = gain_pct(now, rmse_of[frozenset(current) | {best}])
-        if gain < MIN_GAIN_PCT["run_energy"]:
-            for cause in passing:
-                trial_gain = gain_pct(now, rmse_of[frozenset(current) | {cause}])
+        if gain < MIN_GAIN_PCT[RUN_ENERGY]:
+            for cause in eligible:
                 notes.append(
                     f"{cause}: significant (p = {latest[cause].p_value:.2g}) but adding "
-                    f"it gains {trial_gain:.1f}% held out "
-                    f"(< {MIN_GAIN_PCT['run_energy']:g}%): not named"
+                    f"it gains {seen.gains[cause]:.1f}% held out "
+                    f"(< {MIN_GAIN_PCT[RUN_ENERGY]:g}%): not named"
                 )
             break
         selected[best] = gain
@@ -343,6 +433,40 @@ def select_causes(
             )
     evidence = tuple(latest[c] for c in CAUSES)
     return selected, rmse_of, evidence
+
+
+def rejected_candidates(
+    evidence: tuple[Evidence, ...], named: list[str], seen: Selection
+) -> list[dict[str, object]]:
+    """Candidates whose signature is there, at a size worth naming, that would have predicted
+    but fail a consequence of their physics: not named, and structure no name explains
+    (causes.md, "How a cause earns its name")."""
+    out = []
+    for e in evidence:
+        if e.cause in named or not e.passes or e.cause not in seen.checks:
+            continue
+        failed = [c for c in seen.checks[e.cause] if not c.passed]
+        if not failed:
+            continue
+        gain = seen.gains.get(e.cause)
+        metric = CAUSES[e.cause].metric
+        would = (
+            f"would have lowered the held-out error of {metric.replace('_', ' ')} by {gain:.1f}%"
+            if gain is not None
+            else "its held-out gain is not estimable"
+        )
+        out.append(
+            {
+                "cause": e.cause,
+                "gain_pct": gain,
+                "failed": [c.check for c in failed],
+                "reason": f"{e.cause}: its signature is there ({e.summary}, p = "
+                f"{e.p_value:.2g}) and it {would}, but "
+                + "; ".join(f"'{c.check}' fails: {c.detail}" for c in failed)
+                + ": not named",
+            }
+        )
+    return out
 
 
 def nested_heldout_energy_J(
@@ -365,8 +489,8 @@ def nested_heldout_energy_J(
         train_motion = motion[folds != k].reset_index(drop=True)
         train = pd.concat([others, train_motion])
         chosen = causes
-        if enough_to_choose(train_motion):
-            inner_folds = assign_folds(train_motion["run_id"])
+        inner_folds = heldout_folds(train_motion) if enough_to_choose(train_motion) else ""
+        if not isinstance(inner_folds, str):
             inner_measured = train_motion["motion_energy_J"].to_numpy(np.float64)
             inner_pred = heldout_energy_J(train, train_motion, inner_folds, [])
             selected, _, _ = select_causes(
@@ -414,7 +538,8 @@ def summary_table(summaries: list[RunSummary]) -> pd.DataFrame:
     """One row per run: its run-table row, trace statistics and place in its session."""
     runs = runs_frame([s.row for s in summaries])
     traces = pd.DataFrame([s.trace.as_row() for s in summaries], index=runs.index)
-    return session_clock(pd.concat([runs, traces], axis=1))
+    extra = pd.DataFrame([s.cause_columns for s in summaries], index=runs.index)
+    return session_clock(pd.concat([runs, traces, extra], axis=1))
 
 
 def diagnose_summaries(
@@ -449,7 +574,9 @@ def diagnose_summaries(
         )
     notes: list[str] = []
     baseline_model = fit_model(runs)
-    folds = assign_folds(motion["run_id"])
+    folds = heldout_folds(motion)
+    if isinstance(folds, str):
+        raise LogError(folds, file="input", fix=_missing_data(motion))
     measured = motion["motion_energy_J"].to_numpy(np.float64)
     refit_pred = heldout_energy_J(runs, motion, folds, [])
     refit_rmse, _ = _rmse_mape(measured, refit_pred)
@@ -462,8 +589,9 @@ def diagnose_summaries(
 
     # causes are selected against the paper-form model refitted to these logs, whatever
     # the reported baseline is
+    seen = Selection()
     selected, energy_rmse, evidence = select_causes(
-        runs, motion, folds, measured, refit_rmse, blocks, notes
+        runs, motion, folds, measured, refit_rmse, blocks, notes, seen
     )
     causes = list(selected)
     # the extended model's held-out error: causes chosen and fitted without the run's fold
@@ -473,7 +601,7 @@ def diagnose_summaries(
     # without it (both fitted without the run's fold, both chosen on all runs). Selection
     # tried those sets already; keyed by energy causes only, since the ripple adds no energy
     # (energy.cruise_ripple_energy_J)
-    energy_causes = frozenset(c for c in causes if CAUSES[c].metric == "run_energy")
+    energy_causes = frozenset(c for c in causes if CAUSES[c].metric == RUN_ENERGY)
     fixed_rmse = energy_rmse[energy_causes]
     extended_model = fit_model(runs, causes)
     findings = []
@@ -481,11 +609,11 @@ def diagnose_summaries(
         if e.cause not in selected:
             continue
         cause = CAUSES[e.cause]
-        if cause.metric == "run_energy":
+        others = tuple(c for c in causes if c != e.cause and CAUSES[c].metric == RUN_ENERGY)
+        final_table = RunTable(motion, extended_model, others)
+        if cause.metric == RUN_ENERGY:
             # its estimate within the extended model, so it is the value model.json carries
-            others = tuple(c for c in causes if c != e.cause and CAUSES[c].metric == "run_energy")
-            e = cause.test(motion, extended_model, others)
-        if cause.metric == "run_energy":
+            e = cause.evidence(final_table)
             # its own gain: how much worse the extended model predicts without it
             without = energy_rmse.get(energy_causes - {e.cause})
             if without is None:
@@ -494,10 +622,12 @@ def diagnose_summaries(
             gain = gain_pct(without, fixed_rmse)
         else:
             gain = selected[e.cause]
+        checks = tuple(cause.checks(final_table, e))
+        seen.checks[e.cause] = list(checks)
         findings.append(
             Finding(
                 e.cause,
-                f"{e.summary} ({cause.evidence}, p = {e.p_value:.2g})",
+                f"{e.summary} ({cause.signature}, p = {e.p_value:.2g})",
                 cause.metric,
                 float(gain),
                 e.p_value,
@@ -508,6 +638,7 @@ def diagnose_summaries(
                     "unit": cause.unit,
                     **{k: v for k, v in e.parameters.items() if k != cause.parameter},
                 },
+                checks,
             )
         )
 
@@ -529,8 +660,10 @@ def diagnose_summaries(
     table["extended_energy_J"] = extended_pred
     table["baseline_error_pct"] = 100 * (baseline_pred - measured) / measured
     table["extended_error_pct"] = 100 * (extended_pred - measured) / measured
-    reasons = unexplained_reasons(table, evidence, causes)
-    notes.extend(n for n in [periodic_note(evidence, causes)] if n)
+    rejected = rejected_candidates(evidence, causes, seen)
+    reasons = unexplained_reasons(table, evidence, causes) + [r["reason"] for r in rejected]
+    for r in rejected:
+        notes.append(str(r["reason"]))
     return Diagnosis(
         n_runs=len(motion),
         baseline_model=baseline_model,
@@ -545,6 +678,8 @@ def diagnose_summaries(
         extended_fixed_rmse_J=fixed_rmse,
         unexplained=bool(reasons),
         unexplained_reasons=tuple(reasons),
+        rejected=tuple(rejected),
+        candidate_checks=dict(seen.checks),
         patterns=error_patterns(table),
         skipped=tuple(skipped),
         notes=tuple(notes),
@@ -587,8 +722,7 @@ def unexplained_reasons(
 ) -> list[str]:
     """Structure the named causes leave in the held-out errors of the extended model,
     judged against the spread of repeated runs (`residuals.py`, causes.md "Unexplained").
-    A periodic signal in the cruises that does not scale with speed is a note
-    (`periodic_note`): on field data, 1/f noise and a cruise's edges make such peaks."""
+    (Candidates rejected by their checks are reported apart: `rejected_candidates`.)"""
     del evidence, named
     reasons = structure_reasons(
         residual_table(
@@ -599,18 +733,6 @@ def unexplained_reasons(
         )
     )
     return reasons
-
-
-def periodic_note(evidence: tuple[Evidence, ...], named: list[str]) -> str | None:
-    """A note when the cruises carry a significant periodic signal whose frequency does
-    not scale with speed, as large as a ripple worth naming: no cause of causes.md."""
-    ripple = next(e for e in evidence if e.cause == "cruise_ripple")
-    if "cruise_ripple" in named or not (ripple.significant and ripple.parameters):
-        return None
-    amplitude_W = ripple.parameters.get("amplitude_W", 0.0)
-    if ripple.estimate != 0.0 or amplitude_W < CAUSES["cruise_ripple"].min_size:
-        return None
-    return f"{ripple.summary}, {amplitude_W:.2g} W: not a cause of causes.md"
 
 
 def write_diagnosis(result: Diagnosis, out_dir: Path) -> list[Path]:

@@ -6,7 +6,8 @@ Eq. 5/6 of [1]). A step too short to reach the speed gets the physical triangula
 (it accelerates at the same rate until the step is covered; see `step_kinematics`).
 
 When the model carries extensions (added by `wbpower diagnose`, keyed by the cause names of
-shared/spec/causes.md), each adds one term computed by one small function below.
+shared/spec/causes.md), each adds the term its cause's module computes (`Cause.energy_J`
+in `wifibot_power/causes/`); this module loops over them and names none.
 
 References
 ----------
@@ -21,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from wifibot_power.causes import CAUSES, TripTerms, ordered
 from wifibot_power.errors import UsageError
 from wifibot_power.model import PowerModel
 
@@ -30,16 +32,6 @@ FIGURE5_SPEEDS_MPS: tuple[float, ...] = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8,
 FIGURE5_DISTANCES_M: tuple[float, ...] = (2.0, 10.0)
 #: Step length of the stop-and-go curves of Figure 5 [m].
 FIGURE5_STEP_M = 1.0
-
-#: Extension parameters energy reads, per cause (shared/spec/causes.md).
-EXTENSION_KEYS: dict[str, tuple[str, ...]] = {
-    "speed_quadratic": ("k2_W_per_mps2",),
-    "start_transient": ("E_start_J",),
-    "decel_phase": ("t_dec_s", "P_dec_intercept_W", "P_dec_slope_W_per_mps"),
-    "accel_inertial": ("kI",),
-    "thermal_drift": ("alpha_per_min",),
-    "cruise_ripple": ("amplitude_W", "hz_per_mps"),
-}
 
 
 # -- kinematics of one step ------------------------------------------------------------
@@ -127,63 +119,10 @@ def cruise_energy_J(model: PowerModel, step: StepKinematics) -> float:
     return model.cruise_power_W(step.speed_mps) * step.cruise_s
 
 
-# -- the extensions (shared/spec/causes.md), one function per term ---------------------
-def speed_quadratic_energy_J(k2_W_per_mps2: float, step: StepKinematics) -> float:
-    """`speed_quadratic` (causes.md: `+ k2 v²` in cruise and acceleration power) [J/step].
-
-    Cruise: `k2 v² * t_cruise`. Acceleration: the ramp is linear in time, so the mean of
-    `v(t)²` over it is `v_peak² / 3`, giving `k2 v_peak² / 3 * t_acc`.
-    """
-    cruise_J = k2_W_per_mps2 * step.speed_mps**2 * step.cruise_s
-    accel_J = k2_W_per_mps2 * step.peak_speed_mps**2 / 3.0 * step.accel_s
-    return cruise_J + accel_J
-
-
-def start_transient_energy_J(E_start_J: float) -> float:
-    """`start_transient` (causes.md: `+ E_start` per step) [J/step]."""
-    return E_start_J
-
-
-def decel_energy_J(
-    P_dec_intercept_W: float, P_dec_slope_W_per_mps: float, step: StepKinematics
-) -> float:
-    """`decel_phase` (causes.md: a stop phase of `t_dec` at `P_dec(v)` after each cruise) [J/step].
-
-    `P_dec(v) = P_dec_intercept_W + P_dec_slope_W_per_mps * v` over the stop time
-    (`t_dec`, or less in a triangular step, at the peak speed). The distance covered
-    while stopping, `v t_dec / 2`, is taken off the cruise in `step_kinematics`.
-    """
-    return (P_dec_intercept_W + P_dec_slope_W_per_mps * step.peak_speed_mps) * step.decel_s
-
-
-def accel_inertial_energy_J(kI: float, payload_kg: float, step: StepKinematics) -> float:
-    """`accel_inertial` (causes.md: `+ kI (m + payload) a v` in acceleration) [J/step].
-
-    Integrated over the ramp, `∫ m a v dt = m v_peak² / 2`: the kinetic energy. The robot's
-    own mass is already inside the fitted `P_acc(v)`, so only the payload's term is added:
-    `kI * payload_kg * v_peak² / 2`.
-    """
-    return kI * payload_kg * step.peak_speed_mps**2 / 2.0
-
-
-def thermal_drift_energy_J(
-    alpha_per_min: float, motion_above_idle_J: float, trip_time_s: float
-) -> float:
-    """`thermal_drift` (causes.md: `x (1 + alpha tau_on)` on motion power above idle) [J/trip].
-
-    Assumption: the trip starts from cold (`tau_on = 0`) and its power above idle is
-    spread evenly over its motor-on time `T`, so the factor averages `1 + alpha T / 2`
-    (T in minutes); the added energy is `alpha T/2 * E_above_idle`. `E_above_idle` covers
-    the phase powers (acceleration, cruise, deceleration and the `speed_quadratic` term),
-    not the per-step lumps (`start_transient`, `accel_inertial`).
-    """
-    return alpha_per_min * (trip_time_s / 60.0) / 2.0 * motion_above_idle_J
-
-
-def cruise_ripple_energy_J(amplitude_W: float, hz_per_mps: float) -> float:
-    """`cruise_ripple` (causes.md: `+ A sin(2 pi f(v) t)`): zero-mean, so no energy [J]."""
-    del amplitude_W, hz_per_mps
-    return 0.0
+# -- the extensions (shared/spec/causes.md): each cause's `energy_J`, in its own module --
+def extension_names(model: PowerModel) -> list[str]:
+    """The model's extensions that energy knows (registry order)."""
+    return ordered(model.extensions)
 
 
 # -- the trip --------------------------------------------------------------------------
@@ -211,6 +150,8 @@ class TripEnergy:
     payload_kg: float
     step: StepKinematics
     phases: tuple[PhaseEnergy, ...]
+    #: the model's extensions whose terms are in `phases` (registry order)
+    extensions: tuple[str, ...] = ()
 
     @property
     def energy_J(self) -> float:
@@ -221,17 +162,15 @@ class TripEnergy:
         return self.steps * self.step.time_s
 
 
-def _extension(model: PowerModel, cause: str) -> dict[str, float] | None:
-    params = model.extensions.get(cause)
-    if params is None:
-        return None
-    missing = [k for k in EXTENSION_KEYS[cause] if k not in params]
+def _extension(model: PowerModel, cause: str) -> dict[str, float]:
+    params = model.extensions[cause]
+    missing = [k for k in CAUSES[cause].parameters if k not in params]
     if missing:
         raise UsageError(
             f"model extension '{cause}' lacks {', '.join(missing)}",
             fix="re-run 'wbpower diagnose -o' or remove the extension from model.json",
         )
-    return {k: float(params[k]) for k in EXTENSION_KEYS[cause]}
+    return {k: float(v) for k, v in params.items()}
 
 
 def trip_energy(
@@ -242,12 +181,15 @@ def trip_energy(
     *,
     t_acc_s: float | None = None,
     payload_kg: float = 0.0,
+    motor_on_before_min: float = 0.0,
 ) -> TripEnergy:
     """Energy and time of a trip of `distance_m` [m] in `steps` equal steps at `speed_mps`.
 
     Per step `E = P_acc(v) t_acc + P_v(v) (s - s_acc) / v` with `s = D / N` and
     `s_acc = v t_acc / 2` (paper Eq. 5/6); the trip is N steps. `t_acc_s` overrides the
-    model's `t_acc(v)`. Extensions in `model.extensions` add their terms (causes.md).
+    model's `t_acc(v)`. Extensions in `model.extensions` add their terms (causes.md);
+    `motor_on_before_min` is how far into a session of driving the trip starts (for terms
+    that depend on it, e.g. a warming motor; 0: from cold).
     """
     if not math.isfinite(distance_m) or distance_m <= 0:
         raise UsageError(f"distance {distance_m} m", fix="give a distance > 0")
@@ -259,35 +201,35 @@ def trip_energy(
     t_acc = model.t_acc_s(speed_mps) if t_acc_s is None else float(t_acc_s)
     if not math.isfinite(t_acc) or t_acc < 0:
         raise UsageError(f"acceleration time {t_acc} s", fix="give --t-acc >= 0")
-    decel = _extension(model, "decel_phase")
-    step = step_kinematics(speed_mps, distance_m / steps, t_acc, decel["t_dec_s"] if decel else 0.0)
+    extensions = {name: _extension(model, name) for name in extension_names(model)}
+    stop_s = sum(CAUSES[name].stop_time_s(p) for name, p in extensions.items())
+    step = step_kinematics(speed_mps, distance_m / steps, t_acc, stop_s)
 
     phases = [
         PhaseEnergy("accel", steps * step.accel_s, steps * accel_energy_J(model, step)),
         PhaseEnergy("cruise", steps * step.cruise_s, steps * cruise_energy_J(model, step)),
     ]
-    if decel:
-        e_dec = decel_energy_J(decel["P_dec_intercept_W"], decel["P_dec_slope_W_per_mps"], step)
-        phases.append(PhaseEnergy("decel", steps * step.decel_s, steps * e_dec))
-    if quad := _extension(model, "speed_quadratic"):
-        e_quad = speed_quadratic_energy_J(quad["k2_W_per_mps2"], step)
-        phases.append(PhaseEnergy("speed_quadratic", 0.0, steps * e_quad))
+    # each term in its stage: phase powers (counted above idle), fixed lumps, then scales of
+    # the energy above idle of the phase powers
     motion_time_s = steps * step.time_s
-    motion_above_idle_J = sum(p.energy_J for p in phases) - model.idle_W * motion_time_s
-    if start := _extension(model, "start_transient"):
-        e_start = start_transient_energy_J(start["E_start_J"])
-        phases.append(PhaseEnergy("start_transient", 0.0, steps * e_start))
-    if inertial := _extension(model, "accel_inertial"):
-        e_inertial = accel_inertial_energy_J(inertial["kI"], payload_kg, step)
-        phases.append(PhaseEnergy("accel_inertial", 0.0, steps * e_inertial))
-    if thermal := _extension(model, "thermal_drift"):
-        e_thermal = thermal_drift_energy_J(
-            thermal["alpha_per_min"], motion_above_idle_J, motion_time_s
+    above_idle_J = 0.0
+    for stage in ("power", "lump", "scale"):
+        if stage == "lump":
+            above_idle_J = sum(p.energy_J for p in phases) - model.idle_W * motion_time_s
+        terms = TripTerms(
+            model=model,
+            step=step,
+            steps=steps,
+            payload_kg=float(payload_kg),
+            motor_on_before_min=float(motor_on_before_min),
+            motion_above_idle_J=above_idle_J,
+            motion_time_s=motion_time_s,
         )
-        phases.append(PhaseEnergy("thermal_drift", 0.0, e_thermal))
-    if ripple := _extension(model, "cruise_ripple"):
-        e_ripple = cruise_ripple_energy_J(ripple["amplitude_W"], ripple["hz_per_mps"])
-        phases.append(PhaseEnergy("cruise_ripple", 0.0, steps * e_ripple))
+        for name, params in extensions.items():
+            cause = CAUSES[name]
+            if cause.energy_stage == stage:
+                time_s, energy_J = cause.energy_J(params, terms) or (0.0, 0.0)
+                phases.append(PhaseEnergy(cause.energy_phase or name, time_s, energy_J))
     return TripEnergy(
         speed_mps=float(speed_mps),
         distance_m=float(distance_m),
@@ -296,6 +238,7 @@ def trip_energy(
         payload_kg=float(payload_kg),
         step=step,
         phases=tuple(phases),
+        extensions=tuple(extensions),
     )
 
 
@@ -336,7 +279,7 @@ class EnergyReport:
             "peak_speed_mps": step.peak_speed_mps,
             "energy_per_m_J": trip.energy_J / trip.distance_m,
             "model": self.model_source,
-            "extensions": [p.phase for p in trip.phases if p.phase in EXTENSION_KEYS],
+            "extensions": list(trip.extensions),
             "ignored_extensions": list(self.ignored_extensions),
             "phases": [
                 {
@@ -365,7 +308,7 @@ def energy_report(
         trip=trip_energy(model, speed_mps, distance_m, steps, **kwargs),
         one_step=trip_energy(model, speed_mps, distance_m, 1, **kwargs),
         model_source=model.source,
-        ignored_extensions=tuple(sorted(set(model.extensions) - set(EXTENSION_KEYS))),
+        ignored_extensions=tuple(sorted(set(model.extensions) - set(extension_names(model)))),
     )
 
 

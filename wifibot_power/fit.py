@@ -38,7 +38,7 @@ from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.model import LinearFit, PowerModel, paper_model
 from wifibot_power.outputs import json_safe, write_json, write_parquet
 from wifibot_power.run import MODES, Run
-from wifibot_power.stats import t_quantile
+from wifibot_power.stats import ols, t_quantile
 
 if TYPE_CHECKING:  # pandas (~0.4 s to import) loads only when a table is asked for
     import pandas as pd
@@ -56,7 +56,8 @@ Row = Mapping[str, object]
 
 
 def fit_line(speed_mps: np.ndarray, values: np.ndarray) -> LinearFit:
-    """Ordinary least squares `y = intercept + slope * v` with 95% t intervals and R².
+    """Ordinary least squares `y = intercept + slope * v` with 95% t intervals and R², by
+    `stats.ols` (the least squares every fit and cause uses).
 
     Standard simple linear regression (e.g. Montgomery & Runger, Applied Statistics,
     Eq. 11-7/11-8 and §11-5): slope = S_xy / S_xx, intercept = ȳ - slope x̄,
@@ -72,25 +73,14 @@ def fit_line(speed_mps: np.ndarray, values: np.ndarray) -> LinearFit:
     n = int(x.size)
     if n < 2 or bool(np.all(x == x[0])):  # fewer than 2 distinct speeds (np.unique: 40 ms cold)
         return LinearFit(float("nan"), float("nan"), n_runs=n)
-    x_mean, y_mean = x.mean(), y.mean()
-    s_xx = float(np.sum((x - x_mean) ** 2))
-    slope = float(np.sum((x - x_mean) * (y - y_mean)) / s_xx)
-    intercept = float(y_mean - slope * x_mean)
-    if n == 2:
-        return LinearFit(intercept, slope, n_runs=n)
-    residual = y - (intercept + slope * x)
-    sse = float(np.sum(residual**2))
-    sst = float(np.sum((y - y_mean) ** 2))
-    s = math.sqrt(sse / (n - 2))
-    t = float(t_quantile(0.975, n - 2))
-    se_slope = s / math.sqrt(s_xx)
-    se_intercept = s * math.sqrt(1.0 / n + x_mean**2 / s_xx)
+    line = ols(np.column_stack([np.ones(n), x]), y)  # the one least-squares path
+    intercept, slope = float(line.coef[0]), float(line.coef[1])
     return LinearFit(
         intercept=intercept,
         slope=slope,
-        intercept_ci95=(intercept - t * se_intercept, intercept + t * se_intercept),
-        slope_ci95=(slope - t * se_slope, slope + t * se_slope),
-        r2=1.0 - sse / sst if sst > 0 else float("nan"),
+        intercept_ci95=line.ci95(0),
+        slope_ci95=line.ci95(1),
+        r2=line.r2,
         n_runs=n,
     )
 

@@ -21,27 +21,38 @@ phase boundaries and motion energy of each run.
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import numpy as np
 
+from wifibot_power.causes import CAUSES, SimTrace, ordered
 from wifibot_power.errors import UsageError
 from wifibot_power.io.options import FORMAT_CANONICAL
 from wifibot_power.io.writer import format_log, write_log
 from wifibot_power.outputs import write_json, write_text
 from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Run, RunMeta
 
-#: causes.md: name -> (unit of SIZE, default SIZE when only the name is given, realistic range)
-EFFECTS: dict[str, tuple[str, float, tuple[float, float]]] = {
-    "speed_quadratic": ("W/(m/s)^2", 5.0, (3.0, 10.0)),
-    "start_transient": ("J", 3.0, (1.5, 8.0)),
-    "decel_phase": ("s", 0.4, (0.2, 1.0)),
-    "accel_inertial": ("1/eta", 4.6, (2.5, 6.0)),
-    "thermal_drift": ("1/min", 0.005, (0.003, 0.02)),
-    "cruise_ripple": ("W", 1.0, (0.5, 2.0)),
-}
+
+#: causes.md: name -> (unit of SIZE, default SIZE when only the name is given, realistic
+#: range), read from the registry (`wifibot_power.causes`)
+class _Effects(Mapping):
+    """A live view of the registry: a cause registered later is an effect too."""
+
+    def __getitem__(self, name: str) -> tuple[str, float, tuple[float, float]]:
+        cause = CAUSES[name]
+        return (cause.unit, cause.default_size, tuple(cause.realistic_range))
+
+    def __iter__(self):
+        return iter(CAUSES)
+
+    def __len__(self) -> int:
+        return len(CAUSES)
+
+
+EFFECTS: Mapping[str, tuple[str, float, tuple[float, float]]] = _Effects()
 
 #: `--realism`: what the analyser and the robot add beyond the effects (docs/simulator.md).
 #: "lab" is the clean robot of the tests; "field" is what real logs carry: 0.8 W rms analyser
@@ -125,8 +136,11 @@ class SimConfig:
     def payloads(self) -> tuple[float, ...]:
         if self.payloads_kg is not None:
             return self.payloads_kg
-        # the inertial effect is only visible across payloads: add them to the grid
-        return (0.0, 2.0, 4.0) if "accel_inertial" in self.effects else (0.0,)
+        # an effect only visible across payloads (its cause says so) adds them to the grid
+        for name in ordered(self.effects):
+            if CAUSES[name].grid_payloads_kg is not None:
+                return CAUSES[name].grid_payloads_kg
+        return (0.0,)
 
 
 @dataclass(frozen=True, eq=False)
@@ -230,7 +244,10 @@ def _profile(
     dt = config.sample_period_s
     robot = config.robot
     t_acc_s = spec.speed_mps / robot.accel_mps2
-    t_dec_s = config.effects.get("decel_phase", 0.0)
+    t_dec_s = sum(
+        CAUSES[name].stop_time_s(CAUSES[name].sim_parameters(size))
+        for name, size in config.effects.items()
+    )
     step_m = spec.distance_m / spec.steps
     cruise_m = step_m - spec.speed_mps * t_acc_s / 2 - spec.speed_mps * t_dec_s / 2
     if cruise_m <= 0:
@@ -289,38 +306,32 @@ def _simulate_one(
     moving = kind > 0
     accelerating = kind == 1
     mass_kg = robot.mass_kg
-    # inertial power of the robot's own mass (calibrated, kI0) and of the payload (kI of the effect)
-    k_payload = effects.get("accel_inertial", robot.inertial_k)
+    # inertial power of the robot's own mass and its payload (kI = 1/eta, calibrated)
     motion_W = (
         robot.drive_on_W * moving
         + robot.rolling_W_per_mps * speed * ((kind == 1) | (kind == 2))
         + robot.decel_power_fraction * robot.rolling_W_per_mps * speed * (kind == 3)
-        + accelerating * (robot.inertial_k * mass_kg + k_payload * spec.payload_kg) * accel * speed
+        + accelerating * robot.inertial_k * (mass_kg + spec.payload_kg) * accel * speed
     )
-    if "speed_quadratic" in effects:  # copper (I²R) and viscous losses ∝ v² (causes.md)
-        motion_W = motion_W + effects["speed_quadratic"] * speed**2 * moving
-    if "start_transient" in effects:  # inrush / breakaway: E_start in the first ~0.2 s of each step
-        tau = robot.start_transient_tau_s
-        window = round(robot.start_transient_window_s / dt)
-        t_local = (np.arange(window) + 0.5) * dt
-        # a decaying pulse that reaches zero at the window's end (no artificial drop there)
-        pulse = np.clip(np.exp(-t_local / tau) - np.exp(-window * dt / tau), 0.0, None)
-        pulse *= effects["start_transient"] / (pulse.sum() * dt)
-        for (name, _, _, _, _), start in zip(plan, bounds[:-1], strict=True):
-            if name == "accel":
-                stop = min(start + window, n)
-                motion_W[start:stop] += pulse[: stop - start]
-    if "cruise_ripple" in effects:
-        # wheel eccentricity: the load oscillates with the wheel angle 2 x(t) / d, so at a
-        # steady speed f = v / (π d); its amplitude follows the speed, so the ripple fades in
-        # and out with the motion instead of switching at the cruise boundaries
-        wheel_angle = 2.0 * np.cumsum(speed) * dt / robot.wheel_diameter_m
-        phase0 = rng.uniform(0, 2 * np.pi)
-        amplitude_W = effects["cruise_ripple"] * speed / spec.speed_mps
-        motion_W = motion_W + amplitude_W * np.sin(wheel_angle + phase0) * moving
-    if "thermal_drift" in effects:  # winding resistance rises with accumulated motor-on time
-        on_min = motor_on_min + np.cumsum(moving) * dt / 60.0
-        motion_W = motion_W * (1.0 + effects["thermal_drift"] * on_min)
+    # each effect adds its own physical term (its cause's `inject`), multiplicative ones last
+    trace = SimTrace(
+        motion_W=motion_W,
+        speed_mps=speed,
+        accel_mps2=accel,
+        kind=kind,
+        plan=plan,
+        bounds=bounds,
+        dt_s=dt,
+        target_speed_mps=spec.speed_mps,
+        payload_kg=spec.payload_kg,
+        motor_on_before_min=motor_on_min,
+        robot=robot,
+        rng=rng,
+    )
+    effect_truth: dict[str, object] = {}
+    for name in sorted(ordered(effects), key=lambda c: CAUSES[c].inject_order):
+        effect_truth.update(CAUSES[name].inject(effects[name], trace))
+    motion_W = trace.motion_W
     clean_W = robot.idle_W + motion_W
 
     phases = [
@@ -345,8 +356,7 @@ def _simulate_one(
         "motor_on_s": float(moving.sum() * dt),
         "motor_on_before_run_min": motor_on_min,
     }
-    if "cruise_ripple" in effects:
-        truth["ripple_hz"] = robot.ripple_hz_per_mps * spec.speed_mps
+    truth.update(effect_truth)
     return _finish(spec, config, rng, clean_W, phases, truth, started_at, order, moving)
 
 

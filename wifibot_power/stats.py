@@ -1,6 +1,6 @@
-"""Small statistics shared by fit and diagnose: Student's t quantile, multiple least squares
-with t-tests. Importing this module loads no scipy (fit must start quickly); the p-value
-functions load scipy.stats when called.
+"""Small statistics shared by fit and diagnose: Student's t quantile, one least-squares path
+with t, F and lack-of-fit tests. Importing this module loads no scipy (fit must start
+quickly); the p-value functions load scipy.special when called.
 
 Ordinary least squares `y = X b + e` (e.g. Montgomery & Runger, Applied Statistics,
 §12-1/12-2): `b = (XᵀX)⁻¹ Xᵀ y`, `s² = SSE / (n - p)`, `se(b_j) = s sqrt((XᵀX)⁻¹_jj)`,
@@ -17,10 +17,49 @@ import numpy as np
 
 @dataclass(frozen=True)
 class OLS:
+    """The one least-squares result every fit in wbpower uses (fit's lines, every cause's
+    design, the residual tests of diagnose): coefficients with standard errors, 95% t
+    intervals (one t quantile, `t_quantile`), R², F tests (overall and nested) and the
+    lack-of-fit test against pure error from replicates."""
+
     coef: np.ndarray
     se: np.ndarray
     dof: int
     residual: np.ndarray
+    #: numerical rank of the design, and its condition number after scaling each column to
+    #: unit length (Belsley, Kuh & Welsch, Regression Diagnostics, 1980, §3.3)
+    rank: int = 0
+    condition: float = float("nan")
+    #: total sum of squares about the mean of y [y²]
+    sst: float = float("nan")
+
+    @property
+    def sse(self) -> float:
+        return float(self.residual @ self.residual)
+
+    @property
+    def n(self) -> int:
+        return int(self.residual.size)
+
+    @property
+    def p(self) -> int:
+        return int(self.coef.size)
+
+    @property
+    def estimable(self) -> bool:
+        """Every coefficient identifiable: full rank, a condition number below 1e8 (beyond
+        it, 1e-8 relative noise in the data moves some coefficient by 100%), and at least
+        one degree of freedom left."""
+        return (
+            self.rank == self.p and np.isfinite(self.condition) and self.condition < 1e8
+        ) and self.dof >= 1
+
+    @property
+    def r2(self) -> float:
+        """1 - SSE / SST (NaN when y is constant or no degrees of freedom are left)."""
+        if self.dof < 1 or not self.sst > 0:
+            return float("nan")
+        return 1.0 - self.sse / self.sst
 
     def ci95(self, j: int) -> tuple[float, float]:
         if self.dof < 1 or not np.isfinite(self.se[j]):
@@ -35,39 +74,95 @@ class OLS:
             return float("nan")
         if self.se[j] == 0:
             return 0.0 if self.coef[j] > 0 else 1.0
-        from scipy import stats  # loaded by the tests that need p-values, not by fit
+        return t_sf(float(self.coef[j] / self.se[j]), self.dof)
 
-        return float(stats.t.sf(self.coef[j] / self.se[j], self.dof))
+    def p_two_sided(self, j: int) -> float:
+        """p-value of H0: b_j = 0 against b_j != 0 (NaN when not identifiable)."""
+        if self.dof < 1 or not np.isfinite(self.se[j]):
+            return float("nan")
+        if self.se[j] == 0:
+            return 0.0 if self.coef[j] != 0 else 1.0
+        return min(1.0, 2.0 * t_sf(abs(float(self.coef[j] / self.se[j])), self.dof))
+
+    def f_test(self, restricted: OLS) -> float:
+        """p-value of the F test of this fit against a `restricted` one nested in it (its
+        columns a subset of these, on the same y): does the extra part explain anything?"""
+        df1 = restricted.dof - self.dof
+        if df1 < 1 or self.dof < 1 or not self.sse > 0:
+            return float("nan")
+        f = ((restricted.sse - self.sse) / df1) / (self.sse / self.dof)
+        return f_sf(max(f, 0.0), df1, self.dof)
+
+    def lack_of_fit(self, groups: np.ndarray) -> tuple[float, int, int]:
+        """Lack-of-fit F test against pure error (Montgomery & Runger §11-7.1, Draper &
+        Smith §2.1): rows with the same `groups` label are replicates of one configuration;
+        SSE = SS_pure_error (spread within configurations, n - m dof) + SS_lack_of_fit
+        (m - rank dof). Returns (p-value, lack-of-fit dof, pure-error dof); NaN p when
+        there are no replicates or no dof for lack of fit."""
+        labels = np.unique(np.asarray(groups), return_inverse=True)[1].ravel()
+        m = int(labels.max()) + 1 if labels.size else 0
+        df_pe = self.n - m
+        df_lof = m - self.rank
+        if df_pe < 1 or df_lof < 1:
+            return float("nan"), max(df_lof, 0), max(df_pe, 0)
+        y_hat_free = np.bincount(labels, weights=self.residual) / np.bincount(labels)
+        ss_pe = float(np.sum((self.residual - y_hat_free[labels]) ** 2))
+        ss_lof = max(self.sse - ss_pe, 0.0)
+        if ss_pe <= 0:
+            return (0.0 if ss_lof > 0 else 1.0), df_lof, df_pe
+        return f_sf((ss_lof / df_lof) / (ss_pe / df_pe), df_lof, df_pe), df_lof, df_pe
 
 
 def ols(X: np.ndarray, y: np.ndarray) -> OLS:
-    """Least squares with standard errors; rank-deficient designs give NaN errors."""
+    """Least squares `y = X b + e` with standard errors; rank-deficient designs, or no
+    degrees of freedom, give NaN errors (so never a false significance)."""
     X = np.asarray(X, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
-    coef, _, rank, _ = np.linalg.lstsq(X, y, rcond=None)
-    residual = y - X @ coef
     n, p = X.shape
+    norms = np.sqrt(np.sum(X * X, axis=0))
+    scaled = X / np.where(norms > 0, norms, 1.0)
+    coef, _, rank, singular = np.linalg.lstsq(X, y, rcond=None)
+    scaled_singular = np.linalg.svd(scaled, compute_uv=False) if n and p else np.zeros(0)
+    condition = (
+        float(scaled_singular[0] / scaled_singular[-1])
+        if scaled_singular.size and scaled_singular[-1] > 0
+        else float("inf")
+    )
+    del singular
+    residual = y - X @ coef
     dof = n - p
+    sst = float(np.sum((y - y.mean()) ** 2)) if n else float("nan")
     if rank < p or dof < 1:
-        return OLS(coef, np.full(p, np.nan), max(dof, 0), residual)
+        return OLS(coef, np.full(p, np.nan), max(dof, 0), residual, int(rank), condition, sst)
     s2 = float(residual @ residual) / dof
-    cov = s2 * np.linalg.inv(X.T @ X)
-    return OLS(coef, np.sqrt(np.clip(np.diag(cov), 0, None)), dof, residual)
+    cov = s2 * np.linalg.pinv(X.T @ X)
+    se = np.sqrt(np.clip(np.diag(cov), 0, None))
+    return OLS(coef, se, dof, residual, int(rank), condition, sst)
 
 
 def one_sample_p_greater(values: np.ndarray) -> tuple[float, float, float]:
-    """Mean, its standard error and the one-sided p-value of mean > 0 (Student's t)."""
+    """Mean, its standard error and the one-sided p-value of mean > 0 (Student's t): the
+    least squares of the finite values on a constant."""
     x = np.asarray(values, dtype=np.float64)
     x = x[np.isfinite(x)]
     if x.size < 2:
         return (float(x.mean()) if x.size else float("nan"), float("nan"), float("nan"))
-    mean = float(x.mean())
-    se = float(x.std(ddof=1) / np.sqrt(x.size))
-    if se == 0:
-        return mean, se, 0.0 if mean > 0 else 1.0
-    from scipy import stats
+    fit = ols(np.ones((x.size, 1)), x)
+    return float(fit.coef[0]), float(fit.se[0]), fit.p_greater(0)
 
-    return mean, se, float(stats.t.sf(mean / se, x.size - 1))
+
+def t_sf(t: float, dof: float) -> float:
+    """P(T > t) for Student's t with `dof` degrees of freedom (loads scipy.special)."""
+    from scipy import special  # loaded by the tests that need p-values, not by fit
+
+    return float(special.stdtr(dof, -t))
+
+
+def f_sf(f: float, df1: float, df2: float) -> float:
+    """P(F > f) for Fisher's F with (df1, df2) degrees of freedom (loads scipy.special)."""
+    from scipy import special
+
+    return float(special.fdtrc(df1, df2, f))
 
 
 def t_quantile(p: float, dof: float) -> float:

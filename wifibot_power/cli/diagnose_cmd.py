@@ -108,7 +108,17 @@ def _findings(result: Diagnosis) -> Table:
             f.summary,
         )
     if not result.findings:
-        table.add_row("(none)", "", "", "", "", "", "the paper's model explains these runs")
+        # never "explains" while structure is left (cli.md): say what is known instead
+        verdict = (
+            "no catalogue cause explains what is left (see 'unexplained' below)"
+            if result.unexplained
+            else "the paper's model explains these runs"
+        )
+        table.add_row("(none)", "", "", "", "", "", verdict)
+    for f in result.findings:
+        failed = [c for c in f.checks if not c.passed]
+        if failed:  # a finding's checks all pass by construction; shown if ever not
+            table.add_row(f.cause, "", "", "", "", "", f"check failed: {failed[0].detail}")
     return table
 
 
@@ -165,10 +175,15 @@ def diagnose_command(
             f"{result.extended_rmse_J:.3g} J, MAPE {result.extended_mape_pct:.3g}%. "
             f"Gain {result.gain_pct:.1f}%."
         )
+        for finding in result.findings:
+            passed = ", ".join(c.check for c in finding.checks if c.passed)
+            stdout.print(f"{finding.cause}: checks passed: {passed}")
         for reason in result.unexplained_reasons:
             stdout.print(f"[bold]unexplained:[/bold] {reason}")
+        rejected = {str(r["reason"]) for r in result.rejected}
         for note in result.notes:
-            stdout.print(f"note: {note}")
+            if note not in rejected:  # already printed as a reason
+                stdout.print(f"note: {note}")
     code = report_skipped(list(result.skipped))
     if fail_on_discrepancy and result.findings:
         code = EXIT_SKIPPED

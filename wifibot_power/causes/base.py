@@ -1,0 +1,255 @@
+"""What every named cause of shared/spec/causes.md provides: the `Cause` base class.
+
+A cause is one module holding one subclass of `Cause` (its physics, its term in the
+stacked regression, its evidence test, its consequence checks, its energy term for
+`energy.trip_energy`, its injection for `simulate`, its plausible size range), registered
+once in `wifibot_power.causes`. Everything else loops over the registry.
+
+Importing this module loads numpy only (`wbpower energy` and `simulate` read the registry,
+and must not pay for pandas or scipy); the tables passed in are pandas frames.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from wifibot_power.energy import StepKinematics
+    from wifibot_power.model import PowerModel
+
+#: Significance level of every evidence test (strict: six causes are tested on every batch).
+ALPHA = 1e-3
+#: A consequence "must not be there" fails only when the data show it at this level, and one
+#: that "must be there" passes only when they show it at this level.
+CHECK_ALPHA = 1e-3
+
+RUN_ENERGY = "run_energy"
+POWER_TRACE = "power_trace"
+
+
+@dataclass(frozen=True)
+class Check:
+    """One consequence of a cause's physics, tested on the runs (causes.md, cli.md `checks`)."""
+
+    check: str
+    passed: bool
+    detail: str
+
+    def as_dict(self) -> dict[str, object]:
+        return {"check": self.check, "passed": bool(self.passed), "detail": self.detail}
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """What one evidence test found on a batch of runs."""
+
+    cause: str
+    testable: bool
+    p_value: float = float("nan")
+    estimate: float = float("nan")
+    ci95: tuple[float, float] = (float("nan"), float("nan"))
+    parameters: dict[str, float] = field(default_factory=dict)
+    summary: str = ""
+
+    @property
+    def significant(self) -> bool:
+        return self.testable and bool(np.isfinite(self.p_value)) and self.p_value < ALPHA
+
+    @property
+    def passes(self) -> bool:
+        """Significant and at least the smallest size worth naming."""
+        from wifibot_power.causes.registry import CAUSES
+
+        return self.significant and self.estimate >= CAUSES[self.cause].min_size
+
+
+@dataclass(frozen=True, eq=False)
+class RunTable:
+    """What every evidence test and check is given: the usable motion runs (one row each:
+    `runtable.run_row` columns, trace statistics, each cause's `run_columns`, and the
+    session clock `tau_before_min`/`tau_mid_min`), the model fitted with the causes already
+    found, and those causes' names."""
+
+    runs: pd.DataFrame
+    model: PowerModel
+    given: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class TripTerms:
+    """What a cause's energy term sees of one trip (`energy.trip_energy`)."""
+
+    model: PowerModel
+    step: StepKinematics
+    steps: int
+    payload_kg: float
+    #: motor-on minutes accumulated in the session before the trip (0: from cold)
+    motor_on_before_min: float
+    #: energy above idle of the phase-power terms so far, and the trip's motor-on time
+    motion_above_idle_J: float = 0.0
+    motion_time_s: float = 0.0
+
+
+@dataclass(eq=False)
+class SimTrace:
+    """A simulated motion run being built (`simulate`), for a cause to add its power to.
+
+    Arrays are per sample; `kind` is 0 idle, 1 accel, 2 cruise, 3 decel; `plan` lists the
+    phases as (phase, step, n_samples, v_start, v_end) starting at `bounds[:-1]`."""
+
+    motion_W: np.ndarray
+    speed_mps: np.ndarray
+    accel_mps2: np.ndarray
+    kind: np.ndarray
+    plan: list[tuple[str, int, int, float, float]]
+    bounds: np.ndarray
+    dt_s: float
+    target_speed_mps: float
+    payload_kg: float
+    motor_on_before_min: float
+    robot: object
+    rng: np.random.Generator
+
+    @property
+    def moving(self) -> np.ndarray:
+        return self.kind > 0
+
+
+class Cause:
+    """Base class of a named cause. Subclasses set the class attributes and override the
+    hooks their physics needs; the defaults add nothing.
+
+    Fitting (`causes.extended.fit_model`) runs in three stages, given by `fit_stage`:
+    ``"scale"`` causes multiply motion power above idle (`power_factor`) and are estimated
+    first; ``"column"`` causes are linear in their parameter and enter the one stacked
+    least-squares fit of the acceleration and cruise means (`power_terms`,
+    `lump_J_per_step`); ``"after"`` causes are estimated from their own phases or spectra
+    once the lines are known (`estimate`).
+
+    Energy (`energy.trip_energy`) adds terms in three stages, given by `energy_stage`:
+    ``"power"`` terms are part of the phase power (counted in the energy above idle),
+    ``"lump"`` terms are fixed energies, ``"scale"`` terms act on the energy above idle.
+    """
+
+    #: the name in causes.md
+    name: ClassVar[str]
+    physics: ClassVar[str]
+    #: the form added to the model (causes.md)
+    term: ClassVar[str]
+    #: unit of the headline parameter (the SIZE of `simulate --effect`)
+    unit: ClassVar[str]
+    #: headline parameter key in `model.extensions[name]`
+    parameter: ClassVar[str]
+    #: every key of `model.extensions[name]` that the energy term reads
+    parameters: ClassVar[tuple[str, ...]]
+    metric: ClassVar[str] = RUN_ENERGY
+    #: smallest size worth naming (below it, a note)
+    min_size: ClassVar[float]
+    #: physically plausible range of the headline parameter; why: the class docstring
+    plausible: ClassVar[tuple[float, float]]
+    #: the signature, in words (causes.md)
+    signature: ClassVar[str]
+    #: simulate: SIZE when only the name is given, and the realistic range tests draw from
+    default_size: ClassVar[float]
+    realistic_range: ClassVar[tuple[float, float]]
+    #: simulate: payloads the default grid needs for the effect to be visible (None: any)
+    grid_payloads_kg: ClassVar[tuple[float, ...] | None] = None
+    fit_stage: ClassVar[str] = "after"
+    energy_stage: ClassVar[str] = "lump"
+    #: the name of the trip phase its energy is reported as
+    energy_phase: ClassVar[str | None] = None
+    #: simulate: the order effects are applied in (multiplicative ones last)
+    inject_order: ClassVar[int] = 0
+
+    # -- per-run statistics --------------------------------------------------------------
+    def run_columns(self, run, segmentation) -> dict[str, float]:
+        """Extra per-run statistics this cause's tests need, computed while the run's samples
+        are in memory (`diagnose.summarize_run`); vectorised over samples."""
+        del run, segmentation
+        return {}
+
+    # -- fitting -------------------------------------------------------------------------
+    def power_terms(self, runs: pd.DataFrame, value: float) -> dict[str, np.ndarray]:
+        """("column" causes) Added modelled power per run: during acceleration as a
+        polynomial in u = t / t_acc (``ramp0 + ramp1 u + ramp2 u²``) and in cruise
+        (``cruise``) [W], for the parameter `value`."""
+        del runs, value
+        return {}
+
+    def lump_J_per_step(self, runs: pd.DataFrame, value: float) -> np.ndarray | None:
+        """("column" causes) A fixed energy per step [J] the parameter `value` adds."""
+        del runs, value
+        return None
+
+    def power_factor(self, runs: pd.DataFrame, params: dict[str, float]) -> np.ndarray | None:
+        """("scale" causes) Per-run factor on the mean motion power above idle."""
+        del runs, params
+        return None
+
+    def estimate(
+        self, runs: pd.DataFrame, coef: dict[str, float], model: PowerModel
+    ) -> dict[str, float] | None:
+        """The extension parameters of this cause on `runs` (usable motion runs), given the
+        stacked fit's coefficients `coef` and the model so far; None: nothing to add.
+        A "column" cause's parameter is its coefficient."""
+        del runs, model
+        if self.fit_stage == "column":
+            return {self.parameter: float(coef[self.parameter])}
+        return None
+
+    def identifiable(self, runs: pd.DataFrame) -> str | None:
+        """Why this cause's parameters cannot be estimated from `runs`, or None. A fold whose
+        training runs cannot identify a cause gives "not estimable", never a number."""
+        del runs
+        return None
+
+    # -- naming --------------------------------------------------------------------------
+    def evidence(self, table: RunTable) -> Evidence:
+        """Its signature, tested on top of `table.model` (fitted with `table.given`)."""
+        raise NotImplementedError
+
+    def checks(self, table: RunTable, evidence: Evidence) -> list[Check]:
+        """Every consequence its physics implies (causes.md), plus the plausible size."""
+        return [self.plausible_check(evidence)]
+
+    def plausible_check(self, evidence: Evidence) -> Check:
+        low, high = self.plausible
+        value = evidence.estimate
+        ok = bool(np.isfinite(value) and low <= value <= high)
+        return Check(
+            "plausible size",
+            ok,
+            f"{self.parameter} = {value:.3g} {self.unit}, plausible {low:g} to {high:g} "
+            f"({'inside' if ok else 'outside'})",
+        )
+
+    def heldout_trace_gain_pct(self, runs: pd.DataFrame, folds: np.ndarray, traces) -> float:
+        """("power_trace" causes) Held-out gain on the power trace [%]."""
+        raise NotImplementedError
+
+    # -- energy --------------------------------------------------------------------------
+    def stop_time_s(self, params: dict[str, float]) -> float:
+        """Time the robot takes to stop at the end of each step [s] (kinematics)."""
+        del params
+        return 0.0
+
+    def energy_J(self, params: dict[str, float], trip: TripTerms) -> tuple[float, float] | None:
+        """(time [s], energy [J]) this term adds to the whole trip, or None."""
+        del params, trip
+        return None
+
+    # -- simulation ----------------------------------------------------------------------
+    def inject(self, size: float, trace: SimTrace) -> dict[str, object]:
+        """Add this effect of SIZE `size` to `trace.motion_W` (in place); truth entries."""
+        del size, trace
+        return {}
+
+    def sim_parameters(self, size: float) -> dict[str, float]:
+        """The extension parameters a simulated effect of SIZE `size` stands for (as far as
+        SIZE fixes them)."""
+        return {self.parameter: float(size)}

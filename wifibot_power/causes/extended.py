@@ -1,0 +1,116 @@
+"""The paper's model extended by any set of named causes, fitted on any subset of runs (the
+held-out machinery of `diagnose` calls it on training folds only), and its prediction of
+each run's motion energy. Loops over the registry; names no cause.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wifibot_power.causes.design import column_causes, power_factor, stacked_fit
+from wifibot_power.causes.registry import CAUSES, ordered
+from wifibot_power.energy import trip_energy
+from wifibot_power.fit import fit_table
+from wifibot_power.model import PowerModel
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+
+class NotEstimable(Exception):  # noqa: N818 (a result, not a failure)
+    """The runs given cannot identify the model asked for (why: the message)."""
+
+
+def motion_of(runs: pd.DataFrame) -> pd.DataFrame:
+    return runs[(runs["mode"] == "motion") & runs["usable"]]
+
+
+def fit_model(
+    runs: pd.DataFrame, causes: Iterable[str] = (), *, strict: bool = False
+) -> PowerModel:
+    """The paper's model fitted on `runs` (fit.fit_table: paper Eq. 1-4 by least squares
+    over runs), extended jointly by `causes` in their fit stages (`Cause`): "scale" causes
+    estimated against the column causes first, then one stacked least-squares fit of the
+    phase means with the column causes' terms (means above idle divided by the scale
+    factors), then the causes estimated from their own phases or spectra.
+
+    `strict`: raise `NotEstimable` when the runs cannot identify the fit (a rank-deficient
+    or ill-conditioned stacked design, a cause's `identifiable` reason, a line through
+    fewer than 2 speeds) instead of returning numbers that mean nothing.
+    """
+    base = fit_table(runs).model
+    causes = ordered(causes)
+    motion = motion_of(runs)
+    if strict:
+        problem = _not_estimable(motion, base, causes)
+        if problem:
+            raise NotEstimable(problem)
+    if not causes:
+        return base
+    columns = column_causes(causes)
+    extensions: dict[str, dict[str, float]] = {}
+    for name in causes:
+        if CAUSES[name].fit_stage == "scale":
+            coef, _, _ = stacked_fit(motion, columns, base)
+            params = CAUSES[name].estimate(motion, coef, base)
+            if params:
+                extensions[name] = params
+    coef, fit, _ = stacked_fit(motion, columns, base.with_extensions(extensions, "diagnose"))
+    if strict and not fit.estimable:
+        raise NotEstimable(
+            f"the stacked fit of {', '.join(columns) or 'the lines'} is ill-conditioned "
+            f"(rank {fit.rank} of {fit.p}, condition number {fit.condition:.2g})"
+        )
+    accel = replace(base.accel, intercept=coef["a0"], slope=coef["a1"])
+    cruise = replace(base.cruise, intercept=coef["c0"], slope=coef["c1"])
+    model = replace(base, accel=accel, cruise=cruise).with_extensions(extensions, "diagnose")
+    for name in causes:
+        cause = CAUSES[name]
+        if cause.fit_stage == "scale":
+            continue
+        params = cause.estimate(motion, coef, model)
+        if params:
+            extensions[name] = params
+    return model.with_extensions(extensions, source="diagnose")
+
+
+def _not_estimable(motion: pd.DataFrame, base: PowerModel, causes: list[str]) -> str | None:
+    speeds = np.unique(motion["speed_mps"].to_numpy(np.float64))
+    if speeds.size < 2:
+        if not speeds.size:
+            return "no motion runs"
+        return f"its runs are all at {speeds[0]:g} m/s (a line needs 2 speeds)"
+    lines = (base.accel, base.cruise, base.t_acc)
+    if not all(np.isfinite([line.intercept for line in lines] + [line.slope for line in lines])):
+        return "the paper's lines cannot be fitted on its runs"
+    for name in causes:
+        reason = CAUSES[name].identifiable(motion)
+        if reason:
+            return f"{name}: {reason}"
+    return None
+
+
+def predict_motion_energy_J(model: PowerModel, runs: pd.DataFrame) -> np.ndarray:
+    """Motion energy of each run as the model simulates it from (v, D, N, payload) alone:
+    paper Eq. 5/6 per step with the model's extensions (energy.trip_energy), the run starting
+    the motor-on minutes into its session that precede it (tau_before_min)."""
+    out = np.empty(len(runs))
+    tau = runs["tau_before_min"].to_numpy(np.float64)
+    for i, row in enumerate(runs.itertuples(index=False)):  # a row per run, not per sample
+        trip = trip_energy(
+            model,
+            row.speed_mps,
+            row.distance_m,
+            int(row.steps),
+            payload_kg=row.payload_kg,
+            motor_on_before_min=float(tau[i]) if np.isfinite(tau[i]) else 0.0,
+        )
+        out[i] = trip.energy_J
+    return out
+
+
+__all__ = ["NotEstimable", "fit_model", "power_factor", "predict_motion_energy_J"]

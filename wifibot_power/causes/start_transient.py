@@ -1,0 +1,159 @@
+"""`start_transient`: inrush current / static-friction breakaway at every start.
+
+Term: ``+ E_start`` per step, spent in the first ~0.2 s of acceleration (causes.md).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wifibot_power.causes.base import (
+    CHECK_ALPHA,
+    Cause,
+    Check,
+    Evidence,
+    RunTable,
+    SimTrace,
+    TripTerms,
+)
+from wifibot_power.causes.design import (
+    column,
+    measured_duration_prediction_J,
+    phase_power_terms,
+    stacked_fit,
+)
+from wifibot_power.causes.design import power_factor as factor_of
+from wifibot_power.stats import ols, one_sample_p_greater
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from wifibot_power.model import PowerModel
+
+E_START = "E_start_J"
+
+
+class StartTransient(Cause):
+    """Plausible E_start: 0 to 30 J per step. Inrush is bounded by the stall current: four
+    motors at ~10 A and 12 V for at most ~0.05 s (their electrical time constant) is ~25 J."""
+
+    name = "start_transient"
+    physics = "inrush current / static-friction breakaway at every start"
+    term = "+ E_start per step, in the first ~0.2 s of acceleration"
+    unit = "J"
+    parameter = E_START
+    parameters = (E_START,)
+    min_size = 0.5
+    plausible = (0.0, 30.0)
+    signature = "residual per step count, located at the start of acceleration"
+    default_size = 3.0
+    realistic_range = (1.5, 8.0)
+    fit_stage = "column"
+    energy_stage = "lump"
+
+    def lump_J_per_step(self, runs: pd.DataFrame, value: float) -> np.ndarray:
+        return np.full(len(runs), float(value))
+
+    def evidence(self, table: RunTable) -> Evidence:
+        """A fixed energy per step, located in the first 0.25 s of each acceleration.
+
+        Two tests must both hold: the per-step energy column of the stacked fit (residual per
+        step count), and the excess over the modelled ramp in the start window (where it
+        sits). The ramp is that of the lines fitted together with the per-step term, so it
+        is not inflated by the transient it is meant to reveal.
+        """
+        coef, fit, names = stacked_fit(table.runs, [*table.given, self.name], table.model)
+        j = names.index(E_START)
+        excess_J = start_window_excess_J(table.runs, coef, table.model)
+        mean_J, _, p_window = one_sample_p_greater(excess_J)
+        estimate = float(fit.coef[j])
+        return Evidence(
+            self.name,
+            True,
+            max(fit.p_greater(j), p_window),
+            estimate,
+            fit.ci95(j),
+            {E_START: estimate, "start_window_J": mean_J},
+            f"extra {estimate:.3g} J per step, {mean_J:.3g} J of it in the first 0.25 s of "
+            "acceleration",
+        )
+
+    def checks(self, table: RunTable, evidence: Evidence) -> list[Check]:
+        return [
+            self._per_step_not_per_distance(table),
+            self._at_the_start(evidence),
+            self.plausible_check(evidence),
+        ]
+
+    def _per_step_not_per_distance(self, table: RunTable) -> Check:
+        """Each run's energy left by the lines alone (fitted with the per-step term, which
+        is then left out) against steps, steps x speed and distance: it must grow with the
+        steps and not with the distance or the speed."""
+        runs = table.runs
+        coef, _, _ = stacked_fit(runs, [*table.given, self.name], table.model)
+        without = {k: v for k, v in coef.items() if k != E_START}
+        predicted_J, _ = measured_duration_prediction_J(
+            runs, without, factor_of(runs, table.model.extensions), table.model.idle_W
+        )
+        measured_J = column(runs, "accel_energy_J") + column(runs, "cruise_energy_J")
+        steps = column(runs, "steps_found")
+        X = np.column_stack([steps, steps * column(runs, "speed_mps"), column(runs, "distance_m")])
+        fit = ols(X, measured_J - predicted_J)
+        p_steps, p_speed, p_dist = fit.p_greater(0), fit.p_two_sided(1), fit.p_two_sided(2)
+        ok = p_steps < CHECK_ALPHA and not p_speed < CHECK_ALPHA and not p_dist < CHECK_ALPHA
+        return Check(
+            "grows with steps, not with distance or speed",
+            bool(ok),
+            f"{fit.coef[0]:.3g} J per step (p = {p_steps:.2g}); per step and m/s "
+            f"{fit.coef[1]:.3g} J (p = {p_speed:.2g}); per m {fit.coef[2]:.3g} J "
+            f"(p = {p_dist:.2g})",
+        )
+
+    def _at_the_start(self, evidence: Evidence) -> Check:
+        window_J = evidence.parameters.get("start_window_J", float("nan"))
+        ok = bool(np.isfinite(window_J) and window_J >= 0.5 * evidence.estimate)
+        return Check(
+            "sits at the start of acceleration",
+            ok,
+            f"{window_J:.3g} J of the {evidence.estimate:.3g} J per step is in the first "
+            "0.25 s of acceleration (at least half must be)",
+        )
+
+    def energy_J(self, params: dict[str, float], trip: TripTerms) -> tuple[float, float]:
+        """``+ E_start`` per step [J per trip]."""
+        return 0.0, trip.steps * params[E_START]
+
+    def inject(self, size: float, trace: SimTrace) -> dict[str, object]:
+        """A decaying pulse (time constant `start_transient_tau_s`) that reaches zero at the
+        end of its window, holding `size` J, at the start of every acceleration."""
+        robot, dt = trace.robot, trace.dt_s
+        tau = robot.start_transient_tau_s
+        window = round(robot.start_transient_window_s / dt)
+        t_local = (np.arange(window) + 0.5) * dt
+        pulse = np.clip(np.exp(-t_local / tau) - np.exp(-window * dt / tau), 0.0, None)
+        pulse *= size / (pulse.sum() * dt)
+        n = trace.motion_W.size
+        for (name, _, _, _, _), start in zip(trace.plan, trace.bounds[:-1], strict=True):
+            if name == "accel":
+                stop = min(start + window, n)
+                trace.motion_W[start:stop] += pulse[: stop - start]
+        return {}
+
+
+def start_window_excess_J(runs: pd.DataFrame, coef: dict[str, float], model: PowerModel):
+    """Measured minus modelled energy in the start window, per step [J] (E_start not in the
+    model: it is what the window should reveal)."""
+    terms = phase_power_terms(runs, coef)
+    predicted = (
+        terms["ramp0"] * column(runs, "start_accel_s")
+        + terms["ramp1"] * column(runs, "start_ramp_s")
+        + terms["ramp2"] * column(runs, "start_ramp2_s")
+        + terms["cruise"] * column(runs, "start_cruise_s")
+    )
+    factor = factor_of(runs, model.extensions)
+    window_s = column(runs, "start_accel_s") + column(runs, "start_cruise_s")
+    predicted = model.idle_W * window_s + (predicted - model.idle_W * window_s) * factor
+    steps = np.clip(column(runs, "steps_found"), 1, None)
+    return (column(runs, "start_measured_J") - predicted) / steps

@@ -1,0 +1,263 @@
+"""`thermal_drift`: winding resistance rises as the motors warm, so motion power creeps up
+with the motor-on time accumulated in a session.
+
+Term: ``× (1 + α·τ_on)`` on motion power above idle (causes.md), ``τ_on`` in minutes.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wifibot_power.causes.base import (
+    CHECK_ALPHA,
+    Cause,
+    Check,
+    Evidence,
+    RunTable,
+    SimTrace,
+    TripTerms,
+)
+from wifibot_power.causes.design import column, measured_duration_prediction_J, stacked_fit
+from wifibot_power.stats import ols, t_quantile
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from wifibot_power.model import PowerModel
+
+ALPHA_PER_MIN = "alpha_per_min"
+#: each cruise loses this much at either end before its trend is taken (the ends hold the
+#: tails of acceleration and the start of the stop, not drift) [fraction of its length]
+CRUISE_TRIM = 0.05
+#: block length the within-cruise trend is fitted on [s]
+BLOCK_S = 0.01
+
+
+class ThermalDrift(Cause):
+    """Plausible α: 0 to 0.05 per minute. Copper's resistance rises 0.39% per kelvin, and the
+    windings of small DC motors warm by at most ~10 K per minute of driving at the paper's
+    loads, so motion power above idle cannot creep faster than ~4% per minute."""
+
+    name = "thermal_drift"
+    physics = "winding resistance rises as motors warm"
+    term = "x (1 + alpha tau_on) on motion power above idle"
+    unit = "1/min"
+    parameter = ALPHA_PER_MIN
+    parameters = (ALPHA_PER_MIN,)
+    min_size = 0.001
+    plausible = (0.0, 0.05)
+    signature = "residual trend in session order"
+    default_size = 0.005
+    realistic_range = (0.003, 0.02)
+    fit_stage = "scale"
+    energy_stage = "scale"
+    inject_order = 1
+
+    def run_columns(self, run, segmentation) -> dict[str, float]:
+        """Trend of power within the run's cruises (their middle 90%), pooled over them.
+
+        Each cruise, in 10 ms block means, is fitted by least squares with a level, a line
+        in time and the sinusoid at its strongest spectral peak (0.1-20 Hz): a wheel
+        ripple of 1 W tilts a line through a 10 s cruise by ~0.01 W/s, twenty times the
+        creep of a warming motor, so it is fitted out. Per cruise, its slope b and the
+        information I = 1 / (XᵀX)⁻¹_tt (S_tt without a sinusoid) are kept; the run's are
+        ``creep_s_tp = Σ I b`` and ``creep_s_tt = Σ I``, with the cruises' mean power."""
+        s_tp = s_tt = energy = seconds = 0.0
+        dt = run.sample_period_s
+        per_block = max(1, round(BLOCK_S / dt))
+        for phase in segmentation.phases:
+            if phase.phase != "cruise":
+                continue
+            n = phase.i_end - phase.i_start
+            cut = int(n * CRUISE_TRIM)
+            x = run.power_W[phase.i_start + cut : phase.i_end - cut]
+            blocks = x.size // per_block
+            if blocks < 20:
+                continue
+            y = x[: blocks * per_block].reshape(blocks, per_block).mean(axis=1)
+            block_s = per_block * dt
+            t = (np.arange(blocks) - (blocks - 1) / 2.0) * block_s
+            X = np.column_stack([np.ones(blocks), t, *_strongest_sinusoid(y, t, block_s)])
+            coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+            information = 1.0 / float(np.linalg.pinv(X.T @ X)[1, 1])
+            s_tp += information * float(coef[1])
+            s_tt += information
+            energy += float(x.sum()) * dt
+            seconds += x.size * dt
+        return {
+            "creep_s_tp": s_tp,
+            "creep_s_tt": s_tt,
+            "creep_power_W": energy / seconds if seconds > 0 else float("nan"),
+        }
+
+    def power_factor(self, runs: pd.DataFrame, params: dict[str, float]) -> np.ndarray:
+        return 1.0 + params[ALPHA_PER_MIN] * column(runs, "tau_mid_min")
+
+    def estimate(
+        self, runs: pd.DataFrame, coef: dict[str, float], model: PowerModel
+    ) -> dict[str, float]:
+        return {ALPHA_PER_MIN: thermal_alpha(runs, coef, model.idle_W)[0]}
+
+    def identifiable(self, runs: pd.DataFrame) -> str | None:
+        tau = column(runs, "tau_mid_min")
+        if not np.isfinite(tau).all() or np.ptp(tau) <= 0:
+            return "needs started_at on every run and motor-on time that grows"
+        return None
+
+    def evidence(self, table: RunTable) -> Evidence:
+        """Residual trend in session order: motion power above idle, relative to the model,
+        grows with the motor-on minutes accumulated before it."""
+        runs, model = table.runs, table.model
+        tau = column(runs, "tau_mid_min")
+        if not np.isfinite(tau).all() or np.ptp(tau) < 1.0:
+            return Evidence(
+                self.name,
+                False,
+                summary="needs started_at on every run and a session over a minute of motion",
+            )
+        cold = model.with_extensions({}, model.source)
+        coef, _, _ = stacked_fit(runs, [c for c in table.given if c != self.name], cold)
+        alpha, ci, p_value = thermal_alpha(runs, coef, model.idle_W)
+        return Evidence(
+            self.name,
+            True,
+            p_value,
+            alpha,
+            ci,
+            {ALPHA_PER_MIN: alpha},
+            f"motion power above idle grows {100 * alpha:.3g}% per minute of motor-on time",
+        )
+
+    def checks(self, table: RunTable, evidence: Evidence) -> list[Check]:
+        return [
+            self._smooth_not_a_jump(table),
+            self._creep_within_runs(table, evidence),
+            self.plausible_check(evidence),
+        ]
+
+    def _ratios(self, table: RunTable) -> tuple[np.ndarray, np.ndarray]:
+        runs, model = table.runs, table.model
+        cold = model.with_extensions({}, model.source)
+        coef, _, _ = stacked_fit(runs, [c for c in table.given if c != self.name], cold)
+        return above_idle_ratio(runs, coef, model.idle_W), column(runs, "tau_mid_min")
+
+    def _smooth_not_a_jump(self, table: RunTable) -> Check:
+        """Measured over modelled power above idle, per run: a line in motor-on time must fit
+        it at least as well as the best single step in session order (same number of
+        parameters), as a warming winding would and a change of conditions would not."""
+        ratio, tau = self._ratios(table)
+        order = np.argsort(tau, kind="stable")
+        r = ratio[order]
+        line = ols(np.column_stack([np.ones_like(tau), tau]), ratio)
+        # best step: SSE of two means, every split (cumulative sums, vectorised)
+        n = r.size
+        k = np.arange(1, n)
+        c1, c2 = np.cumsum(r)[:-1], np.cumsum(r * r)[:-1]
+        total1, total2 = r.sum(), (r * r).sum()
+        sse_step = (c2 - c1**2 / k) + ((total2 - c2) - (total1 - c1) ** 2 / (n - k))
+        best = int(np.argmin(sse_step))
+        ok = line.sse <= float(sse_step[best])
+        return Check(
+            "smooth in motor-on time, not a jump between runs",
+            bool(ok),
+            f"residual SSE of a line in motor-on time {line.sse:.3g}, of the best step "
+            f"(after session run {best + 1} of {n}) {float(sse_step[best]):.3g}",
+        )
+
+    def _creep_within_runs(self, table: RunTable, evidence: Evidence) -> Check:
+        """The trend of power within each run's cruises, against the run's cruise power above
+        idle (before warming): the slope is α/60 per second of driving. Fitted over runs by
+        least squares weighted by each run's S_tt, so the scatter of the runs' slopes (not
+        a noise model) gives the error. It must be there (one-sided t-test) and agree with
+        the α found between runs."""
+        runs, idle_W = table.runs, table.model.idle_W
+        s_tt = column(runs, "creep_s_tt")
+        keep = s_tt > 0
+        if keep.sum() < 3:
+            return Check("the same creep within runs", False, "too few cruises to see a trend")
+        slope_W_per_s = column(runs, "creep_s_tp")[keep] / s_tt[keep]
+        above_W = column(runs, "creep_power_W")[keep] - idle_W
+        tau = column(runs, "tau_mid_min")[keep]
+        cold_W = above_W / (1.0 + evidence.estimate * tau)
+        # weighted by S_tt: a slope's variance under white noise is sigma² / S_tt
+        weight = np.sqrt(s_tt[keep])
+        fit = ols((weight * cold_W / 60.0)[:, None], weight * slope_W_per_s)
+        within, se = float(fit.coef[0]), float(fit.se[0])
+        p_there = fit.p_greater(0)
+        low_b, high_b = evidence.ci95
+        se_between = (high_b - low_b) / (2 * t_quantile(0.975, max(len(runs) - 2, 1)))
+        spread = np.hypot(se, se_between)
+        z = abs(within - evidence.estimate) / spread if spread > 0 else float("inf")
+        limit = t_quantile(1 - CHECK_ALPHA / 2, max(fit.dof, 1))
+        ok = p_there < CHECK_ALPHA and z <= limit
+        return Check(
+            "the same creep within runs",
+            bool(ok),
+            f"within runs {100 * within:.3g}%/min (p = {p_there:.2g}), between runs "
+            f"{100 * evidence.estimate:.3g}%/min ({z:.2g} standard errors apart, at most "
+            f"{limit:.2g})",
+        )
+
+    def energy_J(self, params: dict[str, float], trip: TripTerms) -> tuple[float, float]:
+        """``× (1 + α τ_on)`` on the trip's power above idle [J per trip]. The trip starts
+        `motor_on_before_min` into the session (0: from cold) and its power above idle is
+        spread evenly over its motor-on time T, so the factor averages
+        ``1 + α (τ_0 + T / 2)``. The energy above idle covers the phase powers (acceleration,
+        cruise, deceleration and the "power" terms), not the per-step lumps."""
+        mean_tau_min = trip.motor_on_before_min + trip.motion_time_s / 60.0 / 2.0
+        return 0.0, params[ALPHA_PER_MIN] * mean_tau_min * trip.motion_above_idle_J
+
+    def inject(self, size: float, trace: SimTrace) -> dict[str, object]:
+        on_min = trace.motor_on_before_min + np.cumsum(trace.moving) * trace.dt_s / 60.0
+        trace.motion_W *= 1.0 + size * on_min
+        return {}
+
+
+def _strongest_sinusoid(y: np.ndarray, t: np.ndarray, block_s: float) -> list[np.ndarray]:
+    """sin and cos columns at the strongest periodogram peak of `y` (linear trend removed)
+    between 0.1 and 20 Hz, or none when the band holds fewer than 3 frequencies."""
+    detrended = y - np.polyval(np.polyfit(t, y, 1), t)
+    freqs = np.fft.rfftfreq(y.size, block_s)
+    band = (freqs >= 0.1) & (freqs <= min(20.0, 0.5 / block_s))
+    if band.sum() < 3:
+        return []
+    power = np.abs(np.fft.rfft(detrended)) ** 2
+    peak = float(freqs[band][np.argmax(power[band])])
+    # the periodogram's grid is 1/T: refine within one bin either side, on a grid of 41,
+    # to the frequency whose sinusoid explains most (a sinusoid off by half a bin would
+    # leave most of its tilt in the line)
+    step = float(freqs[1] - freqs[0])
+    candidates = np.linspace(max(peak - step, step / 4), peak + step, 41)
+    phase = 2 * np.pi * candidates[:, None] * t[None, :]
+    sin, cos = np.sin(phase), np.cos(phase)
+    # explained variance of each candidate's sin/cos pair (2x2 normal equations, vectorised)
+    ss, cc, sc = (sin * sin).sum(1), (cos * cos).sum(1), (sin * cos).sum(1)
+    sy, cy = sin @ detrended, cos @ detrended
+    det = ss * cc - sc**2
+    explained = (cc * sy**2 - 2 * sc * sy * cy + ss * cy**2) / np.where(det > 0, det, np.inf)
+    hz = float(candidates[np.argmax(explained)])
+    return [np.sin(2 * np.pi * hz * t), np.cos(2 * np.pi * hz * t)]
+
+
+def above_idle_ratio(runs: pd.DataFrame, coef: dict[str, float], idle_W: float) -> np.ndarray:
+    """Measured over modelled acceleration + cruise energy above idle, minus 1, per run."""
+    predicted_J, seconds = measured_duration_prediction_J(runs, coef)
+    measured_J = column(runs, "accel_energy_J") + column(runs, "cruise_energy_J")
+    return (measured_J - idle_W * seconds) / (predicted_J - idle_W * seconds) - 1.0
+
+
+def thermal_alpha(
+    runs: pd.DataFrame, coef: dict[str, float], idle_W: float
+) -> tuple[float, tuple[float, float], float]:
+    """Slope of (measured/modelled power above idle - 1) against tau_mid [1/min]."""
+    ratio = above_idle_ratio(runs, coef, idle_W)
+    tau = column(runs, "tau_mid_min")
+    fit = ols(np.column_stack([np.ones_like(tau), tau]), ratio)
+    # the fitted lines absorb the mean drift: ratio ~ α (τ - τ̄) / (1 + α τ̄), so the
+    # slope b gives α = b / (1 - b τ̄)
+    scale = 1.0 / max(1.0 - float(fit.coef[1]) * float(tau.mean()), 1e-6)
+    alpha = float(fit.coef[1]) * scale
+    lo, hi = fit.ci95(1)
+    return alpha, (lo * scale, hi * scale), fit.p_greater(1)
