@@ -35,6 +35,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from wifibot_power.stats import f_sf, ols
+
 #: Overall false-alarm rate of the family of tests (Bonferroni over the tests run).
 ALPHA = 0.01
 #: Configuration keys: repeated runs share all of them.
@@ -115,12 +117,10 @@ def _cells(table: pd.DataFrame) -> np.ndarray:
 
 
 def _sse_rank(X: np.ndarray, y: np.ndarray) -> tuple[float, int, np.ndarray]:
-    """Residual sum of squares, rank and residual of the least-squares fit of y on X."""
-    scale = np.linalg.norm(X, axis=0)
-    Xs = X / np.where(scale > 0, scale, 1.0)
-    coef, _, rank, _ = np.linalg.lstsq(Xs, y, rcond=1e-10)
-    residual = y - Xs @ coef
-    return float(residual @ residual), int(rank), residual
+    """Residual sum of squares, rank and residual of the least-squares fit of y on X
+    (the one least-squares path, `stats.ols`)."""
+    fit = ols(X, y)
+    return fit.sse, fit.rank, fit.residual
 
 
 def _indicators(codes: np.ndarray) -> np.ndarray:
@@ -141,9 +141,7 @@ def lack_of_fit(table: pd.DataFrame) -> ReplicationTest:
     if df1 < 1 or sse_pe <= 0:
         return _untestable("lack_of_fit", "too few configurations beyond the model's own terms")
     f_stat = ((sse_z - sse_pe) / df1) / (sse_pe / df2)
-    from scipy import stats
-
-    p = float(stats.f.sf(f_stat, df1, df2))
+    p = f_sf(f_stat, df1, df2)
     # where: the configuration whose mean residual stands out most from pure error
     ms_pe = sse_pe / df2
     frame = pd.DataFrame({"cell": cells, "u": u, "J": table["residual_J"].to_numpy()})
@@ -198,9 +196,7 @@ def covariate_dependence(table: pd.DataFrame, covariate: str) -> ReplicationTest
         return _untestable(name, "no degrees of freedom left for the error")
     ms_error, df2 = denominator
     f_stat = ((sse_z - sse_full) / df1) / ms_error
-    from scipy import stats
-
-    p = float(stats.f.sf(f_stat, df1, df2))
+    p = f_sf(f_stat, df1, df2)
     # where: the level whose mean (model's refit taken out) differs most from the rest
     best, best_z, best_diff, best_J = None, 0.0, 0.0, 0.0
     for level in np.unique(levels):
@@ -239,9 +235,7 @@ def session_trend(table: pd.DataFrame) -> ReplicationTest:
     if rank_full - rank_base < 1 or df2 < 2 or sse_full <= 0:
         return _untestable("depends_on_session_order", "session order is confounded")
     f_stat = (sse_base - sse_full) / (sse_full / df2)
-    from scipy import stats
-
-    p = float(stats.f.sf(f_stat, 1, df2))
+    p = f_sf(f_stat, 1, df2)
     # the slope within configurations
     xc = x - pd.Series(x).groupby(cells).transform("mean").to_numpy()
     rc = r - pd.Series(r).groupby(cells).transform("mean").to_numpy()
