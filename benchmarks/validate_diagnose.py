@@ -5,7 +5,10 @@ the null robot (8 seeds), a 5x noisier analyser (4 seeds each, null included) an
 pair of causes (one seed). Diagnose sees only the runs. Prints one line per case and the
 summary table. Not part of `make test`: about 2-4 minutes on 2 cores.
 
-    .venv/bin/python benchmarks/validate_diagnose.py
+    .venv/bin/python benchmarks/validate_diagnose.py [lab] [field]
+
+`field` runs `validate_field.py` (the independent generator at field realism: off-catalogue
+effects, the catalogue in other forms, false alarms); both by default.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "benchmarks")]
 
 from test_diagnose import GRID  # noqa: E402  (the grid the tests diagnose)
 
@@ -105,4 +108,13 @@ def _span(values: list[float]) -> str:
 
 
 if __name__ == "__main__":
-    main()
+    # `lab` (this file: simulate's clean robot), `field` (validate_field.py: the independent
+    # generator at field realism, off-catalogue effects, false alarms), or both (default)
+    suites = [a for a in sys.argv[1:] if not a.startswith("--")] or ["lab", "field"]
+    if "lab" in suites:
+        main()
+    if "field" in suites:
+        import validate_field
+
+        print()
+        validate_field.main(sys.argv[1:])

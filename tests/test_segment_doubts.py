@@ -305,6 +305,14 @@ def test_diagnose_leaves_doubtful_runs_out_unless_kept() -> None:
     (skip,) = left_out.skipped
     assert "segmentation in doubt: a doubt" in skip.reason
     assert kept.skipped == ()
+    # a run left out for a doubt is structure the model does not describe: never a silent
+    # 'explained' (an intermittent fault shows up exactly so: tests/test_diagnose_field.py)
+    assert left_out.unexplained
+    assert any(
+        f"1 of {len(runs)} motion runs were left out" in r and doubtful in r
+        for r in left_out.unexplained_reasons
+    )
+    assert not any("were left out" in r for r in kept.unexplained_reasons)
 
 
 def test_speed_column_on_simulated_runs_with_a_noisy_speed_estimate() -> None:

@@ -30,7 +30,6 @@ import pandas as pd
 from scipy import stats
 
 from wifibot_power.causes import (
-    ALPHA,
     CAUSES,
     POWER_TRACE,
     RUN_ENERGY,
@@ -46,17 +45,13 @@ from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.model import PowerModel
 from wifibot_power.outputs import write_json, write_parquet
 from wifibot_power.phases import Segmentation
+from wifibot_power.residuals import residual_table, structure_reasons
 from wifibot_power.run import Run
-from wifibot_power.runtable import admit_doubtful, run_row, runs_frame
-from wifibot_power.stats import ols
+from wifibot_power.runtable import DOUBT_REASON, admit_doubtful, run_row, runs_frame
 from wifibot_power.traces import EMPTY, TraceStats, trace_stats
 
 #: Smallest held-out gain that makes a significant cause a finding [%].
 MIN_GAIN_PCT = {"run_energy": 5.0, "power_trace": 10.0}
-#: Held-out relative error of run energy [%] above which structure is not mere noise.
-UNEXPLAINED_RMS_PCT = 1.0
-#: ...and above which the extended model is not good enough whatever the structure [%].
-UNEXPLAINED_ANY_PCT = 5.0
 #: A gap longer than this between one run's end and the next's start ends a session [s].
 SESSION_GAP_S = 30 * 60.0
 FOLDS = 5
@@ -588,6 +583,7 @@ def diagnose_summaries(
     blocks = {s.row["run_id"]: (s.trace.cruise_blocks_W, s.trace.block_s) for s in summaries}
     for row in runs[~runs["usable"]].itertuples():
         skipped.append(Skipped(str(row.file), f"{row.file}: {row.skip_reason}"))
+    doubted = doubted_motion_reason(runs)
     runs = runs[runs["usable"]]
     motion = motion_runs(runs)
     if not enough_to_choose(motion):
@@ -691,6 +687,8 @@ def diagnose_summaries(
     table["extended_error_pct"] = 100 * (extended_pred - measured) / measured
     rejected = rejected_candidates(evidence, causes, seen)
     reasons = unexplained_reasons(table, evidence, causes) + [r["reason"] for r in rejected]
+    if doubted:
+        reasons.append(doubted)
     for r in rejected:
         notes.append(str(r["reason"]))
     return Diagnosis(
@@ -746,27 +744,44 @@ def error_patterns(table: pd.DataFrame) -> dict[str, object]:
     return out
 
 
+def doubted_motion_reason(runs: pd.DataFrame) -> str | None:
+    """Why runs left out for their segmentation's doubts are themselves unexplained
+    structure, or None when there are none: their traces do not fit the phase model (a
+    power step inside a cruise, a second level, a burst), so what happens in them is, by
+    construction, something the model does not describe (causes.md, "Unexplained"). Leaving
+    them out silently would make a batch with an intermittent fault look explained."""
+    doubted = runs[
+        (runs["mode"] == "motion")
+        & ~runs["usable"]
+        & runs["skip_reason"].astype(str).str.startswith(DOUBT_REASON)
+    ]
+    if doubted.empty:
+        return None
+    n_motion = int((runs["mode"] == "motion").sum())
+    names = ", ".join(map(str, doubted["run_id"].head(5)))
+    more = f" and {len(doubted) - 5} more" if len(doubted) > 5 else ""
+    return (
+        f"{len(doubted)} of {n_motion} motion runs were left out because their traces do not "
+        f"fit the phase model ({names}{more}; each one's doubt is in 'skipped'): what happens "
+        "in them is not in the model (--keep-doubtful diagnoses them anyway)"
+    )
+
+
 def unexplained_reasons(
     table: pd.DataFrame, evidence: tuple[Evidence, ...], named: list[str]
 ) -> list[str]:
-    """Structure the named causes leave in the held-out errors of the extended model.
+    """Structure the named causes leave in the held-out errors of the extended model,
+    judged against the spread of repeated runs (`residuals.py`, causes.md "Unexplained").
     (Candidates rejected by their checks are reported apart: `rejected_candidates`.)"""
     del evidence, named
-    reasons = []
-    error = table["extended_error_pct"].to_numpy(np.float64)
-    rms = float(np.sqrt(np.mean(error**2)))
-    if rms > UNEXPLAINED_ANY_PCT:
-        reasons.append(f"held-out error of run energy is {rms:.2g}% RMS after the named causes")
-    elif rms > UNEXPLAINED_RMS_PCT:
-        columns = [c for c in COVARIATES if table[c].nunique() > 1]
-        one = np.ones((len(table), 1))
-        x = np.column_stack([one] + [table[c].to_numpy(np.float64) for c in columns])
-        p = ols(x, error).f_test(ols(one, error))
-        if p < ALPHA:
-            reasons.append(
-                f"held-out error ({rms:.2g}% RMS) still depends on "
-                f"{', '.join(COVARIATES[c] for c in columns)} (F-test p = {p:.2g})"
-            )
+    reasons = structure_reasons(
+        residual_table(
+            table["run_id"].to_numpy(),
+            table["measured_energy_J"].to_numpy(),
+            table["extended_energy_J"].to_numpy(),
+            table[["speed_mps", "distance_m", "steps", "payload_kg", "session_order"]],
+        )
+    )
     return reasons
 
 

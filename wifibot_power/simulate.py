@@ -54,6 +54,27 @@ class _Effects(Mapping):
 
 EFFECTS: Mapping[str, tuple[str, float, tuple[float, float]]] = _Effects()
 
+#: `--realism`: what the analyser and the robot add beyond the effects (docs/simulator.md).
+#: "lab" is the clean robot of the tests; "field" is what real logs carry: 0.8 W rms analyser
+#: noise at 10 kHz, a 1 W motor-PWM tone near 1 kHz while the motors are driven, 0.5 % run-to-run
+#: spread of motion power and 0.1 W run-to-run spread of idle power.
+REALISM: dict[str, dict[str, float]] = {
+    "lab": {
+        "noise_W": 0.3,
+        "pwm_tone_W": 0.0,
+        "pwm_hz": 1050.0,
+        "motion_spread_rel": 0.0,
+        "idle_spread_W": 0.0,
+    },
+    "field": {
+        "noise_W": 0.8,
+        "pwm_tone_W": 1.0,
+        "pwm_hz": 1050.0,
+        "motion_spread_rel": 0.005,
+        "idle_spread_W": 0.1,
+    },
+}
+
 PAPER_SPEEDS_MPS = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
 PAPER_TRIPS = ((2.0, 1), (10.0, 1), (10.0, 10))
 #: paper Table 1: component powers net of idle [W]
@@ -98,6 +119,12 @@ class SimConfig:
     sample_period_s: float = PAPER_SAMPLE_PERIOD_S
     #: white analyser noise, standard deviation per 0.1024 ms sample [W] (averaged over longer ones)
     noise_W: float = 0.3
+    #: motor-PWM tone while the motors are driven: amplitude [W] and frequency [Hz]
+    pwm_tone_W: float = 0.0
+    pwm_hz: float = 1050.0
+    #: run-to-run spread: motion power above idle x (1 + N(0, rel)), idle power + N(0, W)
+    motion_spread_rel: float = 0.0
+    idle_spread_W: float = 0.0
     effects: dict[str, float] = field(default_factory=dict)
     seed: int = 0
     idle_before_s: float = 2.0
@@ -123,6 +150,13 @@ class SimRun:
     run: Run
     truth: dict[str, object]
     voltage_V: np.ndarray
+
+
+def realism(name: str) -> dict[str, float]:
+    """The `SimConfig` keyword arguments of a realism level (`REALISM`): `lab` or `field`."""
+    if name not in REALISM:
+        raise UsageError(f"unknown realism '{name}'", fix=f"use one of: {', '.join(REALISM)}")
+    return dict(REALISM[name])
 
 
 def parse_effects(specs: list[str]) -> dict[str, float]:
@@ -251,7 +285,7 @@ def _simulate_one(
         clean_W = np.full(n, robot.idle_W + MODE_POWERS_W.get(spec.mode, 0.0))
         phases = [{"step": 0, "phase": "idle", "t_start_s": 0.0, "t_end_s": n * dt}]
         truth = {"mode_power_W": float(clean_W[0]), "motion_energy_J": 0.0, "motor_on_s": 0.0}
-        return _finish(spec, config, rng, clean_W, phases, truth, started_at, order)
+        return _finish(spec, config, rng, clean_W, phases, truth, started_at, order, None)
 
     plan, t_acc_s, t_dec_s = _profile(spec, config)
     counts = np.array([p[2] for p in plan])
@@ -323,7 +357,7 @@ def _simulate_one(
         "motor_on_before_run_min": motor_on_min,
     }
     truth.update(effect_truth)
-    return _finish(spec, config, rng, clean_W, phases, truth, started_at, order)
+    return _finish(spec, config, rng, clean_W, phases, truth, started_at, order, moving)
 
 
 def _finish(
@@ -335,9 +369,11 @@ def _finish(
     truth: dict,
     started_at: datetime,
     order: int,
+    moving: np.ndarray | None,
 ) -> SimRun:
     dt = config.sample_period_s
     robot = config.robot
+    clean_W = _field_realism(spec, config, clean_W, truth, order, moving)
     # an averaging analyser: noise of a longer sample period is the mean of 0.1024 ms samples
     sigma_W = config.noise_W * np.sqrt(PAPER_SAMPLE_PERIOD_S / dt)
     power_W = clean_W + rng.normal(0.0, sigma_W, clean_W.size) if sigma_W > 0 else clean_W.copy()
@@ -374,6 +410,53 @@ def _finish(
         "phases": phases,
     }
     return SimRun(run=run, truth=full_truth, voltage_V=voltage_V)
+
+
+def _field_realism(
+    spec: _RunSpec,
+    config: SimConfig,
+    clean_W: np.ndarray,
+    truth: dict,
+    order: int,
+    moving: np.ndarray | None,
+) -> np.ndarray:
+    """What a real robot and analyser add once the effects are in (docs/simulator.md):
+    run-to-run spread of motion power (x (1 + e), on the power above idle) and of idle power
+    (+ d, every sample), and the motor-PWM tone while the motors are driven. The spread is
+    real energy, so the truth's energies include it; the tone averages out over a run. Its
+    own random stream: the analyser noise of a seed is the same with or without it."""
+    if not (config.motion_spread_rel or config.idle_spread_W or config.pwm_tone_W):
+        return clean_W
+    rng = np.random.default_rng([config.seed, 3, order])
+    spread_rel = rng.normal(0.0, config.motion_spread_rel) if config.motion_spread_rel else 0.0
+    idle_offset_W = rng.normal(0.0, config.idle_spread_W) if config.idle_spread_W else 0.0
+    robot = config.robot
+    if spec.mode == "motion":
+        clean_W = robot.idle_W + (clean_W - robot.idle_W) * (1.0 + spread_rel)
+    clean_W = clean_W + idle_offset_W
+    truth["motion_spread_rel"] = spread_rel
+    truth["idle_offset_W"] = idle_offset_W
+    dt = config.sample_period_s
+    if moving is not None:
+        truth["motion_energy_J"] = float(clean_W[moving].sum() * dt)
+        for key in ("accel_mean_power_W", "cruise_mean_power_W", "decel_mean_power_W"):
+            if truth.get(key) is not None:
+                above_W = truth[key] - robot.idle_W
+                truth[key] = robot.idle_W + above_W * (1.0 + spread_rel) + idle_offset_W
+    if spec.mode != "motion":
+        truth["mode_power_W"] = float(clean_W[0])
+    if config.pwm_tone_W and moving is not None:
+        # an averaging analyser reports the mean of A·sin(2π f t + φ) over each sample period
+        # T: A·sinc(f T)·sin(2π f t_mid + φ), t_mid the sample's middle. Evaluated at the
+        # sample middles, the tone aliases as a real analyser's does (f above the Nyquist
+        # frequency folds back), and averaging over T attenuates it by sinc(f T).
+        t_mid_s = (np.arange(clean_W.size) + 0.5) * dt
+        phase0 = rng.uniform(0.0, 2 * np.pi)
+        amplitude_W = config.pwm_tone_W * np.sinc(config.pwm_hz * dt)
+        clean_W = clean_W + moving * amplitude_W * np.sin(
+            2 * np.pi * config.pwm_hz * t_mid_s + phase0
+        )
+    return clean_W
 
 
 def true_parameters(config: SimConfig) -> dict[str, object]:
@@ -468,6 +551,7 @@ def write_simulation(
         "seed": config.seed,
         "sample_period_s": config.sample_period_s,
         "noise_W": config.noise_W,
+        "realism": {k: getattr(config, k) for k in REALISM["lab"]},
         "parameters": true_parameters(config),
         "runs": runs_truth,
     }

@@ -15,9 +15,11 @@ from wifibot_power.simulate import (
     COLUMN_SETS,
     COMPRESSIONS,
     EFFECTS,
+    REALISM,
     SimConfig,
     WriteOptions,
     parse_effects,
+    realism,
     write_simulation,
 )
 
@@ -71,9 +73,22 @@ def simulate_command(
     sample_period: Annotated[
         float, typer.Option("--sample-period", min=1e-6, help="Sample period [s].")
     ] = 0.1024e-3,
+    realism_name: Annotated[
+        str,
+        typer.Option(
+            "--realism",
+            help=f"{'|'.join(REALISM)}: 'field' adds what real logs carry (PWM tone, run-to-run "
+            "spread, 0.8 W noise); docs/simulator.md.",
+        ),
+    ] = "lab",
     noise: Annotated[
-        float, typer.Option("--noise", min=0.0, help="Analyser noise per 0.1024 ms sample [W].")
-    ] = 0.3,
+        float | None,
+        typer.Option(
+            "--noise",
+            min=0.0,
+            help="Analyser noise per 0.1024 ms sample [W] (default 0.3; 0.8 with field).",
+        ),
+    ] = None,
     columns: Annotated[
         str, typer.Option(help=f"{'|'.join(COLUMN_SETS)}: time, voltage, current, power or power.")
     ] = "full",
@@ -89,6 +104,9 @@ def simulate_command(
     check_out_dir(out)
     # checked before anything is simulated or written (cli.md: a usage error, exit 2)
     write = WriteOptions(columns=columns, compress=compress, decimals=decimals)
+    level = realism(realism_name)
+    if noise is not None:
+        level["noise_W"] = noise
     config = SimConfig(
         speeds_mps=_floats(speeds, "--speeds"),
         trips=_trips(trips),
@@ -97,7 +115,7 @@ def simulate_command(
         modes=tuple(m.strip() for m in modes.split(",") if m.strip()),
         mode_repeats=mode_repeats,
         sample_period_s=sample_period,
-        noise_W=noise,
+        **level,
         effects=parse_effects(effect or []),
         seed=seed,
     )

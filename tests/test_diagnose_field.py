@@ -1,0 +1,75 @@
+"""diagnose at field realism, on sessions from the independent generator (`fieldgen.py`):
+an effect no cause of causes.md names is reported as unexplained and no name is forced
+onto it; the null robot is neither named nor unexplained.
+
+The batch: speeds 0.1-0.9 m/s (5) x (2 m, 6 m, 6 m in 6 steps) x 2 repeats + 2 idle runs at
+1 kHz (a shorter version of benchmarks/validate_field.py's grid, whose table is in
+docs/diagnose.md); each effect at the size fieldgen states.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import fieldgen
+import pytest
+
+from wifibot_power.diagnose import diagnose_runs
+from wifibot_power.simulate import SimConfig, realism, simulate_runs
+
+BATCH = dict(trips=((2.0, 1), (6.0, 1), (6.0, 6)))
+#: Off-catalogue effects onto which a catalogue name is still forced, with causes.md's
+#: consequence checks in place (measured with branch `causes` merged). strict: once a
+#: check rejects it, the test passes and the mark must go.
+FORCED = {
+    "battery_sag": "speed_quadratic read from power that grows with time in a run",
+}
+
+
+@functools.cache
+def _diagnose_kind(kind: str | None, seed: int):
+    effects = {kind: fieldgen.OFF_CATALOGUE[kind]} if kind else {}
+    batch = fieldgen.Batch(**BATCH, effects=effects, seed=seed)
+    return diagnose_runs(fieldgen.to_runs(fieldgen.generate(batch)))
+
+
+def _marked(kind: str, reasons: dict[str, str]):
+    why = reasons.get(kind)
+    return pytest.param(kind, marks=pytest.mark.xfail(reason=why, strict=True) if why else ())
+
+
+@pytest.mark.parametrize("kind", list(fieldgen.OFF_CATALOGUE))
+def test_an_off_catalogue_effect_is_unexplained(kind):
+    result = _diagnose_kind(kind, 17)
+    assert result.unexplained, [f.cause for f in result.findings]
+    assert result.unexplained_reasons
+
+
+@pytest.mark.parametrize("kind", [_marked(k, FORCED) for k in fieldgen.OFF_CATALOGUE])
+def test_no_catalogue_name_is_forced_onto_an_off_catalogue_effect(kind):
+    result = _diagnose_kind(kind, 17)
+    assert [f.cause for f in result.findings] == []
+
+
+#: At seed 19 the cruises of a null batch carry "periodic" power that does not scale with
+#: speed: Fisher's g-test calls fieldgen's 1/f noise significant at 0.1-0.3 Hz (0.01-0.04
+#: W), and sub-cycle fits below 0.1 Hz in 8-12 s cruises reach 0.4-1.2 W, so the mean is
+#: 0.33 W, over the 0.2 W worth naming; cruise_ripple's f ∝ v check rejects it and a
+#: rejected candidate makes the batch unexplained. A spectral-test limit, left to its lane.
+NULL_SEEDS = [18, pytest.param(19, marks=pytest.mark.xfail(reason="1/f noise", strict=True))]
+
+
+@pytest.mark.parametrize("seed", NULL_SEEDS)
+def test_the_null_robot_at_field_realism_is_neither_named_nor_unexplained(seed):
+    result = _diagnose_kind(None, seed)
+    assert result.findings == ()
+    assert not result.unexplained, result.unexplained_reasons
+
+
+def test_the_simulated_null_robot_at_field_realism_is_not_unexplained():
+    from test_diagnose import GRID
+
+    config = SimConfig(**GRID, seed=20, **realism("field"))
+    result = diagnose_runs([s.run for s in simulate_runs(config)])
+    assert result.findings == ()
+    assert not result.unexplained, result.unexplained_reasons
