@@ -180,3 +180,27 @@ def test_energy_is_additive_over_phases(lengths, seed):
     assert_allclose(row["motion_energy_J"] + idle_J, row["energy_J"], rtol=0, atol=1e-9)
     parts = sum(row[f"{p}_energy_J"] for p in ("accel", "cruise", "decel"))
     assert_allclose(parts, row["motion_energy_J"], rtol=0, atol=1e-9)
+
+
+def test_one_commanded_speed_on_every_cruise_is_that_speed_exactly():
+    """Cruises of 0.1, 0.2 and 0.3 s all at 0.3 m/s: their time-weighted mean is
+    0.29999999999999993 in floating point, and runs at one speed then counted as two
+    speeds, so fit drew a slope through float noise (exit 0 with a model.json)."""
+    from wifibot_power.runtable import _cruise_speed
+
+    cruises = tuple(
+        Phase(1, "cruise", 0, 1, 0.0, duration_s, 1.0, 1.0, speed_mps=0.3)
+        for duration_s in (0.1, 0.2, 0.3)
+    )
+    assert _cruise_speed(Segmentation("r", cruises)) == (0.3, 1)
+
+
+def test_a_line_through_one_speed_level_is_not_fitted():
+    from wifibot_power.fit import fit_line
+
+    # float noise, and speeds within their resolution (fit.speed_levels), are one level
+    for speeds in ([0.3, 0.29999999999999993, 0.3], [0.3, 0.301, 0.3]):
+        line = fit_line(np.array(speeds), np.array([27.0, 27.5, 27.2]))
+        assert np.isnan(line.slope) and np.isnan(line.intercept)
+    line = fit_line(np.array([0.3, 0.6, 0.9]), np.array([27.0, 30.0, 33.0]))
+    assert_allclose([line.intercept, line.slope], [24.0, 10.0], rtol=1e-12)

@@ -64,17 +64,21 @@ def fit_line(speed_mps: np.ndarray, values: np.ndarray) -> LinearFit:
     Eq. 11-7/11-8 and §11-5): slope = S_xy / S_xx, intercept = ȳ - slope x̄,
     s² = SSE / (n - 2), se(slope) = s / sqrt(S_xx),
     se(intercept) = s sqrt(1/n + x̄² / S_xx), CI = estimate ± t_{0.975, n-2} se.
-    Non-finite points are dropped. Fewer than 2 distinct speeds: NaN line. Exactly 2
-    points: the line through them, NaN intervals and R² (no degrees of freedom left).
+    Non-finite points are dropped. Fewer than 2 distinct speed levels (`speed_levels`:
+    speeds closer than their resolution are one level), or a design `stats.ols` finds not
+    estimable: NaN line, never a slope drawn through float noise. Exactly 2 points: the
+    line through them, NaN intervals and R² (no degrees of freedom left).
     """
     x = np.asarray(speed_mps, dtype=np.float64)
     y = np.asarray(values, dtype=np.float64)
     keep = np.isfinite(x) & np.isfinite(y)
     x, y = x[keep], y[keep]
     n = int(x.size)
-    if n < 2 or bool(np.all(x == x[0])):  # fewer than 2 distinct speeds (np.unique: 40 ms cold)
+    if n < 2 or len(speed_levels(x)) < 2:
         return LinearFit(float("nan"), float("nan"), n_runs=n)
     line = ols(np.column_stack([np.ones(n), x]), y)  # the one least-squares path
+    if not line.estimable:
+        return LinearFit(float("nan"), float("nan"), n_runs=n)
     intercept, slope = float(line.coef[0]), float(line.coef[1])
     return LinearFit(
         intercept=intercept,

@@ -121,6 +121,10 @@ def _cruise_speed(segmentation: Segmentation) -> tuple[float | None, int]:
     speeds = np.array([p.speed_mps for p in cruises], dtype=np.float64)
     if durations.sum() <= 0:
         return None, 0
+    if np.all(speeds == speeds[0]):
+        # one value (e.g. the commanded speed on every cruise): that value exactly, so runs
+        # at one speed stay at one speed (a weighted mean gives 0.29999999999999993 for 0.3)
+        return float(speeds[0]), 1
     return float(np.sum(speeds * durations) / durations.sum()), len(speed_levels(speeds))
 
 
