@@ -346,3 +346,11 @@ def test_speed_column_on_simulated_runs_with_a_noisy_speed_estimate() -> None:
         found = [(p.phase, p.t_start_s) for p in seg.phases]
         assert [n for n, _ in found] == [n for n, _ in truth]
         assert max(abs(f - t) for (_, f), (_, t) in zip(found, truth, strict=True)) <= 0.006
+        # a standing robot's speed is the magnitude of its mean signed speed, ~0 here (the
+        # mean of |noise| would be 0.8 x 5 mm/s = 4 mm/s); a cruise's is its speed, within
+        # the ~4 ms of standing its end takes in (0.5% on the shortest, 0.85 s cruise)
+        for p in seg.phases:
+            if p.phase == "idle":
+                assert p.speed_mps < 0.002, p
+            if p.phase == "cruise":
+                assert abs(p.speed_mps / sim.truth["speed_mps"] - 1) < 0.006, p

@@ -346,12 +346,14 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
         if split is not None and abs(split.jump_W) > params.refine_z * sigma_b:
             starts[k] = split.index
     phases = []
-    speed_sum = np.concatenate(([0.0], np.cumsum(np.abs(np.nan_to_num(run.speed_mps)))))
+    # the magnitude of each phase's mean signed speed (a standing robot's speed noise
+    # averages to ~0; the mean of |v| would give it a speed of ~0.8 sigma)
+    speed_sum = np.concatenate(([0.0], np.cumsum(np.nan_to_num(run.speed_mps))))
     for k, (_, name, number) in enumerate(cuts):
         i_start = starts[k] * block
         i_end = run.samples if starts[k + 1] >= n else starts[k + 1] * block
         if i_end > i_start:
-            mean_speed = float((speed_sum[i_end] - speed_sum[i_start]) / (i_end - i_start))
+            mean_speed = abs(float((speed_sum[i_end] - speed_sum[i_start]) / (i_end - i_start)))
             phases.append(_phase(run, number, name, i_start, i_end, mean_speed))
     ends = blocks(0.05)
     end_speeds = (abs(float(np.mean(signed[:ends]))), abs(float(np.mean(signed[-ends:]))))
