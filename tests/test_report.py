@@ -87,6 +87,12 @@ def test_report_command_on_too_few_runs_to_diagnose(wbpower, tmp_path: Path) -> 
     ]
     assert "heldout_error, findings: not drawn: " in result.stderr
     assert "diagnose needs at least 6 motion runs" in result.stderr
+    # two speeds fit a line but cannot check it: the report warns as fit does, on stderr
+    # and in report.html (found in review: the report showed the line without a word)
+    weak = "distinct speed level(s)"
+    assert f"warning: the motion runs hold 2 {weak}" in result.stderr
+    page = (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
+    assert f"warning: the motion runs hold 2 {weak}" in page
 
 
 def test_report_refuses_an_output_it_cannot_write_before_reading(wbpower, tmp_path: Path) -> None:

@@ -65,9 +65,9 @@ def fit_line(speed_mps: np.ndarray, values: np.ndarray) -> LinearFit:
     s² = SSE / (n - 2), se(slope) = s / sqrt(S_xx),
     se(intercept) = s sqrt(1/n + x̄² / S_xx), CI = estimate ± t_{0.975, n-2} se.
     Non-finite points are dropped. Fewer than 2 distinct speed levels (`speed_levels`:
-    speeds closer than their resolution are one level), or a design `stats.ols` finds not
-    estimable: NaN line, never a slope drawn through float noise. Exactly 2 points: the
-    line through them, NaN intervals and R² (no degrees of freedom left).
+    speeds closer than their resolution are one level), or a rank-deficient or
+    ill-conditioned design: NaN line, never a slope drawn through float noise. Exactly 2
+    points: the line through them, NaN intervals and R² (no degrees of freedom left).
     """
     x = np.asarray(speed_mps, dtype=np.float64)
     y = np.asarray(values, dtype=np.float64)
@@ -77,7 +77,7 @@ def fit_line(speed_mps: np.ndarray, values: np.ndarray) -> LinearFit:
     if n < 2 or len(speed_levels(x)) < 2:
         return LinearFit(float("nan"), float("nan"), n_runs=n)
     line = ols(np.column_stack([np.ones(n), x]), y)  # the one least-squares path
-    if not line.estimable:
+    if line.rank < 2 or not line.condition < 1e8:  # `OLS.estimable` but for the dof
         return LinearFit(float("nan"), float("nan"), n_runs=n)
     intercept, slope = float(line.coef[0]), float(line.coef[1])
     return LinearFit(

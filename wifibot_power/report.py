@@ -361,6 +361,9 @@ def _summary_html(report: Report) -> list[str]:
                     f"<td>{num(s.model_overhead_pct, 2)}</td></tr>"
                 )
             out.append("</table>")
+        # a weak or implausible fit says so here too, as `fit` does (cli.md `warnings`)
+        for warning in report.fit.warnings:
+            out.append(f'<p class="note">warning: {e(warning)}</p>')
     d = report.diagnosis
     if d is None:
         out.append(f'<p class="note">Diagnosis: {e(report.diagnosis_problem or "")}</p>')

@@ -46,6 +46,9 @@ def report_command(
     report = build_report(
         paths, options, wrap=lambda s: progress(s, "reading"), jobs=jobs, on_problems=warn_problems
     )
+    if report.fit is not None:
+        for warning in report.fit.warnings:  # as fit prints them (cli.md `warnings`)
+            warn(warning)
     written = write_report(report, out, jobs=jobs)
     missing = [(name, note) for name, _, draw, note in report_figures(report) if draw is None]
     for note in dict.fromkeys(note for _, note in missing):  # one line per reason
