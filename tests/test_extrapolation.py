@@ -78,6 +78,24 @@ def test_a_fitted_model_carries_its_speeds_into_model_json(wbpower, two_speeds, 
     assert "outside the 0.3-0.6 m/s the model (fit) was fitted on" in energy.stderr
 
 
+def test_a_model_json_carries_the_fits_warnings_to_energy_and_lifetime(
+    wbpower, two_speeds, tmp_path
+):
+    """Two speeds fit a line that cannot be checked: fit warns, and so does every later use
+    of its model.json, inside the fitted speeds too (found in review: energy and lifetime
+    answered from a weak fit in silence)."""
+    fitted = wbpower("fit", two_speeds, "-o", tmp_path / "out", "--json")
+    (weak,) = [w for w in json.loads(fitted.stdout)["warnings"] if "speed level" in w]
+    model_json = tmp_path / "out" / "model.json"
+    assert weak in load_model(model_json).fit_warnings
+    for args in (("energy", "--speed", "0.45", "--dist", "2"), ("lifetime", "--rate", "100")):
+        used = wbpower(*args, "--model", model_json, "--json")
+        assert used.exit_code == 0, used.stderr
+        assert f"the model (fit) was fitted with a warning: {weak}" in used.stderr
+        assert any(weak in w for w in json.loads(used.stdout)["warnings"])
+    assert paper_model().fit_warnings == ()
+
+
 def test_a_model_json_without_speeds_still_loads(tmp_path):
     data = paper_model().to_json()
     del data["speed_range_mps"]  # written before wbpower recorded the range

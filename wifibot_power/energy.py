@@ -312,7 +312,7 @@ def energy_report(
         one_step=trip_energy(model, speed_mps, distance_m, 1, **kwargs),
         model_source=model.source,
         ignored_extensions=tuple(sorted(set(model.extensions) - set(extension_names(model)))),
-        warnings=tuple(model.extrapolation_warnings(speed_mps)),
+        warnings=tuple(model.warnings_at(speed_mps)),
     )
 
 

@@ -408,6 +408,7 @@ def fit_rows(
         components_W={m: (c.value_W if c else None) for m, c in components.items()},
         source="fit",
         speed_range_mps=_speed_range(speed),
+        fit_warnings=tuple(warnings),
     )
     return FitResult(
         model=model,

@@ -241,7 +241,7 @@ def network_lifetime(
     # Eq. 8: B's trip, one step, from the energy model.
     travel = trip_energy(model, speed_mps, distance_m, 1, t_acc_s=t_acc_s)
     travel_s, travel_J = travel.time_s, travel.energy_J
-    alone = replace(alone, warnings=tuple(model.extrapolation_warnings(speed_mps)))
+    alone = replace(alone, warnings=tuple(model.warnings_at(speed_mps)))
     e_a_switch_J = energy_at_switch_J(e0a_J, p_a_high_W, travel_s)
     moved = {"travel_s": travel_s, "travel_energy_J": travel_J, "e_a_switch_J": e_a_switch_J}
     if e0b_J < travel_J:

@@ -80,6 +80,17 @@ class PowerModel:
     #: (lowest, highest) speed of the motion runs the lines were fitted on [m/s]; None when
     #: unknown (a model.json written before wbpower recorded it)
     speed_range_mps: tuple[float, float] | None = None
+    #: why the fit that made the model was weak or implausible (`fit.fit_warnings`), kept
+    #: so that whatever uses the model later says so too
+    fit_warnings: tuple[str, ...] = ()
+
+    def warnings_at(self, speed_mps: float) -> list[str]:
+        """Everything a user of the model's answer at `speed_mps` should be told: the fit's
+        own warnings and an extrapolation beyond its speeds."""
+        own = [
+            f"the model ({self.source}) was fitted with a warning: {w}" for w in self.fit_warnings
+        ]
+        return own + self.extrapolation_warnings(speed_mps)
 
     def extrapolation_warnings(self, speed_mps: float) -> list[str]:
         """Why the model's answer at `speed_mps` is an extrapolation (empty when it is not):
@@ -145,6 +156,7 @@ class PowerModel:
                 },
                 source=str(data.get("source", "fit")),
                 speed_range_mps=_range(data.get("speed_range_mps")),
+                fit_warnings=tuple(str(w) for w in data.get("fit_warnings") or ()),
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise UsageError(
