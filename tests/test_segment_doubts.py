@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from realistic import Scenario, realistic_run
 
+from wifibot_power.errors import LogError
 from wifibot_power.io.writer import format_log, write_log
 from wifibot_power.run import Run, RunMeta
 from wifibot_power.segment import MotionParams, _motion_doubts, segment_run
@@ -313,6 +314,19 @@ def test_diagnose_leaves_doubtful_runs_out_unless_kept() -> None:
         for r in left_out.unexplained_reasons
     )
     assert not any("were left out" in r for r in kept.unexplained_reasons)
+
+    # too few runs left once the doubted ones are out: the one line says why, and the way
+    # to use them anyway (found at field realism: 26 of 30 exponential stops were doubted)
+    def doubt_most(run: Run) -> Segmentation:
+        seg = segment_run(run)
+        return replace(seg, doubts=("a doubt",)) if run.meta.speed_mps != 0.2 else seg
+
+    with pytest.raises(LogError) as caught:
+        diagnose_summaries([summarize_run(run, doubt_most) for run in runs])
+    assert "3 usable motion run(s) at 1 speed(s); 6 more left out for segmentation doubts" in (
+        str(caught.value)
+    )
+    assert "--keep-doubtful" in str(caught.value)
 
 
 def test_speed_column_on_simulated_runs_with_a_noisy_speed_estimate() -> None:

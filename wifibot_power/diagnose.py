@@ -584,14 +584,21 @@ def diagnose_summaries(
     for row in runs[~runs["usable"]].itertuples():
         skipped.append(Skipped(str(row.file), f"{row.file}: {row.skip_reason}"))
     doubted = doubted_motion_reason(runs)
-    runs = runs[runs["usable"]]
+    all_runs, runs = runs, runs[runs["usable"]]
     motion = motion_runs(runs)
     if not enough_to_choose(motion):
+        n_doubted = len(_doubted_motion(all_runs))
         raise LogError(
-            f"{len(motion)} usable motion run(s) at {motion['speed_mps'].nunique()} speed(s)",
+            f"{len(motion)} usable motion run(s) at {motion['speed_mps'].nunique()} speed(s)"
+            + (f"; {n_doubted} more left out for segmentation doubts" if n_doubted else ""),
             file="input",
             fix=f"diagnose needs at least {MIN_MOTION_RUNS} motion runs at {MIN_SPEEDS} or "
-            "more speeds",
+            "more speeds"
+            + (
+                " (see each doubt in the warnings above, or --keep-doubtful to use them)"
+                if n_doubted
+                else ""
+            ),
         )
     notes: list[str] = []
     baseline_model = fit_model(runs)
@@ -744,17 +751,22 @@ def error_patterns(table: pd.DataFrame) -> dict[str, object]:
     return out
 
 
+def _doubted_motion(runs: pd.DataFrame) -> pd.DataFrame:
+    """The motion runs left out only for their segmentation's doubts."""
+    return runs[
+        (runs["mode"] == "motion")
+        & ~runs["usable"]
+        & runs["skip_reason"].astype(str).str.startswith(DOUBT_REASON)
+    ]
+
+
 def doubted_motion_reason(runs: pd.DataFrame) -> str | None:
     """Why runs left out for their segmentation's doubts are themselves unexplained
     structure, or None when there are none: their traces do not fit the phase model (a
     power step inside a cruise, a second level, a burst), so what happens in them is, by
     construction, something the model does not describe (causes.md, "Unexplained"). Leaving
     them out silently would make a batch with an intermittent fault look explained."""
-    doubted = runs[
-        (runs["mode"] == "motion")
-        & ~runs["usable"]
-        & runs["skip_reason"].astype(str).str.startswith(DOUBT_REASON)
-    ]
+    doubted = _doubted_motion(runs)
     if doubted.empty:
         return None
     n_motion = int((runs["mode"] == "motion").sum())
