@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -424,3 +425,23 @@ def test_sliding_max_equals_scipys_maximum_filter(values, half):
     x = np.array(values)
     expected = maximum_filter1d(x, size=2 * half + 1, mode="constant", cval=-np.inf)
     assert np.array_equal(sliding_max(x, 2 * half + 1), expected)
+
+
+def test_false_start_up_spikes_on_sample_logs_are_few() -> None:
+    """sample_logs/ holds no start transient, but its 1 W wheel ripple runs during the ramps
+    and a step of a fraction of a watt starts each: 43 accelerations carried a false
+    'start-up spike' (two were drawn in red on the README's trace figure). With the spike
+    judged against the ramp's own scatter and required to hold 1% of its acceleration's
+    energy, 8 remain, all at 0.7-0.9 m/s, where the ramp holds about two ripple periods
+    and a hump of the ripple at its start still stands out (a known gap: the ripple is not
+    modelled in the ramp). Measured: 8; none at 0.6 m/s or below."""
+    from wifibot_power.io import ReadOptions, read_log
+
+    root = Path(__file__).resolve().parents[1] / "sample_logs"
+    found = {}
+    for path in sorted(root.glob("v*.csv.gz")):
+        spikes = segment_run(read_log(path, ReadOptions())).spikes
+        if spikes:
+            found[path.name] = len(spikes)
+    assert sum(found.values()) <= 8, found
+    assert all(float(name[1:5]) >= 0.7 for name in found), found
