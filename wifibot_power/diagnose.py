@@ -693,7 +693,7 @@ def diagnose_summaries(
     table["baseline_error_pct"] = 100 * (baseline_pred - measured) / measured
     table["extended_error_pct"] = 100 * (extended_pred - measured) / measured
     rejected = rejected_candidates(evidence, causes, seen)
-    reasons = unexplained_reasons(table, evidence, causes) + [r["reason"] for r in rejected]
+    reasons = unexplained_reasons(table) + [r["reason"] for r in rejected]
     if doubted:
         reasons.append(doubted)
     for r in rejected:
@@ -779,14 +779,12 @@ def doubted_motion_reason(runs: pd.DataFrame) -> str | None:
     )
 
 
-def unexplained_reasons(
-    table: pd.DataFrame, evidence: tuple[Evidence, ...], named: list[str]
-) -> list[str]:
-    """Structure the named causes leave in the held-out errors of the extended model,
-    judged against the spread of repeated runs (`residuals.py`, causes.md "Unexplained").
-    (Candidates rejected by their checks are reported apart: `rejected_candidates`.)"""
-    del evidence, named
-    reasons = structure_reasons(
+def unexplained_reasons(table: pd.DataFrame) -> list[str]:
+    """Structure the named causes leave in the held-out errors of the extended model
+    (`table`: a row per motion run with its measured and extended energies), judged against
+    the spread of repeated runs (`residuals.py`, causes.md "Unexplained"). (Candidates
+    rejected by their checks, and runs left out for doubts, are reported apart.)"""
+    return structure_reasons(
         residual_table(
             table["run_id"].to_numpy(),
             table["measured_energy_J"].to_numpy(),
@@ -794,7 +792,6 @@ def unexplained_reasons(
             table[["speed_mps", "distance_m", "steps", "payload_kg", "session_order"]],
         )
     )
-    return reasons
 
 
 def write_diagnosis(result: Diagnosis, out_dir: Path) -> list[Path]:
