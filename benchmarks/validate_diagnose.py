@@ -5,8 +5,9 @@ the null robot (8 seeds), a 5x noisier analyser (4 seeds each, null included) an
 pair of causes (one seed). Diagnose sees only the runs. Prints one line per case and the
 summary table. Not part of `make test`: about 2-4 minutes on 2 cores.
 
-    .venv/bin/python benchmarks/validate_diagnose.py [lab] [field]
+    .venv/bin/python benchmarks/validate_diagnose.py [lab] [simfield] [field]
 
+`simfield` is the same catalogue at `simulate --realism field` (the causes' own forms);
 `field` runs `validate_field.py` (the independent generator at field realism: off-catalogue
 effects, the catalogue in other forms, false alarms); both by default.
 """
@@ -26,7 +27,7 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "benchmarks")]
 from test_diagnose import GRID  # noqa: E402  (the grid the tests diagnose)
 
 from wifibot_power import diagnose  # noqa: E402
-from wifibot_power.simulate import EFFECTS, SimConfig, simulate_runs  # noqa: E402
+from wifibot_power.simulate import EFFECTS, SimConfig, realism, simulate_runs  # noqa: E402
 
 CAUSES = list(EFFECTS)
 
@@ -36,11 +37,12 @@ def size(cause: str, seed: int) -> float:
     return float(np.random.default_rng([seed, 99]).uniform(low, high))
 
 
-def case(args: tuple[str, tuple[str, ...], int, float]) -> dict:
-    label, hidden, seed, noise_W = args
+def case(args: tuple[str, tuple[str, ...], int, dict[str, float]]) -> dict:
+    """One batch: `level` is the simulator's noise and realism keywords (`SimConfig`)."""
+    label, hidden, seed, level = args
     effects = {c: size(c, seed) for c in hidden}
     grid = {"payloads_kg": (0.0, 3.0)} if "accel_inertial" in hidden else {}
-    config = SimConfig(**{**GRID, **grid}, effects=effects, seed=seed, noise_W=noise_W)
+    config = SimConfig(**{**GRID, **grid, **level}, effects=effects, seed=seed)
     result = diagnose.diagnose_runs([s.run for s in simulate_runs(config)])
     causes = [f.cause for f in result.findings]
     errors = {
@@ -63,15 +65,26 @@ def case(args: tuple[str, tuple[str, ...], int, float]) -> dict:
     }
 
 
-def main() -> None:
-    cases = [("nothing", (), seed, 0.3) for seed in range(1, 9)]
-    cases += [(c, (c,), seed, 0.3) for c in CAUSES for seed in range(1, 9)]
-    cases += [
-        (f"{c or 'nothing'} (5x noise)", (c,) if c else (), seed, 1.5)
-        for c in [None, *CAUSES]
-        for seed in range(1, 5)
-    ]
-    cases += [(f"{a} + {b}", (a, b), 7, 0.3) for a, b in itertools.combinations(CAUSES, 2)]
+def main(suite: str = "lab") -> None:
+    """`lab`: simulate's clean robot (0.3 W noise, and 5x noisier); `simfield`: the same
+    causes, in the exact forms the causes fit, at `simulate --realism field` (analyser noise
+    0.8 W, PWM tone, 0.5% run-to-run spread of motion power, idle spread)."""
+    if suite == "simfield":
+        field = realism("field")
+        cases = [("nothing (field)", (), seed, field) for seed in range(1, 9)]
+        cases += [(f"{c} (field)", (c,), seed, field) for c in CAUSES for seed in range(1, 9)]
+        cases += [(f"{a} + {b}", (a, b), 7, field) for a, b in itertools.combinations(CAUSES, 2)]
+        print("Catalogue causes in their own forms at simulate --realism field (seeds 1-8):")
+    else:
+        lab, noisy = {"noise_W": 0.3}, {"noise_W": 1.5}
+        cases = [("nothing", (), seed, lab) for seed in range(1, 9)]
+        cases += [(c, (c,), seed, lab) for c in CAUSES for seed in range(1, 9)]
+        cases += [
+            (f"{c or 'nothing'} (5x noise)", (c,) if c else (), seed, noisy)
+            for c in [None, *CAUSES]
+            for seed in range(1, 5)
+        ]
+        cases += [(f"{a} + {b}", (a, b), 7, lab) for a, b in itertools.combinations(CAUSES, 2)]
     with multiprocessing.Pool(2) as pool:
         results = pool.map(case, cases)
     for r in results:
@@ -110,9 +123,11 @@ def _span(values: list[float]) -> str:
 if __name__ == "__main__":
     # `lab` (this file: simulate's clean robot), `field` (validate_field.py: the independent
     # generator at field realism, off-catalogue effects, false alarms), or both (default)
-    suites = [a for a in sys.argv[1:] if not a.startswith("--")] or ["lab", "field"]
-    if "lab" in suites:
-        main()
+    suites = [a for a in sys.argv[1:] if not a.startswith("--")] or ["lab", "simfield", "field"]
+    for suite in ("lab", "simfield"):
+        if suite in suites:
+            main(suite)
+            print()
     if "field" in suites:
         import validate_field
 
