@@ -198,3 +198,18 @@ def test_payload_that_also_raises_cruise_power_is_not_named_accel_inertial():
     inertial = _candidate(result, "accel_inertial")
     failed = {c["check"] for c in inertial["checks"] if not c["passed"]}
     assert "only acceleration is affected; cruise does not depend on payload" in failed
+
+
+def test_the_configuration_table_counts_runs_as_integers(monkeypatch):
+    """pandas' iterrows made the per-configuration run count a float ('3.0')."""
+    from rich.console import Console
+
+    from wifibot_power.cli import diagnose_cmd
+
+    result = diagnose_runs([s.run for s in simulate_runs(SimConfig(**GRID, seed=107))])
+    console = Console(width=200, record=True)
+    monkeypatch.setattr(diagnose_cmd, "stdout", console)
+    diagnose_cmd._by_configuration(result)
+    rows = [line.split("│") for line in console.export_text().splitlines() if "│" in line]
+    counts = {cells[5].strip() for cells in rows[1:]}  # the 'runs' column
+    assert counts and all(c.isdigit() for c in counts), counts

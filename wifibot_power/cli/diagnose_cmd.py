@@ -79,7 +79,7 @@ def _by_configuration(result: Diagnosis) -> None:
             f"{dist:g}",
             str(steps),
             f"{payload:g}",
-            str(row.runs),
+            str(int(row.runs)),  # iterrows makes the count a float
             f"{row.measured:.1f}",
             f"{row.baseline:.1f}",
             f"{row.baseline_err:+.2f}",
