@@ -76,6 +76,21 @@ def test_inspect_lists_a_duplicate_once(folder: Path, wbpower) -> None:
     assert "warning" in cli.stderr and "copy of run.csv" in cli.stderr
 
 
+@pytest.mark.parametrize("command", ["inspect", "fit"])
+def test_a_file_named_twice_is_read_once_with_a_warning(folder: Path, wbpower, command) -> None:
+    """The same path twice (or a file and its folder) was dropped silently; log-format.md
+    asks for a warning."""
+    log = folder / "v0.30_d2_s1_r1.csv"  # a run the folder holds no copy of
+    args = [log, log] if command == "inspect" else [folder, log]
+    cli = wbpower(command, "--json", *args)
+    assert cli.exit_code == 0, cli.stderr
+    assert f"{log}: given twice in this batch: analysed once" in cli.stderr
+    if command == "inspect":
+        assert len(json.loads(cli.stdout)) == 1
+    else:
+        assert json.loads(cli.stdout)["cruise"]["n_runs"] == 6
+
+
 def test_different_runs_are_not_duplicates(folder: Path) -> None:
     # same metadata, other samples: two runs
     text = (folder / "v0.30_d2_s1_r1.csv").read_text()

@@ -174,7 +174,7 @@ def map_runs(
         if ok:
             problems, identity, result = value  # type: ignore[misc]
             if identity is not None and identity in first_of:
-                problems = (_duplicate(first_of[identity]),)
+                problems = (_duplicate(first_of[identity], str(source.path)),)
             else:
                 results.append(result)
                 if identity is not None:
@@ -186,7 +186,9 @@ def map_runs(
     return results, skipped
 
 
-def _duplicate(first: str) -> Problem:
+def _duplicate(first: str, this: str) -> Problem:
+    if Path(first).resolve() == Path(this).resolve():  # named twice (or inside a folder named)
+        return Problem("duplicate", "given twice in this batch: analysed once")
     return Problem(
         "duplicate",
         f"the same samples as {first} (a copy, or the same log compressed): analysed once, "

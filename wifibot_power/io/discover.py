@@ -81,7 +81,7 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
                 )
     sources = []
     missing = {Path(s.file) for s in skipped}
-    for file in dict.fromkeys(files):
+    for file in files:  # a file named twice stays twice: the batch warns it is a duplicate
         if file in missing:
             continue  # already listed, naming the manifest row
         if not file.exists() or is_log_name(file) or file.resolve() in overrides:
