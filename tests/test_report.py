@@ -184,3 +184,15 @@ def test_fit_prints_the_measured_overhead_and_with_runs_each_runs_energy(
     assert "Stop-and-go overhead" in with_runs.stdout
     for name in SUBSET:
         assert name.removesuffix(".csv.gz") in with_runs.stdout
+
+
+def test_diagnose_names_what_it_was_given_when_too_few_runs(wbpower, tmp_path: Path) -> None:
+    """The batch's error named a placeholder ('input: 2 usable motion run(s)...')."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    for name in ("v0.30_d2_s1_r1.csv.gz", "v0.90_d2_s1_r1.csv.gz"):
+        shutil.copy(SAMPLE_LOGS / name, logs / name)
+    result = wbpower("diagnose", logs)
+    assert result.exit_code == 2
+    assert result.stderr.startswith(f"wbpower: error: {logs}: 2 usable motion run(s)")
+    assert "input:" not in result.stderr

@@ -208,7 +208,12 @@ def diagnose_logs(
         jobs=jobs,
         on_problems=on_problems,
     )
-    return diagnose_summaries(summaries, skipped, reference=reference, keep_doubtful=keep_doubtful)
+    try:
+        return diagnose_summaries(
+            summaries, skipped, reference=reference, keep_doubtful=keep_doubtful
+        )
+    except LogError as exc:  # about the batch: named by what the user gave
+        raise exc.with_file(", ".join(map(str, paths))) from None
 
 
 def diagnose_runs(
@@ -591,7 +596,6 @@ def diagnose_summaries(
         raise LogError(
             f"{len(motion)} usable motion run(s) at {motion['speed_mps'].nunique()} speed(s)"
             + (f"; {n_doubted} more left out for segmentation doubts" if n_doubted else ""),
-            file="input",
             fix=f"diagnose needs at least {MIN_MOTION_RUNS} motion runs at {MIN_SPEEDS} or "
             "more speeds"
             + (
@@ -604,7 +608,7 @@ def diagnose_summaries(
     baseline_model = fit_model(runs)
     folds = heldout_folds(motion)
     if isinstance(folds, str):
-        raise LogError(folds, file="input", fix=_missing_data(motion))
+        raise LogError(folds, fix=_missing_data(motion))
     measured = motion["motion_energy_J"].to_numpy(np.float64)
     refit_pred = heldout_energy_J(runs, motion, folds, [])
     refit_rmse, _ = _rmse_mape(measured, refit_pred)
