@@ -9,20 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_diagnose import GRID  # noqa: E402  (the grid every diagnose test runs on)
 
 from wifibot_power import diagnose
 from wifibot_power.causes import CAUSES, RunTable
 from wifibot_power.causes.extended import fit_model
 from wifibot_power.simulate import SimConfig, simulate_runs
-
-GRID = dict(
-    speeds_mps=(0.2, 0.4, 0.6, 0.8, 0.9),
-    trips=((2.0, 1), (5.0, 1), (4.0, 4)),
-    repeats=2,
-    mode_repeats=1,
-    mode_duration_s=2.0,
-    sample_period_s=0.001024,
-)
 
 
 @pytest.fixture(scope="module")

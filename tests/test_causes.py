@@ -81,13 +81,10 @@ def test_a_toy_cause_from_this_file_alone_is_simulated_selected_fitted_and_used(
     with registered(toy):
         assert "cruise_cubic" in EFFECTS
         assert parse_effects(["cruise_cubic=4"]) == {"cruise_cubic": 4.0}
+        from test_diagnose import GRID
+
         config = SimConfig(
-            speeds_mps=(0.2, 0.4, 0.6, 0.8, 0.9),
-            trips=((2.0, 1), (5.0, 1), (4.0, 4)),
-            repeats=2,
-            mode_repeats=1,
-            mode_duration_s=2.0,
-            sample_period_s=0.001024,
+            **GRID,
             effects={"cruise_cubic": 4.0},
             seed=5,
         )

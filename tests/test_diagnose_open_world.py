@@ -11,6 +11,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from test_diagnose import GRID  # noqa: E402  (the grid every diagnose test runs on)
 
 from wifibot_power.causes.extended import NotEstimable
 from wifibot_power.diagnose import (
@@ -26,14 +27,6 @@ from wifibot_power.diagnose import (
 from wifibot_power.errors import LogError
 from wifibot_power.simulate import SimConfig, simulate_runs
 
-GRID = dict(
-    speeds_mps=(0.2, 0.4, 0.6, 0.8, 0.9),
-    trips=((2.0, 1), (5.0, 1), (4.0, 4)),
-    repeats=2,
-    mode_repeats=1,
-    mode_duration_s=2.0,
-    sample_period_s=0.001024,
-)
 IDLE_W = 23.3  # the simulated robot's idle power
 
 
