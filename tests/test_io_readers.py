@@ -288,3 +288,14 @@ def test_speed_in_mm_per_s_is_an_error(tmp_path):
     with pytest.raises(LogError, match="absurd speed.*m/s") as error:
         read_log(path)
     assert "line 3" in error.value.one_line()
+
+
+def test_a_cut_first_data_line_is_reported_as_cut_not_as_its_field_count():
+    """Hypothesis found it: a file cut inside its first data line ('0' of '0,0') was
+    reported as '1 fields where the header has 2'; it is a cut file, like any other."""
+    head = b"# wbpower-log: 1\n# run_id: 0\n# mode: idle\ntime_s,power_W\n"
+    with pytest.raises(LogError, match=r"line 5: the last line has no line end"):
+        read_log("cut.csv", data=head + b"0")
+    # the same line, ended, is what it says: a line with too few fields
+    with pytest.raises(LogError, match=r"line 5: 1 fields where the header has 2"):
+        read_log("short.csv", data=head + b"0\n")

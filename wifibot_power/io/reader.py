@@ -25,7 +25,9 @@ from wifibot_power.io.options import LOG_SUFFIXES, TIME_UNITS, ReadOptions
 from wifibot_power.io.transport import (
     Columns,
     Content,
+    cut_line_error,
     decode,
+    head_ends_cut,
     head_lines,
     read_bytes,
     read_columns,
@@ -66,7 +68,14 @@ def read_log(
     content, head = decode(path, Content(path, data))
     lines = head_lines(path, content, head)
     log_format = format_of(lines)
-    pre = log_format.preamble(path, lines, named)
+    try:
+        pre = log_format.preamble(path, lines, named)
+    except LogError as exc:
+        # the first data line may also be the file's last, cut short: that, not what it holds
+        # (too few fields, a cut number), is the error, as for any later cut line
+        if head_ends_cut(head) and exc.where == f"line {len(lines)}":
+            raise cut_line_error(path, len(lines)) from None
+        raise
     sources = _power_sources(path, log_format, pre, options)
     time_source, time_problems = _time_source(path, log_format, pre, options)
     speed_column = _speed_column(path, log_format, pre, options)

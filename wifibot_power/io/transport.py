@@ -172,6 +172,13 @@ def split_lines(data: bytes) -> list[bytes]:
     return LINE_END.split(data)
 
 
+def head_ends_cut(head: bytes) -> bool:
+    """Whether the head (`Content.head`, up to `HEAD_BYTES` + 1) is the whole content and its
+    last line has no line end."""
+    head = head.removeprefix(UTF8_BOM)
+    return 0 < len(head) <= HEAD_BYTES and not head.endswith((b"\n", b"\r"))
+
+
 def head_lines(path: Path, content: Content, head: bytes) -> list[str]:
     """The lines of the content's first bytes (`Content.head`), as text: what a format's
     preamble is read from. An empty, binary or non-UTF-8 head is an error here."""
@@ -477,7 +484,11 @@ def read_columns(
 
 def _cut_line(path: Path, content: Content, pre: TextLayout, cut_at: int) -> LogError:
     """The last line has no line end (log-format.md: a truncated last line is bad input)."""
-    line = LineMap(content, pre.header_line, cut_at).line_count() + 1
+    return cut_line_error(path, LineMap(content, pre.header_line, cut_at).line_count() + 1)
+
+
+def cut_line_error(path: Path, line: int) -> LogError:
+    """`line`, the file's last, has no line end: a cut file, whose last number may be cut."""
     return LogError(
         "the last line has no line end: the file may be cut short, and a cut line can hold a "
         "shortened number (23.3102 -> 23.3)",

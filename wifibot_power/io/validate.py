@@ -86,14 +86,7 @@ def check_speed(
     quietly wrong phase); any sign is kept (a robot may reverse)."""
     if not speed_mps.size:
         return
-    if not (np.isfinite(speed_mps.min()) and np.isfinite(speed_mps.max())):
-        index = int(np.argmax(~np.isfinite(speed_mps)))
-        raise LogError(
-            f"speed is missing, NaN or inf ({speed_mps[index]})",
-            file=file,
-            where=f"line {line_of(index)}, column '{name}'",
-            fix="fix or delete that line",
-        )
+    _require_finite(speed_mps, "speed", file, line_of, f", column '{name}'")
     high = float(np.max(np.abs(speed_mps)))
     if high > ABSURD_SPEED_MPS:
         index = int(np.argmax(np.abs(speed_mps) > ABSURD_SPEED_MPS))
@@ -175,16 +168,7 @@ def _check_time(
 def _check_power(file: str, power_W: np.ndarray, line_of: Callable[[int], int]) -> None:
     if not power_W.size:
         return
-    # min/max first: on a clean log (the usual case) no full-size mask is made
-    low_W, high_W = power_W.min(), power_W.max()
-    if not (np.isfinite(low_W) and np.isfinite(high_W)):
-        index = int(np.argmax(~np.isfinite(power_W)))
-        raise LogError(
-            f"power is missing, NaN or inf ({power_W[index]})",
-            file=file,
-            where=f"line {line_of(index)}",
-            fix="fix or delete that line",
-        )
+    low_W, high_W = _require_finite(power_W, "power", file, line_of)
     if low_W < 0:
         _check_sign(
             file,
@@ -307,3 +291,25 @@ def _check_saturation(
         where=f"line {line_of(start)}",
         fix="the analyser range clipped, so energy there is unknown; re-record with a higher range",
     )
+
+
+def _require_finite(
+    values: np.ndarray,
+    quantity: str,
+    file: str,
+    line_of: Callable[[int], int],
+    column: str = "",
+) -> tuple[float, float]:
+    """The smallest and largest value, once every value is checked to be a finite number:
+    else a one-line error naming the line (and `column`) of the first that is not. min/max
+    first: on a clean log (the usual case) no full-size mask is made."""
+    low, high = values.min(), values.max()
+    if not (np.isfinite(low) and np.isfinite(high)):
+        index = int(np.argmax(~np.isfinite(values)))
+        raise LogError(
+            f"{quantity} is missing, NaN or inf ({values[index]})",
+            file=file,
+            where=f"line {line_of(index)}{column}",
+            fix="fix or delete that line",
+        )
+    return float(low), float(high)
