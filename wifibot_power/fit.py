@@ -597,11 +597,33 @@ def fit_logs(
         prepare=_import_work_modules,
     )
     rows = [row for row, _ in results]
+    phase_rows = [phase for _, phases in results for phase in phases]
+    fit, skipped = fit_gathered(rows, phase_rows, read_skipped, keep_doubtful=keep_doubtful)
+    if fit is None:
+        first = skipped[0].reason if skipped else "no logs"
+        raise LogError(
+            f"no usable run among {len(rows) + len(read_skipped)} input(s); first: {first}",
+            file=", ".join(map(str, paths)),
+            fix="see 'wbpower inspect' for what each log holds",
+        )
+    return fit
+
+
+def fit_gathered(
+    rows: list[dict[str, object]],
+    phase_rows: list[dict[str, object]],
+    read_skipped: Sequence[Skipped],
+    *,
+    keep_doubtful: bool = False,
+) -> tuple[FitResult | None, tuple[Skipped, ...]]:
+    """The fit of the per-run rows and phase rows the workers gathered (`fit_logs`, and
+    `report`, which gathers more per run in the same pass), and every input left out: the
+    unreadable ones, then the runs the fit cannot use (with their reason). None when no run
+    can be used. Runs in doubt are made usable with `keep_doubtful`."""
     if keep_doubtful:
         from wifibot_power.runtable import admit_doubtful
 
         rows = [admit_doubtful(row) for row in rows]
-    phase_rows = [phase for _, phases in results for phase in phases]
     unusable = [
         Skipped(str(row["file"]), f"{row['file']}: {row['skip_reason']}")
         for row in rows
@@ -609,13 +631,8 @@ def fit_logs(
     ]
     skipped = tuple(read_skipped) + tuple(unusable)
     if not any(row["usable"] for row in rows):
-        first = skipped[0].reason if skipped else "no logs"
-        raise LogError(
-            f"no usable run among {len(rows) + len(read_skipped)} input(s); first: {first}",
-            file=", ".join(map(str, paths)),
-            fix="see 'wbpower inspect' for what each log holds",
-        )
-    return fit_rows(rows, lambda: _tables(rows, phase_rows), skipped)
+        return None, skipped
+    return fit_rows(rows, lambda: _tables(rows, phase_rows), skipped), skipped
 
 
 def _import_work_modules() -> None:

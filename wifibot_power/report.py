@@ -86,7 +86,7 @@ def build_report(
 ) -> Report:
     """Read every log under `paths` once, fit and diagnose them (module docstring)."""
     from wifibot_power.diagnose import diagnose_summaries
-    from wifibot_power.fit import _import_work_modules, _tables, fit_rows
+    from wifibot_power.fit import _import_work_modules, fit_gathered
 
     paths = [paths] if isinstance(paths, str | Path) else list(paths)
     results, read_skipped = map_runs(
@@ -101,16 +101,9 @@ def build_report(
     rows = [r[0] for r in results]
     phase_rows = [p for r in results for p in r[1]]
     summaries = [r[2] for r in results]
-    unusable = [
-        Skipped(str(row["file"]), f"{row['file']}: {row['skip_reason']}")
-        for row in rows
-        if not row["usable"]
-    ]
-    skipped = tuple(read_skipped) + tuple(unusable)
-    fit = fit_problem = None
-    if any(row["usable"] for row in rows):
-        fit = fit_rows(rows, lambda: _tables(rows, phase_rows), skipped)
-    else:
+    fit, skipped = fit_gathered(rows, phase_rows, read_skipped)
+    fit_problem = None
+    if fit is None:
         fit_problem = (
             f"none of the {len(rows)} run(s) read can be fitted: the paper's models need "
             "motion runs with speed, distance and steps in their metadata (log-format.md)"
