@@ -134,6 +134,7 @@ def _drifted_table(alpha_per_min: float):
                     cruise_mean_power_W=cruise_W,
                     accel_energy_J=accel_W * v,
                     cruise_energy_J=cruise_W * 5.0,
+                    idle_mean_power_W=idle_W,
                 )
             )
     return pd.DataFrame(rows), idle_W
