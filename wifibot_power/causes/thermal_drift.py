@@ -161,7 +161,12 @@ class ThermalDrift(Cause):
         n = r.size
         splits = np.arange(MIN_SEGMENT_RUNS, n - MIN_SEGMENT_RUNS + 1)
         if splits.size == 0 or n < 5:
-            return Check(name, True, f"{n} runs: too few to look for a jump (not testable)")
+            return Check(
+                name,
+                True,
+                f"not testable here: {n} runs are too few to look for a jump",
+                tested=False,
+            )
         line = np.column_stack([np.ones(n), t])
         # everything of the line projected out: the step's extra sum of squares at each split
         # is (r~ . s~)² / (s~ . s~), r~ and s~ the residuals of the ratio and of the step
@@ -197,9 +202,10 @@ class ThermalDrift(Cause):
         between runs would be seen within them (one-sided, p < CHECK_ALPHA) with at least
         `CREEP_POWER` probability when α / se >= the sum of the two t quantiles. Then the
         creep must be there and agree with α (two-sided, at CHECK_ALPHA); so must a creep that
-        is seen anyway. When the runs are too short to see it, seeing no creep is no evidence against it: the check asks only
-        that what the runs show does not contradict α, and its detail says that the creep
-        could not be seen and how much longer (or more) cruises it would take
+        is seen anyway. When the runs are too short to see it, seeing no creep is no evidence
+        against it: the check asks only that what the runs show does not contradict α
+        (`tested` False), and its detail says that the creep could not be seen and how much
+        longer (or more) cruises it would take
         (docs/diagnose.md, "What the checks cost")."""
         name = "the same creep within runs"
         runs, idle_W = table.runs, table.model.idle_W
@@ -237,7 +243,8 @@ class ThermalDrift(Cause):
         return Check(
             name,
             bool(agrees),
-            f"not testable here: the runs are too short to show this creep within them "
+            tested=False,
+            detail=f"not testable here: the runs are too short to show this creep within them "
             f"({seen_at:.2g} standard errors, {needed:.2g} needed: cruises "
             f"{factor ** (2 / 3):.2g}x as long, or {factor**2:.2g}x as many); {found}",
         )
