@@ -166,3 +166,29 @@ def test_the_significance_gate():
     assert not Evidence(name, True, ALPHA / 2, size * 0.9).passes
     assert not Evidence(name, False, 0.0, size).significant  # not testable: never significant
     assert not Evidence(name, True, float("nan"), size).significant
+
+
+def test_thermal_ratio_ignores_an_offset_of_a_runs_whole_trace():
+    """A run whose every sample sits 0.3 W higher (the electronics' or the analyser's zero
+    moved) has the same motion power above idle: its ratio must not move, while the ratio
+    of the idle logs' idle_W would (0.3 W against ~3 W above idle at 0.2 m/s is ~10%)."""
+    import numpy as np
+
+    from wifibot_power.causes.design import stacked_fit
+    from wifibot_power.causes.thermal_drift import above_idle_ratio
+
+    runs, idle_W = _drifted_table(0.01)
+    cold = paper_model().with_extensions({}, "t")
+    coef, _, _ = stacked_fit(runs, [], cold)
+    before = above_idle_ratio(runs, coef, idle_W)
+    shifted = runs.copy()
+    offset_W = np.where(np.arange(len(runs)) % 2 == 0, 0.3, -0.3)  # mean 0: the lines' idle
+    shifted["accel_energy_J"] += offset_W * shifted["t_acc_s"] * shifted["steps_found"]
+    shifted["cruise_energy_J"] += offset_W * shifted["cruise_duration_s"]
+    shifted["idle_mean_power_W"] += offset_W
+    after = above_idle_ratio(shifted, coef, idle_W)
+    np.testing.assert_allclose(after, before, rtol=0, atol=1e-12)
+    # without each run's own idle (a log with no idle phases: the idle logs' level is used)
+    # the offset reads as motion power: 5-10% of the ratio here
+    blind = shifted.assign(idle_mean_power_W=float("nan"))
+    assert np.max(np.abs(above_idle_ratio(blind, coef, idle_W) - before)) > 0.05
