@@ -156,39 +156,22 @@ class ThermalDrift(Cause):
         curve; a change of conditions between two runs, a step."""
         name = "smooth in motor-on time, not a jump between runs"
         ratio, tau = self._ratios(table)
-        order = np.argsort(tau, kind="stable")
-        r, t = ratio[order], tau[order]
-        n = r.size
-        splits = np.arange(MIN_SEGMENT_RUNS, n - MIN_SEGMENT_RUNS + 1)
-        if splits.size == 0 or n < 5:
+        jump = step_beside_line(ratio, tau)
+        if jump is None:
             return Check(
                 name,
                 True,
-                f"not testable here: {n} runs are too few to look for a jump",
+                f"not testable here: {ratio.size} runs are too few to look for a jump",
                 tested=False,
             )
-        line = np.column_stack([np.ones(n), t])
-        # everything of the line projected out: the step's extra sum of squares at each split
-        # is (r~ . s~)² / (s~ . s~), r~ and s~ the residuals of the ratio and of the step
-        project = np.eye(n) - line @ np.linalg.pinv(line)
-        steps = (np.arange(n)[:, None] >= splits[None, :]).astype(np.float64)
-        steps_res = project @ steps
-        r_res = project @ r
-        extra = (r_res @ steps_res) ** 2 / np.einsum("ij,ij->j", steps_res, steps_res)
-        sse_line = float(r_res @ r_res)
-        dof = n - 3
-        t_stat = np.sqrt(extra / np.maximum((sse_line - extra) / dof, 1e-300))
-        best = int(np.argmax(t_stat))
-        p_value = min(1.0, splits.size * 2.0 * t_sf(float(t_stat[best]), dof))
-        jump = ols(np.column_stack([line, steps[:, best]]), r)
-        ok = p_value >= CHECK_ALPHA
+        p_value, after, size, se, splits = jump
         return Check(
             name,
-            bool(ok),
-            f"the best step beside a line in motor-on time (after run {int(splits[best])} of "
-            f"{n} in motor-on order) is {100 * float(jump.coef[2]):+.2g}% ± "
-            f"{100 * float(jump.se[2]):.2g}% of power above idle (p = {p_value:.2g} over "
-            f"{splits.size} splits; a jump fails at p < {CHECK_ALPHA:g})",
+            bool(p_value >= CHECK_ALPHA),
+            f"the best step beside a line in motor-on time (after run {after} of "
+            f"{ratio.size} in motor-on order) is {100 * size:+.2g}% ± {100 * se:.2g}% of power "
+            f"above idle (p = {p_value:.2g} over {splits} splits; a jump fails at "
+            f"p < {CHECK_ALPHA:g})",
         )
 
     def _creep_within_runs(self, table: RunTable, evidence: Evidence) -> Check:
@@ -321,3 +304,32 @@ def thermal_alpha(
     alpha = float(fit.coef[1]) * scale
     lo, hi = fit.ci95(1)
     return alpha, (lo * scale, hi * scale), fit.p_greater(1)
+
+
+def step_beside_line(y: np.ndarray, x: np.ndarray) -> tuple[float, int, float, float, int] | None:
+    """The best single step in `y`, ordered by `x`, added beside a line in `x` (at least
+    `MIN_SEGMENT_RUNS` points either side): its p-value (two-sided t of the step, times the
+    number of splits tried: Bonferroni, so at most `alpha` of straight lines with white
+    errors show one at `alpha`), the points before it, its size and standard error, and the
+    splits tried; None when there are too few points (under 5, or no split).
+
+    Every split at once: with the line projected out, the step's extra sum of squares is
+    ``(r~ . s~)² / (s~ . s~)``, r~ and s~ the residuals of `y` and of the step."""
+    order = np.argsort(x, kind="stable")
+    r, t = np.asarray(y, np.float64)[order], np.asarray(x, np.float64)[order]
+    n = r.size
+    splits = np.arange(MIN_SEGMENT_RUNS, n - MIN_SEGMENT_RUNS + 1)
+    if splits.size == 0 or n < 5:
+        return None
+    line = np.column_stack([np.ones(n), t])
+    project = np.eye(n) - line @ np.linalg.pinv(line)
+    steps = (np.arange(n)[:, None] >= splits[None, :]).astype(np.float64)
+    steps_res = project @ steps
+    r_res = project @ r
+    extra = (r_res @ steps_res) ** 2 / np.einsum("ij,ij->j", steps_res, steps_res)
+    dof = n - 3
+    t_stat = np.sqrt(extra / np.maximum((float(r_res @ r_res) - extra) / dof, 1e-300))
+    best = int(np.argmax(t_stat))
+    p_value = min(1.0, splits.size * 2.0 * t_sf(float(t_stat[best]), dof))
+    fit = ols(np.column_stack([line, steps[:, best]]), r)
+    return p_value, int(splits[best]), float(fit.coef[2]), float(fit.se[2]), int(splits.size)
