@@ -134,6 +134,7 @@ def _drifted_table(alpha_per_min: float):
                     cruise_mean_power_W=cruise_W,
                     accel_energy_J=accel_W * v,
                     cruise_energy_J=cruise_W * 5.0,
+                    idle_mean_power_W=idle_W,
                 )
             )
     return pd.DataFrame(rows), idle_W
@@ -165,3 +166,54 @@ def test_the_significance_gate():
     assert not Evidence(name, True, ALPHA / 2, size * 0.9).passes
     assert not Evidence(name, False, 0.0, size).significant  # not testable: never significant
     assert not Evidence(name, True, float("nan"), size).significant
+
+
+def test_thermal_ratio_ignores_an_offset_of_a_runs_whole_trace():
+    """A run whose every sample sits 0.3 W higher (the electronics' or the analyser's zero
+    moved) has the same motion power above idle: its ratio must not move, while the ratio
+    of the idle logs' idle_W would (0.3 W against ~3 W above idle at 0.2 m/s is ~10%)."""
+    import numpy as np
+
+    from wifibot_power.causes.design import stacked_fit
+    from wifibot_power.causes.thermal_drift import above_idle_ratio
+
+    runs, idle_W = _drifted_table(0.01)
+    cold = paper_model().with_extensions({}, "t")
+    coef, _, _ = stacked_fit(runs, [], cold)
+    before = above_idle_ratio(runs, coef, idle_W)
+    shifted = runs.copy()
+    offset_W = np.where(np.arange(len(runs)) % 2 == 0, 0.3, -0.3)  # mean 0: the lines' idle
+    shifted["accel_energy_J"] += offset_W * shifted["t_acc_s"] * shifted["steps_found"]
+    shifted["cruise_energy_J"] += offset_W * shifted["cruise_duration_s"]
+    shifted["idle_mean_power_W"] += offset_W
+    after = above_idle_ratio(shifted, coef, idle_W)
+    np.testing.assert_allclose(after, before, rtol=0, atol=1e-12)
+    # without each run's own idle (a log with no idle phases: the idle logs' level is used)
+    # the offset reads as motion power: 5-10% of the ratio here
+    blind = shifted.assign(idle_mean_power_W=float("nan"))
+    assert np.max(np.abs(above_idle_ratio(blind, coef, idle_W) - before)) > 0.05
+
+
+def test_a_jump_beside_a_line_is_found_where_it_is_and_straight_lines_rarely_show_one():
+    """`step_beside_line` (thermal drift's 'smooth, not a jump' check). Straight lines with
+    white errors, 30 runs: at the check's 1e-3 the Bonferroni p flags at most that share
+    (1000 draws: binomial 99.9% bound 5; measured 1). Without the factor over the 27 splits
+    20 of them would be flagged (measured). A 3% step under 0.5% scatter, after run 12, is
+    found there (measured p = 7e-6), with its size within 3 standard errors."""
+    import numpy as np
+
+    from wifibot_power.causes.thermal_drift import step_beside_line
+
+    rng = np.random.default_rng(5)
+    tau = np.sort(rng.uniform(0, 15, 30))
+    flagged = 0
+    for _ in range(1000):
+        ratio = 0.01 * tau + rng.normal(0, 0.005, tau.size)
+        flagged += step_beside_line(ratio, tau)[0] < 1e-3
+    assert flagged <= 5
+    ratio = 0.01 * tau + rng.normal(0, 0.005, tau.size) + 0.03 * (np.arange(30) >= 12)
+    p_value, after, size, se, splits = step_beside_line(ratio, tau)
+    assert (after, splits) == (12, 27)
+    assert p_value < 1e-4
+    assert abs(size - 0.03) < 3 * se
+    assert step_beside_line(ratio[:4], tau[:4]) is None
