@@ -49,7 +49,13 @@ from wifibot_power.outputs import write_json, write_parquet
 from wifibot_power.phases import Segmentation
 from wifibot_power.residuals import residual_table, structure_reasons
 from wifibot_power.run import Run
-from wifibot_power.runtable import DOUBT_REASON, admit_doubtful, run_row, runs_frame
+from wifibot_power.runtable import (
+    DOUBT_REASON,
+    CumulativeEnergy,
+    admit_doubtful,
+    run_row,
+    runs_frame,
+)
 from wifibot_power.stats import spearman
 from wifibot_power.traces import EMPTY, TraceStats, trace_stats
 
@@ -214,11 +220,20 @@ def summarize_run(run: Run, segmenter: Segmenter | None = None) -> RunSummary:
     """Segment a run and keep only its row and trace statistics."""
     if run.meta.mode != "motion":
         return RunSummary(run_row(run, Segmentation(run.meta.run_id, ())), EMPTY)
-    segmentation = segment_checked(run, segmenter)
+    return summarize_segmented(run, segment_checked(run, segmenter))
+
+
+def summarize_segmented(run: Run, segmentation: Segmentation) -> RunSummary:
+    """A segmented motion run's row, trace statistics and the statistics each cause's tests
+    need (`Cause.run_columns`), from one cumulative sum of its samples: what `diagnose` and
+    `report` keep of it."""
+    energy = CumulativeEnergy(run)
     columns: dict[str, float] = {}
-    for cause in CAUSES.values():  # the statistics each cause's tests need
+    for cause in CAUSES.values():
         columns.update(cause.run_columns(run, segmentation))
-    return RunSummary(run_row(run, segmentation), trace_stats(run, segmentation), columns)
+    return RunSummary(
+        run_row(run, segmentation, energy), trace_stats(run, segmentation, energy), columns
+    )
 
 
 def diagnose_logs(
@@ -636,7 +651,7 @@ def _diagnose(
     if not summaries:
         raise LogError("no readable logs", fix="see 'wbpower inspect' for what each log holds")
     if keep_doubtful:
-        summaries = [RunSummary(admit_doubtful(s.row), s.trace) for s in summaries]
+        summaries = [RunSummary(admit_doubtful(s.row), s.trace, s.cause_columns) for s in summaries]
     runs = summary_table(summaries)
     blocks = {s.row["run_id"]: (s.trace.cruise_blocks_W, s.trace.block_s) for s in summaries}
     for row in runs[~runs["usable"]].itertuples():

@@ -17,6 +17,7 @@ import numpy as np
 
 from wifibot_power.phases import Segmentation
 from wifibot_power.run import Run
+from wifibot_power.runtable import CumulativeEnergy
 
 #: Length of the window after each acceleration start where a start transient sits [s].
 START_WINDOW_S = 0.25
@@ -68,12 +69,15 @@ EMPTY = TraceStats(
 )
 
 
-def trace_stats(run: Run, segmentation: Segmentation) -> TraceStats:
-    """Window sums and cruise spectrum of a motion run (EMPTY for other runs)."""
+def trace_stats(
+    run: Run, segmentation: Segmentation, energy: CumulativeEnergy | None = None
+) -> TraceStats:
+    """Window sums and cruise spectrum of a motion run (EMPTY for other runs); `energy`: the
+    run's `runtable.CumulativeEnergy` when the caller has it already."""
     if run.meta.mode != "motion" or not segmentation.phases:
         return EMPTY
     dt = run.sample_period_s
-    cumulative_J = np.concatenate(([0.0], np.cumsum(run.power_W, dtype=np.float64))) * dt
+    energy = energy or CumulativeEnergy(run)
     by_step: dict[int, dict[str, list]] = {}
     for phase in segmentation.phases:
         if phase.phase in ("accel", "cruise", "decel") and phase.step >= 1:
@@ -96,12 +100,12 @@ def trace_stats(run: Run, segmentation: Segmentation) -> TraceStats:
         sum_u2 = (n_acc**3 / 3.0 - n_acc / 12.0) / n_ramp**2
         j_stop = min(ic1 + w_end, next_start)
         sums += [
-            cumulative_J[i_stop] - cumulative_J[ia0],
+            float(energy.at(i_stop)) - float(energy.at(ia0)),
             n_acc * dt,
             sum_u * dt,
             sum_u2 * dt,
             max(i_stop - ia1, 0) * dt,
-            cumulative_J[j_stop] - cumulative_J[ic1],
+            float(energy.at(j_stop)) - float(energy.at(ic1)),
             (j_stop - ic1) * dt,
         ]
     hz, amplitude_W, p_value, blocks, block_s = _cruise_spectrum(run, segmentation)
