@@ -22,12 +22,12 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Iterator
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from wifibot_power.causes import (
     CAUSES,
@@ -37,7 +37,9 @@ from wifibot_power.causes import (
     Evidence,
     RunTable,
 )
-from wifibot_power.causes.extended import NotEstimable, fit_model, predict_motion_energy_J
+from wifibot_power.causes.extended import NotEstimable, predict_motion_energy_J
+from wifibot_power.causes.extended import fit_model as _fit_model
+from wifibot_power.causes.registry import ordered
 from wifibot_power.errors import LogError
 from wifibot_power.fit import segment_checked
 from wifibot_power.io import LogSource, ReadOptions, Skipped
@@ -47,7 +49,14 @@ from wifibot_power.outputs import write_json, write_parquet
 from wifibot_power.phases import Segmentation
 from wifibot_power.residuals import residual_table, structure_reasons
 from wifibot_power.run import Run
-from wifibot_power.runtable import DOUBT_REASON, admit_doubtful, run_row, runs_frame
+from wifibot_power.runtable import (
+    DOUBT_REASON,
+    CumulativeEnergy,
+    admit_doubtful,
+    run_row,
+    runs_frame,
+)
+from wifibot_power.stats import spearman
 from wifibot_power.traces import EMPTY, TraceStats, trace_stats
 
 #: Smallest held-out gain that makes a significant cause a finding [%].
@@ -60,6 +69,38 @@ MIN_MOTION_RUNS = 6
 MIN_SPEEDS = 2
 
 Segmenter = Callable[[Run], Segmentation]
+
+#: The fits made so far in the diagnosis under way (`diagnose_summaries`), by what they were
+#: fitted on: forward selection, the held-out folds and the nested folds fit the same rows
+#: with the same causes again and again (a third to a tenth of all fits)
+_FITS: ContextVar[dict[tuple, PowerModel | NotEstimable] | None] = ContextVar("_FITS", default=None)
+
+
+def fit_model(
+    runs: pd.DataFrame, causes: Iterable[str] = (), *, strict: bool = False
+) -> PowerModel:
+    """`causes.extended.fit_model`, fitted once per rows (in their order), causes and
+    `strict` within one diagnosis: the same fit of the same rows is the same model, and a
+    fit the rows cannot identify raises `NotEstimable` each time it is asked for."""
+    memo = _FITS.get()
+    if memo is None:
+        return _fit_model(runs, causes, strict=strict)
+    causes = ordered(causes)
+    key = (
+        tuple(runs["file"].tolist()),
+        tuple(runs["run_id"].tolist()),
+        tuple(causes),
+        strict,
+    )
+    if key not in memo:
+        try:
+            memo[key] = _fit_model(runs, causes, strict=strict)
+        except NotEstimable as exc:
+            memo[key] = exc
+    found = memo[key]
+    if isinstance(found, NotEstimable):
+        raise NotEstimable(str(found))
+    return found
 
 
 @dataclass(frozen=True, eq=False)
@@ -179,11 +220,20 @@ def summarize_run(run: Run, segmenter: Segmenter | None = None) -> RunSummary:
     """Segment a run and keep only its row and trace statistics."""
     if run.meta.mode != "motion":
         return RunSummary(run_row(run, Segmentation(run.meta.run_id, ())), EMPTY)
-    segmentation = segment_checked(run, segmenter)
+    return summarize_segmented(run, segment_checked(run, segmenter))
+
+
+def summarize_segmented(run: Run, segmentation: Segmentation) -> RunSummary:
+    """A segmented motion run's row, trace statistics and the statistics each cause's tests
+    need (`Cause.run_columns`), from one cumulative sum of its samples: what `diagnose` and
+    `report` keep of it."""
+    energy = CumulativeEnergy(run)
     columns: dict[str, float] = {}
-    for cause in CAUSES.values():  # the statistics each cause's tests need
+    for cause in CAUSES.values():
         columns.update(cause.run_columns(run, segmentation))
-    return RunSummary(run_row(run, segmentation), trace_stats(run, segmentation), columns)
+    return RunSummary(
+        run_row(run, segmentation, energy), trace_stats(run, segmentation, energy), columns
+    )
 
 
 def diagnose_logs(
@@ -558,7 +608,11 @@ def summary_table(summaries: list[RunSummary]) -> pd.DataFrame:
     runs = runs_frame([s.row for s in summaries])
     traces = pd.DataFrame([s.trace.as_row() for s in summaries], index=runs.index)
     extra = pd.DataFrame([s.cause_columns for s in summaries], index=runs.index)
-    return session_clock(pd.concat([runs, traces, extra], axis=1))
+    table = session_clock(pd.concat([runs, traces, extra], axis=1))
+    # text as Python objects in one block: the held-out folds select rows of this table
+    # hundreds of times, and each Arrow-backed text column is a take of its own
+    text = [c for c in table.columns if isinstance(table[c].dtype, pd.StringDtype)]
+    return table.astype(dict.fromkeys(text, object)).copy()
 
 
 def diagnose_summaries(
@@ -579,11 +633,25 @@ def diagnose_summaries(
     fitted, on these logs with held-out runs; gain_pct then says how much better than the
     reference the extended model predicts runs it has not seen.
     """
+    token = _FITS.set({})
+    try:
+        return _diagnose(summaries, skipped, reference=reference, keep_doubtful=keep_doubtful)
+    finally:
+        _FITS.reset(token)
+
+
+def _diagnose(
+    summaries: list[RunSummary],
+    skipped: Iterable[Skipped],
+    *,
+    reference: PowerModel | None,
+    keep_doubtful: bool,
+) -> Diagnosis:
     skipped = list(skipped)
     if not summaries:
         raise LogError("no readable logs", fix="see 'wbpower inspect' for what each log holds")
     if keep_doubtful:
-        summaries = [RunSummary(admit_doubtful(s.row), s.trace) for s in summaries]
+        summaries = [RunSummary(admit_doubtful(s.row), s.trace, s.cause_columns) for s in summaries]
     runs = summary_table(summaries)
     blocks = {s.row["run_id"]: (s.trace.cruise_blocks_W, s.trace.block_s) for s in summaries}
     for row in runs[~runs["usable"]].itertuples():
@@ -746,7 +814,7 @@ def error_patterns(table: pd.DataFrame) -> dict[str, object]:
         if np.unique(x).size < 2:
             continue
         for model in ("baseline", "extended"):
-            rho, p = stats.spearmanr(x, table[f"{model}_error_pct"])
+            rho, p = spearman(x, table[f"{model}_error_pct"].to_numpy(np.float64))
             out[f"{model}_error_vs_{column}"] = {
                 "label": label,
                 "spearman_rho": float(rho),

@@ -55,24 +55,24 @@ def _work(run: Run) -> tuple[dict, list[dict], RunSummary, TraceView]:
     """One log: fit's row and phases, diagnose's summary, the trace view (one segmentation).
 
     The rows are made exactly as `fit_logs` and `diagnose.summarize_run` make them."""
-    from wifibot_power.diagnose import RunSummary
+    from wifibot_power.diagnose import RunSummary, summarize_segmented
     from wifibot_power.figures.trace import trace_view
     from wifibot_power.fit import segment_checked
     from wifibot_power.phases import Segmentation
     from wifibot_power.runtable import run_row
-    from wifibot_power.traces import EMPTY, trace_stats
+    from wifibot_power.traces import EMPTY
 
     segmentation = segment_checked(run)
     empty = Segmentation(run.meta.run_id, ())
     if run.meta.mode == "unknown":  # as fit: nothing to fit it to
-        row, phases = run_row(run, empty), []
-    else:
-        row = run_row(run, segmentation)
-        phases = [{"run_id": segmentation.run_id, **p.as_dict()} for p in segmentation.phases]
-    if run.meta.mode == "motion":
-        summary = RunSummary(row, trace_stats(run, segmentation))
-    else:
-        summary = RunSummary(run_row(run, empty) if run.meta.mode != "unknown" else row, EMPTY)
+        row = run_row(run, empty)
+        return row, [], RunSummary(row, EMPTY), trace_view(run, segmentation)
+    phases = [{"run_id": segmentation.run_id, **p.as_dict()} for p in segmentation.phases]
+    if run.meta.mode == "motion":  # its summary with the cause columns, as diagnose's
+        summary = summarize_segmented(run, segmentation)
+        return summary.row, phases, summary, trace_view(run, segmentation)
+    row = run_row(run, segmentation)
+    summary = RunSummary(run_row(run, empty), EMPTY)
     return row, phases, summary, trace_view(run, segmentation)
 
 

@@ -81,15 +81,35 @@ RUN_COLUMNS = (
 DOUBT_REASON = "segmentation in doubt: "
 
 
-def _phase_sums(run: Run, phases: Sequence[Phase]) -> tuple[np.ndarray, np.ndarray]:
+class CumulativeEnergy:
+    """Energy [J] of a run's samples before sample i (rectangle rule), for any i: one
+    cumulative sum of the samples, made once per run and shared by `run_row` and
+    `traces.trace_stats` (it is the one pass over the samples they make). `at(i)` is bit
+    for bit ``concatenate(([0], cumsum(P))) * dt`` at i, without that array."""
+
+    def __init__(self, run: Run) -> None:
+        self._sum_W = np.cumsum(run.power_W, dtype=np.float64)
+        self._period_s = run.sample_period_s
+
+    def at(self, i: np.ndarray | int) -> np.ndarray:
+        """Energy before sample(s) `i` [J] (0 <= i <= samples)."""
+        i = np.asarray(i, dtype=np.int64)
+        if self._sum_W.size == 0:
+            return np.zeros(i.shape)
+        return np.where(i > 0, self._sum_W[np.maximum(i - 1, 0)], 0.0) * self._period_s
+
+
+def _phase_sums(
+    run: Run, phases: Sequence[Phase], energy: CumulativeEnergy | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Energy [J] and duration [s] of each phase, from the run's samples (vectorised)."""
     period_s = run.sample_period_s
     if not phases:
         return np.zeros(0), np.zeros(0)
     starts = np.array([p.i_start for p in phases], dtype=np.int64)
     ends = np.array([p.i_end for p in phases], dtype=np.int64)
-    cumulative_J = np.concatenate(([0.0], np.cumsum(run.power_W, dtype=np.float64))) * period_s
-    return cumulative_J[ends] - cumulative_J[starts], (ends - starts) * period_s
+    energy = energy or CumulativeEnergy(run)
+    return energy.at(ends) - energy.at(starts), (ends - starts) * period_s
 
 
 def _check_cover(run: Run, segmentation: Segmentation) -> str | None:
@@ -128,8 +148,11 @@ def _cruise_speed(segmentation: Segmentation) -> tuple[float | None, int]:
     return float(np.sum(speeds * durations) / durations.sum()), len(speed_levels(speeds))
 
 
-def run_row(run: Run, segmentation: Segmentation) -> dict[str, object]:
-    """One row of the per-run table (the columns of `RUN_COLUMNS`).
+def run_row(
+    run: Run, segmentation: Segmentation, energy: CumulativeEnergy | None = None
+) -> dict[str, object]:
+    """One row of the per-run table (the columns of `RUN_COLUMNS`); `energy`: the run's
+    `CumulativeEnergy` when the caller has it already.
 
     Means are time-weighted over phases: `sum(E_phase) / sum(t_phase)`; a phase kind the
     run does not have gives NaN. Whether `fit` can use the run is decided here
@@ -160,7 +183,7 @@ def run_row(run: Run, segmentation: Segmentation) -> dict[str, object]:
     }
     cover_problem = _check_cover(run, segmentation)
     phases = segmentation.phases if cover_problem is None else ()
-    energies_J, durations_s = _phase_sums(run, phases)
+    energies_J, durations_s = _phase_sums(run, phases, energy)
     names = np.array([p.phase for p in phases], dtype=object)
     step_numbers = np.array([p.step for p in phases], dtype=np.int64)
 

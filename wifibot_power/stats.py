@@ -9,6 +9,7 @@ t statistic `b_j / se(b_j)` with n - p degrees of freedom.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -165,6 +166,7 @@ def f_sf(f: float, df1: float, df2: float) -> float:
     return float(special.fdtrc(df1, df2, f))
 
 
+@functools.lru_cache(maxsize=4096)  # diagnose asks for the same few hundreds of times
 def t_quantile(p: float, dof: float) -> float:
     """Student's t quantile `t_{p, dof}` (what `scipy.stats.t.ppf(p, dof)` gives, to ~1e-13
     relative), in plain Python: importing scipy.special costs ~0.25 s, most of a warm
@@ -256,3 +258,34 @@ def betainc(a: float, b: float, x: float, y: float) -> float:
         if abs(c * d - 1.0) <= _EPS:
             break
     return front * fraction / a
+
+
+def average_ranks(x: np.ndarray) -> np.ndarray:
+    """Ranks 1..n of `x`, ties given the mean of the ranks they span (what
+    `scipy.stats.rankdata(x, "average")` gives, exactly: the ranks are halves)."""
+    x = np.asarray(x)
+    order = np.argsort(x, kind="mergesort")
+    sorted_x = x[order]
+    new = np.concatenate(([True], sorted_x[1:] != sorted_x[:-1]))
+    dense = np.cumsum(new)[np.argsort(order, kind="mergesort")]
+    ends = np.concatenate((np.flatnonzero(new), [new.size]))  # where each tie group starts
+    return 0.5 * (ends[dense] + ends[dense - 1] + 1)
+
+
+def spearman(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """Spearman's rank correlation and its two-sided p-value (Student's t with n - 2 degrees
+    of freedom on `t = rho sqrt((n - 2) / (1 - rho^2))`), as `scipy.stats.spearmanr`
+    computes them, without importing scipy.stats (a second of every `diagnose`); loads
+    scipy.special. NaN for fewer than 2 points, a NaN or a constant input."""
+    x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    if x.size <= 1 or np.isnan(x).any() or np.isnan(y).any():
+        return math.nan, math.nan
+    if (x == x[0]).all() or (y == y[0]).all():
+        return math.nan, math.nan
+    rho = np.corrcoef(np.vstack([average_ranks(x), average_ranks(y)]))[1, 0]
+    dof = x.size - 2
+    with np.errstate(divide="ignore"):  # rho = ±1: t infinite, p 0
+        t = rho * np.sqrt(np.clip(dof / ((rho + 1.0) * (1.0 - rho)), 0, None))
+    from scipy import special
+
+    return float(rho), float(2 * special.stdtr(dof, -abs(t)))

@@ -9,13 +9,15 @@ while the run is in memory (so diagnosis holds only these small summaries, not t
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
 
 from wifibot_power.phases import Segmentation
 from wifibot_power.run import Run
+from wifibot_power.runtable import CumulativeEnergy
 
 #: Length of the window after each acceleration start where a start transient sits [s].
 START_WINDOW_S = 0.25
@@ -67,12 +69,15 @@ EMPTY = TraceStats(
 )
 
 
-def trace_stats(run: Run, segmentation: Segmentation) -> TraceStats:
-    """Window sums and cruise spectrum of a motion run (EMPTY for other runs)."""
+def trace_stats(
+    run: Run, segmentation: Segmentation, energy: CumulativeEnergy | None = None
+) -> TraceStats:
+    """Window sums and cruise spectrum of a motion run (EMPTY for other runs); `energy`: the
+    run's `runtable.CumulativeEnergy` when the caller has it already."""
     if run.meta.mode != "motion" or not segmentation.phases:
         return EMPTY
     dt = run.sample_period_s
-    cumulative_J = np.concatenate(([0.0], np.cumsum(run.power_W, dtype=np.float64))) * dt
+    energy = energy or CumulativeEnergy(run)
     by_step: dict[int, dict[str, list]] = {}
     for phase in segmentation.phases:
         if phase.phase in ("accel", "cruise", "decel") and phase.step >= 1:
@@ -95,12 +100,12 @@ def trace_stats(run: Run, segmentation: Segmentation) -> TraceStats:
         sum_u2 = (n_acc**3 / 3.0 - n_acc / 12.0) / n_ramp**2
         j_stop = min(ic1 + w_end, next_start)
         sums += [
-            cumulative_J[i_stop] - cumulative_J[ia0],
+            float(energy.at(i_stop)) - float(energy.at(ia0)),
             n_acc * dt,
             sum_u * dt,
             sum_u2 * dt,
             max(i_stop - ia1, 0) * dt,
-            cumulative_J[j_stop] - cumulative_J[ic1],
+            float(energy.at(j_stop)) - float(energy.at(ic1)),
             (j_stop - ic1) * dt,
         ]
     hz, amplitude_W, p_value, blocks, block_s = _cruise_spectrum(run, segmentation)
@@ -148,15 +153,86 @@ def ripple_peak(x: np.ndarray, block_s: float) -> tuple[float, float, float]:
     # then fit the sinusoid there: least squares in frequency, amplitude and phase
     t = np.arange(n) * block_s
     step = freqs[1] - freqs[0]
-    refined = optimize.minimize_scalar(
+    best = bounded_minimum(
         lambda f: -_sinusoid(x, t, f)[1],
-        bounds=(max(freqs[k] - step, step / 4), freqs[k] + step),
-        method="bounded",
-        options={"xatol": step * 1e-4},
+        max(freqs[k] - step, step / 4),
+        freqs[k] + step,
+        xatol=step * 1e-4,
     )
-    best = float(refined.x)
     amplitude_W, _ = _sinusoid(x, t, best)
     return float(best), float(amplitude_W), p_value
+
+
+def bounded_minimum(
+    func: Callable[[float], float], low: float, high: float, xatol: float, maxiter: int = 500
+) -> float:
+    """Where `func` is least on [low, high]: Brent's method, golden-section search with
+    parabolic steps (Brent, Algorithms for Minimization without Derivatives, 1973, ch. 5),
+    step for step as `scipy.optimize.minimize_scalar(method="bounded")` (fminbound) takes
+    them, so it finds the same point; written out because importing scipy.optimize cost
+    ~0.4 s of every `diagnose`, more than the minimisations themselves."""
+    sqrt_eps = math.sqrt(2.2e-16)
+    golden_mean = 0.5 * (3.0 - math.sqrt(5.0))
+    a, b = low, high
+    fulc = a + golden_mean * (b - a)
+    nfc, xf = fulc, fulc
+    rat = e = 0.0
+    fx = func(xf)
+    num = 1
+    ffulc = fnfc = fx
+    xm = 0.5 * (a + b)
+    tol1 = sqrt_eps * abs(xf) + xatol / 3.0
+    tol2 = 2.0 * tol1
+    while abs(xf - xm) > (tol2 - 0.5 * (b - a)):
+        golden = True
+        if abs(e) > tol1:  # try a parabola through the three best points
+            golden = False
+            r = (xf - nfc) * (fx - ffulc)
+            q = (xf - fulc) * (fx - fnfc)
+            p = (xf - fulc) * q - (xf - nfc) * r
+            q = 2.0 * (q - r)
+            if q > 0.0:
+                p = -p
+            q = abs(q)
+            r = e
+            e = rat
+            if abs(p) < abs(0.5 * q * r) and p > q * (a - xf) and p < q * (b - xf):
+                rat = (p + 0.0) / q
+                x = xf + rat
+                if (x - a) < tol2 or (b - x) < tol2:
+                    rat = tol1 * (1.0 if xm - xf >= 0 else -1.0)
+            else:
+                golden = True
+        if golden:
+            e = (a - xf) if xf >= xm else (b - xf)
+            rat = golden_mean * e
+        x = xf + (1.0 if rat >= 0 else -1.0) * max(abs(rat), tol1)
+        fu = func(x)
+        num += 1
+        if fu <= fx:
+            if x >= xf:
+                a = xf
+            else:
+                b = xf
+            fulc, ffulc = nfc, fnfc
+            nfc, fnfc = xf, fx
+            xf, fx = x, fu
+        else:
+            if x < xf:
+                a = x
+            else:
+                b = x
+            if fu <= fnfc or nfc == xf:
+                fulc, ffulc = nfc, fnfc
+                nfc, fnfc = x, fu
+            elif fu <= ffulc or fulc == xf or fulc == nfc:
+                fulc, ffulc = x, fu
+        xm = 0.5 * (a + b)
+        tol1 = sqrt_eps * abs(xf) + xatol / 3.0
+        tol2 = 2.0 * tol1
+        if num >= maxiter:
+            break
+    return float(xf)
 
 
 def _sinusoid(x: np.ndarray, t: np.ndarray, hz: float) -> tuple[float, float]:

@@ -99,14 +99,16 @@ def predict_motion_energy_J(model: PowerModel, runs: pd.DataFrame) -> np.ndarray
     paper Eq. 5/6 per step with the model's extensions (energy.trip_energy), the run starting
     the motor-on minutes into its session that precede it (tau_before_min)."""
     out = np.empty(len(runs))
+    # the five columns as Python lists (itertuples boxes every column of a ~60-column table)
+    columns = (runs[c].tolist() for c in ("speed_mps", "distance_m", "steps", "payload_kg"))
     tau = runs["tau_before_min"].to_numpy(np.float64)
-    for i, row in enumerate(runs.itertuples(index=False)):  # a row per run, not per sample
-        trip = trip_energy(
+    for i, (speed, distance, steps, payload) in enumerate(zip(*columns, strict=True)):
+        trip = trip_energy(  # a run per iteration, not a sample
             model,
-            row.speed_mps,
-            row.distance_m,
-            int(row.steps),
-            payload_kg=row.payload_kg,
+            speed,
+            distance,
+            int(steps),
+            payload_kg=payload,
             motor_on_before_min=float(tau[i]) if np.isfinite(tau[i]) else 0.0,
         )
         out[i] = trip.energy_J

@@ -262,11 +262,21 @@ def _strongest_sinusoid(y: np.ndarray, t: np.ndarray, block_s: float) -> list[np
     # leave most of its tilt in the line)
     step = float(freqs[1] - freqs[0])
     candidates = np.linspace(max(peak - step, step / 4), peak + step, 41)
-    phase = 2 * np.pi * candidates[:, None] * t[None, :]
-    sin, cos = np.sin(phase), np.cos(phase)
-    # explained variance of each candidate's sin/cos pair (2x2 normal equations, vectorised)
-    ss, cc, sc = (sin * sin).sum(1), (cos * cos).sum(1), (sin * cos).sum(1)
-    sy, cy = sin @ detrended, cos @ detrended
+    # explained variance of each candidate's sin/cos pair (2x2 normal equations) from
+    # e^{iθ}, θ = 2π f t: the candidates are evenly spaced, so each one's wave is the one
+    # before times a fixed turn (a complex product a sample, not a sine and a cosine;
+    # the same choice as the sines and cosines give: checked on 3000 random series)
+    wave = np.exp(2j * np.pi * candidates[0] * t)
+    turn = np.exp(2j * np.pi * (candidates[1] - candidates[0]) * t)
+    z = np.empty(candidates.size, dtype=np.complex128)
+    z2 = np.empty(candidates.size, dtype=np.complex128)
+    for j in range(candidates.size):  # a candidate per iteration, vectorised over samples
+        if j:
+            wave = wave * turn
+        z[j] = wave @ detrended  # Σ y cos θ + i Σ y sin θ
+        z2[j] = wave @ wave  # Σ cos 2θ + i Σ sin 2θ
+    ss, cc, sc = 0.5 * (t.size - z2.real), 0.5 * (t.size + z2.real), 0.5 * z2.imag
+    sy, cy = z.imag, z.real
     det = ss * cc - sc**2
     explained = (cc * sy**2 - 2 * sc * sy * cy + ss * cy**2) / np.where(det > 0, det, np.inf)
     hz = float(candidates[np.argmax(explained)])
