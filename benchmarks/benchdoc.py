@@ -6,7 +6,6 @@ The measured part is written again at every run; the text below MARKER is kept.
 from __future__ import annotations
 
 import textwrap
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -83,18 +82,27 @@ def _num(x: float | None, d: int = 2) -> str:
     return "—" if x is None else f"{x:.{d}f}"
 
 
-def write(info: dict[str, str], rows: list[dict], extras: dict, *, quick: bool = False) -> None:
+def write(record: dict) -> None:
+    """docs/benchmarks.md from a run's record (what `run.py` writes to last-bench.json)."""
+    info, rows, extras, quick = record["machine"], record["rows"], record["extras"], record["quick"]
     lines = [
         "# Benchmarks: `wbpower fit` and `diagnose` beside a bare CSV parse",
         "",
-        "Written by `make bench` (benchmarks/run.py) on "
-        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}"
-        + (" with `--quick` (a subset: not the figures that count)" if quick else "")
-        + ". Re-run it to refresh this page.",
+        *textwrap.wrap(
+            "Written by `make bench` (benchmarks/run.py) on "
+            f"{record['measured_at']}"
+            + (" with `--quick` (a subset: not the figures that count)" if quick else "")
+            + ". Re-run it to refresh this page.",
+            96,
+        ),
         "",
         "## Headline",
         "",
-        *headline(rows, extras),
+        *[
+            wrapped
+            for line in headline(rows, extras)
+            for wrapped in textwrap.wrap(line, 96, subsequent_indent="  ", break_on_hyphens=False)
+        ],
         "",
         "The worst shape counts (issue 14). Times are medians of alternating runs in one session",
         "(bare, fit, diagnose; the order rotates each repeat); each run is a fresh process",
@@ -190,11 +198,11 @@ def _extras(rows: list[dict], extras: dict) -> list[str]:
             f"## Memory ({shape})",
             "",
             f"Fixed overhead: `wbpower fit --jobs 1` on one tiny log peaks at "
-            f"{fixed.max_rss_MB:.0f} MB RSS",
-            f"({fixed.wall_s:.2f} s: the interpreter, numpy, pandas, pyarrow, typer, rich). Budget",
-            "per process: fixed overhead + 2 x the largest log's columns = "
-            f"{fixed.max_rss_MB:.0f} + 2 x {columns:.0f} = "
-            f"{fixed.max_rss_MB + 2 * columns:.0f} MB.",
+            f"{fixed['max_rss_MB']:.0f} MB RSS",
+            f"({fixed['wall_s']:.2f} s: the interpreter, numpy, pandas, pyarrow, typer, rich).",
+            "Budget per process: fixed overhead + 2 x the largest log's columns = "
+            f"{fixed['max_rss_MB']:.0f} + 2 x {columns:.0f} = "
+            f"{fixed['max_rss_MB'] + 2 * columns:.0f} MB.",
             "",
             "`fit --jobs 0` over the N largest logs of the corpus (the largest log is in every",
             "set, so memory that grows with N would be memory held per file):",
@@ -242,7 +250,7 @@ def _extras(rows: list[dict], extras: dict) -> list[str]:
         lines += [
             f"## Where the time goes: `{what}` ({extras['profile_shape']}, cProfile, 1 job)",
             "",
-            "Cumulative seconds (profiling adds overhead, most to code with many small calls);",
+            "Cumulative seconds (profiling adds overhead, most to code with many small calls).",
             f"Importing `wifibot_power.{what}` took {profile['import_s']:.2f} s before.",
             "",
             f"| stage | s | share of {'fit_logs' if what == 'fit' else 'diagnose_logs'} |",
@@ -253,9 +261,13 @@ def _extras(rows: list[dict], extras: dict) -> list[str]:
                 for label, s in stages.items()
             ],
             "",
-            "Most own time (tottime, wifibot_power functions): "
-            + "; ".join(f"`{name}` {s:.2f} s" for name, s in profile["top_own_s"][:6])
-            + ".",
+            *textwrap.wrap(
+                "Most own time (tottime, wifibot_power functions): "
+                + "; ".join(f"`{name}` {s:.2f} s" for name, s in profile["top_own_s"][:6])
+                + ".",
+                96,
+                break_on_hyphens=False,
+            ),
             "",
         ]
     return lines

@@ -160,17 +160,15 @@ def machine() -> dict[str, str]:
     import numpy
     import pyarrow
 
-    commit = subprocess.run(
-        ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT
-    ).stdout.strip()
-    dirty = subprocess.run(
-        ["git", "status", "--porcelain", "--untracked-files=no", "--", "wifibot_power"],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-    ).stdout.strip()
+    def git(*args: str) -> str:
+        return subprocess.run(["git", *args], capture_output=True, text=True, cwd=ROOT).stdout
+
+    head = git("rev-parse", "--short", "HEAD").strip() or "unknown"
+    package = git("log", "-1", "--format=%h", "--", "wifibot_power").strip() or "unknown"
+    dirty = git("status", "--porcelain", "--untracked-files=no", "--", "wifibot_power").strip()
+    code = f"wifibot_power/ as of {package} (HEAD {head})"
     return {
-        "code measured": f"{commit or 'unknown'}{' + uncommitted changes' if dirty else ''}",
+        "code measured": code + (" + uncommitted changes" if dirty else ""),
         "cpu": cpu,
         "cores (nproc)": str(len(os.sched_getaffinity(0))),
         "memory": f"{mem_kB / 1024**2:.1f} GiB",

@@ -20,11 +20,12 @@ What it does (docs/benchmarks.md shows the figures and how to read them):
 4. cProfile of `fit_logs` and of `diagnose_logs` with 1 job on the `--profile-shape` corpus
    (default power): the share of segmentation, the parse, the sample checks, run_row, ...
 5. Writes docs/benchmarks.md (text below its hand-written marker is kept) and
-   ROOT/last-bench.json.
+   ROOT/last-bench.json (every figure; `--render FILE` writes the page again from it).
 
 Usage: `make bench` or `.venv/bin/python benchmarks/run.py [--shapes power,vi,...]
 [--repeats N] [--quick] [--root DIR]`. `--quick` runs the first repeat of every run of each
-shape (about a third of it or less), one repeat, and writes the page only with `--write-doc`.
+shape (a third of it or less), one repeat, and writes the page only with `--write-doc`.
+The machine is assumed shared: read the CPU columns beside the wall ones.
 """
 
 from __future__ import annotations
@@ -192,7 +193,7 @@ def memory_vs_files(folder: Path, scratch: Path, counts: tuple[int, ...]) -> lis
     return out
 
 
-def fixed_overhead(scratch: Path) -> Measured:
+def fixed_overhead(scratch: Path) -> dict[str, float]:
     """`wbpower fit` on one tiny log: what the interpreter and libraries cost on their own."""
     tiny = scratch / "bench-tiny"
     if not (tiny / "runs.csv").is_file():
@@ -202,7 +203,8 @@ def fixed_overhead(scratch: Path) -> Measured:
              "--repeats", "1", "--modes", "", "--sample-period", "0.001024"]
         )  # fmt: skip
     # exit 1: one speed is not a complete model, and fit says so; the cost is what is measured
-    return measure([WBPOWER, "fit", str(tiny), "--json", "--jobs", "1"], ok_codes=(0, 1))
+    result = measure([WBPOWER, "fit", str(tiny), "--json", "--jobs", "1"], ok_codes=(0, 1))
+    return {"max_rss_MB": result.max_rss_MB, "wall_s": result.wall_s}
 
 
 def main() -> None:
@@ -216,7 +218,11 @@ def main() -> None:
     parser.add_argument("--no-extras", action="store_true", help="skip memory, cache, profiles")
     parser.add_argument("--write-doc", action="store_true", help="write the page after --quick")
     parser.add_argument("--generate-only", action="store_true", help="build the corpora, stop")
+    parser.add_argument("--render", metavar="JSON", help="write the page from a last-bench.json")
     args = parser.parse_args()
+    if args.render:
+        benchdoc.write(json.loads(Path(args.render).read_text()))
+        return
     root = corpora.root_of(args.root)
     root.mkdir(parents=True, exist_ok=True)
     names = [n.strip() for n in args.shapes.split(",") if n.strip()]
@@ -261,18 +267,19 @@ def main() -> None:
     info["bench took"] = f"{(time.perf_counter() - started) / 60:.1f} min"
     for row in rows:
         row.pop("_fit_json")
-    summary = benchdoc.summary(rows, extras)
-    print(summary)
-    record = {"machine": info, "rows": rows, "quick": args.quick}
-    record.update({k: v for k, v in extras.items() if k != "fixed"})
-    if "fixed" in extras:
-        record["fixed_MB"] = extras["fixed"].max_rss_MB
-        record["fixed_s"] = extras["fixed"].wall_s
+    print(benchdoc.summary(rows, extras))
+    record = {
+        "measured_at": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+        "quick": args.quick,
+        "machine": info,
+        "rows": rows,
+        "extras": extras,
+    }
     name = "last-bench-quick.json" if args.quick else "last-bench.json"
     (root / name).write_text(json.dumps(record, indent=2))
     print(f"bench: wrote {root / name}")
     if not args.quick or args.write_doc:
-        benchdoc.write(info, rows, extras, quick=args.quick)
+        benchdoc.write(record)
 
 
 if __name__ == "__main__":
