@@ -44,10 +44,23 @@ def headline(rows: list[dict], extras: dict) -> list[str]:
             f"{extras['profile_shape']} corpus). Target <= {100 * SEGMENTATION_SHARE:.0f}%: "
             f"{_met(share, SEGMENTATION_SHARE)}."
         )
+    if "copies" in extras:
+        shape = extras["shape"]
+        row = next(r for r in rows if r["shape"] == shape)
+        rss = [c["max_rss_MB"] for c in extras["copies"]] + [row["fit_max_rss_MB"]]
+        budget = extras["fixed"]["max_rss_MB"] + 2 * row["largest_file_columns_MB"]
+        lines.append(
+            f"- Memory ({shape}): the largest `fit` process peaks at {min(rss):.0f}-"
+            f"{max(rss):.0f} MB from {extras['copies'][0]['logs']} logs to {row['files']}; "
+            f"budget (fixed overhead + 2 x the largest log's columns) {budget:.0f} MB: "
+            f"{_met(max(rss), budget)}."
+        )
     if "warm" in extras:
         lines.append(
             f"- Warm parse cache: {extras['warm']['speedup']:.1f}x faster than cold "
-            f"({extras['shape']}; target >= 10x); result identical: {extras['warm']['identical']}."
+            f"({extras['shape']}; target >= 10x: "
+            f"{'met' if extras['warm']['speedup'] >= 10 else 'not met'}); the warm result is "
+            f"{'identical to' if extras['warm']['identical'] else 'NOT the same as'} the cold one."
         )
     return lines
 

@@ -257,7 +257,11 @@ def main() -> None:
         library = profiles.library_times(folders[extras_name], root)
         library["speedup"] = library["cold_s"] / library["warm_s"]
         extras["library"] = library
-        print(f"  library: {library}", flush=True)
+        print(
+            f"  fit_logs() after imports: cold {library['cold_s']:.2f} s, filling the cache "
+            f"{library['fill_s']:.2f} s, warm {library['warm_s']:.3f} s",
+            flush=True,
+        )
         profile_name = args.profile_shape if args.profile_shape in folders else names[0]
         print(f"bench: cProfile of fit_logs and diagnose_logs on {profile_name}", flush=True)
         extras["profile_shape"] = profile_name
