@@ -1,5 +1,6 @@
-"""`make bench`: `wbpower fit` and `wbpower diagnose` beside a bare pyarrow CSV parse, on every
-shape of log (issue 14).
+"""`make bench`: `wbpower fit` and `diagnose` beside a bare CSV parse, on every shape of log.
+
+The shapes are those of issue 14.
 
 What it does (docs/benchmarks.md shows the figures and how to read them):
 
