@@ -50,8 +50,12 @@ test: $(VENV)/.installed
 lint: $(VENV)/.installed
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .
 
+# fit and diagnose beside a bare CSV parse on five shapes of log (docs/benchmarks.md), ~20 min
+# on 2 cores; the corpora (~2.5 GB) go to $$WBPOWER_BENCH_CORPUS, else bench_corpus/.
+# BENCH_ARGS: e.g. --quick, --shapes power,n6705, --repeats 5 (benchmarks/run.py --help).
+BENCH_ARGS ?=
 bench: $(VENV)/.installed
-	$(PY) benchmarks/run.py
+	$(PY) benchmarks/run.py $(BENCH_ARGS)
 
 # Regenerates sample_logs/ exactly as committed (see sample_logs/README.md).
 sample-logs: $(VENV)/.installed

@@ -1,0 +1,114 @@
+"""Where the time goes: cProfile of `fit_logs` / `diagnose_logs` with 1 job (all the work in
+one process, so the profiler sees it), and `fit_logs` timed from Python with and without the
+parse cache. Each runs in a fresh interpreter; the numbers come back as JSON.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+#: stage label -> (file the function lives in, function name); the cumulative time of each.
+#: A function renamed or moved shows as "not found", never as a stage that takes no time.
+FIT_STAGES = {
+    "fit_logs (whole, 1 job)": ("fit.py", "fit_logs"),
+    "read_log": ("reader.py", "read_log"),
+    "  CSV parse to numpy (read_columns)": ("transport.py", "read_columns"),
+    "  sample checks (check_samples)": ("validate.py", "check_samples"),
+    "segmentation (segment_run)": ("segment.py", "segment_run"),
+    "run_row": ("runtable.py", "run_row"),
+    "fit of the run rows (fit_gathered)": ("fit.py", "fit_gathered"),
+}
+DIAGNOSE_STAGES = {
+    "diagnose_logs (whole, 1 job)": ("diagnose.py", "diagnose_logs"),
+    "read_log": ("reader.py", "read_log"),
+    "  CSV parse to numpy (read_columns)": ("transport.py", "read_columns"),
+    "  sample checks (check_samples)": ("validate.py", "check_samples"),
+    "per run (summarize_run)": ("diagnose.py", "summarize_run"),
+    "  segmentation (segment_run)": ("segment.py", "segment_run"),
+    "  trace statistics (trace_stats)": ("traces.py", "trace_stats"),
+    "  causes' run statistics (run_columns)": ("", "run_columns"),
+    "  run_row": ("runtable.py", "run_row"),
+    "statistics over runs (diagnose_summaries)": ("diagnose.py", "diagnose_summaries"),
+}
+
+PROFILE = r"""
+import cProfile, json, pstats, sys, time
+from pathlib import Path
+what, folder, stages = sys.argv[1], Path(sys.argv[2]), json.loads(sys.argv[3])
+start = time.perf_counter()
+if what == "fit":
+    from wifibot_power.fit import fit_logs as call
+else:
+    from wifibot_power.diagnose import diagnose_logs as call
+import_s = time.perf_counter() - start
+profile = cProfile.Profile()
+start = time.perf_counter()
+profile.runcall(call, [folder], jobs=1)
+wall_s = time.perf_counter() - start
+stats = pstats.Stats(profile).stats
+def cumulative(file_end, name):
+    found = [v[3] for (f, _, n), v in stats.items() if f.endswith(file_end) and n == name]
+    return sum(found) if found else None
+own = {}
+for (f, line, n), v in stats.items():
+    if "wifibot_power" in f:
+        key = f"{f.split('wifibot_power/', 1)[1]}:{n}"
+        own[key] = own.get(key, 0.0) + v[2]
+top = sorted(own.items(), key=lambda kv: -kv[1])[:10]
+print(json.dumps({
+    "import_s": import_s,
+    "wall_s": wall_s,
+    "stages": {label: cumulative(*where) for label, where in stages.items()},
+    "top_own_s": top,
+}))
+"""
+
+LIBRARY = r"""
+import json, shutil, statistics, sys, tempfile, time
+from pathlib import Path
+from wifibot_power.cache import ParseCache
+from wifibot_power.fit import fit_logs
+folder, scratch = Path(sys.argv[1]), Path(sys.argv[2])
+def timed(**kw):
+    start = time.perf_counter()
+    fit_logs([folder], jobs=0, **kw)
+    return time.perf_counter() - start
+cold = [timed() for _ in range(2)]
+cache = ParseCache(Path(tempfile.mkdtemp(dir=scratch)))
+fill = timed(cache=cache)
+warm = [timed(cache=cache) for _ in range(3)]
+shutil.rmtree(cache.directory)
+print(json.dumps({"cold_s": statistics.median(cold), "fill_s": fill,
+                  "warm_s": statistics.median(warm)}))
+"""
+
+
+def _run(script: str, *args: str) -> dict:
+    out = subprocess.run(
+        [sys.executable, "-c", script, *args], capture_output=True, text=True, cwd=ROOT
+    )
+    if out.returncode != 0:
+        raise SystemExit(f"bench: profiling failed:\n{out.stderr[-2000:]}")
+    return json.loads(out.stdout)
+
+
+def profile(what: str, folder: Path) -> dict:
+    """cProfile of `fit_logs` (`what` "fit") or `diagnose_logs` ("diagnose") over `folder`,
+    1 job: {"import_s", "wall_s", "stages": {label: cumulative s or None}, "top_own_s"}."""
+    stages = FIT_STAGES if what == "fit" else DIAGNOSE_STAGES
+    result = _run(PROFILE, what, str(folder), json.dumps(stages))
+    missing = [label.strip() for label, s in result["stages"].items() if s is None]
+    if missing:
+        print(f"bench: WARNING: no time found for {missing}: renamed? (benchmarks/profiles.py)")
+    return result
+
+
+def library_times(folder: Path, scratch: Path) -> dict[str, float]:
+    """`fit_logs` called from Python, timed after the imports (what a notebook or a CI job
+    that fits several corpora in one process sees): cold, filling the cache, warm."""
+    return _run(LIBRARY, str(folder), str(scratch))

@@ -1,0 +1,107 @@
+"""The bench's corpus layouts (benchmarks/corpora.py) are what they claim: each reads back, through
+wbpower's reader, as the format it names and with the simulated power, and the N6705 layout
+has the real export's structure line for line. (The bench's figures mean nothing otherwise:
+a layout the reader misreads or refuses would be timed on the wrong path.)"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wifibot_power.io.reader import read_log
+from wifibot_power.simulate import SimConfig, iter_simulation, realism
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _load(name: str, path: Path):
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+corpora = _load("corpora", ROOT / "benchmarks" / "corpora.py")
+
+
+@pytest.fixture(scope="module")
+def sim():
+    """One short motion run (2 m at 0.5 m/s, ~80 000 samples at 0.1024 ms)."""
+    config = SimConfig(
+        speeds_mps=(0.5,), trips=((2.0, 1),), repeats=1, modes=(), seed=7, **realism("lab")
+    )
+    return next(iter(iter_simulation(config)))
+
+
+#: layout -> (format the reader must detect, power read as voltage x current?)
+EXPECTED = {
+    "time_power": ("wbpower-csv", False),
+    "time_voltage_current": ("wbpower-csv", True),
+    "n6705": ("n6705", True),
+    "full_gz": ("wbpower-csv", False),
+    "power": ("wbpower-csv", False),
+}
+
+
+@pytest.mark.parametrize("layout", sorted(corpora.LAYOUTS))
+def test_each_layout_reads_back_as_its_format_with_the_simulated_power(
+    layout: str, sim, tmp_path: Path
+) -> None:
+    fmt, product = EXPECTED[layout]
+    # what rounding the written values allows: power has 4 decimals (<= 5e-5 W off); volts
+    # with 4 and amps with 5 decimals make V x I off by up to max|I| x 5e-5 + max|V| x 5e-6
+    current_A = sim.run.power_W / sim.voltage_V
+    tolerance_W = 5e-5 + 1e-12
+    if product:
+        tolerance_W = np.max(np.abs(current_A)) * 5e-5 + np.max(sim.voltage_V) * 5e-6 + 1e-8
+    meta = sim.run.meta
+    suffix, data = corpora.LAYOUTS[layout](meta, sim.run.power_W, sim.voltage_V)
+    path = tmp_path / f"{meta.run_id}{suffix}"
+    path.write_bytes(data)
+    run = read_log(path)
+    assert run.format == fmt
+    assert run.samples == sim.run.power_W.size
+    assert run.sample_period_s == pytest.approx(meta.sample_period_s, rel=1e-9)
+    assert np.max(np.abs(run.power_W - sim.run.power_W)) <= tolerance_W
+    if fmt == "wbpower-csv":  # the canonical logs carry their metadata; the N6705 has none
+        assert (run.meta.speed_mps, run.meta.distance_m) == (0.5, 2.0)
+
+
+def test_n6705_layout_has_the_real_exports_structure(sim, real_n6705: Path) -> None:
+    """Same preamble line for line (title, blank, three quoted lines, blank, quoted header
+    names), same line ends; only the values and the output numbers differ."""
+    _, data = corpora.n6705(sim.run.meta, sim.run.power_W, sim.voltage_V)
+    ours = data.decode().split("\n")[:8]
+    real = real_n6705.read_bytes().decode().split("\n")[:8]
+    assert b"\r" not in data and b"\r" not in real_n6705.read_bytes()
+
+    def shape(line: str) -> str:
+        if not line:
+            return "blank"
+        if line.startswith('"'):
+            return "quoted:" + line.split(":", 1)[0]
+        if line.startswith("Sample,"):
+            return "header:" + ",".join(
+                c[:1] + c[1:].rstrip(' 0123456789"') for c in line.split(",")
+            )
+        return "first" if line.startswith("N6705") else "data:" + str(line.count(","))
+
+    assert [shape(x) for x in ours] == [shape(x) for x in real]
+
+
+def test_quick_subset_keeps_the_first_repeat_and_its_manifest_rows(tmp_path: Path) -> None:
+    folder = tmp_path / "full"
+    folder.mkdir()
+    names = ["v0.10_d2_s1_r1.csv", "v0.10_d2_s1_r2.csv", "idle_r1.csv", "idle_r2.csv"]
+    for name in names:
+        (folder / name).write_text("x\n")
+    (folder / "runs.csv").write_text("file,run_id\n" + "".join(f"{n},{n[:-4]}\n" for n in names))
+    sub = corpora.quick_subset(folder, tmp_path / "quick")
+    assert sorted(p.name for p in corpora.log_files(sub)) == ["idle_r1.csv", "v0.10_d2_s1_r1.csv"]
+    rows = (sub / "runs.csv").read_text().splitlines()
+    assert rows == ["file,run_id", "v0.10_d2_s1_r1.csv,v0.10_d2_s1_r1", "idle_r1.csv,idle_r1"]
