@@ -45,6 +45,8 @@ _SCAN_BYTES = 1 << 20
 UTF8_BOM = b"\xef\xbb\xbf"
 
 LINE_END = re.compile(rb"\r\n|\r|\n")
+#: `LINE_END` for decoded text.
+_TEXT_LINE_END = re.compile(r"\r\n|\r|\n")
 
 _COLUMN_IN_MESSAGE = re.compile(r"column #(\d+)")
 
@@ -167,11 +169,6 @@ class TextLayout:
     decimal_comma: bool
 
 
-def split_lines(data: bytes) -> list[bytes]:
-    """The lines of `data`, split at the line ends pyarrow knows (str.splitlines knows more)."""
-    return LINE_END.split(data)
-
-
 def head_ends_cut(head: bytes) -> bool:
     """Whether the head (`Content.head`, up to `HEAD_BYTES` + 1) is the whole content and its
     last line has no line end."""
@@ -190,7 +187,7 @@ def head_lines(path: Path, content: Content, head: bytes) -> list[str]:
     if b"\x00" in head:
         raise not_a_log(path, "binary data")
     try:
-        head.decode("utf-8")
+        text = head.decode("utf-8")
     except UnicodeDecodeError as exc:
         if exc.start < len(head) - 4:  # not just a multi-byte char cut by the head limit
             line = head[: exc.start].count(b"\n") + 1
@@ -200,9 +197,11 @@ def head_lines(path: Path, content: Content, head: bytes) -> list[str]:
                 where=f"line {line}",
                 fix="save the file as UTF-8 (or plain ASCII) text",
             ) from None
-        head = head[: exc.start]
-    # line ends are ASCII bytes, never inside a multi-byte character: split, then decode
-    lines = [line.decode("utf-8") for line in split_lines(head)]
+        text = head[: exc.start].decode("utf-8")
+    # line ends are ASCII bytes, never inside a multi-byte character: decode once, then split
+    # at the same line ends (a plain split at \n when there is no \r: ~10x faster than the
+    # pattern on the 64 KiB head, which is most of reading the head)
+    lines = text.split("\n") if "\r" not in text else _TEXT_LINE_END.split(text)
     if more:
         lines = lines[:-1]  # the last line of the head may be cut by the head limit
     return lines
