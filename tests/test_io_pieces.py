@@ -71,7 +71,8 @@ def test_many_pieces_of_a_good_log(tmp_path, piece):
     index = np.arange(2000, dtype=np.float64)
     index[1000:] += 5
     power_W = 23.0 + (index % 7) / 10
-    text = HEAD + "".join(f"{t:.3f},{p:.1f}\r\n" for t, p in zip(index * 1e-3, power_W, strict=True))
+    rows = zip(index * 1e-3, power_W, strict=True)
+    text = HEAD + "".join(f"{t:.3f},{p:.1f}\r\n" for t, p in rows)
     plain, packed = _both(tmp_path, text, piece, 8)
     assert packed == plain
     kind, (time_s, read_W, problems) = packed
