@@ -9,13 +9,19 @@ reported as medians, and their ratio. `read_log` here includes the run's identit
 pyarrow's own decompression, as `read_csv` of its path does. docs/reading-speed.md shows the
 figures.
 
-Usage: `.venv/bin/python benchmarks/reading_speed.py DIR [DIR ...] [--repeats N] [--profile]`
+With `--fit`, the second column is `fit_logs(DIR, jobs=1)` (the whole of `wbpower fit` on
+one core, bar writing its outputs) less the CPU time spent segmenting (`segment_checked`,
+timed around each call): what the reader and the per-run work cost beside the parse.
+
+Usage: `.venv/bin/python benchmarks/reading_speed.py DIR [DIR ...] [--repeats N] [--profile]
+[--fit]`
 """
 
 from __future__ import annotations
 
 import argparse
 import cProfile
+import gzip
 import pstats
 import statistics
 import time
@@ -35,14 +41,22 @@ def _files(folder: Path) -> list[Path]:
 
 
 def _skip(path: Path) -> int:
-    """Lines before the header: the '#' lines, or an N6705 export's preamble."""
-    opener = __import__("gzip").open if path.name.endswith(".gz") else open
+    """Lines before the header: the '#' lines (as benchmarks/run.py skips them), or an N6705
+    export's preamble (up to its 'Sample,...' line)."""
+    opener = gzip.open if path.name.endswith(".gz") else open
     with opener(path, "rb") as f:
-        for index, line in enumerate(f):
-            if line.startswith(b"#") or (line.strip() and b"," not in line) or not line.strip():
-                continue
-            return index
-    return 0
+        first = f.readline()
+        if first.startswith(b"N6705"):
+            for index, line in enumerate(f, start=1):
+                if line.startswith(b"Sample"):
+                    return index
+        skip = 1 if first.startswith(b"#") else 0
+        if skip:
+            for line in f:
+                if not line.startswith(b"#"):
+                    break
+                skip += 1
+    return skip
 
 
 def bare(files: list[Path], skips: dict[Path, int]) -> int:
@@ -62,6 +76,30 @@ def ours(files: list[Path], overrides: dict[str, dict[str, str]]) -> int:
     return rows
 
 
+SEGMENT_CPU_S = [0.0]
+
+
+def fit_less_segmentation(folder: Path) -> int:
+    """`fit_logs(folder, jobs=1)`; the CPU time of segmenting is added to SEGMENT_CPU_S."""
+    import wifibot_power.fit as fit
+
+    segment = fit.segment_checked
+
+    def timed(*args, **kwargs):
+        start = time.process_time()
+        try:
+            return segment(*args, **kwargs)
+        finally:
+            SEGMENT_CPU_S[0] += time.process_time() - start
+
+    fit.segment_checked = timed
+    try:
+        fit.fit_logs(folder, jobs=1)
+    finally:
+        fit.segment_checked = segment
+    return 0
+
+
 def _timed(work, *args) -> tuple[float, float]:
     wall, cpu = time.perf_counter(), time.process_time()
     work(*args)
@@ -73,6 +111,7 @@ def main() -> None:
     parser.add_argument("folders", nargs="+", type=Path)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--profile", action="store_true")
+    parser.add_argument("--fit", action="store_true", help="fit_logs less segmentation")
     args = parser.parse_args()
     print("| corpus | MB | bare wall s | read wall s | x | bare CPU s | read CPU s | x |")
     print("|---|---|---|---|---|---|---|---|")
@@ -90,11 +129,17 @@ def main() -> None:
             profile.runcall(ours, files, overrides)
             pstats.Stats(profile).sort_stats("tottime").print_stats(25)
             continue
-        bare(files, skips), ours(files, overrides)  # warm the page cache and the imports
+        work, work_args = (
+            (fit_less_segmentation, (folder,)) if args.fit else (ours, (files, overrides))
+        )
+        bare(files, skips), work(*work_args)  # warm the page cache and the imports
         timings: dict[str, list[tuple[float, float]]] = {"bare": [], "ours": []}
         for _ in range(args.repeats):
             timings["bare"].append(_timed(bare, files, skips))
-            timings["ours"].append(_timed(ours, files, overrides))
+            SEGMENT_CPU_S[0] = 0.0
+            wall_s, cpu_s = _timed(work, *work_args)
+            # segmentation ran on this one thread: its CPU time is wall time too
+            timings["ours"].append((wall_s - SEGMENT_CPU_S[0], cpu_s - SEGMENT_CPU_S[0]))
         med = {
             k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v))
             for k, v in timings.items()
