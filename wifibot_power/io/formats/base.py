@@ -12,6 +12,7 @@ import csv
 import re
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from itertools import islice
 from pathlib import Path
 from typing import ClassVar
 
@@ -115,8 +116,8 @@ def sniff_data(
 ) -> bool:
     """Whether numbers use a decimal comma; a first data line whose field count does not match
     the header (e.g. decimal commas in a ','-separated file) is an error here, with a hint."""
-    data = [(k, ln) for k, ln in enumerate(lines[header_index + 1 :], start=header_index + 2) if ln]
-    data = data[:_SNIFF_LINES]
+    rows = enumerate(lines[header_index + 1 :], start=header_index + 2)
+    data = list(islice(((k, ln) for k, ln in rows if ln), _SNIFF_LINES))
     if not data:
         return False
     line_no, first = data[0]
