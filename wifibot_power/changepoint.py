@@ -292,6 +292,60 @@ class _PolyCost:
         sse = (self.py2[j] - self.py2[i]) - explained
         return np.maximum(sse, 0.0), np.stack(coef, axis=-1)
 
+    def fit_splits(
+        self, start: int, stop: int, deg: int, left: bool
+    ) -> tuple[np.ndarray, list[np.ndarray]]:
+        """`fit` of every piece [0, s) (`left`) or [s, n) (right) for s = start..stop-1, the
+        same numbers as `fit(0, s, deg)` / `fit(s, n, deg)`, by slices of the prefix sums
+        and of the G⁻¹ table instead of gathers (no index arrays, no stacked coefficients:
+        `best_split` calls this twice per window, most of its cost). Returns the SSE and
+        the coefficients as one array per power."""
+        m = deg + 1
+        n = self.n
+        s = np.arange(start, stop, dtype=np.int64)
+        if left:
+            # sums over [0, s): prefix[s] - prefix[0], and prefix[0] is 0
+            sums = [self.puy[q][start:stop] for q in range(m)]
+            length = s
+            y2 = self.py2[start:stop]
+        else:
+            sums = [self.puy[q][n] - self.puy[q][start:stop] for q in range(m)]
+            length = n - s
+            y2 = self.py2[n] - self.py2[start:stop]
+        rhs = [sums[0]]
+        if m > 1:
+            # as in `fit`: -u_c = (n - i - j) / 2 / scale; i + j is s (left) or s + n (right)
+            shift = (((n - s) if left else (-s)) * 0.5) / self.scale
+            ratio = self.scale / length
+            shift_pow = [None, shift]
+            ratio_pow = [None, ratio]
+            for _ in range(2, m):
+                shift_pow.append(shift_pow[-1] * shift)
+                ratio_pow.append(ratio_pow[-1] * ratio)
+            for p in range(1, m):
+                acc = shift_pow[p] * sums[0]
+                for q in range(1, p):
+                    acc += math.comb(p, q) * shift_pow[p - q] * sums[q]
+                rhs.append((sums[p] + acc) * ratio_pow[p])
+        # the lengths run start..stop-1 (left) or n-start down to n-stop+1 (right)
+        lo_len, hi_len = (start, stop) if left else (n - stop + 1, n - start + 1)
+        table = _gram_inverse(deg, hi_len)
+        inverse = {
+            key: (row[lo_len:hi_len] if left else row[lo_len:hi_len][::-1])
+            for key, row in table.items()
+        }
+        coef = []
+        for p in range(m):
+            c_p = inverse[p, p % 2] * rhs[p % 2]
+            for q in range(p % 2 + 2, m, 2):
+                c_p = c_p + inverse[p, q] * rhs[q]
+            coef.append(c_p)
+        explained = coef[0] * rhs[0]
+        for p in range(1, m):
+            explained = explained + coef[p] * rhs[p]
+        sse = y2 - explained
+        return np.maximum(sse, 0.0), coef
+
     def value(self, coef: np.ndarray, x: float) -> float:
         """The piece at x (its own basis: -1/2 at its first sample's start edge, +1/2 at its
         last one's end edge) [W]."""
@@ -323,29 +377,34 @@ def best_split(
     window = np.asarray(y[lo:hi], dtype=np.float64)
     cost = _PolyCost(window, max(deg_left, deg_right))
     n = window.size
-    splits = np.arange(min_len, n - min_len + 1)
-    sse_left, coef_left = cost.fit(0, splits, deg_left)
-    sse_right, coef_right = cost.fit(splits, n, deg_right)
+    # every split s = min_len .. n - min_len: left piece [0, s), right piece [s, n)
+    start, stop = min_len, n - min_len + 1
+    sse_left, coef_left = cost.fit_splits(start, stop, deg_left, left=True)
+    sse_right, coef_right = cost.fit_splits(start, stop, deg_right, left=False)
     total = sse_left + sse_right
     if jump_sign:
         # the split's edge is x = +1/2 of the left piece and x = -1/2 of the right one
-        # (einsum, not @: no BLAS threads, see `block_means`)
-        left_end = np.einsum("np,p->n", coef_left, 0.5 ** np.arange(deg_left + 1))
-        right_start = np.einsum("np,p->n", coef_right, (-0.5) ** np.arange(deg_right + 1))
-        allowed = np.sign(right_start - left_end) * jump_sign >= 0
+        left_end = coef_left[0]
+        for p in range(1, deg_left + 1):
+            left_end = left_end + coef_left[p] * 0.5**p
+        right_start = coef_right[0]
+        for p in range(1, deg_right + 1):
+            right_start = right_start + coef_right[p] * (-0.5) ** p
+        allowed = (right_start - left_end) * jump_sign >= 0
         if allowed.any():
             total = np.where(allowed, total, np.inf)
     best = int(np.argmin(total))
-    k = int(splits[best])
+    left_best = np.array([c[best] for c in coef_left])
+    right_best = np.array([c[best] for c in coef_right])
     sse_one, _ = cost.fit(0, n, max(deg_left, deg_right))
     return Split(
-        index=lo + k,
+        index=lo + start + best,
         sse=float(total[best]),
         sse_one_piece=float(sse_one[0]),
-        left_end_W=cost.value(coef_left[best], 0.5),
-        right_start_W=cost.value(coef_right[best], -0.5),
-        left_coef=tuple(float(c) for c in coef_left[best]),
-        right_coef=tuple(float(c) for c in coef_right[best]),
+        left_end_W=cost.value(left_best, 0.5),
+        right_start_W=cost.value(right_best, -0.5),
+        left_coef=tuple(float(c) for c in left_best),
+        right_coef=tuple(float(c) for c in right_best),
     )
 
 
