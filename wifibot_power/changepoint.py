@@ -62,7 +62,21 @@ def robust_sigma_W(y: np.ndarray) -> float:
     if y.size < 3:
         return 0.0
     d = np.diff(y)
-    return float(MAD_TO_SIGMA * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
+    centre = _median_in_place(d)
+    np.subtract(d, centre, out=d)
+    np.abs(d, out=d)
+    return float(MAD_TO_SIGMA * _median_in_place(d) / np.sqrt(2.0))
+
+
+def _median_in_place(x: np.ndarray) -> float:
+    """`numpy.median` of a 1-d float array that may be reordered (no copy): the same
+    value (the middle one, or the mean of the two middle ones)."""
+    k = x.size // 2
+    if x.size % 2:
+        x.partition(k)
+        return float(x[k])
+    x.partition((k - 1, k))
+    return float((x[k - 1] + x[k]) / 2.0)
 
 
 def jump_statistic_W(y: np.ndarray, half_width: int) -> np.ndarray:
@@ -148,7 +162,6 @@ class Split:
 
     index: int
     sse: float
-    sse_one_piece: float
     left_end_W: float
     right_start_W: float
     left_coef: tuple[float, ...] = ()
@@ -396,11 +409,9 @@ def best_split(
     best = int(np.argmin(total))
     left_best = np.array([c[best] for c in coef_left])
     right_best = np.array([c[best] for c in coef_right])
-    sse_one, _ = cost.fit(0, n, max(deg_left, deg_right))
     return Split(
         index=lo + start + best,
         sse=float(total[best]),
-        sse_one_piece=float(sse_one[0]),
         left_end_W=cost.value(left_best, 0.5),
         right_start_W=cost.value(right_best, -0.5),
         left_coef=tuple(float(c) for c in left_best),

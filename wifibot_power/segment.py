@@ -477,7 +477,11 @@ def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
             file=run.file,
             fix="a motion run needs idle before and after the motion",
         )
-    coarse = _coarse_motion(y, block_dt, max(1, run.meta.steps), params)
+    # 10 ms means and their noise, shared by the coarse search and the doubts
+    group = max(1, round(0.01 / block_dt))
+    y10 = block_means(y, group)
+    sigma10 = robust_sigma_W(y10)
+    coarse = _coarse_motion(y, y10, group, sigma10, block_dt, max(1, run.meta.steps), params)
     if not coarse:
         raise LogError(
             "no motion found: power never rises clearly above the idle level (read from "
@@ -512,13 +516,15 @@ def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
             speed = run.meta.speed_mps if name == "cruise" else None
             phases.append(_phase(run, number, name, i_start, i_end, speed))
     spikes = tuple(_start_spikes(run, y, block, sigma_b, steps))
-    doubts = _motion_doubts(run, y, block_dt, bounds, len(steps), params)
+    doubts = _motion_doubts(run, y10, group, sigma10, block_dt, bounds, len(steps), params)
     return Segmentation(run.meta.run_id, tuple(phases), spikes, tuple(doubts))
 
 
 def _motion_doubts(
     run: Run,
-    y: np.ndarray,
+    y10: np.ndarray,
+    group: int,
+    sigma10: float,
     block_dt: float,
     bounds: list[tuple[int, int, str, int]],
     steps_found: int,
@@ -540,13 +546,10 @@ def _motion_doubts(
        coast on, unseen (shorted motors, free wheel);
     7. the step count against the metadata.
     """
-    group = max(1, round(0.01 / block_dt))
-    y10 = block_means(y, group)
     dt10 = group * block_dt
     m = y10.size
     if m < 10:
         return []
-    sigma10 = robust_sigma_W(y10)
     # each phase in 10 ms means (its whole 10 ms means only)
     spans = [(-(-a // group), min(b // group, m), name, k) for a, b, name, k in bounds]
     # idle: the lowest of the idle phases' medians (an "idle" holding motion is higher)
@@ -697,15 +700,19 @@ def _longest_run(mask: np.ndarray) -> tuple[int, int]:
 
 
 def _coarse_motion(
-    y: np.ndarray, block_dt: float, steps: int, params: MotionParams
+    y: np.ndarray,
+    y10: np.ndarray,
+    group: int,
+    sigma10: float,
+    block_dt: float,
+    steps: int,
+    params: MotionParams,
 ) -> list[tuple[int, int]]:
-    """Motion stretches [a, b) in block indices: 10 ms means above idle, N of them."""
-    group = max(1, round(0.01 / block_dt))
-    y10 = block_means(y, group)
+    """Motion stretches [a, b) in block indices: 10 ms means above idle, N of them (`y10`:
+    means of `group` blocks, noise sd `sigma10`)."""
     probe = max(3, round(params.idle_probe_s / (group * block_dt)))
     probe = min(probe, max(3, y10.size // 10))
     idle_W = min(float(np.median(y10[:probe])), float(np.median(y10[-probe:])))
-    sigma10 = robust_sigma_W(y10)
     threshold = idle_W + max(params.motion_z * sigma10, params.min_excess_W)
     above = np.concatenate(([False], y10 > threshold, [False]))
     edges = np.flatnonzero(np.diff(above.astype(np.int8)))
