@@ -99,14 +99,18 @@ def jump_statistic_W(y: np.ndarray, half_width: int) -> np.ndarray:
     k = np.arange(w, n - w + 1)
     s_xx = w * (w * w - 1) / 12.0
 
-    def line_at_boundary(start: np.ndarray) -> np.ndarray:
-        sum_y = s0[start + w] - s0[start]
-        sum_jy = s1[start + w] - s1[start]
+    def line_at_boundary(first: int) -> np.ndarray:
+        # the lines over [start, start + w) for start = first + 0, 1, ...: prefix sums by
+        # slices (not gathers)
+        start = k - (w - first)
+        stop = first + k.size
+        sum_y = s0[first + w : stop + w] - s0[first:stop]
+        sum_jy = s1[first + w : stop + w] - s1[first:stop]
         mean_j = start + (w - 1) / 2.0
         slope = (sum_jy - mean_j * sum_y) / s_xx
         return sum_y / w + slope * (k - 0.5 - mean_j)
 
-    out[k] = line_at_boundary(k) - line_at_boundary(k - w)
+    out[w : n - w + 1] = line_at_boundary(w) - line_at_boundary(0)
     return out
 
 
@@ -142,10 +146,22 @@ def sliding_max(values: np.ndarray, size: int) -> np.ndarray:
 def peaks(score: np.ndarray, threshold: float, separation: int) -> np.ndarray:
     """Indices of local maxima of `score` above `threshold`, at least `separation` apart
     (greedy from the largest)."""
-    s = np.nan_to_num(np.asarray(score, dtype=np.float64), nan=-np.inf)
+    s = np.asarray(score, dtype=np.float64)
     size = 2 * max(1, int(separation)) + 1
-    local = (s == sliding_max(s, size)) & (s > threshold)
-    candidates = np.flatnonzero(local)
+    above = np.flatnonzero(s > threshold)  # NaN is never above
+    if above.size * size <= s.size:
+        # few above the threshold (the usual case): the window maximum of those alone, from
+        # a gather of their windows (NaN and beyond the ends: -inf), not a sliding maximum
+        # of every index; the same local maxima
+        half = size // 2
+        padded = np.full(s.size + 2 * half, -np.inf)
+        padded[half : half + s.size] = s
+        windows = padded[above[:, None] + np.arange(size)]
+        candidates = above[s[above] == np.fmax.reduce(windows, axis=1)]
+    else:
+        s = np.nan_to_num(s, nan=-np.inf)
+        local = (s == sliding_max(s, size)) & (s > threshold)
+        candidates = np.flatnonzero(local)
     kept: list[int] = []
     for idx in candidates[np.argsort(-s[candidates], kind="stable")]:
         if all(abs(int(idx) - k) >= separation for k in kept):
