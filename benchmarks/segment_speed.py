@@ -196,6 +196,36 @@ def timing(files: list[Path], rev: str, repeats: int, largest: int) -> None:
         )
 
 
+def share(folder: Path, rounds: int) -> None:
+    """Print segmentation's share of `fit_logs(folder, jobs=1)`: CPU time of the whole call
+    and of the `segment_run` calls inside it (the segmenter wrapped by a timer), median of
+    `rounds` calls (the first, which warms imports and the page cache, not counted)."""
+    from wifibot_power.fit import fit_logs
+
+    spent = [0.0]
+
+    def timed(run: Run):
+        start = time.process_time()
+        try:
+            return segment_run(run)
+        finally:
+            spent[0] += time.process_time() - start
+
+    totals, segs = [], []
+    for k in range(rounds + 1):
+        spent[0] = 0.0
+        start = time.process_time()
+        fit_logs(folder, segmenter=timed, jobs=1, keep_doubtful=True)
+        if k:
+            totals.append(time.process_time() - start)
+            segs.append(spent[0])
+    total, seg = float(np.median(totals)), float(np.median(segs))
+    print(
+        f"fit_logs({folder}, jobs=1): {total:.2f} s CPU, segmentation {seg:.2f} s "
+        f"({100 * seg / total:.0f}%), median of {rounds}"
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("logs", nargs="+", help="log files or folders")
@@ -204,6 +234,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--time", action="store_true", help="time before / after")
     parser.add_argument("--before", default="HEAD", help="git revision of the 'before' code")
     parser.add_argument("--repeats", type=int, default=9, help="calls per run and code")
+    parser.add_argument("--share", action="store_true", help="share of fit_logs (a folder)")
     parser.add_argument("--largest", type=int, default=6, help="time the N largest runs")
     args = parser.parse_args(argv)
     files = log_files(args.logs)
@@ -215,6 +246,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{len(found)} answers written to {args.record}")
         if args.compare:
             status = 1 if compare(json.loads(args.compare.read_text()), found) else 0
+    if args.share:
+        for folder in args.logs:
+            share(Path(folder), args.repeats)
     if args.time:
         timing(files, args.before, args.repeats, args.largest)
     return status
