@@ -268,7 +268,8 @@ class _PolyCost:
             raise ValueError(f"polynomial pieces up to degree 3, not {max_deg}")
         n = y.size
         self.n = n
-        self.offset = float(np.mean(y)) if n else 0.0
+        # np.mean's number (pairwise sum / count) without its Python-level overhead
+        self.offset = float(np.add.reduce(y) / n) if n else 0.0
         yc = y - self.offset
         self.scale = float(max(n, 1))
         u = (np.arange(n, dtype=np.float64) - (n - 1) / 2.0) / self.scale

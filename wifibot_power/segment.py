@@ -557,7 +557,7 @@ def _motion_doubts(
         float(np.median(y10[a:b])) for a, b, name, _ in spans if name == "idle" and b > a
     ]
     idle_W = min(idle_levels) if idle_levels else float(y10.min())
-    cruise_W = [float(np.mean(y10[a:b])) for a, b, name, _ in spans if name == "cruise" and b > a]
+    cruise_W = [_mean(y10[a:b]) for a, b, name, _ in spans if name == "cruise" and b > a]
     swing_W = float(np.median(cruise_W)) - idle_W if cruise_W else float(y10.max()) - idle_W
     swing_W = max(swing_W, params.min_excess_W)
     # "well above idle": clear of noise and a fifth of the motion's swing
@@ -613,12 +613,9 @@ def _motion_doubts(
                 if split is not None:
                     step_W = split.jump_W
                     sd = sigma10 * np.sqrt(1.0 / split.index + 1.0 / (b - a - split.index))
-                    slope, intercept = _line(values)
-                    line_resid = values - (intercept + slope * np.arange(b - a))
-                    beats_line = split.sse < float(np.einsum("i,i->", line_resid, line_resid))
                     scatter_W = np.sqrt(split.sse / (b - a))
                     bar_W = max(6.0 * sd, 2.0 * scatter_W, params.level_fraction * swing_W)
-                    if beats_line and abs(step_W) > bar_W:
+                    if abs(step_W) > bar_W and _beats_line(values, split.sse):
                         doubts.append(
                             f"{name_of(name, step)} holds two levels ({step_W:+.3g} W at "
                             f"{when(a + split.index):.3f} s): a second speed level inside "
@@ -840,7 +837,7 @@ def _first_strong_drop(
             x = np.arange(before.size, dtype=np.float64)
             resid = before - (intercept + slope * x)
             s_xx = before.size * (before.size**2 - 1) / 12.0
-            slope_sd = float(np.std(resid)) / np.sqrt(s_xx)
+            slope_sd = _std(resid) / np.sqrt(s_xx)
             if slope > 2.0 * slope_sd:
                 return int(k)
     return int(strong[0])
@@ -902,7 +899,7 @@ def _decel_start(
     slope, intercept = _line(y[t2:t3])
     end_W = intercept + slope * (t3 - t2 - 0.5)
     # the mean over the whole cruise: a ripple averages out of it
-    cruise_W = float(np.mean(y[t1 + 2 : t2 - 1])) if t2 - t1 > 4 else float(y[t2 - 1])
+    cruise_W = _mean(y[t1 + 2 : t2 - 1]) if t2 - t1 > 4 else float(y[t2 - 1])
     # after a wavy cruise the line over a short stop phase has the ripple's slope (a 1 W
     # ripple at 0.25 Hz rises 0.5 W over 0.3 s, the stop at 0.1 m/s falls 0.3 W): there
     # the clear drop that starts it and its end near idle must do
@@ -920,7 +917,26 @@ def _wavy(y: np.ndarray, sigma_b: float, t1: int, t3: int, group: int) -> bool:
         return False
     slope, intercept = _line(means)
     residual = means - (intercept + slope * np.arange(means.size, dtype=np.float64))
-    return float(np.std(residual)) > max(3.0 * sigma_b / np.sqrt(group), 0.1)
+    return _std(residual) > max(3.0 * sigma_b / np.sqrt(group), 0.1)
+
+
+def _mean(values: np.ndarray) -> float:
+    """`numpy.mean` of a 1-d float array, the same number (its pairwise sum over the count)
+    without its Python-level argument handling: this runs some 20 times per step."""
+    return float(np.add.reduce(values) / values.size)
+
+
+def _std(values: np.ndarray) -> float:
+    """`numpy.std` of a 1-d float array (population sd), the same number, as `_mean`."""
+    centred = values - np.add.reduce(values) / values.size
+    return float(np.sqrt(np.add.reduce(centred * centred) / values.size))
+
+
+def _beats_line(values: np.ndarray, sse: float) -> bool:
+    """Whether a fit of SSE `sse` beats one least-squares line through `values`."""
+    slope, intercept = _line(values)
+    line_resid = values - (intercept + slope * np.arange(values.size))
+    return sse < float(np.einsum("i,i->", line_resid, line_resid))
 
 
 def _line(y: np.ndarray) -> tuple[float, float]:
@@ -928,7 +944,7 @@ def _line(y: np.ndarray) -> tuple[float, float]:
     slope = sum (x - x̄)(y - ȳ) / S_xx with x = 0..n-1, x̄ = (n-1)/2, S_xx = n (n² - 1) / 12
     (what `numpy.polyfit(x, y, 1)` returns, without its general least-squares solve)."""
     n = y.size
-    mean_W = float(np.mean(y))
+    mean_W = _mean(y) if n else float(np.mean(y))
     if n < 2:
         return 0.0, mean_W
     x_centred = np.arange(n, dtype=np.float64) - (n - 1) / 2.0
