@@ -270,12 +270,12 @@ class _PolyCost:
         self.n = n
         # np.mean's number (pairwise sum / count) without its Python-level overhead
         self.offset = float(np.add.reduce(y) / n) if n else 0.0
-        yc = y - self.offset
         self.scale = float(max(n, 1))
         u = (np.arange(n, dtype=np.float64) - (n - 1) / 2.0) / self.scale
         terms = np.empty((max_deg + 2, n + 1))
         terms[:, 0] = 0.0
-        terms[0, 1:] = yc
+        yc = terms[0, 1:]
+        np.subtract(y, self.offset, out=yc)
         for q in range(1, max_deg + 1):
             np.multiply(terms[q - 1, 1:], u, out=terms[q, 1:])
         np.multiply(yc, yc, out=terms[-1, 1:])
@@ -332,18 +332,17 @@ class _PolyCost:
         the coefficients as one array per power."""
         m = deg + 1
         n = self.n
-        s = np.arange(start, stop, dtype=np.int64)
         if left:
             # sums over [0, s): prefix[s] - prefix[0], and prefix[0] is 0
             sums = [self.puy[q][start:stop] for q in range(m)]
-            length = s
             y2 = self.py2[start:stop]
         else:
             sums = [self.puy[q][n] - self.puy[q][start:stop] for q in range(m)]
-            length = n - s
             y2 = self.py2[n] - self.py2[start:stop]
         rhs = [sums[0]]
         if m > 1:
+            s = np.arange(start, stop, dtype=np.int64)
+            length = s if left else n - s
             # as in `fit`: -u_c = (n - i - j) / 2 / scale; i + j is s (left) or s + n (right)
             shift = (((n - s) if left else (-s)) * 0.5) / self.scale
             ratio = self.scale / length
@@ -360,15 +359,16 @@ class _PolyCost:
         # the lengths run start..stop-1 (left) or n-start down to n-stop+1 (right)
         lo_len, hi_len = (start, stop) if left else (n - stop + 1, n - start + 1)
         table = _gram_inverse(deg, hi_len)
-        inverse = {
-            key: (row[lo_len:hi_len] if left else row[lo_len:hi_len][::-1])
-            for key, row in table.items()
-        }
+
+        def inverse(p: int, q: int) -> np.ndarray:
+            row = table[p, q][lo_len:hi_len]
+            return row if left else row[::-1]
+
         coef = []
         for p in range(m):
-            c_p = inverse[p, p % 2] * rhs[p % 2]
+            c_p = inverse(p, p % 2) * rhs[p % 2]
             for q in range(p % 2 + 2, m, 2):
-                c_p = c_p + inverse[p, q] * rhs[q]
+                c_p = c_p + inverse(p, q) * rhs[q]
             coef.append(c_p)
         explained = coef[0] * rhs[0]
         for p in range(1, m):
@@ -376,7 +376,7 @@ class _PolyCost:
         sse = y2 - explained
         return np.maximum(sse, 0.0), coef
 
-    def value(self, coef: np.ndarray, x: float) -> float:
+    def value(self, coef: np.ndarray | list[float], x: float) -> float:
         """The piece at x (its own basis: -1/2 at its first sample's start edge, +1/2 at its
         last one's end edge) [W]."""
         return float(sum(c * x**p for p, c in enumerate(coef)) + self.offset)
@@ -424,8 +424,8 @@ def best_split(
         if allowed.any():
             total = np.where(allowed, total, np.inf)
     best = int(np.argmin(total))
-    left_best = np.array([c[best] for c in coef_left])
-    right_best = np.array([c[best] for c in coef_right])
+    left_best = [c[best] for c in coef_left]
+    right_best = [c[best] for c in coef_right]
     return Split(
         index=lo + start + best,
         sse=float(total[best]),
