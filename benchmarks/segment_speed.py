@@ -201,34 +201,46 @@ def timing(files: list[Path], rev: str, repeats: int, largest: int) -> None:
         )
 
 
-def share(folder: Path, rounds: int) -> None:
+def share(folder: Path, rounds: int, rev: str | None) -> None:
     """Print segmentation's share of `fit_logs(folder, jobs=1)`: CPU time of the whole call
     and of the `segment_run` calls inside it (the segmenter wrapped by a timer), median of
-    `rounds` calls (the first, which warms imports and the page cache, not counted)."""
+    `rounds` calls per code (after a first call that warms imports and the page cache);
+    with `rev`, that revision's segmentation and the working tree's alternate."""
     from wifibot_power.fit import fit_logs
 
-    spent = [0.0]
+    with tempfile.TemporaryDirectory() as tmp:
+        codes = {"after": segment_run}
+        if rev:
+            codes = {"before": load_before(rev, Path(tmp)).segment_run, **codes}
+        spent = [0.0]
 
-    def timed(run: Run):
-        start = time.process_time()
-        try:
-            return segment_run(run)
-        finally:
-            spent[0] += time.process_time() - start
+        def timed(segment):
+            def call(run: Run):
+                start = time.process_time()
+                try:
+                    return segment(run)
+                finally:
+                    spent[0] += time.process_time() - start
 
-    totals, segs = [], []
-    for k in range(rounds + 1):
-        spent[0] = 0.0
-        start = time.process_time()
-        fit_logs(folder, segmenter=timed, jobs=1, keep_doubtful=True)
-        if k:
-            totals.append(time.process_time() - start)
-            segs.append(spent[0])
-    total, seg = float(np.median(totals)), float(np.median(segs))
-    print(
-        f"fit_logs({folder}, jobs=1): {total:.2f} s CPU, segmentation {seg:.2f} s "
-        f"({100 * seg / total:.0f}%), median of {rounds}"
-    )
+            return call
+
+        totals: dict[str, list[float]] = {label: [] for label in codes}
+        segs: dict[str, list[float]] = {label: [] for label in codes}
+        fit_logs(folder, jobs=1, keep_doubtful=True)  # warm up
+        for _ in range(rounds):
+            for label, segment in codes.items():
+                spent[0] = 0.0
+                start = time.process_time()
+                fit_logs(folder, segmenter=timed(segment), jobs=1, keep_doubtful=True)
+                totals[label].append(time.process_time() - start)
+                segs[label].append(spent[0])
+        for label in codes:
+            total, seg = float(np.median(totals[label])), float(np.median(segs[label]))
+            name = f"{label} ({rev})" if label == "before" else label
+            print(
+                f"{name}: fit_logs({folder}, jobs=1) {total:.2f} s CPU, segmentation "
+                f"{seg:.2f} s ({100 * seg / total:.0f}%), median of {rounds}"
+            )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -253,7 +265,7 @@ def main(argv: list[str] | None = None) -> int:
             status = 1 if compare(json.loads(args.compare.read_text()), found) else 0
     if args.share:
         for folder in args.logs:
-            share(Path(folder), args.repeats)
+            share(Path(folder), args.repeats, args.before if args.before != "HEAD" else None)
     if args.time:
         timing(files, args.before, args.repeats, args.largest)
     return status
