@@ -92,10 +92,16 @@ def jump_statistic_W(y: np.ndarray, half_width: int) -> np.ndarray:
     out = np.full(n + 1, np.nan)
     if w < 2 or n < 2 * w:
         return out
-    yc = y - np.median(y)  # centred: keeps the prefix sums small (no cancellation)
+    # centred on the mean (pairwise sum / n, 20x cheaper than the median that was here: a
+    # jump is a difference of lines, the centre only keeps the prefix sums small)
+    yc = y - np.add.reduce(y) / n
     j = np.arange(n, dtype=np.float64)
-    s0 = np.concatenate(([0.0], np.cumsum(yc)))
-    s1 = np.concatenate(([0.0], np.cumsum(j * yc)))
+    s0 = np.empty(n + 1)
+    s1 = np.empty(n + 1)
+    s0[0] = s1[0] = 0.0
+    np.cumsum(yc, out=s0[1:])
+    np.multiply(j, yc, out=j)
+    np.cumsum(j, out=s1[1:])
     k = np.arange(w, n - w + 1)
     s_xx = w * (w * w - 1) / 12.0
 
