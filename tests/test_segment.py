@@ -26,6 +26,7 @@ from wifibot_power.changepoint import (
     detect_levels,
     jump_sd_factor,
     jump_statistic_W,
+    median,
     peaks,
     robust_sigma_W,
     sliding_max,
@@ -94,13 +95,15 @@ def test_peaks_is_its_definition_with_few_or_many_above_the_threshold() -> None:
         assert found == _peaks_by_definition(score, threshold, separation), trial
 
 
-def test_mean_and_sd_helpers_give_numpys_numbers() -> None:
+def test_mean_sd_and_median_helpers_give_numpys_numbers() -> None:
     rng = np.random.default_rng(5)
     for n in (1, 2, 7, 8, 9, 127, 128, 129, 1000, 4097):
         x = rng.normal(23.0, 3.0, n)
         # bit for bit: the segmentation must not move when these replace numpy.mean / std
         assert _mean(x) == float(np.mean(x))
         assert _std(x) == float(np.std(x))
+        assert median(x) == float(np.median(x))
+    assert np.isnan(median(np.array([])))
 
 
 def test_jump_statistic_noise_matches_its_sd_factor() -> None:

@@ -68,6 +68,14 @@ def robust_sigma_W(y: np.ndarray) -> float:
     return float(MAD_TO_SIGMA * _median_in_place(d) / np.sqrt(2.0))
 
 
+def median(values: np.ndarray) -> float:
+    """`numpy.median` of finite values, the same number, without its Python-level overhead
+    (a copy partitioned in place): segmentation takes some 20 medians per run. NaN for
+    no values, as numpy gives (without its warning)."""
+    x = np.array(values, dtype=np.float64)
+    return _median_in_place(x) if x.size else float("nan")
+
+
 def _median_in_place(x: np.ndarray) -> float:
     """`numpy.median` of a 1-d float array that may be reordered (no copy): the same
     value (the middle one, or the mean of the two middle ones)."""

@@ -49,6 +49,7 @@ from wifibot_power.changepoint import (
     detect_levels,
     jump_sd_factor,
     jump_statistic_W,
+    median,
     peaks,
     robust_sigma_W,
 )
@@ -268,7 +269,7 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     # standstill: its median reading and noise (0 and 0 for an encoder that reads 0)
     edge_half = round(params.edge_s / 2 / block_dt)
     v_edge = np.abs(_centred_mean(signed, edge_half))
-    standing_mps = float(np.median(v_edge[standing])) if standing.any() else 0.0
+    standing_mps = float(median(v_edge[standing])) if standing.any() else 0.0
     edge_sd = robust_sigma_W(signed[standing]) / np.sqrt(2 * edge_half + 1)
     floor = standing_mps + params.standing_z * edge_sd
     # each motion runs from the last standstill reading before it to the first after it
@@ -553,12 +554,10 @@ def _motion_doubts(
     # each phase in 10 ms means (its whole 10 ms means only)
     spans = [(-(-a // group), min(b // group, m), name, k) for a, b, name, k in bounds]
     # idle: the lowest of the idle phases' medians (an "idle" holding motion is higher)
-    idle_levels = [
-        float(np.median(y10[a:b])) for a, b, name, _ in spans if name == "idle" and b > a
-    ]
+    idle_levels = [float(median(y10[a:b])) for a, b, name, _ in spans if name == "idle" and b > a]
     idle_W = min(idle_levels) if idle_levels else float(y10.min())
     cruise_W = [_mean(y10[a:b]) for a, b, name, _ in spans if name == "cruise" and b > a]
-    swing_W = float(np.median(cruise_W)) - idle_W if cruise_W else float(y10.max()) - idle_W
+    swing_W = float(median(cruise_W)) - idle_W if cruise_W else float(y10.max()) - idle_W
     swing_W = max(swing_W, params.min_excess_W)
     # "well above idle": clear of noise and a fifth of the motion's swing
     on_W = idle_W + max(params.motion_z * sigma10, 0.2 * swing_W, params.min_excess_W)
@@ -573,16 +572,16 @@ def _motion_doubts(
 
     doubts: list[str] = []
     edge = min(5, m)
-    starts_moving = float(np.median(y10[:edge])) > on_W
-    ends_moving = float(np.median(y10[-edge:])) > on_W
+    starts_moving = float(median(y10[:edge])) > on_W
+    ends_moving = float(median(y10[-edge:])) > on_W
     if starts_moving:
         doubts.append(
-            f"the run starts moving (power {float(np.median(y10[:edge])) - idle_W:.3g} W above "
+            f"the run starts moving (power {float(median(y10[:edge])) - idle_W:.3g} W above "
             "idle from its first sample): its first acceleration is not in the log"
         )
     if ends_moving:
         doubts.append(
-            f"the run ends moving (power {float(np.median(y10[-edge:])) - idle_W:.3g} W above "
+            f"the run ends moving (power {float(median(y10[-edge:])) - idle_W:.3g} W above "
             "idle at its last sample): its last stop is not in the log"
         )
     for k, (a, b, name, step) in enumerate(spans):
@@ -709,7 +708,7 @@ def _coarse_motion(
     means of `group` blocks, noise sd `sigma10`)."""
     probe = max(3, round(params.idle_probe_s / (group * block_dt)))
     probe = min(probe, max(3, y10.size // 10))
-    idle_W = min(float(np.median(y10[:probe])), float(np.median(y10[-probe:])))
+    idle_W = min(float(median(y10[:probe])), float(median(y10[-probe:])))
     threshold = idle_W + max(params.motion_z * sigma10, params.min_excess_W)
     above = np.concatenate(([False], y10 > threshold, [False]))
     edges = np.flatnonzero(np.diff(above.astype(np.int8)))
@@ -895,7 +894,7 @@ def _decel_start(
         t2 = split.index if split else k
     if t3 - t2 < blocks(params.min_decel_s):
         return t3
-    idle_W = float(np.median(y[t3 : min(y.size, t3 + blocks(0.3))]))
+    idle_W = float(median(y[t3 : min(y.size, t3 + blocks(0.3))]))
     slope, intercept = _line(y[t2:t3])
     end_W = intercept + slope * (t3 - t2 - 0.5)
     # the mean over the whole cruise: a ripple averages out of it
@@ -978,7 +977,7 @@ def _start_spikes(
         # above the tail's own scatter, not only the analyser's: a ripple during the ramp
         # (sample_logs: 1 W) bends it, and a hump of the ripple at its start was taken for
         # a spike of 0.27 s (drawn in red on the README's trace figure)
-        tail_scatter_W = 1.4826 * float(np.median(np.abs(excess[seg.size // 2 :])))
+        tail_scatter_W = 1.4826 * float(median(np.abs(excess[seg.size // 2 :])))
         out = excess > 6.0 * max(sigma_b, tail_scatter_W) + 0.5
         if not out[0]:
             continue
