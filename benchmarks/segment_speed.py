@@ -12,12 +12,15 @@ moving any boundary. This script:
   (`time.process_time`), the median of `--repeats` calls, the code of a git revision
   (`--before REV`, loaded as a separate package from `git show`) and the working tree
   interleaved in one process on the same runs in memory, so the load of a shared machine
-  hits both alike. Prints ns per sample.
+  hits both alike. Prints ns per sample;
+- measures segmentation's **share** of `fit_logs(folder, jobs=1)` (`--share`, with
+  `--before REV` the two segmentations alternating), CPU time.
 
 Usage:
   python benchmarks/segment_speed.py LOGS... --record base.json
   python benchmarks/segment_speed.py LOGS... --compare base.json
   python benchmarks/segment_speed.py LOGS... --time --before 4e9e4af [--repeats 9]
+  python benchmarks/segment_speed.py FOLDER... --share --before 4e9e4af [--repeats 3]
 
 LOGS are files or folders (every *.csv, *.csv.gz, *.csv.zst in them, recursively); the
 real N6705C log (../shared/real_logs/n6705c_dlog1.csv) is read at 12.6 V like its test.

@@ -78,13 +78,35 @@ def median(values: np.ndarray) -> float:
 
 def _median_in_place(x: np.ndarray) -> float:
     """`numpy.median` of a 1-d float array that may be reordered (no copy): the same
-    value (the middle one, or the mean of the two middle ones)."""
-    k = x.size // 2
-    if x.size % 2:
-        x.partition(k)
-        return float(x[k])
-    x.partition((k - 1, k))
-    return float((x[k - 1] + x[k]) / 2.0)
+    value (the middle one, or the mean of the two middle ones).
+
+    A long array (the noise of a run's 1 ms blocks: ~100 k differences) is first narrowed
+    to a band of values that must hold the middle ones: the band is read off a sorted
+    sample of 2,048 values (± 4 sd of the sample median's rank), the values below it
+    counted, and only those inside it partitioned: exact, checked by the counts (else the
+    whole array is partitioned), and half the time of a partition of everything."""
+    n = x.size
+    k = n // 2
+    ranks = [k] if n % 2 else [k - 1, k]
+    if n > _NARROW_FROM:
+        sample = np.sort(x[:: n // 2048])
+        middle = sample.size // 2
+        reach = int(4.0 * np.sqrt(sample.size)) + 2
+        low = sample[max(middle - reach, 0)]
+        high = sample[min(middle + reach, sample.size - 1)]
+        below = int(np.count_nonzero(x < low))
+        band = x[(x >= low) & (x <= high)]
+        inside = [r - below for r in ranks]
+        if inside[0] >= 0 and inside[-1] < band.size:
+            x, ranks = band, inside
+    x.partition(ranks)
+    if n % 2:
+        return float(x[ranks[0]])
+    return float((x[ranks[0]] + x[ranks[1]]) / 2.0)
+
+
+#: arrays longer than this are narrowed before the median's partition (`_median_in_place`)
+_NARROW_FROM = 32_768
 
 
 def jump_statistic_W(y: np.ndarray, half_width: int) -> np.ndarray:
