@@ -26,13 +26,16 @@ from wifibot_power.changepoint import (
     detect_levels,
     jump_sd_factor,
     jump_statistic_W,
+    median,
+    peaks,
     robust_sigma_W,
+    sliding_max,
 )
 from wifibot_power.cli import app
 from wifibot_power.errors import LogError
 from wifibot_power.io.writer import format_log, write_log
 from wifibot_power.run import Run, RunMeta
-from wifibot_power.segment import segment_run
+from wifibot_power.segment import _mean, _std, segment_run
 from wifibot_power.simulate import EFFECTS, SimConfig, simulate_runs
 
 # -- generic layer -------------------------------------------------------------------------
@@ -61,6 +64,64 @@ def test_jump_statistic_is_the_step_and_ignores_trends_and_curvature() -> None:
     assert np.nanmax(np.abs(jump_statistic_W(0.3 * i, 10))) < 1e-9
     # x^2 about any boundary is an even part (same bias on both sides) plus a line: J = 0
     assert np.nanmax(np.abs(jump_statistic_W(0.01 * i**2, 10))) < 1e-9
+
+
+def _peaks_by_definition(score: np.ndarray, threshold: float, separation: int) -> list[int]:
+    """Local maxima over the centred window of 2 separation + 1 (NaN and beyond the ends
+    -inf) above the threshold, then greedy from the largest, at least `separation` apart:
+    every index tested with a sliding maximum, as `peaks` did before it gathered windows."""
+    s = np.nan_to_num(score, nan=-np.inf)
+    local = np.flatnonzero((s == sliding_max(s, 2 * separation + 1)) & (s > threshold))
+    kept: list[int] = []
+    for idx in local[np.argsort(-s[local], kind="stable")]:
+        if all(abs(int(idx) - k) >= separation for k in kept):
+            kept.append(int(idx))
+    return sorted(kept)
+
+
+def test_peaks_is_its_definition_with_few_or_many_above_the_threshold() -> None:
+    rng = np.random.default_rng(4)
+    for trial in range(400):
+        n = int(rng.integers(1, 300))
+        score = rng.normal(size=n)
+        if trial % 3 == 0:
+            score = np.round(score, 1)  # plateaus: equal neighbours
+        if trial % 4 == 0:
+            score[rng.integers(0, n, n // 5 + 1)] = np.nan
+        # thresholds from below every score (the sliding path) to above most (the gather)
+        threshold = float(rng.uniform(-3.0, 2.5))
+        separation = int(rng.integers(1, 25))
+        found = peaks(score, threshold, separation).tolist()
+        assert found == _peaks_by_definition(score, threshold, separation), trial
+
+
+def test_mean_sd_and_median_helpers_give_numpys_numbers() -> None:
+    rng = np.random.default_rng(5)
+    for n in (1, 2, 7, 8, 9, 127, 128, 129, 1000, 4097):
+        x = rng.normal(23.0, 3.0, n)
+        # bit for bit: the segmentation must not move when these replace numpy.mean / std
+        assert _mean(x) == float(np.mean(x))
+        assert _std(x) == float(np.std(x))
+        assert median(x) == float(np.median(x))
+    assert np.isnan(median(np.array([])))
+
+
+def test_long_medians_narrowed_first_are_numpys() -> None:
+    # past 32,768 values the median partitions only a band read off a sample: the same
+    # number whatever the order and the ties (sorted, rounded, half of them one value)
+    rng = np.random.default_rng(6)
+    for trial in range(60):
+        x = rng.normal(0.0, 1.0, int(rng.integers(32_000, 150_000)))
+        if trial % 3 == 0:
+            x = np.round(x, 2)
+        if trial % 4 == 0:
+            x = np.sort(x)[:: 1 if trial % 8 else -1].copy()
+        if trial % 5 == 0:
+            x[: x.size // 2] = 0.7
+        assert median(x) == float(np.median(x)), trial
+        d = np.diff(x)
+        mad = float(np.median(np.abs(d - np.median(d))))
+        assert robust_sigma_W(x) == float(1.4826 * mad / np.sqrt(2.0)), trial
 
 
 def test_jump_statistic_noise_matches_its_sd_factor() -> None:

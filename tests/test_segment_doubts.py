@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from realistic import Scenario, realistic_run
 
+from wifibot_power.changepoint import block_means, robust_sigma_W
 from wifibot_power.errors import LogError
 from wifibot_power.io.writer import format_log, write_log
 from wifibot_power.run import Run, RunMeta
@@ -164,7 +165,9 @@ def _trace(levels: list[tuple[float, float]], seed: int = 0) -> np.ndarray:
 
 def _doubts_of(power: np.ndarray, bounds: list[tuple[int, int, str, int]]) -> list[str]:
     run = _hand_run(power)
-    return _motion_doubts(run, power, 1e-3, bounds, 1, MotionParams())
+    # what _segment_motion hands it: 10 ms means of the 1 ms blocks and their noise
+    y10 = block_means(power, 10)
+    return _motion_doubts(run, y10, 10, robust_sigma_W(y10), 1e-3, bounds, 1, MotionParams())
 
 
 def test_doubt_steady_cruise_labelled_decel() -> None:

@@ -62,7 +62,51 @@ def robust_sigma_W(y: np.ndarray) -> float:
     if y.size < 3:
         return 0.0
     d = np.diff(y)
-    return float(MAD_TO_SIGMA * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
+    centre = _median_in_place(d)
+    np.subtract(d, centre, out=d)
+    np.abs(d, out=d)
+    return float(MAD_TO_SIGMA * _median_in_place(d) / np.sqrt(2.0))
+
+
+def median(values: np.ndarray) -> float:
+    """`numpy.median` of finite values, the same number, without its Python-level overhead
+    (a copy partitioned in place): segmentation takes some 20 medians per run. NaN for
+    no values, as numpy gives (without its warning)."""
+    x = np.array(values, dtype=np.float64)
+    return _median_in_place(x) if x.size else float("nan")
+
+
+def _median_in_place(x: np.ndarray) -> float:
+    """`numpy.median` of a 1-d float array that may be reordered (no copy): the same
+    value (the middle one, or the mean of the two middle ones).
+
+    A long array (the noise of a run's 1 ms blocks: ~100 k differences) is first narrowed
+    to a band of values that must hold the middle ones: the band is read off a sorted
+    sample of 2,048 values (± 4 sd of the sample median's rank), the values below it
+    counted, and only those inside it partitioned: exact, checked by the counts (else the
+    whole array is partitioned), and half the time of a partition of everything."""
+    n = x.size
+    k = n // 2
+    ranks = [k] if n % 2 else [k - 1, k]
+    if n > _NARROW_FROM:
+        sample = np.sort(x[:: n // 2048])
+        middle = sample.size // 2
+        reach = int(4.0 * np.sqrt(sample.size)) + 2
+        low = sample[max(middle - reach, 0)]
+        high = sample[min(middle + reach, sample.size - 1)]
+        below = int(np.count_nonzero(x < low))
+        band = x[(x >= low) & (x <= high)]
+        inside = [r - below for r in ranks]
+        if inside[0] >= 0 and inside[-1] < band.size:
+            x, ranks = band, inside
+    x.partition(ranks)
+    if n % 2:
+        return float(x[ranks[0]])
+    return float((x[ranks[0]] + x[ranks[1]]) / 2.0)
+
+
+#: arrays longer than this are narrowed before the median's partition (`_median_in_place`)
+_NARROW_FROM = 32_768
 
 
 def jump_statistic_W(y: np.ndarray, half_width: int) -> np.ndarray:
@@ -78,21 +122,31 @@ def jump_statistic_W(y: np.ndarray, half_width: int) -> np.ndarray:
     out = np.full(n + 1, np.nan)
     if w < 2 or n < 2 * w:
         return out
-    yc = y - np.median(y)  # centred: keeps the prefix sums small (no cancellation)
+    # centred on the mean (pairwise sum / n, 20x cheaper than the median that was here: a
+    # jump is a difference of lines, the centre only keeps the prefix sums small)
+    yc = y - np.add.reduce(y) / n
     j = np.arange(n, dtype=np.float64)
-    s0 = np.concatenate(([0.0], np.cumsum(yc)))
-    s1 = np.concatenate(([0.0], np.cumsum(j * yc)))
+    s0 = np.empty(n + 1)
+    s1 = np.empty(n + 1)
+    s0[0] = s1[0] = 0.0
+    np.cumsum(yc, out=s0[1:])
+    np.multiply(j, yc, out=j)
+    np.cumsum(j, out=s1[1:])
     k = np.arange(w, n - w + 1)
     s_xx = w * (w * w - 1) / 12.0
 
-    def line_at_boundary(start: np.ndarray) -> np.ndarray:
-        sum_y = s0[start + w] - s0[start]
-        sum_jy = s1[start + w] - s1[start]
+    def line_at_boundary(first: int) -> np.ndarray:
+        # the lines over [start, start + w) for start = first + 0, 1, ...: prefix sums by
+        # slices (not gathers)
+        start = k - (w - first)
+        stop = first + k.size
+        sum_y = s0[first + w : stop + w] - s0[first:stop]
+        sum_jy = s1[first + w : stop + w] - s1[first:stop]
         mean_j = start + (w - 1) / 2.0
         slope = (sum_jy - mean_j * sum_y) / s_xx
         return sum_y / w + slope * (k - 0.5 - mean_j)
 
-    out[k] = line_at_boundary(k) - line_at_boundary(k - w)
+    out[w : n - w + 1] = line_at_boundary(w) - line_at_boundary(0)
     return out
 
 
@@ -128,10 +182,22 @@ def sliding_max(values: np.ndarray, size: int) -> np.ndarray:
 def peaks(score: np.ndarray, threshold: float, separation: int) -> np.ndarray:
     """Indices of local maxima of `score` above `threshold`, at least `separation` apart
     (greedy from the largest)."""
-    s = np.nan_to_num(np.asarray(score, dtype=np.float64), nan=-np.inf)
+    s = np.asarray(score, dtype=np.float64)
     size = 2 * max(1, int(separation)) + 1
-    local = (s == sliding_max(s, size)) & (s > threshold)
-    candidates = np.flatnonzero(local)
+    above = np.flatnonzero(s > threshold)  # NaN is never above
+    if above.size * size <= s.size:
+        # few above the threshold (the usual case): the window maximum of those alone, from
+        # a gather of their windows (NaN and beyond the ends: -inf), not a sliding maximum
+        # of every index; the same local maxima
+        half = size // 2
+        padded = np.full(s.size + 2 * half, -np.inf)
+        padded[half : half + s.size] = s
+        windows = padded[above[:, None] + np.arange(size)]
+        candidates = above[s[above] == np.fmax.reduce(windows, axis=1)]
+    else:
+        s = np.nan_to_num(s, nan=-np.inf)
+        local = (s == sliding_max(s, size)) & (s > threshold)
+        candidates = np.flatnonzero(local)
     kept: list[int] = []
     for idx in candidates[np.argsort(-s[candidates], kind="stable")]:
         if all(abs(int(idx) - k) >= separation for k in kept):
@@ -148,7 +214,6 @@ class Split:
 
     index: int
     sse: float
-    sse_one_piece: float
     left_end_W: float
     right_start_W: float
     left_coef: tuple[float, ...] = ()
@@ -239,13 +304,14 @@ class _PolyCost:
             raise ValueError(f"polynomial pieces up to degree 3, not {max_deg}")
         n = y.size
         self.n = n
-        self.offset = float(np.mean(y)) if n else 0.0
-        yc = y - self.offset
+        # np.mean's number (pairwise sum / count) without its Python-level overhead
+        self.offset = float(np.add.reduce(y) / n) if n else 0.0
         self.scale = float(max(n, 1))
         u = (np.arange(n, dtype=np.float64) - (n - 1) / 2.0) / self.scale
         terms = np.empty((max_deg + 2, n + 1))
         terms[:, 0] = 0.0
-        terms[0, 1:] = yc
+        yc = terms[0, 1:]
+        np.subtract(y, self.offset, out=yc)
         for q in range(1, max_deg + 1):
             np.multiply(terms[q - 1, 1:], u, out=terms[q, 1:])
         np.multiply(yc, yc, out=terms[-1, 1:])
@@ -292,7 +358,61 @@ class _PolyCost:
         sse = (self.py2[j] - self.py2[i]) - explained
         return np.maximum(sse, 0.0), np.stack(coef, axis=-1)
 
-    def value(self, coef: np.ndarray, x: float) -> float:
+    def fit_splits(
+        self, start: int, stop: int, deg: int, left: bool
+    ) -> tuple[np.ndarray, list[np.ndarray]]:
+        """`fit` of every piece [0, s) (`left`) or [s, n) (right) for s = start..stop-1, the
+        same numbers as `fit(0, s, deg)` / `fit(s, n, deg)`, by slices of the prefix sums
+        and of the G⁻¹ table instead of gathers (no index arrays, no stacked coefficients:
+        `best_split` calls this twice per window, most of its cost). Returns the SSE and
+        the coefficients as one array per power."""
+        m = deg + 1
+        n = self.n
+        if left:
+            # sums over [0, s): prefix[s] - prefix[0], and prefix[0] is 0
+            sums = [self.puy[q][start:stop] for q in range(m)]
+            y2 = self.py2[start:stop]
+        else:
+            sums = [self.puy[q][n] - self.puy[q][start:stop] for q in range(m)]
+            y2 = self.py2[n] - self.py2[start:stop]
+        rhs = [sums[0]]
+        if m > 1:
+            s = np.arange(start, stop, dtype=np.int64)
+            length = s if left else n - s
+            # as in `fit`: -u_c = (n - i - j) / 2 / scale; i + j is s (left) or s + n (right)
+            shift = (((n - s) if left else (-s)) * 0.5) / self.scale
+            ratio = self.scale / length
+            shift_pow = [None, shift]
+            ratio_pow = [None, ratio]
+            for _ in range(2, m):
+                shift_pow.append(shift_pow[-1] * shift)
+                ratio_pow.append(ratio_pow[-1] * ratio)
+            for p in range(1, m):
+                acc = shift_pow[p] * sums[0]
+                for q in range(1, p):
+                    acc += math.comb(p, q) * shift_pow[p - q] * sums[q]
+                rhs.append((sums[p] + acc) * ratio_pow[p])
+        # the lengths run start..stop-1 (left) or n-start down to n-stop+1 (right)
+        lo_len, hi_len = (start, stop) if left else (n - stop + 1, n - start + 1)
+        table = _gram_inverse(deg, hi_len)
+
+        def inverse(p: int, q: int) -> np.ndarray:
+            row = table[p, q][lo_len:hi_len]
+            return row if left else row[::-1]
+
+        coef = []
+        for p in range(m):
+            c_p = inverse(p, p % 2) * rhs[p % 2]
+            for q in range(p % 2 + 2, m, 2):
+                c_p = c_p + inverse(p, q) * rhs[q]
+            coef.append(c_p)
+        explained = coef[0] * rhs[0]
+        for p in range(1, m):
+            explained = explained + coef[p] * rhs[p]
+        sse = y2 - explained
+        return np.maximum(sse, 0.0), coef
+
+    def value(self, coef: np.ndarray | list[float], x: float) -> float:
         """The piece at x (its own basis: -1/2 at its first sample's start edge, +1/2 at its
         last one's end edge) [W]."""
         return float(sum(c * x**p for p, c in enumerate(coef)) + self.offset)
@@ -323,29 +443,32 @@ def best_split(
     window = np.asarray(y[lo:hi], dtype=np.float64)
     cost = _PolyCost(window, max(deg_left, deg_right))
     n = window.size
-    splits = np.arange(min_len, n - min_len + 1)
-    sse_left, coef_left = cost.fit(0, splits, deg_left)
-    sse_right, coef_right = cost.fit(splits, n, deg_right)
+    # every split s = min_len .. n - min_len: left piece [0, s), right piece [s, n)
+    start, stop = min_len, n - min_len + 1
+    sse_left, coef_left = cost.fit_splits(start, stop, deg_left, left=True)
+    sse_right, coef_right = cost.fit_splits(start, stop, deg_right, left=False)
     total = sse_left + sse_right
     if jump_sign:
         # the split's edge is x = +1/2 of the left piece and x = -1/2 of the right one
-        # (einsum, not @: no BLAS threads, see `block_means`)
-        left_end = np.einsum("np,p->n", coef_left, 0.5 ** np.arange(deg_left + 1))
-        right_start = np.einsum("np,p->n", coef_right, (-0.5) ** np.arange(deg_right + 1))
-        allowed = np.sign(right_start - left_end) * jump_sign >= 0
+        left_end = coef_left[0]
+        for p in range(1, deg_left + 1):
+            left_end = left_end + coef_left[p] * 0.5**p
+        right_start = coef_right[0]
+        for p in range(1, deg_right + 1):
+            right_start = right_start + coef_right[p] * (-0.5) ** p
+        allowed = (right_start - left_end) * jump_sign >= 0
         if allowed.any():
             total = np.where(allowed, total, np.inf)
     best = int(np.argmin(total))
-    k = int(splits[best])
-    sse_one, _ = cost.fit(0, n, max(deg_left, deg_right))
+    left_best = [c[best] for c in coef_left]
+    right_best = [c[best] for c in coef_right]
     return Split(
-        index=lo + k,
+        index=lo + start + best,
         sse=float(total[best]),
-        sse_one_piece=float(sse_one[0]),
-        left_end_W=cost.value(coef_left[best], 0.5),
-        right_start_W=cost.value(coef_right[best], -0.5),
-        left_coef=tuple(float(c) for c in coef_left[best]),
-        right_coef=tuple(float(c) for c in coef_right[best]),
+        left_end_W=cost.value(left_best, 0.5),
+        right_start_W=cost.value(right_best, -0.5),
+        left_coef=tuple(float(c) for c in left_best),
+        right_coef=tuple(float(c) for c in right_best),
     )
 
 

@@ -49,6 +49,7 @@ from wifibot_power.changepoint import (
     detect_levels,
     jump_sd_factor,
     jump_statistic_W,
+    median,
     peaks,
     robust_sigma_W,
 )
@@ -268,7 +269,7 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     # standstill: its median reading and noise (0 and 0 for an encoder that reads 0)
     edge_half = round(params.edge_s / 2 / block_dt)
     v_edge = np.abs(_centred_mean(signed, edge_half))
-    standing_mps = float(np.median(v_edge[standing])) if standing.any() else 0.0
+    standing_mps = float(median(v_edge[standing])) if standing.any() else 0.0
     edge_sd = robust_sigma_W(signed[standing]) / np.sqrt(2 * edge_half + 1)
     floor = standing_mps + params.standing_z * edge_sd
     # each motion runs from the last standstill reading before it to the first after it
@@ -477,7 +478,11 @@ def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
             file=run.file,
             fix="a motion run needs idle before and after the motion",
         )
-    coarse = _coarse_motion(y, block_dt, max(1, run.meta.steps), params)
+    # 10 ms means and their noise, shared by the coarse search and the doubts
+    group = max(1, round(0.01 / block_dt))
+    y10 = block_means(y, group)
+    sigma10 = robust_sigma_W(y10)
+    coarse = _coarse_motion(y, y10, group, sigma10, block_dt, max(1, run.meta.steps), params)
     if not coarse:
         raise LogError(
             "no motion found: power never rises clearly above the idle level (read from "
@@ -512,13 +517,15 @@ def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
             speed = run.meta.speed_mps if name == "cruise" else None
             phases.append(_phase(run, number, name, i_start, i_end, speed))
     spikes = tuple(_start_spikes(run, y, block, sigma_b, steps))
-    doubts = _motion_doubts(run, y, block_dt, bounds, len(steps), params)
+    doubts = _motion_doubts(run, y10, group, sigma10, block_dt, bounds, len(steps), params)
     return Segmentation(run.meta.run_id, tuple(phases), spikes, tuple(doubts))
 
 
 def _motion_doubts(
     run: Run,
-    y: np.ndarray,
+    y10: np.ndarray,
+    group: int,
+    sigma10: float,
     block_dt: float,
     bounds: list[tuple[int, int, str, int]],
     steps_found: int,
@@ -540,22 +547,17 @@ def _motion_doubts(
        coast on, unseen (shorted motors, free wheel);
     7. the step count against the metadata.
     """
-    group = max(1, round(0.01 / block_dt))
-    y10 = block_means(y, group)
     dt10 = group * block_dt
     m = y10.size
     if m < 10:
         return []
-    sigma10 = robust_sigma_W(y10)
     # each phase in 10 ms means (its whole 10 ms means only)
     spans = [(-(-a // group), min(b // group, m), name, k) for a, b, name, k in bounds]
     # idle: the lowest of the idle phases' medians (an "idle" holding motion is higher)
-    idle_levels = [
-        float(np.median(y10[a:b])) for a, b, name, _ in spans if name == "idle" and b > a
-    ]
+    idle_levels = [float(median(y10[a:b])) for a, b, name, _ in spans if name == "idle" and b > a]
     idle_W = min(idle_levels) if idle_levels else float(y10.min())
-    cruise_W = [float(np.mean(y10[a:b])) for a, b, name, _ in spans if name == "cruise" and b > a]
-    swing_W = float(np.median(cruise_W)) - idle_W if cruise_W else float(y10.max()) - idle_W
+    cruise_W = [_mean(y10[a:b]) for a, b, name, _ in spans if name == "cruise" and b > a]
+    swing_W = float(median(cruise_W)) - idle_W if cruise_W else float(y10.max()) - idle_W
     swing_W = max(swing_W, params.min_excess_W)
     # "well above idle": clear of noise and a fifth of the motion's swing
     on_W = idle_W + max(params.motion_z * sigma10, 0.2 * swing_W, params.min_excess_W)
@@ -570,16 +572,16 @@ def _motion_doubts(
 
     doubts: list[str] = []
     edge = min(5, m)
-    starts_moving = float(np.median(y10[:edge])) > on_W
-    ends_moving = float(np.median(y10[-edge:])) > on_W
+    starts_moving = float(median(y10[:edge])) > on_W
+    ends_moving = float(median(y10[-edge:])) > on_W
     if starts_moving:
         doubts.append(
-            f"the run starts moving (power {float(np.median(y10[:edge])) - idle_W:.3g} W above "
+            f"the run starts moving (power {float(median(y10[:edge])) - idle_W:.3g} W above "
             "idle from its first sample): its first acceleration is not in the log"
         )
     if ends_moving:
         doubts.append(
-            f"the run ends moving (power {float(np.median(y10[-edge:])) - idle_W:.3g} W above "
+            f"the run ends moving (power {float(median(y10[-edge:])) - idle_W:.3g} W above "
             "idle at its last sample): its last stop is not in the log"
         )
     for k, (a, b, name, step) in enumerate(spans):
@@ -610,12 +612,9 @@ def _motion_doubts(
                 if split is not None:
                     step_W = split.jump_W
                     sd = sigma10 * np.sqrt(1.0 / split.index + 1.0 / (b - a - split.index))
-                    slope, intercept = _line(values)
-                    line_resid = values - (intercept + slope * np.arange(b - a))
-                    beats_line = split.sse < float(np.einsum("i,i->", line_resid, line_resid))
                     scatter_W = np.sqrt(split.sse / (b - a))
                     bar_W = max(6.0 * sd, 2.0 * scatter_W, params.level_fraction * swing_W)
-                    if beats_line and abs(step_W) > bar_W:
+                    if abs(step_W) > bar_W and _beats_line(values, split.sse):
                         doubts.append(
                             f"{name_of(name, step)} holds two levels ({step_W:+.3g} W at "
                             f"{when(a + split.index):.3f} s): a second speed level inside "
@@ -697,15 +696,19 @@ def _longest_run(mask: np.ndarray) -> tuple[int, int]:
 
 
 def _coarse_motion(
-    y: np.ndarray, block_dt: float, steps: int, params: MotionParams
+    y: np.ndarray,
+    y10: np.ndarray,
+    group: int,
+    sigma10: float,
+    block_dt: float,
+    steps: int,
+    params: MotionParams,
 ) -> list[tuple[int, int]]:
-    """Motion stretches [a, b) in block indices: 10 ms means above idle, N of them."""
-    group = max(1, round(0.01 / block_dt))
-    y10 = block_means(y, group)
+    """Motion stretches [a, b) in block indices: 10 ms means above idle, N of them (`y10`:
+    means of `group` blocks, noise sd `sigma10`)."""
     probe = max(3, round(params.idle_probe_s / (group * block_dt)))
     probe = min(probe, max(3, y10.size // 10))
-    idle_W = min(float(np.median(y10[:probe])), float(np.median(y10[-probe:])))
-    sigma10 = robust_sigma_W(y10)
+    idle_W = min(float(median(y10[:probe])), float(median(y10[-probe:])))
     threshold = idle_W + max(params.motion_z * sigma10, params.min_excess_W)
     above = np.concatenate(([False], y10 > threshold, [False]))
     edges = np.flatnonzero(np.diff(above.astype(np.int8)))
@@ -833,7 +836,7 @@ def _first_strong_drop(
             x = np.arange(before.size, dtype=np.float64)
             resid = before - (intercept + slope * x)
             s_xx = before.size * (before.size**2 - 1) / 12.0
-            slope_sd = float(np.std(resid)) / np.sqrt(s_xx)
+            slope_sd = _std(resid) / np.sqrt(s_xx)
             if slope > 2.0 * slope_sd:
                 return int(k)
     return int(strong[0])
@@ -891,11 +894,11 @@ def _decel_start(
         t2 = split.index if split else k
     if t3 - t2 < blocks(params.min_decel_s):
         return t3
-    idle_W = float(np.median(y[t3 : min(y.size, t3 + blocks(0.3))]))
+    idle_W = float(median(y[t3 : min(y.size, t3 + blocks(0.3))]))
     slope, intercept = _line(y[t2:t3])
     end_W = intercept + slope * (t3 - t2 - 0.5)
     # the mean over the whole cruise: a ripple averages out of it
-    cruise_W = float(np.mean(y[t1 + 2 : t2 - 1])) if t2 - t1 > 4 else float(y[t2 - 1])
+    cruise_W = _mean(y[t1 + 2 : t2 - 1]) if t2 - t1 > 4 else float(y[t2 - 1])
     # after a wavy cruise the line over a short stop phase has the ripple's slope (a 1 W
     # ripple at 0.25 Hz rises 0.5 W over 0.3 s, the stop at 0.1 m/s falls 0.3 W): there
     # the clear drop that starts it and its end near idle must do
@@ -913,7 +916,26 @@ def _wavy(y: np.ndarray, sigma_b: float, t1: int, t3: int, group: int) -> bool:
         return False
     slope, intercept = _line(means)
     residual = means - (intercept + slope * np.arange(means.size, dtype=np.float64))
-    return float(np.std(residual)) > max(3.0 * sigma_b / np.sqrt(group), 0.1)
+    return _std(residual) > max(3.0 * sigma_b / np.sqrt(group), 0.1)
+
+
+def _mean(values: np.ndarray) -> float:
+    """`numpy.mean` of a 1-d float array, the same number (its pairwise sum over the count)
+    without its Python-level argument handling: this runs some 20 times per step."""
+    return float(np.add.reduce(values) / values.size)
+
+
+def _std(values: np.ndarray) -> float:
+    """`numpy.std` of a 1-d float array (population sd), the same number, as `_mean`."""
+    centred = values - np.add.reduce(values) / values.size
+    return float(np.sqrt(np.add.reduce(centred * centred) / values.size))
+
+
+def _beats_line(values: np.ndarray, sse: float) -> bool:
+    """Whether a fit of SSE `sse` beats one least-squares line through `values`."""
+    slope, intercept = _line(values)
+    line_resid = values - (intercept + slope * np.arange(values.size))
+    return sse < float(np.einsum("i,i->", line_resid, line_resid))
 
 
 def _line(y: np.ndarray) -> tuple[float, float]:
@@ -921,7 +943,7 @@ def _line(y: np.ndarray) -> tuple[float, float]:
     slope = sum (x - x̄)(y - ȳ) / S_xx with x = 0..n-1, x̄ = (n-1)/2, S_xx = n (n² - 1) / 12
     (what `numpy.polyfit(x, y, 1)` returns, without its general least-squares solve)."""
     n = y.size
-    mean_W = float(np.mean(y))
+    mean_W = _mean(y) if n else float(np.mean(y))
     if n < 2:
         return 0.0, mean_W
     x_centred = np.arange(n, dtype=np.float64) - (n - 1) / 2.0
@@ -955,7 +977,7 @@ def _start_spikes(
         # above the tail's own scatter, not only the analyser's: a ripple during the ramp
         # (sample_logs: 1 W) bends it, and a hump of the ripple at its start was taken for
         # a spike of 0.27 s (drawn in red on the README's trace figure)
-        tail_scatter_W = 1.4826 * float(np.median(np.abs(excess[seg.size // 2 :])))
+        tail_scatter_W = 1.4826 * float(median(np.abs(excess[seg.size // 2 :])))
         out = excess > 6.0 * max(sigma_b, tail_scatter_W) + 0.5
         if not out[0]:
             continue
