@@ -190,6 +190,7 @@ def is_built(name: str, root: Path) -> bool:
 
 def build(name: str, root: Path | None = None, *, quiet: bool = False) -> Path:
     """The folder of shape `name` under `root`, written unless present with the same parameters."""
+    from wifibot_power.io.manifest import MANIFEST_HEADER, manifest_line
     from wifibot_power.outputs import write_json
     from wifibot_power.simulate import SimConfig, iter_simulation, realism, true_parameters
 
@@ -213,7 +214,7 @@ def build(name: str, root: Path | None = None, *, quiet: bool = False) -> Path:
         **realism("lab"),
     )
     layout = LAYOUTS[shape.layout]
-    manifest = ["file,run_id,mode,speed_mps,distance_m,steps,payload_kg,started_at"]
+    manifest = [MANIFEST_HEADER]
     runs_truth = []
     total = 0
     for sim in iter_simulation(config):
@@ -222,21 +223,7 @@ def build(name: str, root: Path | None = None, *, quiet: bool = False) -> Path:
         file = f"{meta.run_id}{suffix}"
         (partial / file).write_bytes(data)
         total += len(data)
-        motion = meta.mode == "motion"
-        manifest.append(
-            ",".join(
-                [
-                    file,
-                    meta.run_id,
-                    meta.mode,
-                    f"{meta.speed_mps:g}" if motion else "",
-                    f"{meta.distance_m:g}" if motion else "",
-                    str(meta.steps) if motion else "",
-                    f"{meta.payload_kg:g}" if motion else "",
-                    str(sim.truth["started_at"]),
-                ]
-            )
-        )
+        manifest.append(manifest_line(file, meta, str(sim.truth["started_at"])))
         runs_truth.append({"file": file, **sim.truth})
     (partial / "runs.csv").write_text("\n".join(manifest) + "\n")
     write_json(

@@ -27,6 +27,7 @@ References
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import pairwise
 
@@ -250,6 +251,48 @@ def _centred_power_sum(r: int, length: np.ndarray) -> np.ndarray:
 _GRAM_INVERSE: dict[int, dict[tuple[int, int], np.ndarray]] = {}
 
 
+def _own_basis_rhs(
+    sums: list[np.ndarray], shift: np.ndarray | None, ratio: np.ndarray | None
+) -> list[np.ndarray]:
+    """The right-hand side of each piece's normal equations in its own x = (u - u_c)·scale/L,
+    from the prefix sums Σ u^q y of the piece (`sums`, q = 0..deg): b_p = (scale/L)^p
+    Σ_q C(p, q) (-u_c)^(p-q) Σ u^q y (binomial expansion). `shift` is -u_c and `ratio`
+    scale/L per piece; None for a constant (deg 0), which needs neither."""
+    m = len(sums)
+    rhs = [sums[0]]
+    if m > 1:
+        shift_pow = [None, shift]
+        ratio_pow = [None, ratio]
+        for _ in range(2, m):
+            shift_pow.append(shift_pow[-1] * shift)
+            ratio_pow.append(ratio_pow[-1] * ratio)
+        for p in range(1, m):
+            acc = shift_pow[p] * sums[0]  # q = 0: C(p, 0) = 1
+            for q in range(1, p):
+                acc += math.comb(p, q) * shift_pow[p - q] * sums[q]
+            rhs.append((sums[p] + acc) * ratio_pow[p])
+    return rhs
+
+
+def _solve(
+    rhs: list[np.ndarray], inverse: Callable[[int, int], np.ndarray]
+) -> tuple[list[np.ndarray], np.ndarray]:
+    """Coefficients c = G⁻¹ b of each piece (`inverse(p, q)`: the (p, q) entry of G⁻¹ for
+    every piece; zero where p + q is odd, so skipped) and the explained sum of squares
+    c · b (the SSE is Σ y² minus it)."""
+    m = len(rhs)
+    coef = []
+    for p in range(m):
+        c_p = inverse(p, p % 2) * rhs[p % 2]
+        for q in range(p % 2 + 2, m, 2):
+            c_p = c_p + inverse(p, q) * rhs[q]
+        coef.append(c_p)
+    explained = coef[0] * rhs[0]
+    for p in range(1, m):
+        explained = explained + coef[p] * rhs[p]
+    return coef, explained
+
+
 def _gram_inverse(deg: int, max_len: int) -> dict[tuple[int, int], np.ndarray]:
     """Entries (p, q) of G(L)⁻¹ for every piece length L = 0..(at least) max_len.
 
@@ -329,32 +372,11 @@ class _PolyCost:
         m = deg + 1
         length = np.atleast_1d(j - i)
         sums = [self.puy[q][j] - self.puy[q][i] for q in range(m)]  # sum u^q y per piece
-        rhs = [sums[0]]
-        if m > 1:
-            # x = (u - u_c) scale / L: b_p = (scale/L)^p sum_q C(p,q) (-u_c)^(p-q) sum u^q y
-            shift = ((self.n - i - j) * 0.5) / self.scale  # -u_c
-            ratio = self.scale / length
-            shift_pow = [None, shift]
-            ratio_pow = [None, ratio]
-            for _ in range(2, m):
-                shift_pow.append(shift_pow[-1] * shift)
-                ratio_pow.append(ratio_pow[-1] * ratio)
-            for p in range(1, m):
-                acc = shift_pow[p] * sums[0]  # q = 0: C(p, 0) = 1
-                for q in range(1, p):
-                    acc += math.comb(p, q) * shift_pow[p - q] * sums[q]
-                rhs.append((sums[p] + acc) * ratio_pow[p])
-        inverse = _gram_inverse(deg, int(length.max()))
-        coef = []
-        for p in range(m):
-            # G⁻¹ is zero where p + q is odd
-            c_p = inverse[p, p % 2][length] * rhs[p % 2]
-            for q in range(p % 2 + 2, m, 2):
-                c_p = c_p + inverse[p, q][length] * rhs[q]
-            coef.append(c_p)
-        explained = coef[0] * rhs[0]
-        for p in range(1, m):
-            explained = explained + coef[p] * rhs[p]
+        # -u_c, the centre of each piece in u (only a line or more needs it)
+        shift = ((self.n - i - j) * 0.5) / self.scale if m > 1 else None
+        rhs = _own_basis_rhs(sums, shift, self.scale / length if m > 1 else None)
+        table = _gram_inverse(deg, int(length.max()))
+        coef, explained = _solve(rhs, lambda p, q: table[p, q][length])
         sse = (self.py2[j] - self.py2[i]) - explained
         return np.maximum(sse, 0.0), np.stack(coef, axis=-1)
 
@@ -375,23 +397,14 @@ class _PolyCost:
         else:
             sums = [self.puy[q][n] - self.puy[q][start:stop] for q in range(m)]
             y2 = self.py2[n] - self.py2[start:stop]
-        rhs = [sums[0]]
+        shift = ratio = None
         if m > 1:
             s = np.arange(start, stop, dtype=np.int64)
             length = s if left else n - s
             # as in `fit`: -u_c = (n - i - j) / 2 / scale; i + j is s (left) or s + n (right)
             shift = (((n - s) if left else (-s)) * 0.5) / self.scale
             ratio = self.scale / length
-            shift_pow = [None, shift]
-            ratio_pow = [None, ratio]
-            for _ in range(2, m):
-                shift_pow.append(shift_pow[-1] * shift)
-                ratio_pow.append(ratio_pow[-1] * ratio)
-            for p in range(1, m):
-                acc = shift_pow[p] * sums[0]
-                for q in range(1, p):
-                    acc += math.comb(p, q) * shift_pow[p - q] * sums[q]
-                rhs.append((sums[p] + acc) * ratio_pow[p])
+        rhs = _own_basis_rhs(sums, shift, ratio)
         # the lengths run start..stop-1 (left) or n-start down to n-stop+1 (right)
         lo_len, hi_len = (start, stop) if left else (n - stop + 1, n - start + 1)
         table = _gram_inverse(deg, hi_len)
@@ -400,15 +413,7 @@ class _PolyCost:
             row = table[p, q][lo_len:hi_len]
             return row if left else row[::-1]
 
-        coef = []
-        for p in range(m):
-            c_p = inverse(p, p % 2) * rhs[p % 2]
-            for q in range(p % 2 + 2, m, 2):
-                c_p = c_p + inverse(p, q) * rhs[q]
-            coef.append(c_p)
-        explained = coef[0] * rhs[0]
-        for p in range(1, m):
-            explained = explained + coef[p] * rhs[p]
+        coef, explained = _solve(rhs, inverse)
         sse = y2 - explained
         return np.maximum(sse, 0.0), coef
 

@@ -30,6 +30,7 @@ import numpy as np
 
 from wifibot_power.causes import CAUSES, SimTrace, ordered
 from wifibot_power.errors import UsageError
+from wifibot_power.io.manifest import MANIFEST_HEADER, manifest_line
 from wifibot_power.io.options import FORMAT_CANONICAL
 from wifibot_power.io.writer import format_log, write_log
 from wifibot_power.outputs import write_json, write_text
@@ -514,7 +515,7 @@ def write_simulation(
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     suffix = COMPRESSIONS[write.compress]
-    manifest = ["file,run_id,mode,speed_mps,distance_m,steps,payload_kg,started_at"]
+    manifest = [MANIFEST_HEADER]
     runs_truth = []
     total_bytes = 0
     for sim in iter_simulation(config):
@@ -529,21 +530,7 @@ def write_simulation(
         )
         write_log(out_dir / name, data)
         total_bytes += len(data)
-        motion = meta.mode == "motion"
-        manifest.append(
-            ",".join(
-                [
-                    name,
-                    meta.run_id,
-                    meta.mode,
-                    f"{meta.speed_mps:g}" if motion else "",
-                    f"{meta.distance_m:g}" if motion else "",
-                    str(meta.steps) if motion else "",
-                    f"{meta.payload_kg:g}" if motion else "",
-                    str(sim.truth["started_at"]),
-                ]
-            )
-        )
+        manifest.append(manifest_line(name, meta, str(sim.truth["started_at"])))
         runs_truth.append({"file": name, **sim.truth})
     write_text(out_dir / "runs.csv", "\n".join(manifest) + "\n")
     truth = {

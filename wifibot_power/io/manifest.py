@@ -5,11 +5,35 @@ from __future__ import annotations
 import csv
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wifibot_power.errors import LogError
 
+if TYPE_CHECKING:
+    from wifibot_power.run import RunMeta
+
 MANIFEST_NAME = "runs.csv"
 MANIFEST_KEYS = ("run_id", "mode", "speed_mps", "distance_m", "steps", "payload_kg", "started_at")
+
+
+#: the header line a manifest is written with (`manifest_line` writes its rows)
+MANIFEST_HEADER = ",".join(("file", *MANIFEST_KEYS))
+
+
+def manifest_line(file: str, meta: RunMeta, started_at: str) -> str:
+    """One manifest row for a log written as `file` (the motion keys empty for other modes)."""
+    motion = meta.mode == "motion"
+    cells = [
+        file,
+        meta.run_id,
+        meta.mode,
+        f"{meta.speed_mps:g}" if motion else "",
+        f"{meta.distance_m:g}" if motion else "",
+        str(meta.steps) if motion else "",
+        f"{meta.payload_kg:g}" if motion else "",
+        started_at,
+    ]
+    return ",".join(cells)
 
 
 @dataclass(frozen=True)
