@@ -257,12 +257,12 @@ def test_cache_folder_that_cannot_be_made_is_a_usage_error(tmp_path: Path) -> No
     assert "--cache" in info.value.one_line() and str(blocker) in info.value.one_line()
 
 
-def _corpus(folder: Path) -> Path:
+def _corpus(folder: Path, trips: tuple = ((2.0, 1),)) -> Path:
     from wifibot_power.simulate import SimConfig, WriteOptions, write_simulation
 
     config = SimConfig(
         speeds_mps=(0.3, 0.9),
-        trips=((2.0, 1),),
+        trips=trips,
         repeats=1,
         modes=("idle",),
         mode_repeats=1,
@@ -384,7 +384,8 @@ def test_warm_fit_forks_no_worker_and_loads_no_parser(tmp_path: Path) -> None:
     import subprocess
     import sys
 
-    corpus = _corpus(tmp_path / "logs")
+    # with steps, so the warm fit also computes the stop-and-go overheads (energy.py)
+    corpus = _corpus(tmp_path / "logs", trips=((2.0, 1), (2.0, 2)))
 
     def run() -> tuple[dict, dict]:
         done = subprocess.run(
@@ -397,7 +398,7 @@ def test_warm_fit_forks_no_worker_and_loads_no_parser(tmp_path: Path) -> None:
 
     cold_summary, cold = run()
     warm_summary, warm = run()
-    assert cold["worked_on"] == 3  # 3 logs parsed and segmented (pandas: in the workers)
+    assert cold["worked_on"] == 5  # 5 logs parsed and segmented (pandas: in the workers)
     assert "pyarrow" in cold["loaded"]
     assert warm == {"loaded": [], "worked_on": 0}
     assert warm_summary == cold_summary

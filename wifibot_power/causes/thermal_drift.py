@@ -20,7 +20,6 @@ from wifibot_power.causes.base import (
     TripTerms,
 )
 from wifibot_power.causes.design import column, measured_duration_prediction_J, stacked_fit
-from wifibot_power.residuals import MIN_SEGMENT_RUNS
 from wifibot_power.stats import ols, t_quantile, t_sf
 
 if TYPE_CHECKING:
@@ -325,6 +324,8 @@ def step_beside_line(y: np.ndarray, x: np.ndarray) -> tuple[float, int, float, f
 
     Every split at once: with the line projected out, the step's extra sum of squares is
     ``(r~ . s~)² / (s~ . s~)``, r~ and s~ the residuals of `y` and of the step."""
+    from wifibot_power.residuals import MIN_SEGMENT_RUNS  # loads pandas: not at import
+
     order = np.argsort(x, kind="stable")
     r, t = np.asarray(y, np.float64)[order], np.asarray(x, np.float64)[order]
     n = r.size
