@@ -75,7 +75,7 @@ def irreducible_rmse_J(sims: list, idle_W: float) -> float:
     offset, which the fitted lines take up) and its share of the run-to-run spread of
     motion power (`simulate --realism field`; both 0 in the lab). 1 - this / the baseline
     RMSE approximates the most a held-out gain can be; the fitted lines' own error is left
-    out, so a model can come out a few points above it (null batches: -4 to 10%)."""
+    out, so a model can come out a few points above it (null batches: -6 to 10%)."""
     offsets, on_s, spread_J = [], [], []
     for sim in sims:
         if sim.run.meta.mode != "motion":
