@@ -5,6 +5,7 @@ a layout the reader misreads or refuses would be timed on the wrong path.)"""
 
 from __future__ import annotations
 
+import gzip
 import importlib.util
 import sys
 from pathlib import Path
@@ -48,6 +49,16 @@ EXPECTED = {
 }
 
 
+#: layout -> how its first line after the '#' metadata starts (the columns it was meant to have)
+FIRST_LINE = {
+    "time_power": b"time_s,power_W",
+    "time_voltage_current": b"time_s,voltage_V,current_A",
+    "n6705": b"N6705",
+    "full_gz": b"time_s,voltage_V,current_A,power_W",
+    "power": b"power_W",
+}
+
+
 @pytest.mark.parametrize("layout", sorted(corpora.LAYOUTS))
 def test_each_layout_reads_back_as_its_format_with_the_simulated_power(
     layout: str, sim, tmp_path: Path
@@ -65,6 +76,10 @@ def test_each_layout_reads_back_as_its_format_with_the_simulated_power(
     path.write_bytes(data)
     run = read_log(path)
     assert run.format == fmt
+    assert data.startswith(b"\x1f\x8b") == (layout == "full_gz")  # gzip's magic bytes
+    text = gzip.decompress(data) if layout == "full_gz" else data
+    first = next(line for line in text.split(b"\n") if not line.startswith(b"#"))
+    assert first.startswith(FIRST_LINE[layout])  # e.g. no time column in `power`
     assert run.samples == sim.run.power_W.size
     assert run.sample_period_s == pytest.approx(meta.sample_period_s, rel=1e-9)
     assert np.max(np.abs(run.power_W - sim.run.power_W)) <= tolerance_W

@@ -103,3 +103,16 @@ def test_an_ill_conditioned_design_is_not_estimable():
     bad = ols(nearly, 1 + x)
     assert not bad.estimable
     assert math.isnan(bad.p_greater(2)) or bad.condition > 1e8
+
+
+def test_binomial_at_least_is_scipys_binomial_tail():
+    """The ripple's count test (causes/cruise_ripple.py): P(K >= k) against
+    scipy.stats.binom.sf(k - 1) for every n <= 60 and k <= n, at the levels it is used at."""
+    from scipy.stats import binom
+
+    from wifibot_power.stats import binomial_at_least
+
+    for p in (0.01, 0.05, 0.5):
+        for n in range(1, 61):
+            ours = np.array([binomial_at_least(k, n, p) for k in range(n + 1)])
+            np.testing.assert_allclose(ours, binom.sf(np.arange(n + 1) - 1, n, p), rtol=1e-12)

@@ -286,6 +286,14 @@ def spearman(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     dof = x.size - 2
     with np.errstate(divide="ignore"):  # rho = ±1: t infinite, p 0
         t = rho * np.sqrt(np.clip(dof / ((rho + 1.0) * (1.0 - rho)), 0, None))
+    return float(rho), 2 * t_sf(abs(float(t)), dof)
+
+
+def binomial_at_least(k: int, n: int, p: float) -> float:
+    """P(K >= k) for K ~ Binomial(n, p): the regularised incomplete beta I_p(k, n - k + 1)
+    (Abramowitz & Stegun 26.5.24); 1 for k <= 0 (loads scipy.special, not scipy.stats)."""
+    if k <= 0:
+        return 1.0
     from scipy import special
 
-    return float(rho), float(2 * special.stdtr(dof, -abs(t)))
+    return float(special.betainc(k, n - k + 1, p))

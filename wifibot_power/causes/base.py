@@ -39,10 +39,6 @@ class Check:
     check: str
     passed: bool
     detail: str
-    #: False when the data could not test the consequence and it passed only because they
-    #: do not contradict it (the detail says why); shown in the human output, not in the JSON
-    #: (cli.md's `checks` keys), whose detail carries it
-    tested: bool = True
 
     def as_dict(self) -> dict[str, object]:
         return {"check": self.check, "passed": bool(self.passed), "detail": self.detail}

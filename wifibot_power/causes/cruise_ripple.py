@@ -21,7 +21,7 @@ from wifibot_power.causes.base import (
     TripTerms,
 )
 from wifibot_power.causes.design import column
-from wifibot_power.stats import ols, t_quantile
+from wifibot_power.stats import binomial_at_least, ols, t_quantile
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -61,17 +61,13 @@ class CruiseRipple(Cause):
     def evidence(self, table: RunTable) -> Evidence:
         """A spectral peak in the cruise power: in how many runs Fisher's g-test finds one
         (a binomial test of that count), its mean amplitude, and f against v."""
-        from scipy import special  # not scipy.stats: a second to import
-
         runs = table.runs
         analysed = runs[np.isfinite(column(runs, "ripple_p_value"))]
         if len(analysed) < 3:
             return Evidence(self.name, False, summary="needs 3 or more cruises of 3 s or more")
         found = analysed[column(analysed, "ripple_p_value") < RUN_ALPHA]
         n, k = len(analysed), len(found)
-        # P(K >= k) for K ~ Binomial(n, RUN_ALPHA) = I_RUN_ALPHA(k, n - k + 1) (Abramowitz &
-        # Stegun 26.5.24; bit for bit what scipy.stats.binom.sf(k - 1, ...) gives); 1 for k = 0
-        p_value = float(special.betainc(k, n - k + 1, RUN_ALPHA)) if k > 0 else 1.0
+        p_value = binomial_at_least(k, n, RUN_ALPHA)
         if k < max(3, n / 2):
             return Evidence(
                 self.name, True, p_value, 0.0, summary=f"a spectral peak in only {k} of {n} cruises"

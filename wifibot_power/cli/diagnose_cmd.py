@@ -207,11 +207,8 @@ def diagnose_command(
             f"Gain {result.gain_pct:.1f}%."
         )
         for finding in result.findings:
-            passed = ", ".join(c.check for c in finding.checks if c.passed and c.tested)
+            passed = ", ".join(c.check for c in finding.checks if c.passed)
             stdout.print(f"{finding.cause}: checks passed: {passed}")
-            for check in finding.checks:
-                if not check.tested:
-                    stdout.print(f"{finding.cause}: {check.check}: {check.detail}")
         for reason in result.unexplained_reasons:
             stdout.print(f"[bold]unexplained:[/bold] {reason}")
         rejected = {str(r["reason"]) for r in result.rejected}

@@ -511,11 +511,11 @@ def read_columns(
         source = pa.BufferReader(pa.py_buffer(content.data).slice(0, cut_at))
     else:  # compressed, or cut: the stream is watched for a last line without a line end
         pieces = _Pieces(stream, header_start)
+    parts = iter(pieces) if pieces is not None else None
     try:
         if pieces is None:
             table = pacsv.read_csv(source, **_csv_options(pre, include_columns, skip=True))
         else:
-            parts = iter(pieces)
             tables = [
                 pacsv.read_csv(pa.BufferReader(piece), **_csv_options(pre, include_columns, k == 0))
                 for k, piece in enumerate(parts)
@@ -551,6 +551,9 @@ def read_columns(
             fix="check the delimiter and quoting",
         ) from None
     finally:
+        if parts is not None:
+            parts.close()  # no read-ahead left inside the stream when it closes, whatever
+            # ended the read (a bug, MemoryError, KeyboardInterrupt as much as a bad line)
         stream.close()
     if pieces is not None:
         cut_at = pieces.cut_at
@@ -566,10 +569,10 @@ def read_columns(
     release = table.nbytes >= _RELEASE_BYTES
     for name in names:
         if name not in text:
-            pieces = [chunk.to_numpy(zero_copy_only=False) for chunk in table[name].chunks]
-            joined = np.concatenate(pieces) if len(pieces) > 1 else pieces[0].copy()
+            chunks = [chunk.to_numpy(zero_copy_only=False) for chunk in table[name].chunks]
+            joined = np.concatenate(chunks) if len(chunks) > 1 else chunks[0].copy()
             values[name] = joined.astype(np.float64, copy=False)
-            del pieces
+            del chunks
         table = table.drop_columns([name])
         # pyarrow's allocator keeps freed blocks for its own reuse; the copies (and what
         # follows: checks, segmentation) allocate through numpy, so give each column of a
