@@ -362,32 +362,14 @@ class _PolyCost:
         self.puy = list(terms[:-1])  # prefix sums of u^q y, q = 0..max_deg
         self.py2 = terms[-1]  # prefix sums of y^2
 
-    def fit(
-        self, i: np.ndarray | int, j: np.ndarray | int, deg: int
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """SSE and coefficients (in each piece's own x, see the class) of a degree-`deg`
-        fit over each [i, j) (`i` or `j` may be one int): shapes (N,) and (N, deg + 1)."""
-        i = np.asarray(i, dtype=np.int64)
-        j = np.asarray(j, dtype=np.int64)
-        m = deg + 1
-        length = np.atleast_1d(j - i)
-        sums = [self.puy[q][j] - self.puy[q][i] for q in range(m)]  # sum u^q y per piece
-        # -u_c, the centre of each piece in u (only a line or more needs it)
-        shift = ((self.n - i - j) * 0.5) / self.scale if m > 1 else None
-        rhs = _own_basis_rhs(sums, shift, self.scale / length if m > 1 else None)
-        table = _gram_inverse(deg, int(length.max()))
-        coef, explained = _solve(rhs, lambda p, q: table[p, q][length])
-        sse = (self.py2[j] - self.py2[i]) - explained
-        return np.maximum(sse, 0.0), np.stack(coef, axis=-1)
-
     def fit_splits(
         self, start: int, stop: int, deg: int, left: bool
     ) -> tuple[np.ndarray, list[np.ndarray]]:
-        """`fit` of every piece [0, s) (`left`) or [s, n) (right) for s = start..stop-1, the
-        same numbers as `fit(0, s, deg)` / `fit(s, n, deg)`, by slices of the prefix sums
-        and of the G⁻¹ table instead of gathers (no index arrays, no stacked coefficients:
-        `best_split` calls this twice per window, most of its cost). Returns the SSE and
-        the coefficients as one array per power."""
+        """The degree-`deg` fit (in each piece's own x) of every piece [0, s) (`left`) or
+        [s, n) (right) for s = start..stop-1, by slices of the prefix sums and of the G⁻¹
+        table (no index arrays, no stacked coefficients: `best_split` calls this twice per
+        window, most of its cost). Returns the SSE and the coefficients as one array per
+        power."""
         m = deg + 1
         n = self.n
         if left:
@@ -401,7 +383,7 @@ class _PolyCost:
         if m > 1:
             s = np.arange(start, stop, dtype=np.int64)
             length = s if left else n - s
-            # as in `fit`: -u_c = (n - i - j) / 2 / scale; i + j is s (left) or s + n (right)
+            # -u_c = (n - i - j) / 2 / scale, the piece's centre; i + j is s (left) or s + n (right)
             shift = (((n - s) if left else (-s)) * 0.5) / self.scale
             ratio = self.scale / length
         rhs = _own_basis_rhs(sums, shift, ratio)
