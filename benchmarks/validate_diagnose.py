@@ -99,6 +99,13 @@ def main(suite: str = "lab") -> None:
         field = realism("field")
         cases = [("nothing (field)", (), seed, field) for seed in range(1, 9)]
         cases += [(f"{c} (field)", (c,), seed, field) for c in CAUSES for seed in range(1, 9)]
+        # the same with 10 m runs in place of 5 m (cruises of 11-50 s): long enough runs for
+        # thermal drift's creep to be seen within them ("What the checks cost")
+        long_runs = {**field, "trips": ((2.0, 1), (10.0, 1), (4.0, 4))}
+        cases += [
+            ("thermal_drift (field, 10 m runs)", ("thermal_drift",), seed, long_runs)
+            for seed in range(1, 9)
+        ]
         cases += [(f"{a} + {b}", (a, b), 7, field) for a, b in itertools.combinations(CAUSES, 2)]
         print("Catalogue causes in their own forms at simulate --realism field (seeds 1-8):")
     else:
