@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import argparse
 import gzip
-import io
 import json
 import os
 import shutil
@@ -40,8 +39,6 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-import pyarrow as pa
-import pyarrow.csv as pacsv
 
 REPO = Path(__file__).resolve().parent.parent
 DEFAULT_ROOT = REPO / "bench_corpus"
@@ -98,14 +95,9 @@ def _meta_lines(meta, *, with_period: bool) -> list[str]:
 
 
 def _csv(preamble: list[str], columns: dict[str, np.ndarray]) -> bytes:
-    sink = io.BytesIO()
-    sink.write(("\n".join(preamble) + "\n").encode())
-    pacsv.write_csv(
-        pa.table(columns),
-        sink,
-        write_options=pacsv.WriteOptions(include_header=False, quoting_style="none"),
-    )
-    return sink.getvalue()
+    from wifibot_power.io.writer import csv_bytes
+
+    return csv_bytes(preamble, columns)
 
 
 def _time_s(meta, n: int) -> np.ndarray:

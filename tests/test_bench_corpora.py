@@ -6,12 +6,11 @@ a layout the reader misreads or refuses would be timed on the wrong path.)"""
 from __future__ import annotations
 
 import gzip
-import importlib.util
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from scripts import load_script
 
 from wifibot_power.io.reader import read_log
 from wifibot_power.simulate import SimConfig, iter_simulation, realism
@@ -19,15 +18,7 @@ from wifibot_power.simulate import SimConfig, iter_simulation, realism
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _load(name: str, path: Path):
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
-
-
-corpora = _load("corpora", ROOT / "benchmarks" / "corpora.py")
+corpora = load_script("corpora", ROOT / "benchmarks" / "corpora.py")
 
 
 @pytest.fixture(scope="module")

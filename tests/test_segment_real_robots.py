@@ -19,7 +19,6 @@ without the speed column every one of the 17 doubted, none silently wrong.
 from __future__ import annotations
 
 import gzip
-import importlib.util
 import os
 import subprocess
 import sys
@@ -29,20 +28,13 @@ import numpy as np
 import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
+from scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 SETS = ("regbot_initial_current", "regbot_rev2b_vel_step")
 
 
-def _load(name: str, path: Path):
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
-
-
-score = _load("score_segmentation_real", ROOT / "benchmarks" / "score_segmentation_real.py")
+score = load_script("score_segmentation_real", ROOT / "benchmarks" / "score_segmentation_real.py")
 #: the converter and the lookup, as the scoring script imports them
 convert = score.regbot
 

@@ -52,9 +52,14 @@ def format_log(
         columns["voltage_V"] = np.round(voltage_V, decimals)
         columns["current_A"] = np.round(power_W / voltage_V, decimals + 1)
     columns["power_W"] = np.round(power_W, decimals)
+    return csv_bytes(_meta_lines(meta, with_period=not time_column) + [",".join(columns)], columns)
+
+
+def csv_bytes(header_lines: list[str], columns: dict[str, np.ndarray]) -> bytes:
+    """`header_lines` (metadata, column names: written as given), then the columns' rows,
+    each value in its shortest round-trip text (pyarrow's CSV writer)."""
     sink = io.BytesIO()
-    header = _meta_lines(meta, with_period=not time_column) + [",".join(columns)]
-    sink.write(("\n".join(header) + "\n").encode())
+    sink.write(("\n".join(header_lines) + "\n").encode())
     pacsv.write_csv(
         pa.table(columns),
         sink,
