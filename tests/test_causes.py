@@ -217,3 +217,54 @@ def test_a_jump_beside_a_line_is_found_where_it_is_and_straight_lines_rarely_sho
     assert p_value < 1e-4
     assert abs(size - 0.03) < 3 * se
     assert step_beside_line(ratio[:4], tau[:4]) is None
+
+
+def _creep_check(
+    within_per_min: float, scatter: float, alpha: float, alpha_ci: float, model_idle_W=23.0
+):
+    """The creep-within-runs check on 10 synthetic runs: each with S_tt = 1, 6 W above its
+    own idle, tau 0, so a run's slope is within·6/60 W/s plus ±`scatter` (alternating: the
+    fit's standard error is then known); the between-run α with a ±`alpha_ci` interval."""
+    from types import SimpleNamespace
+
+    import numpy as np
+    import pandas as pd
+
+    from wifibot_power.causes.base import Evidence, RunTable
+
+    n = 10
+    noise = scatter * np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
+    runs = pd.DataFrame(
+        {
+            "creep_s_tt": np.ones(n),
+            "creep_s_tp": within_per_min * 6.0 / 60.0 + noise,
+            "creep_power_W": np.full(n, 29.3),
+            "idle_mean_power_W": np.full(n, 23.3),
+            "tau_mid_min": np.zeros(n),
+        }
+    )
+    evidence = Evidence("thermal_drift", True, 1e-9, alpha, (alpha - alpha_ci, alpha + alpha_ci))
+    table = RunTable(runs, SimpleNamespace(idle_W=model_idle_W))
+    return CAUSES["thermal_drift"]._creep_within_runs(table, evidence)
+
+
+def test_the_creep_check_names_what_it_saw():
+    """Each way the check ends (docs/diagnose.md, "What the checks cost"). The fit's
+    standard error is scatter·sqrt(n/(n-1))/sqrt(n)/0.1 [1/min]: 0.0001 W/s of scatter gives
+    0.00033 /min, 0.001 gives 0.0033."""
+    seen = _creep_check(0.01, 1e-4, alpha=0.01, alpha_ci=0.002)
+    assert seen.passed and seen.detail.startswith("within runs 1%/min")
+    contradicts = _creep_check(0.0, 1e-4, alpha=0.01, alpha_ci=0.002)
+    assert not contradicts.passed
+    assert contradicts.detail.startswith("the creep within runs contradicts α")
+    # precise enough to see α (30 standard errors), none seen, yet within the wide
+    # between-run interval's reach: absent where it would show
+    absent = _creep_check(0.0, 1e-4, alpha=0.01, alpha_ci=0.03)
+    assert not absent.passed
+    assert absent.detail.startswith("not seen where the runs could show it")
+    # 3 standard errors where 4.7 are needed: too short to tell, and that is no name
+    short = _creep_check(0.01, 1e-3, alpha=0.01, alpha_ci=0.01)
+    assert not short.passed
+    assert short.detail.startswith("not testable here: the runs are too short")
+    # the power above idle is each run's own: the idle logs' level (0.3 W apart) changes nothing
+    assert _creep_check(0.01, 1e-4, 0.01, 0.002, model_idle_W=23.3).detail == seen.detail

@@ -197,10 +197,8 @@ class ThermalDrift(Cause):
         if keep.sum() < 3:
             return Check(name, False, "too few cruises to see a trend")
         slope_W_per_s = column(runs, "creep_s_tp")[keep] / s_tt[keep]
-        own_idle_W = column(runs, "idle_mean_power_W")[keep]
-        above_W = column(runs, "creep_power_W")[keep] - np.where(
-            np.isfinite(own_idle_W), own_idle_W, idle_W
-        )  # above each run's own idle, as the ratio between runs (`above_idle_ratio`)
+        # above each run's own idle, as the ratio between runs (`above_idle_ratio`)
+        above_W = column(runs, "creep_power_W")[keep] - own_idle_W(runs, idle_W)[keep]
         tau = column(runs, "tau_mid_min")[keep]
         cold_W = above_W / (1.0 + evidence.estimate * tau)
         # weighted by S_tt: a slope's variance under white noise is sigma² / S_tt
@@ -303,10 +301,15 @@ def above_idle_ratio(runs: pd.DataFrame, coef: dict[str, float], idle_W: float) 
     against speed). Runs without idle phases fall back on `idle_W`."""
     predicted_J, seconds = measured_duration_prediction_J(runs, coef)
     measured_J = column(runs, "accel_energy_J") + column(runs, "cruise_energy_J")
-    own_idle_W = column(runs, "idle_mean_power_W")
-    own_idle_W = np.where(np.isfinite(own_idle_W), own_idle_W, idle_W)
-    lines_idle_W = float(own_idle_W.mean()) if own_idle_W.size else idle_W
-    return (measured_J - own_idle_W * seconds) / (predicted_J - lines_idle_W * seconds) - 1.0
+    runs_idle_W = own_idle_W(runs, idle_W)
+    lines_idle_W = float(runs_idle_W.mean()) if runs_idle_W.size else idle_W
+    return (measured_J - runs_idle_W * seconds) / (predicted_J - lines_idle_W * seconds) - 1.0
+
+
+def own_idle_W(runs: pd.DataFrame, idle_W: float) -> np.ndarray:
+    """Each run's own idle level (its idle phases' mean power), `idle_W` where it has none."""
+    level_W = column(runs, "idle_mean_power_W")
+    return np.where(np.isfinite(level_W), level_W, idle_W)
 
 
 def thermal_alpha(
