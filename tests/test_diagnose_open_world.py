@@ -317,3 +317,58 @@ def test_the_human_output_says_which_check_could_not_be_tested(tmp_path, wbpower
     assert "unexplained: thermal_drift:" in text
     assert "'the same creep within runs' fails: not testable here" in text
     assert "thermal_drift: checks passed" not in text
+
+
+def test_motion_runs_without_a_distance_say_so_in_the_one_line():
+    """Real logs (two REGBOT sets) carry a speed but no distance: every motion run is
+    unusable, and the error said only "0 usable motion run(s) at 0 speed(s)". It now says
+    what left them out and how many, naming the metadata to add."""
+    sims = simulate_runs(SimConfig(**GRID, seed=5))
+    runs = [
+        replace(s.run, meta=replace(s.run.meta, distance_m=None))
+        if s.run.meta.mode == "motion"
+        else s.run
+        for s in sims
+    ]
+    n_motion = sum(run.meta.mode == "motion" for run in runs)
+    with pytest.raises(LogError) as caught:
+        diagnose_runs(runs)
+    message = str(caught.value)
+    assert message.startswith("0 usable motion run(s) at 0 speed(s); left out: ")
+    assert f"{n_motion} x motion run without a distance (set distance_m" in message
+    assert "\n" not in message
+
+
+def test_steps_without_a_cruise_are_summarised_not_an_internal_error():
+    """A speed column can split a run into accelerations and stops with no cruise (REGBOT's
+    voltage steps: accel, decel, accel, decel). `trace_stats` paired each step with the next
+    one's start by a strict zip that raised on a run with no step holding both (an internal
+    error on 60 of 75 real logs, hidden behind the batch's "0 usable" line); such a run has no
+    accel-and-cruise step to take windows of."""
+    from test_runtable import build
+
+    from wifibot_power.traces import trace_stats
+
+    ramp = np.linspace(30.0, 40.0, 30)
+    pieces = [
+        ("idle", 0, np.full(50, 20.0)),
+        ("accel", 1, ramp),
+        ("decel", 1, np.full(10, 25.0)),
+        ("accel", 1, ramp),
+        ("decel", 1, np.full(10, 25.0)),
+        ("idle", 1, np.full(50, 20.0)),
+    ]
+    run, segmentation = build(pieces, steps=1)
+    stats = trace_stats(run, segmentation)
+    assert stats.steps == 0 and stats.start_measured_J == 0.0
+    # a step with a cruise after one without: only that step's windows, and its stop window
+    # runs to the end of the run
+    with_cruise = pieces[:3] + [
+        ("accel", 2, ramp),
+        ("cruise", 2, np.full(40, 30.0)),
+        ("idle", 2, np.full(50, 20.0)),
+    ]
+    run, segmentation = build(with_cruise, steps=2)
+    stats = trace_stats(run, segmentation)
+    assert stats.steps == 1
+    assert stats.end_s == pytest.approx(50 * run.sample_period_s)  # the idle after it, whole

@@ -169,3 +169,20 @@ def test_fit_from_the_cache_still_warns(folder_with_a_gap, wbpower, tmp_path_fac
         result = wbpower("fit", "--cache", cache, folder)
         assert result.exit_code == 0, result.stderr
         assert result.stderr.splitlines().count(warning) == 1, result.stderr
+
+
+def test_reasons_in_brief_counts_each_reason_and_names_its_first_file():
+    from wifibot_power.io.discover import Skipped, reasons_in_brief
+
+    skipped = [
+        Skipped("a.csv", "a.csv: bad header"),
+        Skipped("b.csv", "b.csv: no distance"),
+        Skipped("c.csv", "c.csv: no distance"),
+        Skipped("d.csv", "odd"),  # a reason that does not start with its file stays whole
+        Skipped("e.csv", "e.csv: too short"),
+    ]
+    assert reasons_in_brief(skipped) == (
+        "2 x no distance (first: b.csv); 1 x bad header (first: a.csv); 2 for other reasons"
+    )
+    assert reasons_in_brief(skipped, most=5).endswith("1 x too short (first: e.csv)")
+    assert "1 x odd (first: d.csv)" in reasons_in_brief(skipped, most=5)

@@ -44,6 +44,7 @@ from wifibot_power.errors import LogError
 from wifibot_power.fit import segment_checked
 from wifibot_power.io import LogSource, ReadOptions, Skipped
 from wifibot_power.io.batch import ProblemHook, map_runs
+from wifibot_power.io.discover import reasons_in_brief
 from wifibot_power.model import PowerModel
 from wifibot_power.outputs import write_json, write_parquet
 from wifibot_power.phases import Segmentation
@@ -661,9 +662,12 @@ def _diagnose(
     motion = motion_runs(runs)
     if not enough_to_choose(motion):
         n_doubted = len(_doubted_motion(all_runs))
+        # what left the other inputs out (unreadable, refused, unusable), most common first
+        others = [s for s in skipped if not s.why.startswith(DOUBT_REASON)]
         raise LogError(
             f"{len(motion)} usable motion run(s) at {motion['speed_mps'].nunique()} speed(s)"
-            + (f"; {n_doubted} more left out for segmentation doubts" if n_doubted else ""),
+            + (f"; {n_doubted} more left out for segmentation doubts" if n_doubted else "")
+            + (f"; left out: {reasons_in_brief(others)}" if others else ""),
             fix=f"diagnose needs at least {MIN_MOTION_RUNS} motion runs at {MIN_SPEEDS} or "
             "more speeds"
             + (

@@ -35,6 +35,7 @@ from wifibot_power.cache import ParseCache, ResultMemo, code_digest
 from wifibot_power.errors import LogError, WbpowerError
 from wifibot_power.io import LogSource, ReadOptions, Skipped
 from wifibot_power.io.batch import ProblemHook, map_runs
+from wifibot_power.io.discover import reasons_in_brief
 from wifibot_power.model import LinearFit, PowerModel, paper_model
 from wifibot_power.outputs import json_safe, write_json, write_parquet
 from wifibot_power.overhead import StopAndGo, stop_and_go_overheads
@@ -604,9 +605,9 @@ def fit_logs(
     phase_rows = [phase for _, phases in results for phase in phases]
     fit, skipped = fit_gathered(rows, phase_rows, read_skipped, keep_doubtful=keep_doubtful)
     if fit is None:
-        first = skipped[0].reason if skipped else "no logs"
+        why = reasons_in_brief(list(skipped)) if skipped else "no logs"
         raise LogError(
-            f"no usable run among {len(rows) + len(read_skipped)} input(s); first: {first}",
+            f"no usable run among {len(rows) + len(read_skipped)} input(s): {why}",
             file=", ".join(map(str, paths)),
             fix="see 'wbpower inspect' for what each log holds",
         )

@@ -30,6 +30,27 @@ class Skipped:
     def as_dict(self) -> dict[str, str]:
         return {"file": self.file, "reason": self.reason}
 
+    @property
+    def why(self) -> str:
+        """The reason without the file it names first ("FILE: why" -> "why")."""
+        prefix = f"{self.file}: "
+        return self.reason[len(prefix) :] if self.reason.startswith(prefix) else self.reason
+
+
+def reasons_in_brief(skipped: list[Skipped], most: int = 2) -> str:
+    """Why inputs were left out, for a one-line error: the `most` commonest reasons with
+    how many inputs each left out and the first file it names, then how many inputs were
+    left out for other reasons ("15 x motion run without a distance (...; first: a.csv)")."""
+    by_why: dict[str, list[Skipped]] = {}
+    for skip in skipped:
+        by_why.setdefault(skip.why, []).append(skip)
+    common = sorted(by_why.items(), key=lambda item: -len(item[1]))  # stable: first seen first
+    parts = [f"{len(s)} x {why} (first: {s[0].file})" for why, s in common[:most]]
+    others = sum(len(s) for _, s in common[most:])
+    if others:
+        parts.append(f"{others} for other reasons")
+    return "; ".join(parts)
+
 
 def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
     """Every log under `paths` (folders recursively), in a stable order, with manifest overrides.
