@@ -330,6 +330,10 @@ def test_diagnose_leaves_doubtful_runs_out_unless_kept() -> None:
         str(caught.value)
     )
     assert "--keep-doubtful" in str(caught.value)
+    # the CLI prints no 'skipped' lines when the batch fails: the line itself names a doubted
+    # run and its doubt (it said "see each doubt in the warnings above", which were not there)
+    assert "doubts (first: " in str(caught.value) and "a doubt)" in str(caught.value)
+    assert "warnings above" not in str(caught.value)
 
 
 def test_speed_column_on_simulated_runs_with_a_noisy_speed_estimate() -> None:

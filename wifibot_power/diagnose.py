@@ -658,21 +658,27 @@ def _diagnose(
     for row in runs[~runs["usable"]].itertuples():
         skipped.append(Skipped(str(row.file), f"{row.file}: {row.skip_reason}"))
     doubted = doubted_motion_reason(runs)
-    all_runs, runs = runs, runs[runs["usable"]]
+    runs = runs[runs["usable"]]
     motion = motion_runs(runs)
     if not enough_to_choose(motion):
-        n_doubted = len(_doubted_motion(all_runs))
-        # what left the other inputs out (unreadable, refused, unusable), most common first
+        # what left the other inputs out (unreadable, refused, unusable, doubted), most
+        # common first: the CLI shows no 'skipped' lines when the batch fails
+        doubted = [s for s in skipped if s.why.startswith(DOUBT_REASON)]
         others = [s for s in skipped if not s.why.startswith(DOUBT_REASON)]
         raise LogError(
             f"{len(motion)} usable motion run(s) at {motion['speed_mps'].nunique()} speed(s)"
-            + (f"; {n_doubted} more left out for segmentation doubts" if n_doubted else "")
+            + (
+                f"; {len(doubted)} more left out for segmentation doubts (first: "
+                f"{doubted[0].reason})"
+                if doubted
+                else ""
+            )
             + (f"; left out: {reasons_in_brief(others)}" if others else ""),
             fix=f"diagnose needs at least {MIN_MOTION_RUNS} motion runs at {MIN_SPEEDS} or "
             "more speeds"
             + (
-                " (see each doubt in the warnings above, or --keep-doubtful to use them)"
-                if n_doubted
+                " ('wbpower segment FILE' shows a run's doubts; --keep-doubtful uses them)"
+                if doubted
                 else ""
             ),
         )
