@@ -332,7 +332,8 @@ def test_diagnose_leaves_doubtful_runs_out_unless_kept() -> None:
     assert "--keep-doubtful" in str(caught.value)
     # the CLI prints no 'skipped' lines when the batch fails: the line itself names a doubted
     # run and its doubt (it said "see each doubt in the warnings above", which were not there)
-    assert "doubts (first: " in str(caught.value) and "a doubt)" in str(caught.value)
+    assert "doubts (first: " in str(caught.value)
+    assert "segmentation in doubt: a doubt" in str(caught.value)
     assert "warnings above" not in str(caught.value)
 
 

@@ -677,7 +677,7 @@ def _diagnose(
             fix=f"diagnose needs at least {MIN_MOTION_RUNS} motion runs at {MIN_SPEEDS} or "
             "more speeds"
             + (
-                " ('wbpower segment FILE' shows a run's doubts; --keep-doubtful uses them)"
+                " (--keep-doubtful uses the doubted runs)"
                 if doubted
                 else ""
             ),
