@@ -675,12 +675,7 @@ def _diagnose(
             )
             + (f"; left out: {reasons_in_brief(others)}" if others else ""),
             fix=f"diagnose needs at least {MIN_MOTION_RUNS} motion runs at {MIN_SPEEDS} or "
-            "more speeds"
-            + (
-                " (--keep-doubtful uses the doubted runs)"
-                if doubted
-                else ""
-            ),
+            "more speeds" + (" (--keep-doubtful uses the doubted runs)" if doubted else ""),
         )
     notes: list[str] = []
     baseline_model = fit_model(runs)
