@@ -96,14 +96,16 @@ def main(suite: str = "lab") -> None:
     causes, in the exact forms the causes fit, at `simulate --realism field` (analyser noise
     0.8 W, PWM tone, 0.5% run-to-run spread of motion power, idle spread)."""
     if suite == "simfield":
-        field = realism("field")
+        # the tests' grid with 10 m runs in place of 5 m (cruises of 11-50 s): causes.md asks
+        # thermal drift's creep to show "within long runs", which the 5 m runs' cruises
+        # (6-25 s) cannot show at field realism ("What the checks cost"); 10 m is the
+        # paper's own trip
+        field = {**realism("field"), "trips": ((2.0, 1), (10.0, 1), (4.0, 4))}
+        short = realism("field")  # the tests' grid as it is: 5 m runs
         cases = [("nothing (field)", (), seed, field) for seed in range(1, 9)]
         cases += [(f"{c} (field)", (c,), seed, field) for c in CAUSES for seed in range(1, 9)]
-        # the same with 10 m runs in place of 5 m (cruises of 11-50 s): long enough runs for
-        # thermal drift's creep to be seen within them ("What the checks cost")
-        long_runs = {**field, "trips": ((2.0, 1), (10.0, 1), (4.0, 4))}
         cases += [
-            ("thermal_drift (field, 10 m runs)", ("thermal_drift",), seed, long_runs)
+            ("thermal_drift (field, 5 m runs)", ("thermal_drift",), seed, short)
             for seed in range(1, 9)
         ]
         cases += [(f"{a} + {b}", (a, b), 7, field) for a, b in itertools.combinations(CAUSES, 2)]
