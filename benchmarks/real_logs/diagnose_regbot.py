@@ -1,0 +1,79 @@
+"""`wbpower diagnose` on converted REGBOT logs (docs/real-logs.md, "diagnose on them").
+
+The logs carry a speed column but no distance. This script copies a set's logs into a
+scratch folder with a `runs.csv` that gives each run the distance its speed column
+integrates to (sum of |v| dt: the wheels' path, forward or back), then runs
+`wbpower diagnose --json` on it, with and without `--keep-doubtful`, and prints what each
+says: the error line, or the runs used, the baseline's held-out MAPE, the names and
+`unexplained` with its reasons.
+
+    .venv/bin/python benchmarks/real_logs/diagnose_regbot.py DIR_OF_A_SET [...]
+
+DIR_OF_A_SET: a folder of converted `.csv.gz` logs (`convert_regbot.py --all --out DIR`).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+WBPOWER = Path(sys.executable).with_name("wbpower")
+
+
+def with_distances(logs: Path, scratch: Path) -> Path:
+    """A copy of the set's logs with a runs.csv of each run's integrated distance [m]."""
+    out = scratch / logs.name
+    out.mkdir()
+    rows = []
+    for log in sorted(logs.glob("*.csv.gz")):
+        shutil.copy(log, out / log.name)
+        frame = pd.read_csv(log, comment="#", usecols=["time_s", "speed_mps"])
+        t_s, v_mps = frame["time_s"].to_numpy(), frame["speed_mps"].to_numpy()
+        rows.append((log.name, float(np.sum(np.abs(v_mps[1:]) * np.diff(t_s)))))
+    with (out / "runs.csv").open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["file", "distance_m"])
+        writer.writerows((name, f"{d_m:.3f}") for name, d_m in rows)
+    return out
+
+
+def diagnose(folder: Path, *extra: str) -> str:
+    done = subprocess.run(
+        [str(WBPOWER), "diagnose", str(folder), "--json", *extra],
+        capture_output=True,
+        text=True,
+    )
+    if done.returncode == 2:
+        return "error: " + done.stderr.strip().splitlines()[-1].split("error: ", 1)[-1]
+    result = json.loads(done.stdout)
+    lines = [
+        f"{result['n_runs']} runs; baseline held-out MAPE "
+        f"{result['baseline']['heldout_mape_pct']:.0f}%; named "
+        f"{[f['cause'] for f in result['findings']] or 'nothing'}; "
+        f"unexplained {result['unexplained']}"
+    ]
+    lines += [f"  - {reason}" for reason in result["unexplained_reasons"]]
+    return "\n".join(lines)
+
+
+def main(argv: list[str]) -> None:
+    with tempfile.TemporaryDirectory() as scratch:
+        for logs in map(Path, argv):
+            folder = with_distances(logs, Path(scratch))
+            print(f"## {logs.name} ({len(list(logs.glob('*.csv.gz')))} logs)")
+            print("as converted (no distance):", diagnose(logs))
+            print("distances from the speed column:", diagnose(folder))
+            print("... and --keep-doubtful:", diagnose(folder, "--keep-doubtful"))
+            print()
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
