@@ -270,6 +270,19 @@ def test_thermal_drift_at_field_realism_is_named_only_where_its_creep_is_seen():
     assert rejected["failed"] == ["the same creep within runs"]
     assert "not testable here: the runs are too short" in rejected["reason"]
     assert "x as long" in rejected["reason"]
+    # the same α and seed with 10 m runs in place of 5 m (cruises of 11-50 s, validate_
+    # diagnose's simfield grid): the creep is seen within them, and the name is earned
+    trips = {"trips": ((2.0, 1), (10.0, 1), (4.0, 4))}
+    config = SimConfig(
+        **{**GRID, **realism("field"), **trips},
+        effects={"thermal_drift": 0.007018942885969171},
+        seed=4,
+    )
+    long = diagnose_runs([s.run for s in simulate_runs(config)])
+    assert [f.cause for f in long.findings] == ["thermal_drift"]
+    assert not long.unexplained, long.unexplained_reasons
+    low, high = long.findings[0].estimate["ci95"]
+    assert low < 0.007018942885969171 < high
 
 
 @pytest.mark.parametrize("kind", ["smooth between runs, flat within", "2% step"])
