@@ -166,6 +166,8 @@ def main(argv: list[str] | None = None) -> None:
             f"| {sum(bool(r['baseline_flags']) for r in ok)}/{len(off)} | |"
         )
 
+    if not any(r["suite"] in ("catalogue", "null", "simulate") for r in results):
+        return  # --off-seeds: the off-catalogue table alone
     print(
         "\nCatalogue causes in other physical forms (fieldgen, seeds "
         f"{_seeds(results, 'catalogue')}; pairs, when run, seed 1; jerk-limited seed 1):\n"
