@@ -143,3 +143,18 @@ def test_without_repeats_lack_of_fit_is_not_testable_and_says_why():
     result = residuals.lack_of_fit(table)
     assert not result.testable
     assert "repeated runs" in result.where
+
+
+def test_the_runs_own_spread_is_unknown_below_two_repeats_and_said():
+    """`unknown_spread`: with fewer than 2 runs beyond the first of each configuration, no
+    structure can be ruled out, and `structure_reasons` says so even on a null table; 2
+    repeats are enough (pure error then has 2 degrees of freedom)."""
+    once = _table(7, repeats=1)
+    n = len(once)
+    reasons = residuals.structure_reasons(once)
+    assert reasons[-1].startswith(f"the runs' own spread is unknown: {n} runs in {n} ")
+    one_repeat = pd.concat([once, once.iloc[:1]], ignore_index=True)  # n - g = 1
+    assert residuals.unknown_spread(one_repeat) is not None
+    two_repeats = pd.concat([once, once.iloc[:2]], ignore_index=True)  # n - g = 2
+    assert residuals.unknown_spread(two_repeats) is None
+    assert residuals.structure_reasons(_table(7)) == []  # the null with repeats: nothing
