@@ -93,8 +93,12 @@ class MotionParams:
     #: how far before / after the coarse motion end the end is looked for [s]
     end_back_s: float = 0.4
     end_forward_s: float = 1.6
-    #: the longest stop phase looked for [s] and the shortest kept
-    max_decel_s: float = 1.5
+    #: the longest stop phase looked for [s] and the shortest kept. The longest is the top of
+    #: decel_phase's plausible t_dec (docs/diagnose.md, "Plausible sizes": a stop from 1 m/s
+    #: slower than 0.2 m/s² takes over 5 s): at 1.5 s, exponential stops of 5τ = 1.6 s
+    #: (tests/fieldgen.py) went to the cruise, which then "held two levels" (26 of 30 runs
+    #: doubted at one seed), though diagnose deems such stops plausible
+    max_decel_s: float = 5.0
     min_decel_s: float = 0.1
     #: a stop phase after a steady cruise must start with a drop of this many sd; the flat
     #: cruise before it is fitted over up to this long [s]
