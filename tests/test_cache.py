@@ -353,55 +353,93 @@ def test_entry_round_trip_is_bitwise(
 
 WARM_RUN = r"""
 import json, sys
-from wifibot_power.io import batch
-
+corpus, cache, heavy, spy = sys.argv[1:5]
 started = []
-real = batch.map_ordered
-def spy(items, task, **kwargs):
-    started.extend(items)
-    return real(items, task, **kwargs)
-batch.map_ordered = spy
+if spy == "spy":  # count the files sent to workers (the spy itself loads multiprocessing)
+    from wifibot_power import parallel
+
+    real = parallel.map_ordered
+    def counting(items, task, **kwargs):
+        started.extend(items)
+        return real(items, task, **kwargs)
+    parallel.map_ordered = counting
 from wifibot_power.cli import main
-sys.argv = ["wbpower", "fit", sys.argv[1], "--json", "--jobs", "2", "--cache", sys.argv[2]]
+sys.argv = ["wbpower", "fit", corpus, "--json", "--jobs", "2", "--cache", cache]
 try:
     main()
 except SystemExit:
     pass
-loaded = sorted(
-    m for m in ("pandas", "scipy", "pyarrow", "pydantic", "matplotlib") if m in sys.modules
-)
+loaded = sorted(m for m in heavy.split(",") if m in sys.modules)
 print(json.dumps({"loaded": loaded, "worked_on": len(started)}), file=sys.stderr)
 """
+
+#: What a warm `fit --json --cache` must not import, and why (measured with `-X importtime`
+#: on this 2-core machine; docs/benchmarks.md, "Warm cache"): pandas, scipy, pyarrow (~0.8 s
+#: together; the reader: `io.reader`), the segmenter and run table (only for a file worked
+#: on), matplotlib (only a figure needs it), pydantic (typer >= 0.29 coerces options through
+#: it: ~0.1 s, hence typer < 0.29 in pyproject.toml), rich (~30-60 ms: only human output
+#: draws with it), multiprocessing and concurrent.futures (~15-30 ms: only for workers), the
+#: causes (~30 ms: a fitted model has no extension, so `energy` needs none), tempfile (only
+#: for writing) and `diagnose`.
+WARM_UNLOADED = (
+    "pandas",
+    "scipy",
+    "pyarrow",
+    "pydantic",
+    "matplotlib",
+    "rich",
+    "multiprocessing",
+    "concurrent.futures",
+    "tempfile",
+    "wifibot_power.io.reader",
+    "wifibot_power.segment",
+    "wifibot_power.runtable",
+    "wifibot_power.parallel",
+    "wifibot_power.causes",
+    "wifibot_power.diagnose",
+    "wifibot_power.figures",
+)
 
 
 def test_warm_fit_forks_no_worker_and_loads_no_parser(tmp_path: Path) -> None:
     """What makes a warm `fit --cache` >= 10x faster than a cold one (docs/benchmarks.md): no
-    file goes to a worker, and pandas, scipy, pyarrow (~0.8 s of imports together), matplotlib
-    (only a figure needs it: `--plot`, `report`) and
-    pydantic (typer >= 0.29 coerces options through it: ~0.1 s, hence typer < 0.29 in
-    pyproject.toml) are not imported. The cold run, measured the same way, goes through the
-    workers and loads pyarrow in this process before they fork."""
+    file goes to a worker, and none of `WARM_UNLOADED` is imported. The cold run, measured
+    the same way, goes through the workers and loads pyarrow in this process before they
+    fork; the warm one prints the same JSON."""
     import subprocess
     import sys
 
     # with steps, so the warm fit also computes the stop-and-go overheads (energy.py)
     corpus = _corpus(tmp_path / "logs", trips=((2.0, 1), (2.0, 2)))
 
-    def run() -> tuple[dict, dict]:
+    def run(spy: str) -> tuple[dict, dict]:
         done = subprocess.run(
-            [sys.executable, "-c", WARM_RUN, str(corpus), str(tmp_path / "cache")],
+            [
+                sys.executable,
+                "-c",
+                WARM_RUN,
+                str(corpus),
+                str(tmp_path / "cache"),
+                ",".join(WARM_UNLOADED),
+                spy,
+            ],
             capture_output=True,
             text=True,
             check=True,
         )
         return json.loads(done.stdout), json.loads(done.stderr.strip().splitlines()[-1])
 
-    cold_summary, cold = run()
-    warm_summary, warm = run()
+    cold_summary, cold = run("spy")
+    warm_summary, warm = run("spy")
     assert cold["worked_on"] == 5  # 5 logs parsed and segmented (pandas: in the workers)
-    assert "pyarrow" in cold["loaded"]
+    assert {"pyarrow", "wifibot_power.io.reader", "wifibot_power.segment"} <= set(cold["loaded"])
+    assert warm["worked_on"] == 0
+    warm_summary, warm = run("no spy")  # nothing loaded by the test itself
     assert warm == {"loaded": [], "worked_on": 0}
     assert warm_summary == cold_summary
+    # the stop-and-go overheads were computed (by energy.py, without the causes)
+    assert len(warm_summary["stop_and_go"]) == 2  # 2 speeds, each in 1 and 2 steps
+    assert all(s["model_overhead_pct"] is not None for s in warm_summary["stop_and_go"])
 
 
 def test_fit_tables_are_made_when_asked_for(tmp_path: Path) -> None:

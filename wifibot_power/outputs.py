@@ -7,7 +7,6 @@ import functools
 import json
 import math
 import os
-import tempfile
 from collections.abc import Callable
 from datetime import date, datetime
 from pathlib import Path
@@ -47,6 +46,8 @@ def write_atomic(path: Path, write: Callable[[Path], None]) -> Path:
     see the old file or the new one, never a mixture; a SIGKILL at any moment leaves at worst
     a stray `.NAME.*.tmp` beside it.
     """
+    import tempfile  # here: a command that writes nothing (`fit --json`) does not load it
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
