@@ -7,12 +7,11 @@ import functools
 import json
 import math
 import os
+import sys
 from collections.abc import Callable
 from datetime import date, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
-
-import numpy as np
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -25,7 +24,8 @@ def json_safe(value: object) -> object:
         return {str(k): json_safe(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
         return [json_safe(v) for v in value]
-    if isinstance(value, np.ndarray):
+    np = sys.modules.get("numpy")  # not loaded (a warm `fit --json`): no array to convert
+    if np is not None and isinstance(value, np.ndarray):
         return json_safe(value.tolist())
     if isinstance(value, Path):
         return str(value)

@@ -18,8 +18,6 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
-import numpy as np
-
 from wifibot_power.errors import LogError, WbpowerError
 from wifibot_power.io.discover import LogSource, Skipped, find_logs
 from wifibot_power.io.manifest import is_manifest
@@ -42,6 +40,8 @@ def run_identity(run: Run) -> str:
     recordings never share 1000s of noisy power readings bit for bit. Measured: 10 ms on the
     1.2 M-sample, 41 MB bench log, against 150-350 ms to read it (2 shared cores); computed
     only in a batch (or when a result is kept in the cache)."""
+    import numpy as np  # here: a warm batch, all kept in the cache, loads no numpy
+
     digest = hashlib.sha256()
     for samples in (run.power_W, run.speed_mps):
         if samples is not None:
