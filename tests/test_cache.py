@@ -555,6 +555,7 @@ def test_warm_fit_forks_no_worker_and_loads_no_parser(tmp_path: Path) -> None:
     assert cold["worked_on"] == 5  # 5 logs parsed and segmented (pandas: in the workers)
     assert {"pyarrow", "wifibot_power.io.reader", "wifibot_power.segment"} <= set(cold["loaded"])
     assert warm["worked_on"] == 0
+    assert "numpy" not in warm["loaded"]  # the fit kept by the cold run serves the first warm one
     warm_summary, warm = run("no spy")  # nothing loaded by the test itself
     assert warm == {"loaded": [], "worked_on": 0}
     assert warm_summary == cold_summary
