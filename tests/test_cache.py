@@ -562,6 +562,18 @@ def test_warm_fit_forks_no_worker_and_loads_no_parser(tmp_path: Path) -> None:
     # the stop-and-go overheads were computed (by energy.py, without the causes) and kept
     assert len(warm_summary["stop_and_go"]) == 2  # 2 speeds, each in 1 and 2 steps
     assert all(s["model_overhead_pct"] is not None for s in warm_summary["stop_and_go"])
+    # one log changed (one sample, 5 W more): that log alone is parsed again, and the fit
+    # is the uncached fit of the changed folder
+    log = corpus / "v0.90_d2_s2_r1.csv"
+    lines = log.read_text().split("\n")
+    header = next(k for k, line in enumerate(lines) if line.startswith("time_s"))
+    t, v, i, p = lines[header + 1].split(",")
+    lines[header + 1] = f"{t},{v},{i},{float(p) + 5:.4f}"
+    log.write_text("\n".join(lines))
+    changed_summary, changed = run("spy")
+    assert changed["worked_on"] == 1
+    assert changed_summary != cold_summary
+    assert changed_summary == json.loads(json.dumps(fit_logs([corpus], jobs=1).summary()))
 
 
 def test_fit_tables_are_made_when_asked_for(tmp_path: Path) -> None:

@@ -698,6 +698,8 @@ def _fit_to_json(fit: FitResult) -> dict[str, object]:
 def _fit_from_json(
     kept: object, tables: Callable[[], tuple[pd.DataFrame, pd.DataFrame]]
 ) -> FitResult:
+    """The `FitResult` `_fit_to_json` kept, with `tables()` making its tables when asked for."""
+
     def mean(d: dict) -> MeanEstimate:
         return MeanEstimate(d["value_W"], tuple(d["ci95"]), d["n_runs"], d["se_W"])
 
