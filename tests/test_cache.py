@@ -322,6 +322,123 @@ def test_fit_kept_results_follow_the_content(tmp_path: Path, settled) -> None:
     )
 
 
+def _json(value: object) -> str:
+    """Exact text of JSON values (NaN as NaN, floats by repr): equal text, equal values."""
+    return json.dumps(value, sort_keys=True)
+
+
+@pytest.mark.parametrize(
+    "shape",
+    [
+        # stop-and-go trips at 2 speeds (overheads with intervals), idle and a component
+        # mode, a log that cannot be read (skipped), warnings (2 speed levels)
+        {"speeds": (0.3, 0.9), "trips": ((2.0, 1), (2.0, 2)), "modes": ("idle", "network")},
+        # one speed: an incomplete model (NaN slopes and intervals), a note, no idle run
+        # (idle from the motion runs' idle phases), one component mode of a single run
+        {"speeds": (0.5,), "trips": ((2.0, 1),), "modes": ("video",)},
+    ],
+)
+def test_kept_fit_is_the_fit(tmp_path: Path, shape: dict) -> None:
+    """What `fit --cache` keeps of a fit reads back to the same result, field by field: the
+    `fit --json` document, the paper table, the model, every stop-and-go row, what was
+    skipped, noted and warned."""
+    from wifibot_power.fit import _fit_from_json, _fit_to_json
+    from wifibot_power.simulate import SimConfig, WriteOptions, write_simulation
+
+    config = SimConfig(
+        speeds_mps=shape["speeds"],
+        trips=shape["trips"],
+        repeats=2,
+        modes=shape["modes"],
+        mode_repeats=1,
+        mode_duration_s=2.0,
+        sample_period_s=1.024e-3,
+        seed=5,
+    )
+    folder = tmp_path / "logs"
+    write_simulation(config, folder, WriteOptions(columns="full"))
+    (folder / "broken.csv").write_text("# mode: idle\npower_W\n23.1\nabc\n")
+    fit = fit_logs([folder], jobs=1)
+    back = _fit_from_json(json.loads(_json(_fit_to_json(fit))), fit.tables)
+    assert back.summary() == fit.summary()
+    assert back.to_markdown() == fit.to_markdown()
+    assert _json(back.table_rows()) == _json(fit.table_rows())
+    assert _json(back.model.to_json()) == _json(fit.model.to_json())
+    assert _json(_fit_to_json(back)) == _json(_fit_to_json(fit))
+    assert back.skipped == fit.skipped and back.skipped
+    assert back.warnings == fit.warnings and back.warnings
+    assert back.model_complete == fit.model_complete
+    if len(shape["speeds"]) == 1:
+        assert not fit.model_complete and back.notes == fit.notes and back.notes
+    else:
+        assert len(back.stop_and_go) == 2 and back.stop_and_go == fit.stop_and_go
+
+
+def test_warm_fit_is_kept_and_follows_every_input(tmp_path: Path, settled, monkeypatch) -> None:
+    """A warm `fit_logs` whose runs are all unchanged takes the fit from the cache (it does
+    not fit again); a changed log, another `keep_doubtful`, another folder fit again, and
+    every answer is the uncached one."""
+    from wifibot_power import fit as fit_module
+
+    corpus = _corpus(tmp_path / "logs", trips=((2.0, 1), (2.0, 2)))
+    cache = ParseCache(tmp_path / "cache")
+    fits: list[int] = []
+    real = fit_module.fit_rows
+
+    def counting(*args, **kwargs):
+        fits.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(fit_module, "fit_rows", counting)
+    plain = fit_logs([corpus], jobs=1)
+    assert len(fits) == 1
+    assert_same_fit(fit_logs([corpus], jobs=1, cache=cache), plain)  # fills the cache
+    assert len(fits) == 2 and len(list((tmp_path / "cache").glob("*.batch.json"))) == 1
+    for keep_doubtful in (False, True):
+        before = len(fits)
+        warm = fit_logs([corpus], jobs=1, cache=cache, keep_doubtful=keep_doubtful)
+        assert_same_fit(warm, fit_logs([corpus], jobs=1, keep_doubtful=keep_doubtful))
+        # the uncached fit, and for True (another batch) the cached one: then kept
+        assert len(fits) == before + 1 + keep_doubtful
+        fit_logs([corpus], jobs=1, cache=cache, keep_doubtful=keep_doubtful)
+        assert len(fits) == before + 1 + keep_doubtful
+    # a copy of the folder is another batch (its runs' rows name other files)
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    for log in corpus.iterdir():
+        (copy / log.name).write_bytes(log.read_bytes())
+    before = len(fits)
+    assert fit_logs([copy], jobs=1, cache=cache).summary() == plain.summary()
+    assert len(fits) == before + 1
+    # one log changed: its row changes, the fit is made again, and replaces the kept one
+    log = corpus / "v0.90_d2_s2_r1.csv"
+    lines = log.read_text().split("\n")
+    header = next(k for k, line in enumerate(lines) if line.startswith("time_s"))
+    t, v, i, p = lines[header + 1].split(",")
+    lines[header + 1] = f"{t},{v},{i},{float(p) + 5:.4f}"  # one sample, 5 W more
+    log.write_text("\n".join(lines))
+    before = len(fits)
+    changed = fit_logs([corpus], jobs=1, cache=cache)
+    assert len(fits) == before + 1  # fitted again
+    assert_same_fit(changed, fit_logs([corpus], jobs=1))
+    assert changed.summary() != plain.summary()
+    assert len(list((tmp_path / "cache").glob("*.batch.json"))) == 3  # replaced, not added
+
+
+def test_broken_kept_fit_is_fitted_again(tmp_path: Path, settled) -> None:
+    corpus = _corpus(tmp_path / "logs")
+    cache = ParseCache(tmp_path / "cache")
+    plain = fit_logs([corpus], jobs=1)
+    fit_logs([corpus], jobs=1, cache=cache)
+    (kept,) = (tmp_path / "cache").glob("*.batch.json")
+    document = json.loads(kept.read_text())
+    del document["result"]["model"]["accel"]  # another layout, or a file cut short
+    kept.write_text(json.dumps(document))
+    assert_same_fit(fit_logs([corpus], jobs=1, cache=cache), plain)
+    kept.write_text(kept.read_text()[:100])
+    assert_same_fit(fit_logs([corpus], jobs=1, cache=cache), plain)
+
+
 finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
 
 
@@ -353,55 +470,110 @@ def test_entry_round_trip_is_bitwise(
 
 WARM_RUN = r"""
 import json, sys
-from wifibot_power.io import batch
-
+corpus, cache, heavy, spy = sys.argv[1:5]
 started = []
-real = batch.map_ordered
-def spy(items, task, **kwargs):
-    started.extend(items)
-    return real(items, task, **kwargs)
-batch.map_ordered = spy
+if spy == "spy":  # count the files sent to workers (the spy itself loads multiprocessing)
+    from wifibot_power import parallel
+
+    real = parallel.map_ordered
+    def counting(items, task, **kwargs):
+        started.extend(items)
+        return real(items, task, **kwargs)
+    parallel.map_ordered = counting
 from wifibot_power.cli import main
-sys.argv = ["wbpower", "fit", sys.argv[1], "--json", "--jobs", "2", "--cache", sys.argv[2]]
+sys.argv = ["wbpower", "fit", corpus, "--json", "--jobs", "2", "--cache", cache]
 try:
     main()
 except SystemExit:
     pass
-loaded = sorted(
-    m for m in ("pandas", "scipy", "pyarrow", "pydantic", "matplotlib") if m in sys.modules
-)
+loaded = sorted(m for m in heavy.split(",") if m in sys.modules)
 print(json.dumps({"loaded": loaded, "worked_on": len(started)}), file=sys.stderr)
 """
+
+#: What a warm `fit --json --cache` must not import, and why (measured with `-X importtime`
+#: on this 2-core machine; docs/benchmarks.md, "Warm cache"): numpy (~0.1 s, the largest
+#: part of a warm run: the fit itself is kept, `fit._fit_batch`, so nothing is computed on
+#: arrays) and the numerics (`stats`, `energy`, the causes), pandas, scipy, pyarrow (~0.8 s
+#: together; the reader: `io.reader`), the segmenter and run table (only for a file worked
+#: on), matplotlib (only a figure needs it), pydantic (typer >= 0.29 coerces options through
+#: it: ~0.1 s, hence typer < 0.29 in pyproject.toml), rich (~30-60 ms: only human output
+#: draws with it), multiprocessing and concurrent.futures (~15-30 ms: only for workers),
+#: tempfile (only for writing) and `diagnose`.
+WARM_UNLOADED = (
+    "numpy",
+    "wifibot_power.stats",
+    "wifibot_power.energy",
+    "pandas",
+    "scipy",
+    "pyarrow",
+    "pydantic",
+    "matplotlib",
+    "rich",
+    "multiprocessing",
+    "concurrent.futures",
+    "tempfile",
+    "wifibot_power.io.reader",
+    "wifibot_power.segment",
+    "wifibot_power.runtable",
+    "wifibot_power.parallel",
+    "wifibot_power.causes",
+    "wifibot_power.diagnose",
+    "wifibot_power.figures",
+)
 
 
 def test_warm_fit_forks_no_worker_and_loads_no_parser(tmp_path: Path) -> None:
     """What makes a warm `fit --cache` >= 10x faster than a cold one (docs/benchmarks.md): no
-    file goes to a worker, and pandas, scipy, pyarrow (~0.8 s of imports together), matplotlib
-    (only a figure needs it: `--plot`, `report`) and
-    pydantic (typer >= 0.29 coerces options through it: ~0.1 s, hence typer < 0.29 in
-    pyproject.toml) are not imported. The cold run, measured the same way, goes through the
-    workers and loads pyarrow in this process before they fork."""
+    file goes to a worker, and none of `WARM_UNLOADED` is imported. The cold run, measured
+    the same way, goes through the workers and loads pyarrow in this process before they
+    fork; the warm one prints the same JSON."""
     import subprocess
     import sys
 
     # with steps, so the warm fit also computes the stop-and-go overheads (energy.py)
     corpus = _corpus(tmp_path / "logs", trips=((2.0, 1), (2.0, 2)))
 
-    def run() -> tuple[dict, dict]:
+    def run(spy: str) -> tuple[dict, dict]:
         done = subprocess.run(
-            [sys.executable, "-c", WARM_RUN, str(corpus), str(tmp_path / "cache")],
+            [
+                sys.executable,
+                "-c",
+                WARM_RUN,
+                str(corpus),
+                str(tmp_path / "cache"),
+                ",".join(WARM_UNLOADED),
+                spy,
+            ],
             capture_output=True,
             text=True,
             check=True,
         )
         return json.loads(done.stdout), json.loads(done.stderr.strip().splitlines()[-1])
 
-    cold_summary, cold = run()
-    warm_summary, warm = run()
+    cold_summary, cold = run("spy")
+    warm_summary, warm = run("spy")
     assert cold["worked_on"] == 5  # 5 logs parsed and segmented (pandas: in the workers)
-    assert "pyarrow" in cold["loaded"]
+    assert {"pyarrow", "wifibot_power.io.reader", "wifibot_power.segment"} <= set(cold["loaded"])
+    assert warm["worked_on"] == 0
+    assert "numpy" not in warm["loaded"]  # the fit kept by the cold run serves the first warm one
+    warm_summary, warm = run("no spy")  # nothing loaded by the test itself
     assert warm == {"loaded": [], "worked_on": 0}
     assert warm_summary == cold_summary
+    # the stop-and-go overheads were computed (by energy.py, without the causes) and kept
+    assert len(warm_summary["stop_and_go"]) == 2  # 2 speeds, each in 1 and 2 steps
+    assert all(s["model_overhead_pct"] is not None for s in warm_summary["stop_and_go"])
+    # one log changed (one sample, 5 W more): that log alone is parsed again, and the fit
+    # is the uncached fit of the changed folder
+    log = corpus / "v0.90_d2_s2_r1.csv"
+    lines = log.read_text().split("\n")
+    header = next(k for k, line in enumerate(lines) if line.startswith("time_s"))
+    t, v, i, p = lines[header + 1].split(",")
+    lines[header + 1] = f"{t},{v},{i},{float(p) + 5:.4f}"
+    log.write_text("\n".join(lines))
+    changed_summary, changed = run("spy")
+    assert changed["worked_on"] == 1
+    assert changed_summary != cold_summary
+    assert changed_summary == json.loads(json.dumps(fit_logs([corpus], jobs=1).summary()))
 
 
 def test_fit_tables_are_made_when_asked_for(tmp_path: Path) -> None:

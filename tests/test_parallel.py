@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from wifibot_power import parallel
-from wifibot_power.cli import common
+from wifibot_power.cli import common, progress_bar
 from wifibot_power.errors import WbpowerError
 from wifibot_power.fit import fit_logs
 from wifibot_power.io import ReadOptions
@@ -178,7 +178,7 @@ def test_rows_sent_back_are_small_not_samples(corpus: Path, monkeypatch) -> None
         seen.extend(results)
         return results
 
-    monkeypatch.setattr("wifibot_power.io.batch.map_ordered", spy)
+    monkeypatch.setattr(parallel, "map_ordered", spy)  # batch imports it when it has work
     result = fit_logs([corpus], jobs=1)
     samples = int(result.runs["samples"].max())
     assert samples > 1500  # a 2 m run at 0.3 m/s at 1.024 ms: ~10 s, ~10k samples
@@ -203,7 +203,7 @@ def test_progress_is_silent_without_a_terminal(corpus: Path) -> None:
 
 def test_file_progress_counts_files_and_bytes(corpus: Path) -> None:
     items = sorted(corpus.glob("v*.csv"))
-    bar = common.FileProgress(items, "fitting")
+    bar = progress_bar.FileProgress(items, "fitting")
     assert bar.total_bytes == sum(p.stat().st_size for p in items)
     for item in reversed(items):  # files finish in any order
         bar.done(item)
@@ -261,24 +261,24 @@ def test_prepare_runs_once_before_work_and_not_when_all_is_kept(corpus: Path, tm
 
 def test_progress_shows_no_rate_until_a_second_of_work() -> None:
     # the first files finish a few ms after the start: 371 MB in 1 ms read "371.3 GB/s"
-    assert common.rate_text(371.3e6, 0.001) == ""
-    assert common.rate_text(0, 5.0) == ""
-    assert common.rate_text(371.3e6, 2.0) == "185.7 MB/s"  # 371.3 MB over 2 s
-    assert common.rate_text(1500, 1.5) == "1.0 kB/s"
+    assert progress_bar.rate_text(371.3e6, 0.001) == ""
+    assert progress_bar.rate_text(0, 5.0) == ""
+    assert progress_bar.rate_text(371.3e6, 2.0) == "185.7 MB/s"  # 371.3 MB over 2 s
+    assert progress_bar.rate_text(1500, 1.5) == "1.0 kB/s"
 
 
 def test_the_bar_rate_counts_from_the_start_of_the_work(corpus: Path, monkeypatch) -> None:
     items = sorted(corpus.glob("v*.csv"))
     clock = [100.0]
-    monkeypatch.setattr(common.time, "monotonic", lambda: clock[0])
-    bar = common.FileProgress(items, "fitting")
+    monkeypatch.setattr(progress_bar.time, "monotonic", lambda: clock[0])
+    bar = progress_bar.FileProgress(items, "fitting")
     clock[0] += 0.002  # two files done 2 ms after the start
     bar.done(items[0])
     bar.done(items[1])
-    (rate,) = [c for c in bar._bar.columns if isinstance(c, common._RateColumn)]
+    (rate,) = [c for c in bar._bar.columns if isinstance(c, progress_bar._RateColumn)]
     task = bar._bar.tasks[0]
     assert str(rate.render(task)) == ""
     clock[0] = 104.0  # 4 s after the start
     done_bytes = items[0].stat().st_size + items[1].stat().st_size
-    assert str(rate.render(task)) == common.rate_text(done_bytes, 4.0) != ""
+    assert str(rate.render(task)) == progress_bar.rate_text(done_bytes, 4.0) != ""
     bar.close()

@@ -24,6 +24,9 @@ run's row and phases, as a small JSON document), beside the parse and valid for 
 content, under a key that holds a digest of all of wifibot_power's code and the numeric
 libraries' versions (`code_digest`): a warm `fit --cache` then neither parses nor segments,
 and `kept_result` finds those results in the calling process without starting any worker.
+A batch can keep what it made of all its runs together too (`kept_batch` / `keep_batch`:
+`fit` keeps its fit, valid for the exact per-run rows it was fitted on), so a warm
+`fit --cache` whose runs are all unchanged neither fits again nor loads numpy.
 
 What could still fool it: a system clock stepped back by more than `SETTLE_S` between runs, or
 a network file system whose server clock runs more than `SETTLE_S` behind this machine's.
@@ -44,8 +47,6 @@ from collections.abc import Callable
 from datetime import datetime
 from pathlib import Path
 from typing import Generic, TypeVar
-
-import numpy as np
 
 from wifibot_power.errors import UsageError
 from wifibot_power.io.options import ReadOptions, codec_of
@@ -286,6 +287,32 @@ class ParseCache:
             _store_result(_result_path(entry, memo), memo.to_json(result), content)
         return result
 
+    def batch_path(self, inputs: object) -> Path:
+        """Where the kept result of the batch named by `inputs` (JSON values: e.g. the paths,
+        the reading options and the work's key) is: one document per batch, replaced when
+        what it is valid for changes, so the cache does not grow with edits."""
+        named = json.dumps(inputs, sort_keys=True).encode()
+        return self.directory / f"{hashlib.sha256(named).hexdigest()[:40]}.batch.json"
+
+    def kept_batch(self, inputs: object, content_sha256: str) -> object:
+        """The JSON value kept for the batch `inputs` when it was made from `content_sha256`
+        (a digest of everything it depends on), else `MISSING`."""
+        try:
+            kept = json.loads(self.batch_path(inputs).read_bytes())
+            if kept["content_sha256"] != content_sha256:
+                return MISSING
+            return kept["result"]
+        except (OSError, KeyError, TypeError, ValueError):
+            return MISSING
+
+    def keep_batch(self, inputs: object, content_sha256: str, result: object) -> None:
+        """Keep `result` (JSON values) for the batch `inputs` made from `content_sha256`; a
+        result that cannot be written or encoded is not kept (nothing depends on it)."""
+        try:
+            _store_result(self.batch_path(inputs), result, content_sha256)
+        except (TypeError, ValueError):
+            pass
+
 
 def _hash(path: Path, stat: os.stat_result) -> tuple[bytes, dict[str, object]]:
     """The file's bytes and what an entry made from them is valid for."""
@@ -359,6 +386,7 @@ def _write_validity(entry: Path, validity: dict[str, object]) -> None:
 
 def _load_run(entry: Path, content_sha256: str) -> Run | None:
     """The cached `Run`, or None when the entry is missing, unreadable or of other content."""
+    import numpy as np
     import pyarrow as pa
     import pyarrow.parquet as pq  # only for a parse that is read back: a warm fit needs none
 
@@ -395,6 +423,7 @@ def _load_run(entry: Path, content_sha256: str) -> Run | None:
 
 def _store(entry: Path, run: Run, validity: dict[str, object]) -> None:
     """Write the parse (Parquet), then what it is valid for (JSON beside it)."""
+    import numpy as np
     import pyarrow as pa
     import pyarrow.parquet as pq
 

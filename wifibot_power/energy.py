@@ -7,7 +7,9 @@ Eq. 5/6 of [1]). A step too short to reach the speed gets the physical triangula
 
 When the model carries extensions (added by `wbpower diagnose`, keyed by the cause names of
 shared/spec/causes.md), each adds the term its cause's module computes (`Cause.energy_J`
-in `wifibot_power/causes/`); this module loops over them and names none.
+in `wifibot_power/causes/`); this module loops over them and names none. The causes
+package loads only for a model that has extensions: a fitted model has none, and `fit`
+computes its stop-and-go overheads here without loading the causes.
 
 References
 ----------
@@ -22,7 +24,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from wifibot_power.causes import CAUSES, TripTerms, ordered
 from wifibot_power.errors import UsageError
 from wifibot_power.model import PowerModel
 
@@ -122,6 +123,10 @@ def cruise_energy_J(model: PowerModel, step: StepKinematics) -> float:
 # -- the extensions (shared/spec/causes.md): each cause's `energy_J`, in its own module --
 def extension_names(model: PowerModel) -> list[str]:
     """The model's extensions that energy knows (registry order)."""
+    if not model.extensions:
+        return []
+    from wifibot_power.causes import ordered
+
     return ordered(model.extensions)
 
 
@@ -163,6 +168,8 @@ class TripEnergy:
 
 
 def _extension(model: PowerModel, cause: str) -> dict[str, float]:
+    from wifibot_power.causes import CAUSES
+
     params = model.extensions[cause]
     missing = [k for k in CAUSES[cause].parameters if k not in params]
     if missing:
@@ -202,6 +209,8 @@ def trip_energy(
     if not math.isfinite(t_acc) or t_acc < 0:
         raise UsageError(f"acceleration time {t_acc} s", fix="give --t-acc >= 0")
     extensions = {name: _extension(model, name) for name in extension_names(model)}
+    if extensions:
+        from wifibot_power.causes import CAUSES, TripTerms
     stop_s = sum(CAUSES[name].stop_time_s(p) for name, p in extensions.items())
     step = step_kinematics(speed_mps, distance_m / steps, t_acc, stop_s)
 
@@ -213,7 +222,7 @@ def trip_energy(
     # the energy above idle of the phase powers
     motion_time_s = steps * step.time_s
     above_idle_J = 0.0
-    for stage in ("power", "lump", "scale"):
+    for stage in ("power", "lump", "scale") if extensions else ():
         if stage == "lump":
             above_idle_J = sum(p.energy_J for p in phases) - model.idle_W * motion_time_s
         terms = TripTerms(

@@ -29,9 +29,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
-
-from wifibot_power.cache import ParseCache, ResultMemo, code_digest
+from wifibot_power.cache import MISSING, ParseCache, ResultMemo, code_digest
 from wifibot_power.errors import LogError, WbpowerError
 from wifibot_power.io import LogSource, ReadOptions, Skipped
 from wifibot_power.io.batch import ProblemHook, map_runs
@@ -40,9 +38,11 @@ from wifibot_power.model import LinearFit, PowerModel, paper_model
 from wifibot_power.outputs import json_safe, write_json, write_parquet
 from wifibot_power.overhead import StopAndGo, stop_and_go_overheads
 from wifibot_power.run import MODES, Run
-from wifibot_power.stats import ols, t_quantile
 
 if TYPE_CHECKING:  # pandas (~0.4 s to import) loads only when a table is asked for
+    # numpy (~0.1 s) and the numerics load when something is fitted: a warm `fit --cache`
+    # whose runs are all unchanged takes the fit from the cache (`_FitMemo`) and needs none
+    import numpy as np
     import pandas as pd
 
     from wifibot_power.phases import Segmentation
@@ -70,6 +70,10 @@ def fit_line(speed_mps: np.ndarray, values: np.ndarray) -> LinearFit:
     ill-conditioned design: NaN line, never a slope drawn through float noise. Exactly 2
     points: the line through them, NaN intervals and R² (no degrees of freedom left).
     """
+    import numpy as np
+
+    from wifibot_power.stats import ols
+
     x = np.asarray(speed_mps, dtype=np.float64)
     y = np.asarray(values, dtype=np.float64)
     keep = np.isfinite(x) & np.isfinite(y)
@@ -103,6 +107,10 @@ class MeanEstimate:
     @classmethod
     def of(cls, values_W: np.ndarray) -> MeanEstimate:
         """Sample mean and `mean ± t_{0.975, n-1} s / sqrt(n)` (Student's t interval)."""
+        import numpy as np
+
+        from wifibot_power.stats import t_quantile
+
         values = np.asarray(values_W, dtype=np.float64)
         values = values[np.isfinite(values)]
         n = int(values.size)
@@ -122,6 +130,8 @@ def net_of_idle(mode: MeanEstimate, idle: MeanEstimate) -> MeanEstimate:
     Interval by Welch's t: se = sqrt(se_mode² + se_idle²), degrees of freedom by the
     Welch-Satterthwaite equation; NaN when either side has a single run.
     """
+    from wifibot_power.stats import t_quantile
+
     value = mode.value_W - idle.value_W
     if not (mode.n_runs >= 2 and idle.n_runs >= 2):
         return MeanEstimate(value, NAN_PAIR, mode.n_runs)
@@ -374,6 +384,8 @@ def fit_rows(
     powers as means over runs (`MeanEstimate`, `net_of_idle`). `tables()` makes the
     `(runs, phases)` tables of the result when they are asked for.
     """
+    import numpy as np
+
     used = [row for row in rows if row["usable"]]
     motion = [row for row in used if row["mode"] == "motion"]
 
@@ -431,6 +443,8 @@ def fit_rows(
 
 def _speed_range(speed_mps: np.ndarray) -> tuple[float, float] | None:
     """The lowest and highest speed the motion runs were fitted on (None without any)."""
+    import numpy as np
+
     finite = speed_mps[np.isfinite(speed_mps)]
     return (float(finite.min()), float(finite.max())) if finite.size else None
 
@@ -446,6 +460,8 @@ def speed_levels(speeds_mps: np.ndarray) -> list[list[float]]:
     """The distinct speeds grouped into levels: sorted, a speed joins the level before it
     when it is closer to that level's largest speed than the resolution
     (max(`SPEED_RESOLUTION_MPS`, `SPEED_RESOLUTION_FRACTION` x the larger speed))."""
+    import numpy as np
+
     distinct = sorted(
         {float(v) for v in np.asarray(speeds_mps, dtype=np.float64) if np.isfinite(v)}
     )
@@ -567,7 +583,8 @@ def fit_logs(
 
     `jobs` worker processes (None or 0: all cores) read and segment files in parallel; only
     each run's row and phases come back, and the result is the same for any `jobs`.
-    `cache` (`wifibot_power.cache.ParseCache`) skips parsing files parsed before.
+    `cache` (`wifibot_power.cache.ParseCache`) skips parsing files parsed before, segmenting
+    runs segmented before and, when every run's row is what it was, the fit itself.
 
     Unreadable logs and runs the fit cannot use are listed in `FitResult.skipped` with the
     reason; runs whose segmentation is in doubt are among them unless `keep_doubtful`.
@@ -603,6 +620,18 @@ def fit_logs(
     )
     rows = [row for row, _ in results]
     phase_rows = [phase for _, phases in results for phase in phases]
+    batch = None
+    if cache is not None and memo is not None:
+        batch = _fit_batch(paths, options or ReadOptions(), keep_doubtful, rows, read_skipped)
+    if batch is not None:
+        kept = cache.kept_batch(*batch)
+        if kept is not MISSING:
+            try:
+                return _fit_from_json(
+                    kept, lambda: _tables(_admitted(rows, keep_doubtful), phase_rows)
+                )
+            except (KeyError, TypeError, ValueError, WbpowerError):
+                pass  # another layout: fit again (and keep that)
     fit, skipped = fit_gathered(rows, phase_rows, read_skipped, keep_doubtful=keep_doubtful)
     if fit is None:
         why = reasons_in_brief(list(skipped)) if skipped else "no logs"
@@ -611,7 +640,94 @@ def fit_logs(
             file=", ".join(map(str, paths)),
             fix="see 'wbpower inspect' for what each log holds",
         )
+    if batch is not None:
+        cache.keep_batch(*batch, _fit_to_json(fit))
     return fit
+
+
+def _fit_batch(
+    paths: Sequence[str | Path],
+    options: ReadOptions,
+    keep_doubtful: bool,
+    rows: list[dict[str, object]],
+    read_skipped: Sequence[Skipped],
+) -> tuple[object, str] | None:
+    """What names a `fit_logs` batch in the cache (the paths, the reading options, this code)
+    and a digest of everything its fit depends on: every run's row (as kept: the rows are
+    the fit's only input, `fit_gathered`), the inputs left out, `keep_doubtful`. A changed
+    log changes its row (its content is checked per file first) and so misses; a run whose
+    row is unchanged gives the same fit. None when a row cannot be written as JSON."""
+    import dataclasses
+    import hashlib
+    import json
+
+    inputs = [RESULT_MEMO.key, [str(p) for p in paths], dataclasses.asdict(options), keep_doubtful]
+    try:
+        content = json.dumps(
+            [
+                RESULT_MEMO.key,
+                [_result_to_json((row, [])) for row in rows],
+                [s.as_dict() for s in read_skipped],
+                keep_doubtful,
+            ]
+        )
+    except (TypeError, ValueError):
+        return None
+    return inputs, hashlib.sha256(content.encode()).hexdigest()
+
+
+def _fit_to_json(fit: FitResult) -> dict[str, object]:
+    """A `FitResult` as JSON values, all but its tables (`_fit_from_json` is the exact round
+    trip: floats through repr, NaN kept as NaN)."""
+    import dataclasses
+
+    return {
+        "model": fit.model.to_json(),
+        "idle": dataclasses.asdict(fit.idle),
+        "idle_source": fit.idle_source,
+        "components": {
+            m: (dataclasses.asdict(c) if c is not None else None) for m, c in fit.components.items()
+        },
+        "n_runs": fit.n_runs,
+        "skipped": [s.as_dict() for s in fit.skipped],
+        "notes": list(fit.notes),
+        "stop_and_go": [dataclasses.asdict(s) for s in fit.stop_and_go],
+        "warnings": list(fit.warnings),
+    }
+
+
+def _fit_from_json(
+    kept: object, tables: Callable[[], tuple[pd.DataFrame, pd.DataFrame]]
+) -> FitResult:
+    """The `FitResult` `_fit_to_json` kept, with `tables()` making its tables when asked for."""
+
+    def mean(d: dict) -> MeanEstimate:
+        return MeanEstimate(d["value_W"], tuple(d["ci95"]), d["n_runs"], d["se_W"])
+
+    def stop_and_go(d: dict) -> StopAndGo:
+        return StopAndGo(**{**d, "overhead_ci95": tuple(d["overhead_ci95"])})
+
+    return FitResult(
+        model=PowerModel.from_json(kept["model"]),  # type: ignore[index]
+        idle=mean(kept["idle"]),  # type: ignore[index]
+        idle_source=kept["idle_source"],  # type: ignore[index]
+        components={m: (mean(c) if c else None) for m, c in kept["components"].items()},  # type: ignore[index]
+        n_runs=kept["n_runs"],  # type: ignore[index]
+        tables=tables,
+        skipped=tuple(Skipped(**s) for s in kept["skipped"]),  # type: ignore[index]
+        notes=tuple(kept["notes"]),  # type: ignore[index]
+        stop_and_go=tuple(stop_and_go(s) for s in kept["stop_and_go"]),  # type: ignore[index]
+        warnings=tuple(kept["warnings"]),  # type: ignore[index]
+    )
+
+
+def _admitted(rows: list[dict[str, object]], keep_doubtful: bool) -> list[dict[str, object]]:
+    """The rows as `fit_gathered` fits them: runs in doubt made usable with `keep_doubtful`."""
+    if not keep_doubtful:
+        return rows
+    from wifibot_power.runtable import admit_doubtful
+
+    return [admit_doubtful(row) for row in rows]
 
 
 def fit_gathered(
@@ -625,10 +741,7 @@ def fit_gathered(
     `report`, which gathers more per run in the same pass), and every input left out: the
     unreadable ones, then the runs the fit cannot use (with their reason). None when no run
     can be used. Runs in doubt are made usable with `keep_doubtful`."""
-    if keep_doubtful:
-        from wifibot_power.runtable import admit_doubtful
-
-        rows = [admit_doubtful(row) for row in rows]
+    rows = _admitted(rows, keep_doubtful)
     unusable = [
         Skipped(str(row["file"]), f"{row['file']}: {row['skip_reason']}")
         for row in rows

@@ -7,13 +7,11 @@ import functools
 import json
 import math
 import os
-import tempfile
+import sys
 from collections.abc import Callable
 from datetime import date, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
-
-import numpy as np
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -26,7 +24,8 @@ def json_safe(value: object) -> object:
         return {str(k): json_safe(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
         return [json_safe(v) for v in value]
-    if isinstance(value, np.ndarray):
+    np = sys.modules.get("numpy")  # not loaded (a warm `fit --json`): no array to convert
+    if np is not None and isinstance(value, np.ndarray):
         return json_safe(value.tolist())
     if isinstance(value, Path):
         return str(value)
@@ -47,6 +46,8 @@ def write_atomic(path: Path, write: Callable[[Path], None]) -> Path:
     see the old file or the new one, never a mixture; a SIGKILL at any moment leaves at worst
     a stray `.NAME.*.tmp` beside it.
     """
+    import tempfile  # here: a command that writes nothing (`fit --json`) does not load it
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)

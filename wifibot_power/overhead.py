@@ -28,11 +28,12 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from wifibot_power.model import PowerModel
-from wifibot_power.stats import t_quantile
+
+if TYPE_CHECKING:  # numpy loads when an overhead is computed, not for `StopAndGo` alone
+    import numpy as np
 
 NAN_PAIR = (float("nan"), float("nan"))
 
@@ -76,6 +77,10 @@ def ratio_of_means_ci95(
 ) -> tuple[float, tuple[float, float]]:
     """Ratio of two sample means and its 95% interval (delta method on the log, Welch t;
     module docstring). NaN interval when either sample has fewer than two values."""
+    import numpy as np
+
+    from wifibot_power.stats import t_quantile
+
     a = np.asarray(numerator, dtype=np.float64)
     b = np.asarray(denominator, dtype=np.float64)
     m_a, m_b = float(a.mean()), float(b.mean())
@@ -107,6 +112,8 @@ def stop_and_go_overheads(
     Eq. 5/6 overhead goes beside (NaN without a complete model). Rows are sorted by
     distance, speed, payload, steps.
     """
+    import numpy as np
+
     groups: dict[tuple[float, float, float, int], list[float]] = {}
     for row in rows:
         if not row.get("usable", True) or row.get("mode") != "motion":

@@ -8,8 +8,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from datetime import datetime
+from typing import TYPE_CHECKING
 
-import numpy as np
+if TYPE_CHECKING:  # numpy loads with the samples (a warm `fit --cache` holds none)
+    import numpy as np
 
 #: Run modes of log-format.md ("Metadata keys").
 MODES = ("motion", "idle", "network", "video", "cpu", "unknown")
@@ -102,4 +104,6 @@ def energy_J(power_W: np.ndarray, sample_period_s: float) -> float:
     The rectangle rule keeps energy exactly additive over any split into phases,
     which is what the per-phase tables rely on.
     """
+    import numpy as np
+
     return float(np.sum(power_W, dtype=np.float64) * sample_period_s)

@@ -22,7 +22,6 @@ from wifibot_power.cli.common import (
     print_json,
     progress,
     report_skipped,
-    stdout,
     warn,
     warn_problems,
     with_reading_options,
@@ -72,6 +71,8 @@ def table_cells(result: FitResult) -> list[list[str]]:
 
 
 def print_fit_table(result: FitResult) -> None:
+    from wifibot_power.cli.common import stdout  # rich loads here: `--json` never draws
+
     print_table(
         stdout,
         f"Power model fitted over {result.n_runs} run(s) (95% CI: OLS t intervals by run)",
@@ -123,6 +124,8 @@ def fit_command(
     if json_out:
         print_json(result.summary())
     elif markdown:
+        from wifibot_power.cli.common import stdout
+
         stdout.print(result.to_markdown(), markup=False, highlight=False, end="")
     else:
         print_fit_table(result)

@@ -23,11 +23,13 @@ import inspect
 import typing
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Annotated, Literal, TypeVar
+from typing import TYPE_CHECKING, Annotated, Literal, TypeVar
 
 import typer
-from rich.console import Console
-from rich.table import Table
+
+if TYPE_CHECKING:  # rich loads when a table is drawn: `--json` output never needs it
+    from rich.console import Console
+    from rich.table import Table
 
 #: Whether `--wide` was given to the running command.
 WIDE: contextvars.ContextVar[bool] = contextvars.ContextVar("wide", default=False)
@@ -99,6 +101,8 @@ def tables(
     row_styles: Sequence[str | None] | None = None,
 ) -> list[Table]:
     """The rich table(s) showing `rows` under `cols` in `width` columns (see the module)."""
+    from rich.table import Table
+
     parts = [list(range(len(cols)))] if wide else plan(cols, rows, width)
     out = []
     for number, part in enumerate(parts, start=1):

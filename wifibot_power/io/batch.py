@@ -18,13 +18,10 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
-import numpy as np
-
 from wifibot_power.errors import LogError, WbpowerError
 from wifibot_power.io.discover import LogSource, Skipped, find_logs
 from wifibot_power.io.manifest import is_manifest
 from wifibot_power.io.options import ReadOptions
-from wifibot_power.parallel import map_ordered
 from wifibot_power.run import Problem, Run
 
 if TYPE_CHECKING:
@@ -43,6 +40,8 @@ def run_identity(run: Run) -> str:
     recordings never share 1000s of noisy power readings bit for bit. Measured: 10 ms on the
     1.2 M-sample, 41 MB bench log, against 150-350 ms to read it (2 shared cores); computed
     only in a batch (or when a result is kept in the cache)."""
+    import numpy as np  # here: a warm batch, all kept in the cache, loads no numpy
+
     digest = hashlib.sha256()
     for samples in (run.power_W, run.speed_mps):
         if samples is not None:
@@ -153,15 +152,18 @@ def map_runs(
         outcomes = _kept_outcomes(sources, cache, memo, options, on_done)
         # only what is not kept goes to workers: a warm batch starts none
         todo = [k for k, outcome in enumerate(outcomes) if outcome is None]
+        computed: list[tuple[bool, object]] = []
         if todo:
-            # the parser (and pyarrow) load only when something is parsed: a warm batch skips them
+            # the parser (and pyarrow), and the workers' multiprocessing, load only when
+            # something is parsed: a warm batch skips them
             import wifibot_power.io.reader  # noqa: F401
+            from wifibot_power.parallel import map_ordered
 
             if prepare is not None:
                 prepare()
-        computed = map_ordered(
-            [sources[k] for k in todo], one, jobs=jobs, on_done=on_done, cost=_size_bytes
-        )
+            computed = map_ordered(
+                [sources[k] for k in todo], one, jobs=jobs, on_done=on_done, cost=_size_bytes
+            )
         for k, outcome in zip(todo, computed, strict=True):
             outcomes[k] = outcome
     finally:

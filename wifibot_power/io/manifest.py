@@ -75,6 +75,7 @@ def read_manifest(path: Path) -> list[ManifestRow]:
         )
     rows: list[ManifestRow] = []
     seen: dict[Path, int] = {}
+    folder = path.parent.resolve()
     for raw in reader:
         line_no = reader.line_num
         row = {(k or "").strip().lower(): (v or "").strip() for k, v in raw.items()}
@@ -89,7 +90,7 @@ def read_manifest(path: Path) -> list[ManifestRow]:
                     fix="name the log file in the 'file' column, or delete the row",
                 )
             continue
-        file = (path.parent / name).resolve()
+        file = _resolved(folder, name)
         if file in seen:
             raise LogError(
                 f"'{name}' is named twice (lines {seen[file]} and {line_no})",
@@ -100,3 +101,18 @@ def read_manifest(path: Path) -> list[ManifestRow]:
         seen[file] = line_no
         rows.append(ManifestRow(path, line_no, file, values))
     return rows
+
+
+def _resolved(folder: Path, name: str) -> Path:
+    """`(folder / name).resolve()` for `folder` already resolved: a plain name that is not a
+    symbolic link resolves to itself in the folder (one lstat, not one per component of the
+    path); anything else (a link, a sub-path, "..") is resolved in full."""
+    plain = name not in ("", ".", "..") and "/" not in name and "\\" not in name
+    if plain:
+        candidate = folder / name
+        try:
+            if not candidate.is_symlink():
+                return candidate
+        except OSError:
+            pass
+    return (folder / name).resolve()
