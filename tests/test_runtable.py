@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 from contract import RUNS_PARQUET_COLUMNS
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -204,3 +205,27 @@ def test_a_line_through_one_speed_level_is_not_fitted():
         assert np.isnan(line.slope) and np.isnan(line.intercept)
     line = fit_line(np.array([0.3, 0.6, 0.9]), np.array([27.0, 30.0, 33.0]))
     assert_allclose([line.intercept, line.slope], [24.0, 10.0], rtol=1e-12)
+
+
+def test_without_a_distance_a_speed_column_gives_the_path_of_the_motion_phases():
+    """A log with a speed column and no distance_m (the REGBOT logs): the run's distance is
+    the path its motion phases cover, sum of |v| dt, and says where it came from; idle
+    samples' speed (an encoder's noise around 0) does not count. With distance_m given, the
+    metadata's wins; with neither, no distance and the run is not usable."""
+    from dataclasses import replace
+
+    run, seg = build(TWO_STEPS, distance_m=None)
+    speed = np.full(run.samples, 0.02)  # idle: noise that must not count
+    for p in seg.phases:
+        if p.phase in ("accel", "cruise", "decel"):
+            speed[p.i_start : p.i_end] = -0.4 if p.step == 2 else 0.5  # backwards counts too
+    moving = sum(p.i_end - p.i_start for p in seg.phases if p.phase != "idle" and p.step == 1)
+    backwards = sum(p.i_end - p.i_start for p in seg.phases if p.phase != "idle" and p.step == 2)
+    row = run_row(replace(run, speed_mps=speed), seg)
+    assert row["distance_source"] == "speed column"
+    assert row["distance_m"] == pytest.approx((0.5 * moving + 0.4 * backwards) * PERIOD_S)
+    given = run_row(replace(run, speed_mps=speed, meta=replace(run.meta, distance_m=3.0)), seg)
+    assert (given["distance_m"], given["distance_source"]) == (3.0, "metadata")
+    neither = run_row(run, seg)
+    assert np.isnan(neither["distance_m"]) and neither["distance_source"] == ""
+    assert "without a distance" in neither["skip_reason"]

@@ -17,6 +17,10 @@ Column meanings (units in the names):
 - `spike_energy_J`: energy of the start-up spikes above their phase's level.
 - `speed_mps`: the run's speed: the time-weighted mean of its cruise phases' speeds when
   they carry one (phases from a speed column, or the commanded speed), else the metadata's.
+- `distance_m`, `distance_source`: the run's distance from its metadata (`"metadata"`);
+  without one, on a log with a speed column, the path its motion phases cover, sum of
+  |v|·dt over their samples (`"speed column"`: the wheels' path, forward or back, as the
+  speed column measures or commands it); else NaN (`""`), and a motion run is not usable.
 - `cruise_levels`: how many speed levels its cruise phases hold (`fit.speed_levels`); a
   run with more than one is not usable (`fit` takes one speed per run).
 - `doubts`: the segmentation's doubts (`Segmentation.doubts`) joined by "; ", empty when
@@ -49,6 +53,7 @@ RUN_COLUMNS = (
     "mode",
     "speed_mps",
     "distance_m",
+    "distance_source",
     "steps",
     "payload_kg",
     "started_at",
@@ -168,7 +173,8 @@ def run_row(
         "file": run.file,
         "mode": meta.mode,
         "speed_mps": speed_mps if speed_mps is not None else np.nan,
-        "distance_m": meta.distance_m if meta.distance_m is not None else np.nan,
+        "distance_m": np.nan,
+        "distance_source": "",
         "steps": int(meta.steps),
         "payload_kg": float(meta.payload_kg),
         "started_at": meta.started_at,
@@ -183,6 +189,12 @@ def run_row(
     }
     cover_problem = _check_cover(run, segmentation)
     phases = segmentation.phases if cover_problem is None else ()
+    if meta.distance_m is not None:
+        row.update(distance_m=meta.distance_m, distance_source="metadata")
+    elif run.speed_mps is not None and meta.mode == "motion":
+        covered_m = _path_m(run, phases)
+        if covered_m > 0:
+            row.update(distance_m=covered_m, distance_source="speed column")
     energies_J, durations_s = _phase_sums(run, phases, energy)
     names = np.array([p.phase for p in phases], dtype=object)
     step_numbers = np.array([p.step for p in phases], dtype=np.int64)
@@ -225,6 +237,15 @@ def run_row(
     return row
 
 
+def _path_m(run: Run, phases: Sequence[Phase]) -> float:
+    """Path the run's motion phases cover by its speed column [m]: sum of |v|·dt over their
+    samples (rectangle rule, as the energies; idle samples, whose speed is noise around 0 on
+    an encoder, are left out)."""
+    speed = np.abs(run.speed_mps)
+    total = sum(float(speed[p.i_start : p.i_end].sum()) for p in phases if p.phase in MOTION_PHASES)
+    return total * run.sample_period_s
+
+
 def usability(row: dict[str, object]) -> str | None:
     """Why `fit` cannot use this run (one line that says what to do), or None."""
     mode = row["mode"]
@@ -238,7 +259,10 @@ def usability(row: dict[str, object]) -> str | None:
     if not np.isfinite(row["speed_mps"]) or row["speed_mps"] <= 0:
         return "motion run without a speed (set speed_mps in its metadata or runs.csv)"
     if not np.isfinite(row["distance_m"]) or row["distance_m"] <= 0:
-        return "motion run without a distance (set distance_m in its metadata or runs.csv)"
+        return (
+            "motion run without a distance (set distance_m in its metadata or runs.csv, or "
+            "give its speed column)"
+        )
     if int(row.get("cruise_levels", 0) or 0) > 1:
         return (
             f"its cruises hold {row['cruise_levels']} speed levels; fit takes one speed per "

@@ -1,11 +1,12 @@
 """`wbpower diagnose` on converted REGBOT logs (docs/real-logs.md, "diagnose on them").
 
-The logs carry a speed column but no distance. This script copies a set's logs into a
-scratch folder with a `runs.csv` that gives each run the distance its speed column
-integrates to (sum of |v| dt: the wheels' path, forward or back), then runs
-`wbpower diagnose --json` on it, with and without `--keep-doubtful`, and prints what each
-says: the error line, or the runs used, the baseline's held-out MAPE, the names and
-`unexplained` with its reasons.
+The logs carry a speed column but no distance, which wbpower then takes from the speed
+column (the path of the motion phases, `runtable.run_row`). This script runs
+`wbpower diagnose --json` on a set as converted, with and without `--keep-doubtful`, and,
+as a cross-check of that distance, on a copy whose `runs.csv` gives each run the path its
+whole log's speed column integrates to (sum of |v| dt); it prints what each says: the error
+line, or the runs used, the baseline's held-out MAPE, the names and `unexplained` with its
+reasons.
 
     .venv/bin/python benchmarks/real_logs/diagnose_regbot.py DIR_OF_A_SET [...]
 
@@ -69,9 +70,9 @@ def main(argv: list[str]) -> None:
         for logs in map(Path, argv):
             folder = with_distances(logs, Path(scratch))
             print(f"## {logs.name} ({len(list(logs.glob('*.csv.gz')))} logs)")
-            print("as converted (no distance):", diagnose(logs))
-            print("distances from the speed column:", diagnose(folder))
-            print("... and --keep-doubtful:", diagnose(folder, "--keep-doubtful"))
+            print("as converted:", diagnose(logs))
+            print("as converted, --keep-doubtful:", diagnose(logs, "--keep-doubtful"))
+            print("runs.csv distances, --keep-doubtful:", diagnose(folder, "--keep-doubtful"))
             print()
 
 
