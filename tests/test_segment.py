@@ -508,30 +508,30 @@ def test_false_start_up_spikes_on_sample_logs_are_few() -> None:
     assert all(float(name[1:5]) >= 0.7 for name in found), found
 
 
-def test_a_long_exponential_stop_is_a_decel_phase_not_a_second_cruise_level():
-    """fieldgen's exponential stop (speed v·exp(-t/τ), τ = 0.33 s, over 5τ = 1.63 s; its
-    seed 4, the validation's decel_phase size there): with stops looked for up to 1.5 s, 16
-    of its 20 one-step runs went to the cruise, which was then doubted as holding two levels,
-    and diagnose had 4 usable runs. Looked for up to decel_phase's plausible 5 s, each is a
-    decel phase starting where the stop starts: measured within 0.2 ms (median) and 17.7 ms
-    (worst, 0.1 m/s, where the drop is 1/7 of the 0.5 m/s one); pinned at 25 ms. Its end is
-    not pinned: the stop's last 2τ sit 0.6 W above idle (the driver's own power), which the
-    falling line can end before (a known limit, docs/segmentation.md)."""
-    import fieldgen
+def test_a_second_lower_level_at_a_cruise_end_is_doubted_not_taken_for_a_stop():
+    """A 1 m/s cruise whose last 3 s run at 0.3 m/s (its power lowered by 11.2 W/(m/s) x
+    0.7, the review's reproduction, seeds 1-3 at field realism) is doubted as holding two
+    levels. With stops looked for up to decel_phase's plausible 5 s instead of 1.5 s
+    (`max_decel_s`, tried in the third session for fieldgen's exponential stops of 1.6 s),
+    that level became a 3 s "decel" phase with no doubt: the stop test asks only that a
+    line fall and end near idle."""
+    from wifibot_power.simulate import realism
 
-    size_s = fieldgen.sizes("decel_phase", 4)
-    gen = fieldgen.generate(fieldgen.Batch(effects={"decel_phase": size_s}, seed=4))
-    checked = 0
-    for truth_run, run in zip(gen, fieldgen.to_runs(gen), strict=True):
-        if run.meta.mode != "motion" or run.meta.steps != 1:
-            continue
-        v, d = run.meta.speed_mps, run.meta.distance_m
-        tau, t_acc = truth_run.truth["tau_stop_s"], truth_run.truth["t_acc_s"]
-        # fieldgen: the cruise covers the step less the ramp's v·t_acc/2 and the stop's v·τ
-        stop_s = truth_run.truth["phase_starts_s"][0] + t_acc + (d - v * t_acc / 2 - v * tau) / v
-        seg = segment_run(run)
-        assert seg.doubts == (), (run.meta.run_id, seg.doubts)
-        (decel,) = [p for p in seg.phases if p.phase == "decel"]
-        assert abs(decel.t_start_s - stop_s) < 0.025, run.meta.run_id
-        checked += 1
-    assert checked == 20
+    for seed in (1, 2, 3):
+        config = SimConfig(
+            speeds_mps=(1.0,),
+            trips=((10.0, 1),),
+            repeats=1,
+            modes=(),
+            seed=seed,
+            sample_period_s=0.001,
+            **realism("field"),
+        )
+        (sim,) = simulate_runs(config)
+        cruise = next(p for p in sim.truth["phases"] if p["phase"] == "cruise")
+        dt = sim.run.sample_period_s
+        i_end = round(cruise["t_end_s"] / dt)
+        power_W = sim.run.power_W.copy()
+        power_W[i_end - round(3.0 / dt) : i_end] -= 11.2 * (1.0 - 0.3)
+        seg = segment_run(replace(sim.run, power_W=power_W))
+        assert any("holds two levels" in d for d in seg.doubts), (seed, seg.doubts)
