@@ -402,3 +402,23 @@ def test_without_repeated_runs_nothing_left_is_not_claimed():
     assert reason.startswith(f"the runs' own spread is unknown: {n} runs in {n} configurations")
     twice = diagnose_runs([s.run for s in simulate_runs(SimConfig(**GRID, seed=11))])
     assert not twice.unexplained, twice.unexplained_reasons
+
+
+def test_runs_without_a_cruise_phase_are_one_line_not_rmse_nan():
+    """REGBOT's initial-current logs speed up and stop with no cruise between: the
+    paper's P_v(v) cannot be fitted, every held-out prediction was NaN, and diagnose
+    printed "RMSE nan J, MAPE nan%. Gain 0.0%" and exited 0. Now a one-line error says
+    which line and why."""
+    from wifibot_power.segment import segment_run
+
+    def no_cruise(run):
+        seg = segment_run(run)
+        phases = tuple(replace(p, phase="accel") if p.phase == "cruise" else p for p in seg.phases)
+        return replace(seg, phases=phases)
+
+    runs = [s.run for s in simulate_runs(SimConfig(**GRID, seed=5))]
+    with pytest.raises(LogError) as caught:
+        diagnose_runs(runs, segmenter=no_cruise)
+    message = str(caught.value)
+    assert message.startswith("the paper's model cannot be fitted to these runs: P_v(v)")
+    assert "(0 of " in message and "\n" not in message

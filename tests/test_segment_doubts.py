@@ -376,3 +376,34 @@ def test_speed_column_on_simulated_runs_with_a_noisy_speed_estimate() -> None:
                 assert p.speed_mps < 0.002, p
             if p.phase == "cruise":
                 assert abs(p.speed_mps / sim.truth["speed_mps"] - 1) < 0.006, p
+
+
+def test_a_run_standing_at_its_first_sample_that_speeds_up_at_once_does_not_start_moving():
+    """REGBOT's initial-current logs: the robot stands at the log's first sample and speeds
+    up at once (~4 m/s²). Averaged over 50 ms its speed read ~0.1 m/s, above the moving
+    floor, and 66 of 72 sound logs were doubted as "starting moving"; the doubt now reads
+    the first 9 ms (`edge_s`, as a motion's ends are found). The simulator's runs with their
+    first idle cut off: the ramp from the first sample is not doubted; cut 0.1 s into the
+    ramp (already at 0.4 of its speed), it is."""
+    from wifibot_power.simulate import simulate_runs
+
+    config = SimConfig(
+        speeds_mps=(0.8,), trips=((4.0, 1),), repeats=1, modes=(), seed=11, sample_period_s=1e-3
+    )
+    (sim,) = simulate_runs(config)
+    dt, speed = sim.run.sample_period_s, np.zeros(sim.run.samples)
+    for p in sim.truth["phases"]:
+        a, b = round(p["t_start_s"] / dt), round(p["t_end_s"] / dt)
+        ramp = (np.arange(b - a) + 0.5) / (b - a)
+        speed[a:b] = sim.truth["speed_mps"] * {"accel": ramp, "cruise": 1.0}.get(p["phase"], 0.0)
+    accel = next(p for p in sim.truth["phases"] if p["phase"] == "accel")
+    for cut_s, doubted in ((0.0, False), (0.1, True)):
+        i = round((accel["t_start_s"] + cut_s) / dt)
+        run = replace(
+            sim.run,
+            time_s=sim.run.time_s[i:] - sim.run.time_s[i],
+            power_W=sim.run.power_W[i:],
+            speed_mps=speed[i:],
+        )
+        seg = segment_run(run)
+        assert any("starts moving" in d for d in seg.doubts) == doubted, (cut_s, seg.doubts)

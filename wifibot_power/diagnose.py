@@ -593,6 +593,26 @@ def _rmse_mape(measured: np.ndarray, predicted: np.ndarray) -> tuple[float, floa
     return float(np.sqrt(np.mean(error**2))), float(100 * np.mean(np.abs(error) / measured))
 
 
+def _check_estimable(model: PowerModel, motion: pd.DataFrame) -> None:
+    """A one-line error when the paper-form lines cannot be fitted to these runs: held out,
+    every prediction would be NaN, and the diagnosis would print RMSE nan and a gain of 0%
+    (found on REGBOT logs whose steps speed up and stop with no cruise between)."""
+    lines = {
+        "P_acc(v) (acceleration phases)": (model.accel, "accel_mean_power_W"),
+        "P_v(v) (cruise phases)": (model.cruise, "cruise_mean_power_W"),
+    }
+    for name, (line, column) in lines.items():
+        if np.isfinite(line.intercept) and np.isfinite(line.slope):
+            continue
+        having = int(np.isfinite(motion[column].to_numpy(np.float64)).sum())
+        raise LogError(
+            f"the paper's model cannot be fitted to these runs: {name} not estimable "
+            f"({having} of {len(motion)} usable motion runs have such a phase)",
+            fix="diagnose needs motion runs with acceleration and cruise phases at 2 or more "
+            "speeds (see 'wbpower segment FILE' for a run's phases)",
+        )
+
+
 def enough_to_choose(motion: pd.DataFrame) -> bool:
     """Whether these motion runs are enough to choose causes on."""
     return len(motion) >= MIN_MOTION_RUNS and motion["speed_mps"].nunique() >= MIN_SPEEDS
@@ -679,6 +699,7 @@ def _diagnose(
         )
     notes: list[str] = []
     baseline_model = fit_model(runs)
+    _check_estimable(baseline_model, motion)
     folds = heldout_folds(motion)
     if isinstance(folds, str):
         raise LogError(folds, fix=_missing_data(motion))
