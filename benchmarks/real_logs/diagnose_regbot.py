@@ -55,9 +55,10 @@ def diagnose(folder: Path, *extra: str) -> str:
     if done.returncode == 2:
         return "error: " + done.stderr.strip().splitlines()[-1].split("error: ", 1)[-1]
     result = json.loads(done.stdout)
+    mape = result["baseline"]["heldout_mape_pct"]  # null (NaN) where nothing is predicted
     lines = [
         f"{result['n_runs']} runs; baseline held-out MAPE "
-        f"{result['baseline']['heldout_mape_pct']:.0f}%; named "
+        f"{'-' if mape is None else f'{mape:.0f}%'}; named "
         f"{[f['cause'] for f in result['findings']] or 'nothing'}; "
         f"unexplained {result['unexplained']}"
     ]
