@@ -145,16 +145,20 @@ def test_without_repeats_lack_of_fit_is_not_testable_and_says_why():
     assert "repeated runs" in result.where
 
 
-def test_the_runs_own_spread_is_unknown_below_two_repeats_and_said():
-    """`unknown_spread`: with fewer than 2 runs beyond the first of each configuration, no
-    structure can be ruled out, and `structure_reasons` says so even on a null table; 2
-    repeats are enough (pure error then has 2 degrees of freedom)."""
+def test_the_runs_own_spread_is_unknown_with_fewer_repeats_than_configurations_and_said():
+    """`unknown_spread`: with fewer repeated runs (n - g) than degrees of freedom between
+    configurations (g - 1), or fewer than 2, no structure can be ruled out, and
+    `structure_reasons` says so even on a null table; 2 runs of each configuration are
+    enough (n - g = g > g - 1)."""
     once = _table(7, repeats=1)
     n = len(once)
     reasons = residuals.structure_reasons(once)
     assert reasons[-1].startswith(f"the runs' own spread is unknown: {n} runs in {n} ")
-    one_repeat = pd.concat([once, once.iloc[:1]], ignore_index=True)  # n - g = 1
-    assert residuals.unknown_spread(one_repeat) is not None
-    two_repeats = pd.concat([once, once.iloc[:2]], ignore_index=True)  # n - g = 2
-    assert residuals.unknown_spread(two_repeats) is None
+    # the review's case: every configuration once, plus 2 repeats
+    assert residuals.unknown_spread(pd.concat([once, once.iloc[:2]], ignore_index=True))
+    # one short of g - 1 repeats, and exactly g - 1
+    short = pd.concat([once, once.iloc[: n - 2]], ignore_index=True)
+    assert residuals.unknown_spread(short) is not None
+    enough = pd.concat([once, once.iloc[: n - 1]], ignore_index=True)
+    assert residuals.unknown_spread(enough) is None
     assert residuals.structure_reasons(_table(7)) == []  # the null with repeats: nothing

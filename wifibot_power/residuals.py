@@ -353,20 +353,25 @@ def structure_reasons(table: pd.DataFrame, alpha: float = ALPHA) -> list[str]:
 def unknown_spread(table: pd.DataFrame) -> str | None:
     """Why no structure can be ruled out, or None when it can: structure is what the runs
     show beyond their own run-to-run spread (causes.md, "Unexplained"), measured by repeated
-    runs of one configuration (pure error). With fewer than 2 repeats beyond the first run
-    of each configuration there is no such measure, and "nothing left" would be a claim the
-    data cannot back (found on real REGBOT logs: 15 runs, each at its own measured speed and
-    distance, held out with a MAPE of 27%, were read as "the paper's model explains these
-    runs"). The other tests then fall back on the residual of their own fit, which no
-    repeat backs."""
+    runs of one configuration (pure error, n - g degrees of freedom for n runs in g
+    configurations). Lack of fit compares the g configurations' means (g - 1 degrees of
+    freedom) against it; with fewer repeats than that (or fewer than 2), the spread is known
+    less well than what it is to judge, and "nothing left" would be a claim the data cannot
+    back. A balanced design with 2 runs of each configuration has g repeats, just enough.
+    Found on real REGBOT logs: 15 runs, each at its own measured speed and distance, held
+    out with a MAPE of 27%, read as "the paper's model explains these runs"; and, in review,
+    15 single runs plus 2 repeats hiding a 0.3 W effect on 1-step runs (its F test had 2
+    degrees of freedom of spread against 14 of configurations)."""
     n = len(table)
     g = int(_cells(table).max()) + 1 if n else 0
-    if n - g >= 2:
+    repeats, compared = n - g, g - 1
+    if repeats >= max(2, compared):
         return None
     return (
-        f"the runs' own spread is unknown: {n} runs in {g} configurations, too few repeated "
-        "runs to measure it, so structure beyond it cannot be ruled out (repeat runs of one "
-        "configuration: the same speed, distance, steps and payload)"
+        f"the runs' own spread is unknown: {n} runs in {g} configurations, {repeats} "
+        f"repeated run(s) to measure it against {compared} degrees of freedom between "
+        "configurations, so structure beyond it cannot be ruled out (run each configuration "
+        "at least twice: the same speed, distance, steps and payload)"
     )
 
 
