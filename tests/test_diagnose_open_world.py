@@ -385,6 +385,23 @@ def test_steps_without_a_cruise_are_summarised_not_an_internal_error():
     stats = trace_stats(run, segmentation)
     assert stats.steps == 1
     assert stats.end_s == pytest.approx(50 * run.sample_period_s)  # the idle after it, whole
+    # a step with a cruise before one without (the review's order): its stop window ends
+    # where the next step starts moving (30 idle samples), not 1 s on, through that step's
+    # acceleration and stop (2.5 J of "end window excess" per step that was not there)
+    cruise_first = [
+        ("idle", 0, np.full(50, 20.0)),
+        ("accel", 1, ramp),
+        ("cruise", 1, np.full(40, 30.0)),
+        ("idle", 1, np.full(30, 20.0)),
+        ("accel", 2, ramp),
+        ("decel", 2, np.full(10, 25.0)),
+        ("idle", 2, np.full(150, 20.0)),
+    ]
+    run, segmentation = build(cruise_first, steps=2)
+    stats = trace_stats(run, segmentation)
+    assert stats.steps == 1
+    assert stats.end_s == pytest.approx(30 * run.sample_period_s)
+    assert stats.end_measured_J == pytest.approx(30 * 20.0 * run.sample_period_s)
 
 
 def test_without_repeated_runs_nothing_left_is_not_claimed():

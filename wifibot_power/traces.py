@@ -83,10 +83,19 @@ def trace_stats(
         if phase.phase in ("accel", "cruise", "decel") and phase.step >= 1:
             by_step.setdefault(phase.step, {}).setdefault(phase.phase, []).append(phase)
     steps = sorted(s for s, kinds in by_step.items() if "accel" in kinds and "cruise" in kinds)
-    # each step's stop window ends where the next step's acceleration starts, the last one's
-    # at the end of the run (a run whose steps all lack a cruise has no step here)
-    starts_next = [min(p.i_start for p in by_step[s]["accel"]) for s in steps[1:]]
-    starts_next += [run.samples] if steps else []
+    # each step's stop window ends where the next step's motion starts, whether or not that
+    # step has a cruise (a speed column can give steps that speed up and stop), the last
+    # one's at the end of the run
+    motion_starts = sorted(
+        min(p.i_start for ps in kinds.values() for p in ps) for kinds in by_step.values()
+    )
+    starts_next = [
+        next(
+            (i for i in motion_starts if i > min(p.i_start for p in by_step[s]["accel"])),
+            run.samples,
+        )
+        for s in steps
+    ]
     sums = np.zeros(7)
     w_start = max(1, round(START_WINDOW_S / dt))
     w_end = max(1, round(END_WINDOW_S / dt))
