@@ -63,6 +63,7 @@ def case(args: tuple[str, tuple[str, ...], int, dict[str, float]]) -> dict:
         # the same causes chosen on all runs, only their fit held out (the pre-nesting figure)
         "gain_fixed_pct": diagnose.gain_pct(result.baseline_rmse_J, result.extended_fixed_rmse_J),
         "notes": [n for n in result.notes if n.startswith("held-out fold")],
+        "reasons": list(result.unexplained_reasons),
         "ceiling_pct": diagnose.gain_pct(
             result.baseline_rmse_J, irreducible_rmse_J(sims, config.robot.idle_W)
         ),
@@ -130,6 +131,8 @@ def main(suite: str = "lab") -> None:
             f"(causes chosen on all runs: {r['gain_fixed_pct']:.1f}%; at most "
             f"{r['ceiling_pct']:.1f}%) {r['notes']}"
         )
+        for reason in r["reasons"]:
+            print(f"      {reason[:200]}")
     print()
     print(
         "| hidden | named exactly | unexplained | largest estimate error | smallest own gain "

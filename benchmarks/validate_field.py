@@ -125,9 +125,12 @@ def main(argv: list[str] | None = None) -> None:
     todo = cases(3, 4, 8, False) if quick else cases()
     # --off-seeds N: the off-catalogue suite alone, seeds 1..N per effect (its false-name
     # rate measured on more batches than the 5 a full run spends)
-    off = [a.split("=", 1)[1] for a in argv if a.startswith("--off-seeds=")]
+    off = [a for a in argv if a.startswith("--off-seeds")]
     if off:
-        todo = [c for c in cases(int(off[-1]), 0, 0, False) if c[0] == "off"]
+        value = off[-1].partition("=")[2]
+        if not value.isdigit() or int(value) < 1:
+            raise SystemExit(f"validate_field.py: give --off-seeds=N (N >= 1), not {off[-1]!r}")
+        todo = [c for c in cases(int(value), 0, 0, False) if c[0] == "off"]
     started = time.perf_counter()
     results = []
     with multiprocessing.Pool(2) as pool:

@@ -139,6 +139,14 @@ def test_the_human_output_never_says_explained_when_unexplained(monkeypatch):
     text = console.export_text()
     assert "explains these runs" not in text
     assert "no catalogue cause explains" in text
+    # too few repeats and nothing else: "cannot tell", not "nothing left" (the review)
+    once = diagnose_runs([s.run for s in simulate_runs(SimConfig(**{**GRID, "repeats": 1}))])
+    console = Console(width=200, record=True)
+    monkeypatch.setattr(diagnose_cmd, "stdout", console)
+    diagnose_cmd._findings(once)
+    text = console.export_text()
+    assert "cannot tell: too few repeated runs to judge" in text
+    assert "explains these runs" not in text and "explains what is left" not in text
 
 
 def _unbalanced(runs_at_fast: int) -> list:

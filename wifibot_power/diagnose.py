@@ -683,19 +683,19 @@ def _diagnose(
     if not enough_to_choose(motion):
         # what left the other inputs out (unreadable, refused, unusable, doubted), most
         # common first: the CLI shows no 'skipped' lines when the batch fails
-        doubted = [s for s in skipped if s.why.startswith(DOUBT_REASON)]
+        doubted_runs = [s for s in skipped if s.why.startswith(DOUBT_REASON)]
         others = [s for s in skipped if not s.why.startswith(DOUBT_REASON)]
         raise LogError(
             f"{len(motion)} usable motion run(s) at {motion['speed_mps'].nunique()} speed(s)"
             + (
-                f"; {len(doubted)} more left out for segmentation doubts (first: "
-                f"{doubted[0].reason})"
-                if doubted
+                f"; {len(doubted_runs)} more left out for segmentation doubts (first: "
+                f"{doubted_runs[0].reason})"
+                if doubted_runs
                 else ""
             )
             + (f"; left out: {reasons_in_brief(others)}" if others else ""),
             fix=f"diagnose needs at least {MIN_MOTION_RUNS} motion runs at {MIN_SPEEDS} or "
-            "more speeds" + (" (--keep-doubtful uses the doubted runs)" if doubted else ""),
+            "more speeds" + (" (--keep-doubtful uses the doubted runs)" if doubted_runs else ""),
         )
     notes: list[str] = []
     baseline_model = fit_model(runs)

@@ -350,6 +350,10 @@ def structure_reasons(table: pd.DataFrame, alpha: float = ALPHA) -> list[str]:
     return reasons + [unknown] if unknown else reasons
 
 
+#: How the reason starts when the runs' own spread cannot be measured (`unknown_spread`).
+UNKNOWN_SPREAD = "the runs' own spread is unknown"
+
+
 def unknown_spread(table: pd.DataFrame) -> str | None:
     """Why no structure can be ruled out, or None when it can: structure is what the runs
     show beyond their own run-to-run spread (causes.md, "Unexplained"), measured by repeated
@@ -368,7 +372,7 @@ def unknown_spread(table: pd.DataFrame) -> str | None:
     if repeats >= max(2, compared):
         return None
     return (
-        f"the runs' own spread is unknown: {n} runs in {g} configurations, {repeats} "
+        f"{UNKNOWN_SPREAD}: {n} runs in {g} configurations, {repeats} "
         f"repeated run(s) to measure it against {compared} degrees of freedom between "
         "configurations, so structure beyond it cannot be ruled out (run each configuration "
         "at least twice: the same speed, distance, steps and payload)"

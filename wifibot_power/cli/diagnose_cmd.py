@@ -132,12 +132,15 @@ def _findings(result: Diagnosis) -> None:
             ]
         )
     if not result.findings:
+        from wifibot_power.residuals import UNKNOWN_SPREAD
+
         # never "explains" while structure is left (cli.md): say what is known instead
-        verdict = (
-            "no catalogue cause explains what is left (see 'unexplained' below)"
-            if result.unexplained
-            else "the paper's model explains these runs"
-        )
+        verdict = "the paper's model explains these runs"
+        if result.unexplained:
+            verdict = "no catalogue cause explains what is left (see 'unexplained' below)"
+        reasons = result.unexplained_reasons
+        if reasons and all(r.startswith(UNKNOWN_SPREAD) for r in reasons):
+            verdict = "cannot tell: too few repeated runs to judge (see 'unexplained' below)"
         cells.append(["(none)", "", "", "", "", "", verdict])
     for f in result.findings:
         failed = [c for c in f.checks if not c.passed]
