@@ -341,7 +341,7 @@ def test_table_numbers_never_show_negative_zero_or_nan():
 COLD_FIT_MODULES = r"""
 import sys
 from wifibot_power.cli import main
-sys.argv = ["wbpower", "fit", sys.argv[1], "--json", "--jobs", "2"]
+sys.argv = ["wbpower", "fit", sys.argv[1], "--json", "--jobs", "1"]  # read here too
 try:
     main()
 except SystemExit:
@@ -352,8 +352,9 @@ print("pandas" in sys.modules, file=sys.stderr)
 
 def test_cold_fit_json_never_imports_pandas(sim_dir) -> None:
     """`fit --json` reads, segments and fits without pandas: its import (~0.45 s of CPU, 6%
-    of a cold `fit` of the 10 kHz power-only bench corpus, issue 14) comes only with the
-    tables (`-o`, `--runs`, `FitResult.runs`)."""
+    of a cold `fit` of the 10 kHz power-only bench corpus, issue 14; in each forked worker
+    when the reading imported it, as pyarrow's `to_numpy` does) comes only with the tables
+    (`-o`, `--runs`, `FitResult.runs`). One job: the logs are read in this process."""
     import json
     import subprocess
     import sys
