@@ -130,7 +130,7 @@ def map_runs(
     batch = len(sources) > 1
 
     def with_problems(run: Run) -> tuple[tuple[Problem, ...], str | None, T]:
-        # a kept result may serve a later batch: it keeps its identity too
+        # a kept result may serve a later batch: it keeps its fingerprint too
         identify = batch or memo is not None
         return run.problems, run_fingerprint(run) if identify else None, work(run)
 
@@ -195,7 +195,7 @@ def map_runs(
             close()
     keys = _duplicate_keys(sources, outcomes, options, jobs, cache)
     results: list[T] = []
-    first_of: dict[str, str] = {}  # run identity -> the first file with it
+    first_of: dict[str, str] = {}  # duplicate key -> the first file with it
     for source, (ok, value), identity in zip(sources, outcomes, keys, strict=True):
         if ok:
             problems, _, result = value  # type: ignore[misc]
