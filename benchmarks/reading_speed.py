@@ -3,8 +3,8 @@
 
 Both run in this process, alternating in every repeat, over files already in the OS page
 cache; wall time and CPU time (`time.process_time`: every thread of the process) are
-reported as medians, and their ratio. `read_log` here includes the run's identity digest
-(`run_identity`), which a batch computes for every file. The bare parse is the bench's
+reported as medians, and their ratio. `read_log` here includes the run's fingerprint
+(`run_fingerprint`), which a batch computes for every file. The bare parse is the bench's
 (benchmarks/run.py): type inference, every column, the '#' lines skipped; a .gz is read by
 pyarrow's own decompression, as `read_csv` of its path does. docs/reading-speed.md shows the
 figures.
@@ -29,7 +29,7 @@ from pathlib import Path
 
 import pyarrow.csv as pacsv
 
-from wifibot_power.io.batch import run_identity
+from wifibot_power.io.batch import run_fingerprint
 from wifibot_power.io.manifest import read_manifest
 from wifibot_power.io.reader import read_log
 
@@ -71,7 +71,7 @@ def ours(files: list[Path], overrides: dict[str, dict[str, str]]) -> int:
     rows = 0
     for path in files:
         run = read_log(path, overrides=overrides.get(path.name))
-        run_identity(run)
+        run_fingerprint(run)
         rows += run.power_W.size
     return rows
 

@@ -336,3 +336,34 @@ def test_table_numbers_never_show_negative_zero_or_nan():
     assert format_number(-0.0001) == "0.000"
     assert format_number(-0.0006) == "-0.001"
     assert format_number(float("nan")) == "-" and format_number(None) == "-"
+
+
+COLD_FIT_MODULES = r"""
+import sys
+from wifibot_power.cli import main
+sys.argv = ["wbpower", "fit", sys.argv[1], "--json", "--jobs", "1"]  # read here too
+try:
+    main()
+except SystemExit:
+    pass
+print("pandas" in sys.modules, file=sys.stderr)
+"""
+
+
+def test_cold_fit_json_never_imports_pandas(sim_dir) -> None:
+    """`fit --json` reads, segments and fits without pandas: its import (~0.45 s of CPU, 6%
+    of a cold `fit` of the 10 kHz power-only bench corpus, issue 14; in each forked worker
+    when the reading imported it, as pyarrow's `to_numpy` does) comes only with the tables
+    (`-o`, `--runs`, `FitResult.runs`). One job: the logs are read in this process."""
+    import json
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-c", COLD_FIT_MODULES, str(sim_dir[0])],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert json.loads(done.stdout)["cruise"]["n_runs"] > 0
+    assert done.stderr.strip().splitlines()[-1] == "False"

@@ -9,12 +9,15 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from wifibot_power.cache import ParseCache
 from wifibot_power.fit import fit_logs
-from wifibot_power.io import ReadOptions
-from wifibot_power.io.batch import map_runs
+from wifibot_power.io import ReadOptions, batch, read_log
+from wifibot_power.io.batch import _duplicate_keys, map_runs, run_fingerprint, run_identity
+from wifibot_power.io.discover import LogSource
+from wifibot_power.run import Run, RunMeta
 
 SAMPLE_LOGS = Path(__file__).resolve().parents[1] / "sample_logs"
 #: six motion runs at three speeds and an idle log: enough for fit to fit both lines
@@ -100,6 +103,122 @@ def test_different_runs_are_not_duplicates(folder: Path) -> None:
     files = [folder / "v0.30_d2_s1_r1.csv", folder / "edited.csv"]
     runs, skipped = map_runs(files, ReadOptions(), lambda run: run.file)
     assert len(runs) == 2 and not skipped
+
+
+def _swapped(text: str) -> str:
+    """The log with the power readings of two data lines of different values swapped: the
+    same readings in another order (a different run), so the same `run_fingerprint`."""
+    lines = text.splitlines(keepends=True)
+    data = [k for k, line in enumerate(lines) if line[:1].isdigit()]
+    first = data[len(data) // 2]
+    second = next(k for k in data[len(data) // 2 :] if lines[k] != lines[first])
+    lines[first], lines[second] = lines[second], lines[first]
+    return "".join(lines)
+
+
+@pytest.mark.parametrize("cached", [False, True])
+def test_same_fingerprint_other_samples_are_not_duplicates(
+    folder: Path, tmp_path: Path, cached: bool
+) -> None:
+    """Two logs whose cheap fingerprints are equal but whose samples differ (two readings
+    swapped: equal sums and xor of the bits) are two runs: the fingerprint only says which
+    logs to compare in full."""
+    original = folder / "v0.60_d2_s1_r1.csv"  # power_W alone: a line is one reading
+    swapped = folder / "swapped.csv"
+    swapped.write_text(_swapped(original.read_text()))
+    runs = [read_log(f, ReadOptions()) for f in (original, swapped)]
+    assert not np.array_equal(runs[0].power_W, runs[1].power_W)
+    assert run_fingerprint(runs[0]) == run_fingerprint(runs[1])  # the case this test is for
+    assert run_identity(runs[0]) != run_identity(runs[1])
+    cache = ParseCache(tmp_path / "cache") if cached else None
+    heard: list[str] = []
+    found, skipped = map_runs(
+        [original, swapped, original.with_suffix(".csv.gz")],
+        ReadOptions(),
+        lambda run: run.file,
+        cache=cache,
+        on_problems=lambda f, ps: heard.extend(p.kind for p in ps),
+    )
+    assert not skipped
+    assert found == [str(original), str(swapped)]  # the .csv.gz is the copy of the first
+    assert heard == ["duplicate"]
+
+
+def test_only_logs_sharing_a_fingerprint_are_digested(
+    folder: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The SHA-256 of the samples (~1.7 ms for 330 k samples; the fingerprint ~0.04 ms) is
+    computed for the logs whose fingerprints are equal, and for no other."""
+    digested: list[int] = []
+
+    def counting(run):
+        digested.append(run.samples)
+        return original_identity(run)
+
+    original_identity = batch.run_identity
+    monkeypatch.setattr(batch, "run_identity", counting)
+    distinct = [folder / f"{name}.csv" for name in RUNS]
+    found, _ = map_runs(distinct, ReadOptions(), lambda run: run.file)
+    assert len(found) == len(RUNS) and digested == []
+    pair = [folder / "v0.60_d2_s1_r1.csv", folder / "v0.60_d2_s1_r1.csv.gz"]
+    found, _ = map_runs([*distinct, pair[1]], ReadOptions(), lambda run: run.file)
+    assert len(found) == len(RUNS) and len(digested) == 2
+
+
+def test_logs_changed_or_gone_before_their_comparison_are_not_duplicates(folder: Path) -> None:
+    """Logs whose fingerprints matched when analysed are compared by reading them again:
+    one that cannot be read again, or whose samples changed meanwhile (here both were other
+    samples when analysed, and are now the same), is not called a copy."""
+    first, copy = folder / "v0.60_d2_s1_r1.csv", folder / "copy of run.csv"
+    fingerprint = run_fingerprint(read_log(first, ReadOptions()))
+    sources = [LogSource(first), LogSource(copy)]
+
+    def keys(analysed_as: str) -> list[str | None]:
+        outcomes = [(True, ((), analysed_as, None))] * 2
+        return _duplicate_keys(sources, outcomes, ReadOptions(), 1, None)
+
+    same = keys(fingerprint)
+    assert same[0] == same[1] and same[0].startswith("identity ")
+    changed = keys(run_fingerprint(read_log(folder / "v0.30_d2_s1_r1.csv", ReadOptions())))
+    assert changed[0] != changed[1]
+    copy.unlink()  # gone
+    gone = keys(fingerprint)
+    assert gone[0] == same[0] and gone[1] != gone[0]
+    first.unlink()  # both gone
+    assert len(set(keys(fingerprint))) == 2
+
+
+def test_fingerprint_reads_every_bit_the_identity_reads() -> None:
+    """Equal identities give equal fingerprints (same bits), and a change anywhere in power,
+    speed, or the time axis's ends or length changes the fingerprint."""
+    rng = np.random.default_rng(7)
+    power = rng.normal(23.3, 0.1, 1000)
+    speed = rng.normal(0.3, 0.01, 1000)
+    time = np.arange(1000) * 1e-3
+
+    def run(t=time, p=power, v=speed) -> Run:
+        return Run("x.csv", "canonical", RunMeta("x"), t, p, speed_mps=v)
+
+    base = run_fingerprint(run())
+    assert run_fingerprint(run(p=power.copy(), v=speed.copy())) == base
+    flipped = power.copy()
+    flipped[500] = np.nextafter(flipped[500], np.inf)  # one sample, one ulp
+    slower = speed.copy()
+    slower[999] = np.nextafter(slower[999], 0.0)
+    later = time + 1e-3
+    assert (
+        len(
+            {
+                base,
+                run_fingerprint(run(p=flipped)),
+                run_fingerprint(run(v=slower)),
+                run_fingerprint(run(t=later)),
+                run_fingerprint(run(v=None)),
+                run_fingerprint(run(t=time[:-1], p=power[:-1], v=speed[:-1])),
+            }
+        )
+        == 6
+    )
 
 
 def test_duplicates_found_from_the_cache_too(folder: Path, tmp_path: Path) -> None:

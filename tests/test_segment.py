@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
+from wifibot_power import changepoint
 from wifibot_power.changepoint import (
     LevelParams,
     _centred_power_sum,
@@ -159,6 +160,47 @@ def test_best_split_is_the_least_squares_split(
     brute = _brute_best_split(y, deg_left, deg_right, 5)
     # same optimum up to float error on sums of ~40 squares of values up to ~75
     assert split.sse == pytest.approx(brute, rel=1e-6, abs=1e-6)
+
+
+def test_best_split_same_whether_its_window_shapes_are_kept_or_not(monkeypatch) -> None:
+    """`best_split` keeps what depends on a window's shape alone (`changepoint._piece_shape`,
+    `_window_positions`) for later calls: each split is the same, bit for bit, made with
+    nothing kept, with everything kept, and with a store so small it is emptied every few
+    calls (the same shape under another degree, side or range must not be taken for it,
+    nor a kept array changed by a call), the least-squares split (brute force), and the
+    store stays within its bound."""
+    rng = np.random.default_rng(11)
+    cases = [
+        (25.0 + rng.normal(0, 1, size), deg_left, deg_right, min_len, sign)
+        for size in (16, 17, 23, 40)
+        for deg_left in range(4)
+        for deg_right in range(4)
+        for min_len, sign in ((5, 0), (6, 1), (5, -1))
+    ]
+
+    def splits(clear_each: bool) -> list:
+        found = []
+        for y, deg_left, deg_right, min_len, sign in cases:
+            if clear_each:
+                changepoint._SHAPES.clear()
+                changepoint._SHAPES_SIZE[0] = 0
+                changepoint._POSITIONS.clear()
+            found.append(best_split(y, 0, y.size, deg_left, deg_right, min_len, jump_sign=sign))
+            assert changepoint._SHAPES_SIZE[0] <= changepoint._SHAPES_MAX_SIZE
+        return found
+
+    cold = splits(clear_each=True)
+    assert splits(clear_each=False) == cold
+    assert splits(clear_each=False) == cold  # every shape kept by now
+    monkeypatch.setattr(changepoint, "_SHAPES_MAX_SIZE", 4000)  # emptied every dozen shapes
+    changepoint._SHAPES.clear()
+    changepoint._SHAPES_SIZE[0] = 0
+    assert splits(clear_each=False) == cold
+    assert 0 < len(changepoint._SHAPES) < 40  # some were kept, and some let go
+    for (y, deg_left, deg_right, min_len, sign), split in zip(cases, cold, strict=True):
+        if sign == 0:
+            brute = _brute_best_split(y, deg_left, deg_right, max(min_len, 5))
+            assert split.sse == pytest.approx(brute, rel=1e-6, abs=1e-6)
 
 
 def test_centred_power_sums_by_hand() -> None:

@@ -754,8 +754,9 @@ def fit_gathered(
 
 
 def _import_work_modules() -> None:
-    """What `fit_logs`' work on a file imports (pandas, via the run table; the segmenter),
-    imported once here, before workers are forked, rather than once in every worker."""
+    """What `fit_logs`' work on a file imports (the run table, the segmenter), imported once
+    here, before workers are forked, rather than once in every worker. Not pandas: the run
+    table's rows and the fit need none (`fit --json` never loads it; the tables do)."""
     import wifibot_power.runtable  # noqa: F401
     import wifibot_power.segment  # noqa: F401
 

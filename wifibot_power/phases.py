@@ -9,8 +9,11 @@ Sample ranges are half-open `[i_start, i_end)`; phases cover every sample exactl
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import pandas as pd
+if TYPE_CHECKING:  # pandas (~0.45 s to import) loads only when a table is asked for
+    import pandas as pd
+
 
 PHASE_NAMES = ("idle", "accel", "cruise", "decel", "level")
 
@@ -71,6 +74,8 @@ class Segmentation:
 
     def frame(self) -> pd.DataFrame:
         """A row per phase: the `segment` columns plus `run_id` (phases.parquet)."""
+        import pandas as pd
+
         rows = [{"run_id": self.run_id, **p.as_dict()} for p in self.phases]
         return pd.DataFrame(
             rows,

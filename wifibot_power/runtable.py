@@ -33,12 +33,15 @@ Column meanings (units in the names):
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from wifibot_power.phases import Phase, Segmentation
 from wifibot_power.run import Run
+
+if TYPE_CHECKING:  # pandas (~0.45 s to import) loads only when the table is asked for
+    import pandas as pd
 
 #: Phases whose energy is motion energy (cli.md `fit`: idle excluded).
 MOTION_PHASES = ("accel", "cruise", "decel")
@@ -294,6 +297,8 @@ def admit_doubtful(row: dict[str, object]) -> dict[str, object]:
 
 def runs_frame(rows: Sequence[dict[str, object]]) -> pd.DataFrame:
     """The per-run table (runs.parquet) from `run_row` rows, columns in `RUN_COLUMNS` order."""
+    import pandas as pd
+
     frame = pd.DataFrame(list(rows), columns=list(RUN_COLUMNS))
     frame["started_at"] = pd.to_datetime(frame["started_at"], utc=True)
     frame["usable"] = frame["usable"].astype(bool)
