@@ -255,6 +255,8 @@ def _duplicate_keys(
             return f"changed {k}"
         return f"identity {run_identity(run)}"
 
+    from wifibot_power.parallel import map_ordered  # only when logs share a fingerprint
+
     for k, key in zip(shared, map_ordered(shared, identity, jobs=jobs), strict=True):
         keys[k] = key
     return keys
