@@ -470,3 +470,27 @@ def test_runs_without_a_cruise_phase_are_one_line_not_rmse_nan():
     message = str(caught.value)
     assert message.startswith("the paper's model cannot be fitted to these runs: P_v(v)")
     assert "(0 of " in message and "\n" not in message
+
+
+def test_runs_with_a_speed_column_repeat_their_commanded_configuration():
+    """With a speed column a run's speed is its measured cruise speed, which differs run to
+    run (here the simulator's truth plus 5 mm/s of noise, as a speed estimate gives), so
+    no configuration repeated and the null came out "the runs' own spread is unknown".
+    Runs of one commanded speed (the metadata's `speed_mps`, log-format.md) share a
+    configuration: the null batch is neither named nor unexplained."""
+    rng = np.random.default_rng(0)
+    runs = []
+    for sim in simulate_runs(SimConfig(**GRID, seed=11)):
+        run, dt = sim.run, sim.run.sample_period_s
+        speed = np.zeros(run.samples)
+        for p in sim.truth.get("phases", []):
+            a, b = round(p["t_start_s"] / dt), round(p["t_end_s"] / dt)
+            ramp = (np.arange(b - a) + 0.5) / max(b - a, 1)
+            level = {"accel": ramp, "cruise": 1.0}.get(p["phase"], 0.0)
+            speed[a:b] = (sim.truth.get("speed_mps") or 0.0) * level
+        runs.append(replace(run, speed_mps=speed + rng.normal(0, 0.005, speed.size)))
+    result = diagnose_runs(runs)
+    measured = result.runs["speed_mps"].round(6)
+    assert measured.nunique() == len(measured)  # no two runs measure the same speed
+    assert result.findings == ()
+    assert not result.unexplained, result.unexplained_reasons

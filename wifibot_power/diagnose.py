@@ -773,6 +773,7 @@ def _diagnose(
             "run_id",
             "file",
             "speed_mps",
+            "commanded_speed_mps",
             "distance_m",
             "steps",
             "payload_kg",
@@ -881,13 +882,19 @@ def unexplained_reasons(table: pd.DataFrame) -> list[str]:
     """Structure the named causes leave in the held-out errors of the extended model
     (`table`: a row per motion run with its measured and extended energies), judged against
     the spread of repeated runs (`residuals.py`, causes.md "Unexplained"). (Candidates
-    rejected by their checks, and runs left out for doubts, are reported apart.)"""
+    rejected by their checks, and runs left out for doubts, are reported apart.) A run's
+    configuration speed is its commanded one where the metadata gives it: with a speed
+    column, runs of one commanded speed measure slightly different speeds, which would
+    never repeat."""
+    keys = table[["speed_mps", "distance_m", "steps", "payload_kg", "session_order"]].copy()
+    commanded = table["commanded_speed_mps"].to_numpy(np.float64)
+    keys["speed_mps"] = np.where(np.isfinite(commanded), commanded, keys["speed_mps"])
     return structure_reasons(
         residual_table(
             table["run_id"].to_numpy(),
             table["measured_energy_J"].to_numpy(),
             table["extended_energy_J"].to_numpy(),
-            table[["speed_mps", "distance_m", "steps", "payload_kg", "session_order"]],
+            keys,
         )
     )
 

@@ -17,6 +17,9 @@ Column meanings (units in the names):
 - `spike_energy_J`: energy of the start-up spikes above their phase's level.
 - `speed_mps`: the run's speed: the time-weighted mean of its cruise phases' speeds when
   they carry one (phases from a speed column, or the commanded speed), else the metadata's.
+- `commanded_speed_mps`: the metadata's `speed_mps` (log-format.md: the commanded speed),
+  NaN without one: with a speed column, runs of one commanded speed share it where their
+  measured `speed_mps` differ (diagnose's configurations, `residuals.py`).
 - `distance_m`, `distance_source`: the run's distance from its metadata (`"metadata"`);
   without one, on a log with a speed column, the path its motion phases cover, sum of
   |v|·dt over their samples (`"speed column"`: the wheels' path, forward or back, as the
@@ -55,6 +58,7 @@ RUN_COLUMNS = (
     "file",
     "mode",
     "speed_mps",
+    "commanded_speed_mps",
     "distance_m",
     "distance_source",
     "steps",
@@ -176,6 +180,7 @@ def run_row(
         "file": run.file,
         "mode": meta.mode,
         "speed_mps": speed_mps if speed_mps is not None else np.nan,
+        "commanded_speed_mps": meta.speed_mps if meta.speed_mps is not None else np.nan,
         "distance_m": np.nan,
         "distance_source": "",
         "steps": int(meta.steps),
