@@ -196,3 +196,30 @@ def test_diagnose_names_what_it_was_given_when_too_few_runs(wbpower, tmp_path: P
     assert result.exit_code == 2
     assert result.stderr.startswith(f"wbpower: error: {logs}: 2 usable motion run(s)")
     assert "input:" not in result.stderr
+
+
+def test_report_keep_doubtful_uses_the_doubted_runs_in_fit_and_diagnose(
+    subset_dir: Path,  # noqa: F811 - the fixture
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`report --keep-doubtful`, as `fit` and `diagnose` have it (real REGBOT logs are
+    doubted as a whole set): a run whose segmentation is in doubt is left out of the fit
+    and the diagnosis by default, and used by both with it."""
+    from dataclasses import replace
+
+    from wifibot_power import fit as fit_module
+
+    doubtful = "v0.30_d10_s1_r1"
+    real = fit_module.segment_checked
+
+    def doubting(run, segmenter=None):
+        seg = real(run)
+        return replace(seg, doubts=("a doubt",)) if run.meta.run_id == doubtful else seg
+
+    monkeypatch.setattr(fit_module, "segment_checked", doubting)
+    left_out = build_report([subset_dir], jobs=1)
+    kept = build_report([subset_dir], jobs=1, keep_doubtful=True)
+    assert any(doubtful in s.file for s in left_out.skipped)
+    assert not any(doubtful in s.file for s in kept.skipped)
+    assert kept.diagnosis.n_runs == left_out.diagnosis.n_runs + 1
+    assert len(kept.fit.runs.query("usable")) == len(left_out.fit.runs.query("usable")) + 1

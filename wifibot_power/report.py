@@ -83,8 +83,11 @@ def build_report(
     wrap: Callable[[list[LogSource]], Iterator[LogSource]] | None = None,
     jobs: int | None = 1,
     on_problems: ProblemHook | None = None,
+    keep_doubtful: bool = False,
 ) -> Report:
-    """Read every log under `paths` once, fit and diagnose them (module docstring)."""
+    """Read every log under `paths` once, fit and diagnose them (module docstring);
+    `keep_doubtful`: as `fit`/`diagnose --keep-doubtful`, runs whose segmentation is in
+    doubt are used by both."""
     from wifibot_power.diagnose import diagnose_summaries
     from wifibot_power.fit import _import_work_modules, fit_gathered
 
@@ -101,7 +104,7 @@ def build_report(
     rows = [r[0] for r in results]
     phase_rows = [p for r in results for p in r[1]]
     summaries = [r[2] for r in results]
-    fit, skipped = fit_gathered(rows, phase_rows, read_skipped)
+    fit, skipped = fit_gathered(rows, phase_rows, read_skipped, keep_doubtful=keep_doubtful)
     fit_problem = None
     if fit is None:
         fit_problem = (
@@ -111,7 +114,7 @@ def build_report(
     diagnosis = diagnosis_problem = None
     if fit is not None:
         try:
-            diagnosis = diagnose_summaries(summaries, read_skipped)
+            diagnosis = diagnose_summaries(summaries, read_skipped, keep_doubtful=keep_doubtful)
         except WbpowerError as exc:
             diagnosis_problem = exc.one_line()
     else:

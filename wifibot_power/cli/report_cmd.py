@@ -11,6 +11,7 @@ import typer
 from wifibot_power.cli.common import (
     Jobs,
     JsonFlag,
+    KeepDoubtful,
     check_out_dir,
     handles_errors,
     print_json,
@@ -37,6 +38,7 @@ def report_command(
     ],
     jobs: Jobs = 0,
     json_out: JsonFlag = False,
+    keep_doubtful: KeepDoubtful = False,
 ) -> None:
     """Read, segment, fit and diagnose the logs; write one self-contained report.html (every
     figure embedded, opens offline) and its figures as PNG (docs/report.md)."""
@@ -44,7 +46,12 @@ def report_command(
 
     check_out_dir(out)  # before any work
     report = build_report(
-        paths, options, wrap=lambda s: progress(s, "reading"), jobs=jobs, on_problems=warn_problems
+        paths,
+        options,
+        wrap=lambda s: progress(s, "reading"),
+        jobs=jobs,
+        on_problems=warn_problems,
+        keep_doubtful=keep_doubtful,
     )
     if report.fit is not None:
         for warning in report.fit.warnings:  # as fit prints them (cli.md `warnings`)
