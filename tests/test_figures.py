@@ -314,3 +314,24 @@ def test_figure5_says_when_the_logs_hold_no_pair_and_is_silent_without_logs() ->
     lines = [line for line in without_logs.axes[0].lines if line.get_gid() == "model:0"]
     assert len(lines) == 4  # the paper's model drawn once, not also as "the paper's"
     assert len({line.get_color() for line in lines}) == 4  # one colour per trip
+
+
+def test_findings_figure_without_a_cause_says_when_the_diagnosis_is_unexplained() -> None:
+    """A findings figure said only "no cause named" beside an unexplained diagnosis (the
+    REGBOT report): people look before they read, so it says unexplained too."""
+    from test_diagnose import GRID
+
+    from wifibot_power.diagnose import diagnose_runs
+    from wifibot_power.figures.diagnosis import findings_figure
+    from wifibot_power.simulate import SimConfig, simulate_runs
+
+    def texts(result) -> list[str]:
+        figure = findings_figure(result)
+        return [t.get_text() for ax in figure.axes for t in ax.texts]
+
+    once = diagnose_runs([s.run for s in simulate_runs(SimConfig(**{**GRID, "repeats": 1}))])
+    assert once.unexplained and once.findings == ()
+    assert any("no cause named" in t and "unexplained" in t for t in texts(once))
+    null = diagnose_runs([s.run for s in simulate_runs(SimConfig(**GRID, seed=11))])
+    assert not null.unexplained and null.findings == ()
+    assert texts(null) == ["no cause named"]

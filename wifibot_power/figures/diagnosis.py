@@ -61,6 +61,8 @@ def heldout_error_figure(diagnosis: Diagnosis) -> Figure:
             )
             ax.set_xlabel(label)
             ax.set_ylabel("predicted − measured [%]")
+            ax.set_xticks([])  # no 0-1 scale that no data drew
+            ax.set_yticks([])
             continue
         values = np.unique(x[known])
         # discrete values: the two models side by side, a little apart
@@ -115,7 +117,11 @@ def findings_figure(
     axes = np.atleast_1d(figure.subplots((len(panels) + 1) // 2, min(len(panels), 2))).ravel()
     for ax, (kind, finding) in zip(axes, panels, strict=False):
         if kind == "none":
-            ax.text(0.5, 0.5, "no cause named", ha="center", va="center", transform=ax.transAxes)
+            # never a bare "nothing" beside an unexplained diagnosis (cli.md)
+            text = "no cause named"
+            if diagnosis.unexplained:
+                text += "\nunexplained: see the diagnosis's reasons"
+            ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes)
             ax.set_axis_off()
         elif kind == "spectrum":
             _spectrum(ax, diagnosis, finding, cruise_blocks)
