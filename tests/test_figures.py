@@ -335,3 +335,21 @@ def test_findings_figure_without_a_cause_says_when_the_diagnosis_is_unexplained(
     null = diagnose_runs([s.run for s in simulate_runs(SimConfig(**GRID, seed=11))])
     assert not null.unexplained and null.findings == ()
     assert texts(null) == ["no cause named"]
+
+
+def test_a_long_doubt_wraps_inside_the_trace_figure() -> None:
+    """REGBOT traces carry two doubts of ~90 characters each: the title ran off the
+    figure's right edge. It wraps at 150 characters, all of it kept, in doubt's red."""
+    from dataclasses import replace
+
+    run, segmentation = _motion_run(True)
+    doubts = (
+        "the run starts moving (0.0398 m/s over its first 9 ms): its first acceleration is "
+        "not in the log",
+        "the run ends moving (1.42 m/s over its last 9 ms): its last stop is not in the log",
+    )
+    figure = trace_figure(trace_view(run, replace(segmentation, doubts=doubts)))
+    title = figure.axes[0].get_title(loc="left")
+    lines = title.split("\n")
+    assert max(len(line) for line in lines) <= 150 and len(lines) >= 3
+    assert " ".join(lines[1:]) == "in doubt: " + "; ".join(doubts)

@@ -9,6 +9,7 @@ so a report keeps one per run without keeping the samples.
 
 from __future__ import annotations
 
+import textwrap
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -222,7 +223,9 @@ def trace_figure(
     figure.legend(handles=handles, loc="lower center", fontsize=8, ncol=len(handles), frameon=False)
     title = _title(view)
     if view.doubts:
-        title += "\nin doubt: " + "; ".join(view.doubts)
+        # wrapped to the axes' width (about 150 characters at 9 pt on 12 in): a long doubt
+        # ran off the figure's right edge
+        title += "\n" + "\n".join(textwrap.wrap("in doubt: " + "; ".join(view.doubts), 150))
     ax.set_title(title, fontsize=9, loc="left", color="#b00000" if view.doubts else "black")
     return figure
 
