@@ -353,3 +353,26 @@ def test_a_long_doubt_wraps_inside_the_trace_figure() -> None:
     lines = title.split("\n")
     assert max(len(line) for line in lines) <= 150 and len(lines) >= 3
     assert " ".join(lines[1:]) == "in doubt: " + "; ".join(doubts)
+
+
+def test_power_speed_keeps_another_robots_runs_readable_beside_the_paper() -> None:
+    """REGBOT's runs are 0.5-2 W; the paper's lines (24-50 W) set the scale and squashed
+    them flat. The scale is the runs' and the fit's when the paper's line lies more than
+    twice their span away, and the legend says the paper's line is off the scale; with the
+    Wifibot's own runs (the test above) the paper's line stays in view."""
+    from matplotlib.figure import Figure
+
+    from wifibot_power.figures.power_speed import _panel
+    from wifibot_power.model import LinearFit
+
+    speed = np.array([0.7, 0.72, 0.74, 1.4, 1.5, 1.6, 1.87])
+    power = 0.4 + 0.9 * speed
+    ax = Figure().subplots()
+    _panel(ax, speed, power, LinearFit(0.4, 0.9), LinearFit(23.9, 11.2), "#1f77b4", "cruise")
+    low, high = ax.get_ylim()
+    assert low < power.min() and power.max() < high < 5.0
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "paper: 23.9 + 11.2 v (off this scale, above)" in labels
+    near = Figure().subplots()
+    _panel(near, speed, 23.0 + 11.0 * speed, LinearFit(23.0, 11.0), LinearFit(23.9, 11.2), "k", "")
+    assert "paper: 23.9 + 11.2 v" in [t.get_text() for t in near.get_legend().get_texts()]

@@ -95,22 +95,33 @@ def _panel(
     grid = np.linspace(0.0, top, 200)
     if math.isfinite(fit.slope):
         low, high = mean_band(speed, power, fit, grid)
+        sign = "−" if fit.slope < 0 else "+"  # "1.38 − 0.07 v", not "1.38 + -0.07 v"
         ax.fill_between(grid, low, high, color=FIT_COLOUR, alpha=0.25, lw=0, label="95% band")
         ax.plot(
             grid,
             fit.intercept + fit.slope * grid,
             color=FIT_COLOUR,
             lw=1.6,
-            label=f"fit: {fit.intercept:.2f} + {fit.slope:.2f} v",
+            label=f"fit: {fit.intercept:.2f} {sign} {abs(fit.slope):.2f} v",
             gid="fit",
         )
-    ax.plot(
-        grid,
-        paper.intercept + paper.slope * grid,
-        **PAPER_STYLE,
-        label=f"paper: {paper.intercept:g} + {paper.slope:g} v",
-        gid="paper",
-    )
+    paper_W = paper.intercept + paper.slope * grid
+    label = f"paper: {paper.intercept:g} + {paper.slope:g} v"
+    # another robot's runs (a few W beside the Wifibot's 24-50 W) are squashed flat when the
+    # paper's line sets the scale: the scale is then the runs' and the fit's, and the
+    # legend says where the paper's line is
+    shown = [power[finite]]
+    if math.isfinite(fit.slope):
+        shown.append(fit.intercept + fit.slope * grid)
+    values = np.concatenate(shown) if finite.any() else np.zeros(0)
+    if values.size:
+        low_W, high_W = min(0.0, float(values.min())), float(values.max())
+        span_W = max(high_W - low_W, 1.0)
+        above = float(paper_W.min()) > high_W + 2 * span_W
+        if above or float(paper_W.max()) < low_W - 2 * span_W:
+            ax.set_ylim(low_W - 0.1 * span_W, high_W + 0.4 * span_W)
+            label += f" (off this scale, {'above' if above else 'below'})"
+    ax.plot(grid, paper_W, **PAPER_STYLE, label=label, gid="paper")
     ax.set_xlim(0.0, top)
     ax.set_xlabel("speed [m/s]")
     ax.set_ylabel("mean power [W]")
