@@ -376,3 +376,9 @@ def test_power_speed_keeps_another_robots_runs_readable_beside_the_paper() -> No
     near = Figure().subplots()
     _panel(near, speed, 23.0 + 11.0 * speed, LinearFit(23.0, 11.0), LinearFit(23.9, 11.2), "k", "")
     assert "paper: 23.9 + 11.2 v" in [t.get_text() for t in near.get_legend().get_texts()]
+    # a falling fit reads with a minus sign, not "+ -0.07"
+    falling = Figure().subplots()
+    _panel(
+        falling, speed, 1.38 - 0.07 * speed, LinearFit(1.38, -0.07), LinearFit(23.9, 14.8), "k", ""
+    )
+    assert "fit: 1.38 − 0.07 v" in [t.get_text() for t in falling.get_legend().get_texts()]
