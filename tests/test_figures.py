@@ -382,3 +382,40 @@ def test_power_speed_keeps_another_robots_runs_readable_beside_the_paper() -> No
         falling, speed, 1.38 - 0.07 * speed, LinearFit(1.38, -0.07), LinearFit(23.9, 14.8), "k", ""
     )
     assert "fit: 1.38 − 0.07 v" in [t.get_text() for t in falling.get_legend().get_texts()]
+
+
+def test_figure5_draws_a_model_only_where_it_holds() -> None:
+    """REGBOT's fitted model (cruise -0.65 + 1.43 v W, fitted at 0.7-1.87 m/s) gave negative
+    trip energies at 0.1 m/s and overheads of 3700%: each model is drawn over the speeds it
+    was fitted on and where its energies are positive, the sweep reaches the fitted speeds,
+    the legend says each model's range, and the energy scale is logarithmic where the two
+    models differ a hundredfold (linear for the Wifibot's own fit: the test above)."""
+    from dataclasses import replace
+
+    from wifibot_power.model import LinearFit
+
+    regbot = replace(
+        paper_model(),
+        accel=LinearFit(1.38, -0.07),
+        cruise=LinearFit(-0.65, 1.43),
+        idle_W=0.14,
+        speed_range_mps=(0.7, 1.87),
+        source="fitted",
+    )
+    figure = figure5(regbot, ())
+    ax_energy, ax_over = figure.axes
+    fitted = [line for line in ax_energy.lines if line.get_gid() == "model:0"]
+    for line in fitted:
+        x, y = np.asarray(line.get_xdata()), np.asarray(line.get_ydata(), float)
+        assert np.isnan(y[x < 0.7 - 1e-9]).all() and (y[np.isfinite(y)] > 0).all()
+        assert x.max() == pytest.approx(1.87) and np.isfinite(y[x >= 0.7]).all()
+        assert "over 0.7-1.9 m/s" in line.get_label()
+    paper_lines = [line for line in ax_energy.lines if line.get_gid() == "model:1"]
+    for line in paper_lines:
+        x, y = np.asarray(line.get_xdata()), np.asarray(line.get_ydata(), float)
+        assert np.isnan(y[x > 0.9 + 1e-9]).all() and np.isfinite(y[x <= 0.9 + 1e-9]).all()
+    # the overhead, where the one-step energy crossed 0, read 3700%: not drawn there
+    for line in [line for line in ax_over.lines if line.get_gid() == "model:0"]:
+        x, y = np.asarray(line.get_xdata()), np.asarray(line.get_ydata(), float)
+        assert np.isnan(y[x < 0.7 - 1e-9]).all() and np.isfinite(y[x >= 0.7]).all()
+    assert ax_energy.get_yscale() == "log"

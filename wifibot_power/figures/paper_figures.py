@@ -64,7 +64,16 @@ def figure5(
     from wifibot_power.model import paper_model
 
     paper = paper or paper_model()
-    speeds = np.linspace(0.1, 0.9, 33) if speeds_mps is None else np.asarray(speeds_mps, float)
+    if speeds_mps is None:
+        # the paper's 0.1-0.9 m/s, widened to the speeds the model was fitted on (another
+        # robot's runs may be faster)
+        top_mps = max(0.9, (model.speed_range_mps or (0.1, 0.9))[1])
+        if top_mps <= 0.9:
+            speeds = np.linspace(0.1, 0.9, 33)
+        else:  # the paper's last speed kept, so its curves end where it stopped measuring
+            speeds = np.union1d(np.linspace(0.1, top_mps, 49), [0.9])
+    else:
+        speeds = np.asarray(speeds_mps, float)
     figure = new_figure(11.0, 4.4)
     ax_energy, ax_over = figure.subplots(1, 2)
     # the trips drawn: Figure 5's, plus every measured (distance, steps) pair
@@ -80,11 +89,21 @@ def figure5(
         for which, (m, style) in enumerate(models):
             reports = [energy_report(m, v, distance, steps, t_acc_s=t_acc_s) for v in speeds]
             tag = _label(m)
+            # drawn only where the model holds: within the speeds it was fitted on, and where
+            # its trip energies are positive (a line fitted at 0.7-1.9 m/s with a negative
+            # intercept gives negative energies at 0.1 m/s and overheads of thousands of %)
+            one_J = np.array([r.one_step.energy_J for r in reports])
+            trip_J = np.array([r.trip.energy_J for r in reports])
+            inside = _fitted_speeds(m, speeds)
+            holds = inside & (one_J > 0) & (trip_J > 0)
+            if not inside.all():
+                low, high = m.speed_range_mps
+                tag += f", over {low:.2g}-{high:.2g} m/s"
             one_colour = TRIP_COLOURS.get((distance, False), extra_one)
             n_colour = TRIP_COLOURS.get((distance, True), extra_n)
             ax_energy.plot(
                 speeds,
-                [r.one_step.energy_J for r in reports],
+                np.where(holds, one_J, np.nan),
                 style,
                 color=one_colour,
                 lw=1.4,
@@ -94,7 +113,7 @@ def figure5(
             if steps > 1:
                 ax_energy.plot(
                     speeds,
-                    [r.trip.energy_J for r in reports],
+                    np.where(holds, trip_J, np.nan),
                     style,
                     color=n_colour,
                     lw=1.4,
@@ -103,7 +122,7 @@ def figure5(
                 )
                 ax_over.plot(
                     speeds,
-                    [r.overhead_pct for r in reports],
+                    np.where(holds, [r.overhead_pct for r in reports], np.nan),
                     style,
                     color=n_colour,
                     lw=1.4,
@@ -157,13 +176,30 @@ def figure5(
     elif stop_and_go is not None:
         ax_over.text(
             0.5,
-            0.9,
+            0.03,  # clear of the legend (upper left)
             "no trip in the logs in both 1 and N steps",
             transform=ax_over.transAxes,
             ha="center",
+            va="bottom",
             fontsize=8,
             color="#555555",
         )
+    # another robot's trips can cost a hundredth of the Wifibot's: on a linear scale they
+    # lie flat under the paper's curves, so the scale is logarithmic when the two models'
+    # largest energies differ tenfold or more
+    peaks_J = []
+    for which in range(len(models)):
+        drawn = [
+            np.asarray(line.get_ydata(), float)
+            for line in ax_energy.lines
+            if line.get_gid() == f"model:{which}"
+        ]
+        values = np.concatenate(drawn) if drawn else np.zeros(0)
+        values = values[np.isfinite(values)]
+        peaks_J.append(float(values.max()) if values.size else np.nan)
+    if len(peaks_J) == 2 and all(np.isfinite(peaks_J)) and min(peaks_J) > 0:
+        if max(peaks_J) >= 10 * min(peaks_J):
+            ax_energy.set_yscale("log")
     ax_energy.set_xlabel("speed [m/s]")
     ax_energy.set_ylabel("trip energy [J]")
     ax_energy.set_title("Figure 5: trip energy against speed (Eq. 5/6)", fontsize=10, loc="left")
@@ -174,6 +210,15 @@ def figure5(
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="upper right" if ax is ax_energy else "upper left")
     return figure
+
+
+def _fitted_speeds(model: PowerModel, speeds_mps: np.ndarray) -> np.ndarray:
+    """Which speeds lie within those `model` was fitted on (all without a recorded range)."""
+    if model.speed_range_mps is None:
+        return np.ones(speeds_mps.size, dtype=bool)
+    low, high = model.speed_range_mps
+    slack = 1e-9 * max(abs(low), abs(high), 1.0)  # as `PowerModel.extrapolation_warnings`
+    return (speeds_mps >= low - slack) & (speeds_mps <= high + slack)
 
 
 #: sweep name -> (axis label, scale of the x values for the axis)
