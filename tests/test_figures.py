@@ -423,7 +423,7 @@ def test_figure5_draws_a_model_only_where_it_holds() -> None:
 
 def test_figure7_says_the_idle_power_each_model_stands_on() -> None:
     """Eq. 7-11 take a model's idle power as the whole robot's at rest: REGBOT's motor-only
-    logs fit 0.14 W and drew a lifetime gain of 34% beside the paper's 3-4%, with nothing
+    logs fit 0.14-1.4 W and drew a lifetime gain of 34% beside the paper's 3-4%, with nothing
     on the figure to say why. The title gives each model's idle power."""
     from dataclasses import replace
 

@@ -289,7 +289,7 @@ def figure7(
     for ax in axes[n:]:
         ax.set_axis_off()
     # Eq. 7-11 take the model's idle power as the whole robot's at rest (its embedded
-    # system); a log of the motors alone reads ~0 W there (REGBOT: 0.14 W, and a gain of
+    # system); a log of the motors alone reads ~0 W there (REGBOT: 0.14-1.4 W, a gain of
     # 34% beside the paper's 3-4%), so the figure says which idle power each line stands on
     idle = ", ".join(f"{_label(m)} {m.idle_W:.3g} W" for m, _ in models)
     figure.suptitle(
