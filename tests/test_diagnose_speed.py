@@ -30,7 +30,9 @@ def _same(a: float, b: float) -> bool:
     return a == b or (np.isnan(a) and np.isnan(b))
 
 
-def test_spearman_is_scipys_to_the_bit() -> None:
+def test_spearman_is_scipys() -> None:
+    """rho to the bit; the p-value to 1e-12 relative (measured within 6e-14: since the third
+    session it comes from `stats.betainc`, not scipy.special's stdtr)."""
     rng = np.random.default_rng(0)
     for i in range(400):
         n = int(rng.integers(2, 40))
@@ -41,7 +43,11 @@ def test_spearman_is_scipys_to_the_bit() -> None:
             warnings.simplefilter("ignore")  # scipy warns on a constant input
             expected = scipy_stats.spearmanr(x, y)
         rho, p = spearman(x, y)
-        assert _same(rho, float(expected[0])) and _same(p, float(expected[1])), (x, y)
+        assert _same(rho, float(expected[0])), (x, y)
+        if np.isnan(p) or float(expected[1]) == 0.0:
+            assert _same(p, float(expected[1])), (x, y)
+        else:
+            assert p == pytest.approx(float(expected[1]), rel=1e-12), (x, y)
 
 
 def test_bounded_minimum_takes_scipys_steps() -> None:
