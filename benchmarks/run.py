@@ -211,7 +211,7 @@ def fixed_overhead(scratch: Path) -> dict[str, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--shapes", default=",".join(corpora.SHAPES), help="comma-separated")
-    parser.add_argument("--repeats", type=int, default=3, help="alternating repeats (median)")
+    parser.add_argument("--repeats", type=int, default=5, help="alternating repeats (median)")
     parser.add_argument("--quick", action="store_true", help="small subset, 1 repeat")
     parser.add_argument("--root", default=None, help="corpus root (default: see corpora.py)")
     parser.add_argument("--extras-shape", default="power", help="shape of the memory/cache rows")
@@ -240,7 +240,7 @@ def main() -> None:
     counts = MEMORY_COUNTS
     if args.quick:
         folders = {n: corpora.quick_subset(f, root / "bench-quick" / n) for n, f in folders.items()}
-        repeats = 1 if args.repeats == 3 else args.repeats
+        repeats = 1 if args.repeats == parser.get_default("repeats") else args.repeats
         counts = (2, 4)
     info = machine()
     rows = [bench_shape(n, f, repeats) for n, f in folders.items()]
