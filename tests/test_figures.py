@@ -232,6 +232,7 @@ def test_figure5_lines_are_eq56_and_points_are_the_measured_overheads(report) ->
     ax_energy, ax_over = figure.axes
     assert _labels(ax_energy) == ("speed [m/s]", "trip energy [J]")
     assert _labels(ax_over) == ("speed [m/s]", "stop-and-go overhead [%]")
+    assert ax_energy.get_yscale() == "linear"  # the fit lands near the paper: no log scale
     paper_lines = [line for line in ax_energy.lines if line.get_gid() == "model:1"]
     assert len(paper_lines) == 4  # 2 m and 10 m, each in 1 step and in 1 m steps
     # the paper's 10 m in one step at 0.5 m/s by hand (Eq. 5/6): t_acc from the paper model,

@@ -92,15 +92,23 @@ class PowerModel:
         ]
         return own + self.extrapolation_warnings(speed_mps)
 
+    def fitted_at(self, speed_mps: float) -> bool:
+        """Whether `speed_mps` lies within the speeds the lines were fitted on (float slack
+        at the ends); True when the range is unknown."""
+        if self.speed_range_mps is None:
+            return True
+        low, high = self.speed_range_mps
+        slack = 1e-9 * max(abs(low), abs(high), 1.0)
+        return bool(low - slack <= speed_mps <= high + slack)
+
     def extrapolation_warnings(self, speed_mps: float) -> list[str]:
         """Why the model's answer at `speed_mps` is an extrapolation (empty when it is not):
         the speed lies outside the speeds the lines were fitted on."""
         if self.speed_range_mps is None or not math.isfinite(speed_mps):
             return []
-        low, high = self.speed_range_mps
-        slack = 1e-9 * max(abs(low), abs(high), 1.0)
-        if low - slack <= speed_mps <= high + slack:
+        if self.fitted_at(speed_mps):
             return []
+        low, high = self.speed_range_mps
         return [
             f"speed {speed_mps:g} m/s is outside the {low:g}-{high:g} m/s the model "
             f"({self.source}) was fitted on: its linear P_acc, P_v and t_acc are extrapolated"

@@ -82,6 +82,7 @@ def figure5(
         if (row.distance_m, row.steps) not in trips:
             trips.append((row.distance_m, row.steps))
     models = [(model, "-")] + ([(paper, "--")] if model != paper else [])
+    peak_J = [0.0] * len(models)  # each model's largest energy drawn
     for i, (distance, steps) in enumerate(trips):
         # a distance Figure 5 does not have: a pair of colours of its own
         extra_one = OTHER_COLOURS[(2 * i) % len(OTHER_COLOURS)]
@@ -94,8 +95,12 @@ def figure5(
             # intercept gives negative energies at 0.1 m/s and overheads of thousands of %)
             one_J = np.array([r.one_step.energy_J for r in reports])
             trip_J = np.array([r.trip.energy_J for r in reports])
-            inside = _fitted_speeds(m, speeds)
+            inside = np.array([m.fitted_at(v) for v in speeds], dtype=bool)
             holds = inside & (one_J > 0) & (trip_J > 0)
+            if holds.any():
+                peak_J[which] = max(peak_J[which], float(one_J[holds].max()))
+                if steps > 1:
+                    peak_J[which] = max(peak_J[which], float(trip_J[holds].max()))
             if not inside.all():
                 low, high = m.speed_range_mps
                 tag += f", over {low:.2g}-{high:.2g} m/s"
@@ -187,19 +192,8 @@ def figure5(
     # another robot's trips can cost a hundredth of the Wifibot's: on a linear scale they
     # lie flat under the paper's curves, so the scale is logarithmic when the two models'
     # largest energies differ tenfold or more
-    peaks_J = []
-    for which in range(len(models)):
-        drawn = [
-            np.asarray(line.get_ydata(), float)
-            for line in ax_energy.lines
-            if line.get_gid() == f"model:{which}"
-        ]
-        values = np.concatenate(drawn) if drawn else np.zeros(0)
-        values = values[np.isfinite(values)]
-        peaks_J.append(float(values.max()) if values.size else np.nan)
-    if len(peaks_J) == 2 and all(np.isfinite(peaks_J)) and min(peaks_J) > 0:
-        if max(peaks_J) >= 10 * min(peaks_J):
-            ax_energy.set_yscale("log")
+    if len(models) == 2 and min(peak_J) > 0 and max(peak_J) >= 10 * min(peak_J):
+        ax_energy.set_yscale("log")
     ax_energy.set_xlabel("speed [m/s]")
     ax_energy.set_ylabel("trip energy [J]")
     ax_energy.set_title("Figure 5: trip energy against speed (Eq. 5/6)", fontsize=10, loc="left")
@@ -210,15 +204,6 @@ def figure5(
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="upper right" if ax is ax_energy else "upper left")
     return figure
-
-
-def _fitted_speeds(model: PowerModel, speeds_mps: np.ndarray) -> np.ndarray:
-    """Which speeds lie within those `model` was fitted on (all without a recorded range)."""
-    if model.speed_range_mps is None:
-        return np.ones(speeds_mps.size, dtype=bool)
-    low, high = model.speed_range_mps
-    slack = 1e-9 * max(abs(low), abs(high), 1.0)  # as `PowerModel.extrapolation_warnings`
-    return (speeds_mps >= low - slack) & (speeds_mps <= high + slack)
 
 
 #: sweep name -> (axis label, scale of the x values for the axis)
