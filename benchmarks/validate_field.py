@@ -44,13 +44,7 @@ ENERGY_CAUSES = [c for c in fieldgen.CATALOGUE if c != "cruise_ripple"]
 
 def _baseline_flags(result) -> list[str]:
     """The replication tests on the paper-form model's held-out errors (no cause named)."""
-    t = result.runs
-    table = residuals.residual_table(
-        t["run_id"].to_numpy(),
-        t["measured_energy_J"].to_numpy(),
-        t["baseline_energy_J"].to_numpy(),
-        t[["speed_mps", "distance_m", "steps", "payload_kg", "session_order"]],
-    )
+    table = diagnose.replication_table(result.runs, "baseline_energy_J")
     return [r.test for r in residuals.found(residuals.replication_tests(table))]
 
 

@@ -882,20 +882,24 @@ def unexplained_reasons(table: pd.DataFrame) -> list[str]:
     """Structure the named causes leave in the held-out errors of the extended model
     (`table`: a row per motion run with its measured and extended energies), judged against
     the spread of repeated runs (`residuals.py`, causes.md "Unexplained"). (Candidates
-    rejected by their checks, and runs left out for doubts, are reported apart.) A run's
+    rejected by their checks, and runs left out for doubts, are reported apart.)"""
+    return structure_reasons(replication_table(table, "extended_energy_J"))
+
+
+def replication_table(table: pd.DataFrame, predicted: str) -> pd.DataFrame:
+    """`residuals.residual_table` of a diagnosis's per-run table (`Diagnosis.runs`) for the
+    prediction in column `predicted` (the extended or the baseline energy). A run's
     configuration speed is its commanded one where the metadata gives it: with a speed
     column, runs of one commanded speed measure slightly different speeds, which would
     never repeat."""
     keys = table[["speed_mps", "distance_m", "steps", "payload_kg", "session_order"]].copy()
     commanded = table["commanded_speed_mps"].to_numpy(np.float64)
     keys["speed_mps"] = np.where(np.isfinite(commanded), commanded, keys["speed_mps"])
-    return structure_reasons(
-        residual_table(
-            table["run_id"].to_numpy(),
-            table["measured_energy_J"].to_numpy(),
-            table["extended_energy_J"].to_numpy(),
-            keys,
-        )
+    return residual_table(
+        table["run_id"].to_numpy(),
+        table["measured_energy_J"].to_numpy(),
+        table[predicted].to_numpy(),
+        keys,
     )
 
 
