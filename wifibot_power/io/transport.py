@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import os
 import re
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -45,6 +46,23 @@ _BLOCK_BYTES = 1 << 20
 #: the log again (page faults; measured on 0.5-9 MB power-only logs), and what the pool may
 #: keep is bounded by this and a few parse blocks, whatever the number of files.
 _RELEASE_BYTES = 16 << 20
+
+
+def _arrow_pool() -> pa.MemoryPool:
+    """The allocator the parse uses: jemalloc where pyarrow has it (its Linux and macOS wheels),
+    unless ARROW_DEFAULT_MEMORY_POOL chooses. pyarrow's default, mimalloc, kept freed pages
+    across logs even after `release_unused`: one `fit --jobs 1` process over the 89 logs of
+    the bench's power corpus peaked at 198 MB against 141 MB on 2 of them; with jemalloc, 147
+    against 144 MB, and no more CPU (docs/benchmarks.md, "Memory")."""
+    if os.environ.get("ARROW_DEFAULT_MEMORY_POOL"):
+        return pa.default_memory_pool()
+    try:
+        return pa.jemalloc_memory_pool()
+    except NotImplementedError:  # a pyarrow built without it (Windows wheels)
+        return pa.default_memory_pool()
+
+
+_POOL = _arrow_pool()
 
 #: Bytes read at a time when a file is scanned again for line numbers.
 _SCAN_BYTES = 1 << 20
@@ -514,17 +532,25 @@ def read_columns(
     parts = iter(pieces) if pieces is not None else None
     try:
         if pieces is None:
-            table = pacsv.read_csv(source, **_csv_options(pre, include_columns, skip=True))
+            table = pacsv.read_csv(
+                source, **_csv_options(pre, include_columns, skip=True), memory_pool=_POOL
+            )
         else:
             tables = [
-                pacsv.read_csv(pa.BufferReader(piece), **_csv_options(pre, include_columns, k == 0))
+                pacsv.read_csv(
+                    pa.BufferReader(piece),
+                    **_csv_options(pre, include_columns, k == 0),
+                    memory_pool=_POOL,
+                )
                 for k, piece in enumerate(parts)
             ]
             if pieces.tail():  # blanks after the last line end (a cut line is never parsed)
                 options = _csv_options(pre, include_columns, not tables)
-                tables.append(pacsv.read_csv(pa.BufferReader(pieces.tail()), **options))
+                tables.append(
+                    pacsv.read_csv(pa.BufferReader(pieces.tail()), **options, memory_pool=_POOL)
+                )
             table = (
-                pa.concat_tables(tables)
+                pa.concat_tables(tables, memory_pool=_POOL)
                 if tables
                 else pacsv.read_csv(pa.BufferReader(b""), **_csv_options(pre, include_columns))
             )
@@ -565,7 +591,7 @@ def read_columns(
     numeric = (pa.types.is_floating, pa.types.is_integer)
     text = {f.name for f in table.schema if not any(is_type(f.type) for is_type in numeric)}
     values = {}
-    pool = pa.default_memory_pool()
+    pool = _POOL
     release = table.nbytes >= _RELEASE_BYTES
     for name in names:
         if name not in text:
