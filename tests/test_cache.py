@@ -602,3 +602,63 @@ def test_library_versions_in_the_code_digest_are_the_installed_ones() -> None:
     for name in ("numpy", "pandas", "scipy", "pyarrow"):
         assert cache_module._installed_version(name) == version(name)
     assert cache_module._installed_version("no_such_distribution_here") == "absent"
+
+
+def test_a_cache_keeps_only_what_this_version_can_read(tmp_path: Path, monkeypatch) -> None:
+    """Every cache file is named by the code it is valid for, and a new `ParseCache` deletes
+    the files of any other version (an upgrade would otherwise leave a corpus's worth of
+    parses behind for good), the layout before tags and a killed writer's day-old temporary
+    file; never a file that is not the cache's."""
+    corpus = _corpus(tmp_path / "logs")
+    folder = tmp_path / "cache"
+    plain = fit_logs([corpus], jobs=1)
+    fit_logs([corpus], jobs=1, cache=ParseCache(folder))
+    version_a = sorted(p.name for p in folder.iterdir())
+    assert len(version_a) == 3 * 3 + 1  # per log: parse, its validity, kept result; the batch
+    theirs = ["notes.txt", "runs.json", "0123.parquet", "a" * 40 + ".csv"]
+    for name in theirs:
+        (folder / name).write_text("the user's")
+    untagged = [
+        "b" * 40 + ".parquet",
+        "b" * 40 + ".json",
+        "b" * 40 + "." + "c" * 16 + ".result.json",
+    ]
+    untagged.append("d" * 40 + ".batch.json")
+    for name in untagged:
+        (folder / name).write_text("{}")
+    fresh_tmp, old_tmp = folder / ".x.parquet.123.tmp", folder / ".y.parquet.456.tmp"
+    fresh_tmp.write_text("")
+    old_tmp.write_text("")
+    two_days_ago = os.stat(old_tmp).st_mtime - 2 * 86400
+    os.utime(old_tmp, (two_days_ago, two_days_ago))
+
+    # the same version: nothing of it goes
+    ParseCache(folder)
+    assert set(version_a) <= {p.name for p in folder.iterdir()}
+
+    # another version of the reader and of the code (an upgrade)
+    monkeypatch.setattr(cache_module, "reader_digest", lambda: "f" * 64)
+    monkeypatch.setattr(cache_module, "code_digest", lambda: "e" * 64)
+    assert ParseCache(folder).directory == folder
+    left = sorted(p.name for p in folder.iterdir())
+    assert left == sorted([*theirs, fresh_tmp.name])
+    assert_same_fit(fit_logs([corpus], jobs=1, cache=ParseCache(folder)), plain)
+    version_b = sorted(set(p.name for p in folder.iterdir()) - set(left))
+    assert len(version_b) == len(version_a) and not set(version_b) & set(version_a)
+    assert all(name.startswith(("ffffffffffff-", "eeeeeeeeeeee-")) for name in version_b)
+
+    # only the reader changed: its parses go, and the results made from them; the batch stays
+    # (it is checked against every run's row when read)
+    monkeypatch.setattr(cache_module, "reader_digest", lambda: "8" * 64)
+    ParseCache(folder)
+    kept = sorted(set(p.name for p in folder.iterdir()) - set(left))
+    assert kept == [n for n in version_b if n.endswith(".batch.json")]
+    # only the code changed (the reader did not): the parses stay, results and batch go
+    monkeypatch.setattr(cache_module, "reader_digest", lambda: "f" * 64)
+    fit_logs([corpus], jobs=1, cache=ParseCache(folder))
+    assert sorted(set(p.name for p in folder.iterdir()) - set(left)) == version_b
+    monkeypatch.setattr(cache_module, "code_digest", lambda: "9" * 64)
+    ParseCache(folder)
+    kept = sorted(set(p.name for p in folder.iterdir()) - set(left))
+    assert kept == sorted(n for n in version_b if n.startswith("ffffffffffff-"))
+    assert len(kept) == 3 * 2

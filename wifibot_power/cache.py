@@ -28,6 +28,10 @@ A batch can keep what it made of all its runs together too (`kept_batch` / `keep
 `fit` keeps its fit, valid for the exact per-run rows it was fitted on), so a warm
 `fit --cache` whose runs are all unchanged neither fits again nor loads numpy.
 
+Every file's name starts with a tag of the code it is valid for, and a new `ParseCache`
+deletes the files of other tags (`ParseCache.sweep`): without that, each new version of
+wbpower (or each edit of its code) left a corpus's worth of parses behind for good.
+
 What could still fool it: a system clock stepped back by more than `SETTLE_S` between runs, or
 a network file system whose server clock runs more than `SETTLE_S` behind this machine's.
 Delete the cache folder after either. Logs that fail to read are never cached. A cache entry
@@ -42,6 +46,7 @@ import functools
 import hashlib
 import json
 import os
+import re
 import time
 from collections.abc import Callable
 from datetime import datetime
@@ -80,6 +85,25 @@ def reader_digest() -> str:
         digest.update(source.name.encode())
         digest.update(source.read_bytes())
     return digest.hexdigest()
+
+
+def _tag(digest: str) -> str:
+    """The first characters of a code digest that start a cache file's name (`sweep`)."""
+    return digest[:12]
+
+
+#: The names a cache's files have (`ParseCache.sweep`): a parse and its validity; a kept
+#: result (code tag, then its parse's name); a kept batch; the layout before tags; a
+#: temporary file (`_replace`).
+_PARSE_NAME = re.compile(r"(?P<reader>[0-9a-f]{12})-[0-9a-f]{40}\.(?:parquet|json)")
+_RESULT_NAME = re.compile(
+    r"(?P<code>[0-9a-f]{12})-(?P<reader>[0-9a-f]{12})-[0-9a-f]{40}\.[0-9a-f]{16}\.result\.json"
+)
+_BATCH_NAME = re.compile(r"(?P<code>[0-9a-f]{12})-[0-9a-f]{40}\.batch\.json")
+_UNTAGGED_NAME = re.compile(r"[0-9a-f]{40}(?:\.[0-9a-f]{16}\.result|\.batch)?\.(?:parquet|json)")
+_TEMP_NAME = re.compile(r"\..+\.\d+\.tmp")
+#: A temporary file this old is left from a writer that was killed [ns].
+_TEMP_AGE_NS = 24 * 3600 * 10**9
 
 
 def _fingerprint(stat: os.stat_result) -> list[int]:
@@ -166,6 +190,52 @@ class ParseCache:
                 file=directory,
                 fix="give a writable folder with --cache",
             ) from None
+        self.sweep()
+
+    def sweep(self) -> int:
+        """Delete what no run of this wbpower can use again; returns how many files went.
+
+        Every file's name starts with the tag of the code it is valid for (`_tag`): a parse
+        and what it is valid for, the reader's; a kept result, all of wifibot_power's code
+        (and the reader's of its parse); a kept batch, all the code. A file of another tag was
+        written by another version of wbpower (an upgrade, an edit) and would never be read
+        again, so without this a cache would grow by a corpus's worth with every version.
+        Also deleted: files of the layout before tags, and temporary files left by a writer
+        that was killed, a day old. Other files in the folder are never touched. Run once per
+        `ParseCache`, in the process that makes it: a scan of the folder (~1 ms a thousand
+        files). Two versions of wbpower sharing one folder delete each other's entries (each
+        parses again); give each its own."""
+        reader_tag, code_tag = _tag(reader_digest()), _tag(code_digest())
+        old_enough_ns = time.time_ns() - _TEMP_AGE_NS
+        removed = 0
+        try:
+            listing = list(os.scandir(self.directory))
+        except OSError:
+            return 0
+        for item in listing:
+            name = item.name
+            if match := _PARSE_NAME.fullmatch(name):
+                stale = match["reader"] != reader_tag
+            elif match := _RESULT_NAME.fullmatch(name):
+                stale = match["code"] != code_tag or match["reader"] != reader_tag
+            elif match := _BATCH_NAME.fullmatch(name):
+                stale = match["code"] != code_tag
+            elif _UNTAGGED_NAME.fullmatch(name):
+                stale = True
+            elif _TEMP_NAME.fullmatch(name):
+                try:
+                    stale = item.stat(follow_symlinks=False).st_mtime_ns < old_enough_ns
+                except OSError:
+                    stale = False
+            else:
+                continue
+            if stale and item.is_file(follow_symlinks=False):
+                try:
+                    os.unlink(item.path)
+                    removed += 1
+                except OSError:
+                    pass  # another sweep got it, or a read-only folder: nothing depends on it
+        return removed
 
     def entry_path(
         self,
@@ -185,7 +255,8 @@ class ParseCache:
             ],
             sort_keys=True,
         )
-        return self.directory / f"{hashlib.sha256(inputs.encode()).hexdigest()[:40]}.parquet"
+        named = hashlib.sha256(inputs.encode()).hexdigest()[:40]
+        return self.directory / f"{_tag(reader_digest())}-{named}.parquet"
 
     def read_log(
         self,
@@ -292,7 +363,10 @@ class ParseCache:
         the reading options and the work's key) is: one document per batch, replaced when
         what it is valid for changes, so the cache does not grow with edits."""
         named = json.dumps(inputs, sort_keys=True).encode()
-        return self.directory / f"{hashlib.sha256(named).hexdigest()[:40]}.batch.json"
+        return (
+            self.directory
+            / f"{_tag(code_digest())}-{hashlib.sha256(named).hexdigest()[:40]}.batch.json"
+        )
 
     def kept_batch(self, inputs: object, content_sha256: str) -> object:
         """The JSON value kept for the batch `inputs` when it was made from `content_sha256`
@@ -327,7 +401,7 @@ def _hash(path: Path, stat: os.stat_result) -> tuple[bytes, dict[str, object]]:
 
 def _result_path(entry: Path, memo: ResultMemo) -> Path:
     work = hashlib.sha256(memo.key.encode()).hexdigest()[:16]
-    return entry.with_name(f"{entry.stem}.{work}.result.json")
+    return entry.with_name(f"{_tag(code_digest())}-{entry.stem}.{work}.result.json")
 
 
 def _load_result(path: Path, content_sha256: str, memo: ResultMemo[T]) -> T | object:
