@@ -28,7 +28,6 @@ seeds, so folders mixed into one batch are not taken as copies of each other.
 from __future__ import annotations
 
 import argparse
-import gzip
 import json
 import os
 import shutil
@@ -145,8 +144,8 @@ def full_gz(meta, power_W: np.ndarray, voltage_V: np.ndarray) -> tuple[str, byte
     """What `wbpower simulate --compress gz` writes (its own writer)."""
     from wifibot_power.io.writer import format_log
 
-    data = format_log(meta, power_W, voltage_V=voltage_V, time_column=True, decimals=4)
-    return ".csv.gz", gzip.compress(data, compresslevel=6, mtime=0)
+    # the uncompressed bytes: `write_log` gzips a .gz name as `simulate --compress gz` does
+    return ".csv.gz", format_log(meta, power_W, voltage_V=voltage_V, time_column=True, decimals=4)
 
 
 def power(meta, power_W: np.ndarray, voltage_V: np.ndarray) -> tuple[str, bytes]:
@@ -182,9 +181,7 @@ def is_built(name: str, root: Path) -> bool:
 
 def build(name: str, root: Path | None = None, *, quiet: bool = False) -> Path:
     """The folder of shape `name` under `root`, written unless present with the same parameters."""
-    from wifibot_power.io.manifest import MANIFEST_HEADER, manifest_line
-    from wifibot_power.outputs import write_json
-    from wifibot_power.simulate import SimConfig, iter_simulation, realism, true_parameters
+    from wifibot_power.simulate import SimConfig, realism, write_simulation
 
     root = root_of(root)
     shape = SHAPES[name]
@@ -205,35 +202,17 @@ def build(name: str, root: Path | None = None, *, quiet: bool = False) -> Path:
         seed=shape.seed,
         **realism("lab"),
     )
-    layout = LAYOUTS[shape.layout]
-    manifest = [MANIFEST_HEADER]
-    runs_truth = []
-    total = 0
-    for sim in iter_simulation(config):
-        meta = sim.run.meta
-        suffix, data = layout(meta, sim.run.power_W, sim.voltage_V)
-        file = f"{meta.run_id}{suffix}"
-        (partial / file).write_bytes(data)
-        total += len(data)
-        manifest.append(manifest_line(file, meta, str(sim.truth["started_at"])))
-        runs_truth.append({"file": file, **sim.truth})
-    (partial / "runs.csv").write_text("\n".join(manifest) + "\n")
-    write_json(
-        partial / "truth.json",
-        {
-            "generator": f"benchmarks/corpora.py shape {name}",
-            "seed": config.seed,
-            "sample_period_s": config.sample_period_s,
-            "noise_W": config.noise_W,
-            "parameters": true_parameters(config),
-            "runs": runs_truth,
-        },
+    written = write_simulation(
+        config,
+        partial,
+        render=LAYOUTS[shape.layout],
+        generator=f"benchmarks/corpora.py shape {name}",
     )
     (partial / ".corpus-params.json").write_text(json.dumps(_params(shape)))
     shutil.rmtree(folder, ignore_errors=True)
     partial.rename(folder)
     print(
-        f"corpora: {name}: {len(runs_truth)} logs, {total / 1e6:.0f} MB "
+        f"corpora: {name}: {written['runs']} logs, {written['csv_bytes'] / 1e6:.0f} MB of CSV "
         f"in {time.perf_counter() - start:.0f} s",
         flush=True,
     )

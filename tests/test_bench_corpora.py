@@ -13,6 +13,7 @@ import pytest
 from scripts import load_script
 
 from wifibot_power.io.reader import read_log
+from wifibot_power.io.writer import write_log
 from wifibot_power.simulate import SimConfig, iter_simulation, realism
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -64,12 +65,13 @@ def test_each_layout_reads_back_as_its_format_with_the_simulated_power(
     meta = sim.run.meta
     suffix, data = corpora.LAYOUTS[layout](meta, sim.run.power_W, sim.voltage_V)
     path = tmp_path / f"{meta.run_id}{suffix}"
-    path.write_bytes(data)
+    write_log(path, data)  # as the corpus is written (`write_simulation`): gzip by the name
     run = read_log(path)
     assert run.format == fmt
-    assert data.startswith(b"\x1f\x8b") == (layout == "full_gz")  # gzip's magic bytes
-    text = gzip.decompress(data) if layout == "full_gz" else data
-    first = next(line for line in text.split(b"\n") if not line.startswith(b"#"))
+    on_disk = path.read_bytes()
+    assert on_disk.startswith(b"\x1f\x8b") == (layout == "full_gz")  # gzip's magic bytes
+    assert (gzip.decompress(on_disk) if layout == "full_gz" else on_disk) == data
+    first = next(line for line in data.split(b"\n") if not line.startswith(b"#"))
     assert first.startswith(FIRST_LINE[layout])  # e.g. no time column in `power`
     assert run.samples == sim.run.power_W.size
     assert run.sample_period_s == pytest.approx(meta.sample_period_s, rel=1e-9)

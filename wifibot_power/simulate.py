@@ -21,7 +21,7 @@ phase boundaries and motion energy of each run.
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
@@ -507,34 +507,41 @@ class WriteOptions:
             )
 
 
+#: How one simulated run becomes a log: (its metadata, power [W], voltage [V]) -> (the file
+#: name's suffix, the log's uncompressed bytes); `write_log` compresses by the suffix.
+Render = Callable[[RunMeta, np.ndarray, np.ndarray], tuple[str, bytes]]
+
+
 def write_simulation(
-    config: SimConfig, out_dir: Path, write: WriteOptions | None = None
+    config: SimConfig,
+    out_dir: Path,
+    write: WriteOptions | None = None,
+    *,
+    render: Render | None = None,
+    generator: str = "wbpower simulate",
 ) -> dict[str, object]:
-    """Write every run as a canonical log, plus `runs.csv` (manifest) and `truth.json`."""
+    """Write every run as a canonical log, plus `runs.csv` (manifest) and `truth.json`.
+
+    `render` writes each run in another layout instead (`benchmarks/corpora.py`: an N6705
+    export, voltage and current only, ...); `generator` names the writer in truth.json."""
     write = write or WriteOptions()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    suffix = COMPRESSIONS[write.compress]
+    render = render or _canonical(write)
     manifest = [MANIFEST_HEADER]
     runs_truth = []
     total_bytes = 0
     for sim in iter_simulation(config):
         meta = sim.run.meta
+        suffix, data = render(meta, sim.run.power_W, sim.voltage_V)
         name = f"{meta.run_id}{suffix}"
-        data = format_log(
-            meta,
-            sim.run.power_W,
-            voltage_V=sim.voltage_V if write.columns == "full" else None,
-            time_column=write.columns == "full",
-            decimals=write.decimals,
-        )
         write_log(out_dir / name, data)
         total_bytes += len(data)
         manifest.append(manifest_line(name, meta, str(sim.truth["started_at"])))
         runs_truth.append({"file": name, **sim.truth})
     write_text(out_dir / "runs.csv", "\n".join(manifest) + "\n")
     truth = {
-        "generator": "wbpower simulate",
+        "generator": generator,
         "seed": config.seed,
         "sample_period_s": config.sample_period_s,
         "noise_W": config.noise_W,
@@ -550,6 +557,24 @@ def write_simulation(
         "effects": dict(config.effects),
         "seed": config.seed,
     }
+
+
+def _canonical(write: WriteOptions) -> Render:
+    """The canonical log (log-format.md §1) with `write`'s columns and decimals."""
+    suffix = COMPRESSIONS[write.compress]
+
+    def render(meta: RunMeta, power_W: np.ndarray, voltage_V: np.ndarray) -> tuple[str, bytes]:
+        full = write.columns == "full"
+        data = format_log(
+            meta,
+            power_W,
+            voltage_V=voltage_V if full else None,
+            time_column=full,
+            decimals=write.decimals,
+        )
+        return suffix, data
+
+    return render
 
 
 def load_truth(path: Path) -> dict[str, object]:
