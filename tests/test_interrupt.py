@@ -133,9 +133,14 @@ def test_ctrl_c_during_fit_with_workers_stops_cleanly(
 
 def test_ctrl_c_while_starting_is_quiet(tmp_path: Path) -> None:
     # a SIGINT while the interpreter imports typer/rich/numpy: no traceback either
-    # (earlier than ~0.1 s the signal lands in Python's own start-up, before any wbpower code:
-    # "Fatal Python error: init_import_site", which no program can prevent)
-    for delay_s in (0.2, 0.35, 0.5):
+    # (before `wifibot_power.cli.main` runs, the signal lands in Python's own start-up or the
+    # script's first import: "Fatal Python error: init_import_site" or a traceback, which no
+    # program can prevent; ~0.1 s on a quiet machine, over 0.2 s on a loaded one, where the
+    # fixed delays this test had failed; so the delays start after that, as measured now)
+    started = time.monotonic()
+    subprocess.run([sys.executable, "-c", "import wifibot_power.cli"], check=True)
+    before_main_s = time.monotonic() - started
+    for delay_s in (before_main_s + 0.1, before_main_s + 0.25, before_main_s + 0.4):
         process = subprocess.Popen(
             [*WBPOWER, "lifetime", "--rate", "54"],
             stdout=subprocess.PIPE,
