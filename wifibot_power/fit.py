@@ -359,19 +359,28 @@ def fit_table(
 
     Callable on any subset of runs (e.g. `diagnose` fitting on the runs it does not hold out).
     """
-    from wifibot_power.runtable import RUN_COLUMNS
-
     if phases is None:
         import pandas as pd
 
         phases = pd.DataFrame()
-    # only the run-table columns: a diagnose table carries ~30 more, and this runs per fold
-    # built column by column: to_dict("records") boxes every cell through pandas indexing,
-    # 10 ms a call, and diagnose calls this ~50 times
+    return fit_rows(_records(runs), lambda: (runs, phases), skipped)
+
+
+def fit_table_model(runs: pd.DataFrame) -> PowerModel:
+    """`fit_table(runs).model`, without the rest of a `FitResult` (its stop-and-go table took
+    a third of the time): `diagnose` fits the model on ~50 subsets of runs."""
+    return _fitted(_records(runs)).model
+
+
+def _records(runs: pd.DataFrame) -> list[Row]:
+    """The run-table columns of `runs` as one dict per row. Only those: a diagnose table
+    carries ~30 more, and this runs per fold. Built column by column: to_dict("records")
+    boxes every cell through pandas indexing, 10 ms a call."""
+    from wifibot_power.runtable import RUN_COLUMNS
+
     names = [c for c in runs.columns if c in RUN_COLUMNS]
     values = zip(*(runs[c].tolist() for c in names), strict=True)
-    records = [dict(zip(names, row, strict=True)) for row in values]
-    return fit_rows(records, lambda: (runs, phases), skipped)
+    return [dict(zip(names, row, strict=True)) for row in values]
 
 
 def fit_rows(
@@ -380,10 +389,40 @@ def fit_rows(
     skipped: tuple[Skipped, ...] = (),
 ) -> FitResult:
     """`fit_table` on per-run rows (`runtable.run_row` dicts or the records of a runs table),
-    without pandas: paper Eq. 1-4 by least squares (`fit_line`), idle and Table 1 component
-    powers as means over runs (`MeanEstimate`, `net_of_idle`). `tables()` makes the
-    `(runs, phases)` tables of the result when they are asked for.
+    without pandas: the model (`_fitted`) and the measured stop-and-go overheads beside it
+    (`overhead.stop_and_go_overheads`). `tables()` makes the `(runs, phases)` tables of the
+    result when they are asked for.
     """
+    fitted = _fitted(rows)
+    return FitResult(
+        model=fitted.model,
+        idle=fitted.idle,
+        idle_source=fitted.idle_source,
+        components=fitted.components,
+        n_runs=len(fitted.used),
+        tables=tables,
+        skipped=tuple(skipped),
+        notes=fitted.notes,
+        stop_and_go=stop_and_go_overheads(fitted.used, fitted.model),
+        warnings=fitted.model.fit_warnings,
+    )
+
+
+@dataclass(frozen=True)
+class _Fitted:
+    """What `fit_rows` fits: the model and the means it stands on, from the usable rows."""
+
+    model: PowerModel
+    idle: MeanEstimate
+    idle_source: str
+    components: dict[str, MeanEstimate | None]
+    used: list[Row]
+    notes: tuple[str, ...]
+
+
+def _fitted(rows: Sequence[Row]) -> _Fitted:
+    """Paper Eq. 1-4 by least squares over the motion rows (`fit_line`), idle and Table 1
+    component powers as means over runs (`MeanEstimate`, `net_of_idle`)."""
     import numpy as np
 
     used = [row for row in rows if row["usable"]]
@@ -427,18 +466,7 @@ def fit_rows(
         speed_range_mps=_speed_range(speed),
         fit_warnings=tuple(warnings),
     )
-    return FitResult(
-        model=model,
-        idle=idle,
-        idle_source=idle_source,
-        components=components,
-        n_runs=len(used),
-        tables=tables,
-        skipped=tuple(skipped),
-        notes=tuple(notes),
-        stop_and_go=stop_and_go_overheads(used, model),
-        warnings=tuple(warnings),
-    )
+    return _Fitted(model, idle, idle_source, components, used, tuple(notes))
 
 
 def _speed_range(speed_mps: np.ndarray) -> tuple[float, float] | None:

@@ -14,7 +14,7 @@ import numpy as np
 from wifibot_power.causes.design import column_causes, power_factor, stacked_fit
 from wifibot_power.causes.registry import CAUSES, ordered
 from wifibot_power.energy import trip_energy
-from wifibot_power.fit import fit_table
+from wifibot_power.fit import fit_table_model
 from wifibot_power.model import PowerModel
 
 if TYPE_CHECKING:
@@ -32,7 +32,7 @@ def motion_of(runs: pd.DataFrame) -> pd.DataFrame:
 def fit_model(
     runs: pd.DataFrame, causes: Iterable[str] = (), *, strict: bool = False
 ) -> PowerModel:
-    """The paper's model fitted on `runs` (fit.fit_table: paper Eq. 1-4 by least squares
+    """The paper's model fitted on `runs` (fit.fit_table_model: paper Eq. 1-4 by least squares
     over runs), extended jointly by `causes` in their fit stages (`Cause`): "scale" causes
     estimated against the column causes first, then one stacked least-squares fit of the
     phase means with the column causes' terms (means above idle divided by the scale
@@ -42,7 +42,7 @@ def fit_model(
     or ill-conditioned stacked design, a cause's `identifiable` reason, a line through
     fewer than 2 speeds) instead of returning numbers that mean nothing.
     """
-    base = fit_table(runs).model
+    base = fit_table_model(runs)
     causes = ordered(causes)
     motion = motion_of(runs)
     if strict:
