@@ -494,3 +494,77 @@ def test_runs_with_a_speed_column_repeat_their_commanded_configuration():
     assert measured.nunique() == len(measured)  # no two runs measure the same speed
     assert result.findings == ()
     assert not result.unexplained, result.unexplained_reasons
+
+
+def _paper_grid_field(seed: int, effects: dict[str, float] | None = None) -> SimConfig:
+    """The reference study's grid (9 speeds x (2 m, 10 m, 10 m in 10 steps) x 3 repeats, 81
+    motion runs, `simulate`'s default) at `simulate --realism field`: validate_diagnose's
+    `simfield-paper` suite."""
+    from wifibot_power.simulate import PAPER_SPEEDS_MPS, PAPER_TRIPS, realism
+
+    grid = {**GRID, **realism("field"), "speeds_mps": PAPER_SPEEDS_MPS, "trips": PAPER_TRIPS}
+    return SimConfig(**{**grid, "repeats": 3}, effects=effects or {}, seed=seed)
+
+
+def test_thermal_drift_on_the_paper_grid_at_field_realism_gains_what_its_size_allows():
+    """Issue 11's ">= 30% held out" for thermal drift: on the tests' 30 runs the runs' idle
+    spread caps any model's gain at 19-30% for the smaller α (validate_diagnose simfield);
+    on the study's own 81-run session the drift builds up beyond it. Seed 6 (α = 0.0045/min)
+    is the lowest of seeds 1-8 there: measured gain 49.7% (most any model could gain:
+    53.9%), estimate 0.3% off. Asserted: named alone, explained, the truth in its interval
+    and within 3%, gain >= 45% (4.7 points below the measured, for numeric drift)."""
+    alpha = 0.004544390616952501  # validate_diagnose.size("thermal_drift", 6)
+    sims = simulate_runs(_paper_grid_field(6, {"thermal_drift": alpha}))
+    result = diagnose_runs([s.run for s in sims])
+    assert [f.cause for f in result.findings] == ["thermal_drift"]
+    assert not result.unexplained, result.unexplained_reasons
+    (finding,) = result.findings
+    low, high = finding.estimate["ci95"]
+    assert low < alpha < high
+    assert finding.estimate["value"] == pytest.approx(alpha, rel=0.03)
+    assert finding.gain_pct >= 45.0
+
+
+def test_a_low_speed_extra_on_the_paper_grid_at_field_realism_is_not_speed_quadratic():
+    """The strict xfail above (0.4 W more at the lowest speed only, named speed_quadratic
+    on the tests' 30 runs) on the study's 81 runs: the lack of fit the v² term leaves is
+    seen (measured p = 6e-8, 3e-9 and 0.002 in acceleration at seeds 3-5), the check fails
+    and nothing is named. Seed 5, the weakest."""
+    sims = simulate_runs(_paper_grid_field(5))
+    result = diagnose_runs(
+        _changed(sims, lambda sim, moving: 0.4 if sim.run.meta.speed_mps == 0.1 else 0.0)
+    )
+    assert result.findings == ()
+    assert result.unexplained
+    quad = _candidate(result, "speed_quadratic")
+    assert quad["significant"]
+    failed = {c["check"] for c in quad["checks"] if not c["passed"]}
+    assert "no structure left across speed levels" in failed
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="E_start 14% low with an interval that excludes the truth: at 0.1 m/s the 0.1 s "
+    "acceleration holds ~86% of a 0.2 s inrush, the rest is in the cruise, and those runs' "
+    "1/t_acc column dominates the stacked fit",
+)
+def test_start_transient_on_the_paper_grid_holds_the_truth_in_its_interval():
+    """Found this session, on the study's grid in the lab (0.3 W noise, seed 2, E_start =
+    4.16 J): named, but estimated 3.56 J with a 95% interval of 3.53-3.59 J. The design
+    spreads the lump over the acceleration phase (causes/design.py: E / t_acc), which is
+    right only when the acceleration outlasts the transient; at 0.1 m/s it lasts 0.1 s
+    against the simulator's 0.2 s pulse (τ = 50 ms). Without the 0.1 m/s runs the estimate
+    is 4.160 J. Tried: such runs' acceleration row taken as acceleration and cruise
+    together (the lump's column then steps / time, however split), which gives 4.16 J, but
+    then 'grows with steps, not with distance or speed' sees a 0.05 J per step and m/s term
+    at p = 5e-10 in the lab's mW-exact means and rejects the name (that check has no
+    materiality rule, as speed_quadratic's has); left for the next session."""
+    from wifibot_power.simulate import PAPER_SPEEDS_MPS, PAPER_TRIPS
+
+    E = 4.156534748032614  # validate_diagnose.size("start_transient", 2)
+    grid = {**GRID, "speeds_mps": PAPER_SPEEDS_MPS, "trips": PAPER_TRIPS, "repeats": 3}
+    config = SimConfig(**grid, noise_W=0.3, effects={"start_transient": E}, seed=2)
+    result = diagnose_runs([s.run for s in simulate_runs(config)])
+    (finding,) = [f for f in result.findings if f.cause == "start_transient"]
+    low, high = finding.estimate["ci95"]
+    assert low < E < high
