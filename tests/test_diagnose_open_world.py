@@ -542,23 +542,15 @@ def test_a_low_speed_extra_on_the_paper_grid_at_field_realism_is_not_speed_quadr
     assert "no structure left across speed levels" in failed
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="E_start 14% low with an interval that excludes the truth: at 0.1 m/s the 0.1 s "
-    "acceleration holds ~86% of a 0.2 s inrush, the rest is in the cruise, and those runs' "
-    "1/t_acc column dominates the stacked fit",
-)
 def test_start_transient_on_the_paper_grid_holds_the_truth_in_its_interval():
     """Found this session, on the study's grid in the lab (0.3 W noise, seed 2, E_start =
     4.16 J): named, but estimated 3.56 J with a 95% interval of 3.53-3.59 J. The design
-    spreads the lump over the acceleration phase (causes/design.py: E / t_acc), which is
-    right only when the acceleration outlasts the transient; at 0.1 m/s it lasts 0.1 s
-    against the simulator's 0.2 s pulse (τ = 50 ms). Without the 0.1 m/s runs the estimate
-    is 4.160 J. Tried: such runs' acceleration row taken as acceleration and cruise
-    together (the lump's column then steps / time, however split), which gives 4.16 J, but
-    then 'grows with steps, not with distance or speed' sees a 0.05 J per step and m/s term
-    at p = 5e-10 in the lab's mW-exact means and rejects the name (that check has no
-    materiality rule, as speed_quadratic's has); left for the next session."""
+    spread the lump over the acceleration phase (E / t_acc), right only when the
+    acceleration outlasts the transient; at 0.1 m/s it lasts 0.1 s against the simulator's
+    0.2 s pulse (τ = 50 ms), and those runs weigh most in that column. Now such runs'
+    acceleration row is their acceleration and cruise together (causes/design.py): 4.158 J
+    (4.160 J without the 0.1 m/s runs), the truth inside a ±0.006 J interval. Asserted: the
+    truth in the interval and the estimate within 0.5%."""
     from wifibot_power.simulate import PAPER_SPEEDS_MPS, PAPER_TRIPS
 
     E = 4.156534748032614  # validate_diagnose.size("start_transient", 2)
@@ -568,3 +560,4 @@ def test_start_transient_on_the_paper_grid_holds_the_truth_in_its_interval():
     (finding,) = [f for f in result.findings if f.cause == "start_transient"]
     low, high = finding.estimate["ci95"]
     assert low < E < high
+    assert finding.estimate["value"] == pytest.approx(E, rel=0.005)

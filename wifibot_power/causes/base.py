@@ -186,6 +186,11 @@ class Cause:
         del runs, value
         return None
 
+    #: ("column" causes with a lump) How long after each acceleration starts the lump may
+    #: still be spent [s]: a run whose acceleration is shorter holds part of it in its cruise
+    #: (`design.stacked_design`).
+    lump_within_s: ClassVar[float] = 0.0
+
     def power_factor(self, runs: pd.DataFrame, params: dict[str, float]) -> np.ndarray | None:
         """("scale" causes) Per-run factor on the mean motion power above idle."""
         del runs, params

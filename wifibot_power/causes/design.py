@@ -61,6 +61,7 @@ def stacked_design(
     one, zero = np.ones_like(v), np.zeros_like(v)
     acc_cols, cr_cols = [one, v, zero, zero], [zero, zero, one, v]
     names = list(LINE_COEFFICIENTS)
+    lump_within_s = 0.0
     for name in column_causes(causes):
         cause = CAUSES[name]
         terms = cause.power_terms(runs, 1.0)
@@ -68,11 +69,24 @@ def stacked_design(
         acc = terms.get("ramp0", zero) + terms.get("ramp1", zero) / 2 + terms.get("ramp2", zero) / 3
         if lump is not None:
             acc = acc + lump / t_acc  # a fixed energy spread over the acceleration phase
+            lump_within_s = max(lump_within_s, cause.lump_within_s)
         acc_cols.append(np.broadcast_to(acc, v.shape))
         cr_cols.append(np.broadcast_to(terms.get("cruise", zero), v.shape))
         names.append(cause.parameter)
-    X = np.vstack([np.column_stack(acc_cols), np.column_stack(cr_cols)])
-    return X, np.concatenate([y_acc, y_cr]), names
+    X_acc, X_cr = np.column_stack(acc_cols), np.column_stack(cr_cols)
+    short = t_acc < lump_within_s
+    if short.any():
+        # an acceleration shorter than a lump's time holds only part of the lump, the rest
+        # is in the cruise: such a run's acceleration row is its acceleration and cruise
+        # together (their time-weighted mean, whose lump column is steps / time however the
+        # lump is split), not a mean that reads the lump short. The rows stay in place
+        # (acceleration rows first), as the causes' checks index them
+        accel_s = t_acc * column(runs, "steps_found")
+        w_acc = accel_s / (accel_s + column(runs, "cruise_duration_s"))
+        both = w_acc[:, None] * X_acc + (1.0 - w_acc)[:, None] * X_cr
+        X_acc = np.where(short[:, None], both, X_acc)
+        y_acc = np.where(short, w_acc * y_acc + (1.0 - w_acc) * y_cr, y_acc)
+    return np.vstack([X_acc, X_cr]), np.concatenate([y_acc, y_cr]), names
 
 
 def stacked_fit(
