@@ -114,7 +114,7 @@ class MotionParams:
     #: candidate is dropped when, by more than this many noise sd, its first third's mean
     #: falls less than `decel_fall_fraction` of its height above idle to its last third's,
     #: or its first third falls less than half as much as its last third
-    decel_shape_z: float = 3.0
+    decel_shape_z: float = 2.0
     decel_fall_fraction: float = 0.1
     #: a doubt: a cruise whose two parts (the best split into flat pieces of a quarter or
     #: more) differ by this fraction of the motion's swing above idle (and by more than
@@ -944,7 +944,7 @@ def _falls_from_start(
     early_sd_W = sigma_b * np.sqrt(1.25 / k + 2.25 / k2)  # of m1 - 1.5 m2 + 0.5 m3
     falls = (m1 - m3) - params.decel_fall_fraction * (m1 - idle_W) > -z * fall_sd_W
     early = (m1 - m2) - 0.5 * (m2 - m3) > -z * early_sd_W
-    return falls and early
+    return bool(falls and early)
 
 
 def _decel_candidate(
