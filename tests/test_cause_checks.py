@@ -66,6 +66,41 @@ def test_energy_after_the_stop_fails_of_the_estimated_length(frame):
     assert checks["a stopping phase visible after each cruise"]
 
 
+def _long_stops(frame, window_share: float):
+    """The table with every stop phase 1.6 s long (longer than the 1 s window), its mean
+    power above idle kept, and the window after each cruise holding `window_share` times the
+    stop's mean power above idle x 1 s."""
+    changed = frame.copy()
+    motion = changed["mode"] == "motion"
+    idle_W = fit_model(frame).idle_W
+    steps = changed["steps_found"].clip(lower=1)
+    above_W = changed["decel_mean_power_W"] - idle_W
+    changed.loc[motion, "decel_duration_s"] = 1.6
+    changed.loc[motion, "end_s"] = 1.0 * steps[motion]
+    changed.loc[motion, "end_measured_J"] = (idle_W + window_share * above_W[motion]) * steps[
+        motion
+    ]
+    return changed
+
+
+def test_a_stop_longer_than_the_window_passes_of_the_estimated_length(frame):
+    """A stop of 1.6 s whose power falls linearly to idle holds 1.375 x its flat share in
+    the first second (2m x (1 - 1/3.2) for a mean m above idle): the window is inside the
+    stop, between that share and the whole stop (1.6 m). Before, the share alone was the
+    expected energy and such stops failed (fieldgen's exponential stops of 1.6 s at seed
+    4: ratio 1.28)."""
+    checks = _checks(_long_stops(frame, 1.375), "decel_phase")
+    assert checks["of the estimated length"]
+
+
+@pytest.mark.parametrize("share", [0.6, 2.2])
+def test_a_long_stop_fails_below_its_share_or_above_the_whole_stop(frame, share):
+    """Less than the flat share less 25% (0.75), or more than the whole 1.6 s stop plus
+    25% (2.0), in the window: not the stop phase's energy."""
+    checks = _checks(_long_stops(frame, share), "decel_phase")
+    assert not checks["of the estimated length"]
+
+
 def _per_metre(frame, J_per_m: float):
     """`J_per_m` per metre of the trip added to the acceleration phases."""
     changed = frame.copy()

@@ -28,7 +28,9 @@ Motion runs, on 1 ms block means (docs/segmentation.md has the details and figur
 4. Motion end t3: a split into a quadratic piece (cruise or stop) and a flat idle piece.
 5. Stop phase (decel) start t2, kept only when the data shows one (causes.md
    `decel_phase`; the paper's Eq. 6 has none): a significant drop into a falling line
-   that ends closer to idle than to the cruise level and lasts `min_decel_s`.
+   that ends closer to idle than to the cruise level and lasts `min_decel_s`; after a
+   steady cruise, up to 5 s long, and dropped when its power is seen not to fall from its
+   start (a second, lower speed level is flat first).
 
 Phases cover every sample exactly once; boundaries fall on block edges (1 ms).
 """
@@ -93,12 +95,12 @@ class MotionParams:
     #: how far before / after the coarse motion end the end is looked for [s]
     end_back_s: float = 0.4
     end_forward_s: float = 1.6
-    #: the longest stop phase looked for [s] and the shortest kept. Below decel_phase's
-    #: plausible 5 s (docs/diagnose.md): looked for up to 5 s, exponential stops of 1.6 s
-    #: (tests/fieldgen.py) were found, but a second, lower speed level of 1-4 s at the end
-    #: of a cruise was taken for a stop with no doubt (the stop test asks only that a line
-    #: fall and end near idle); at 1.5 s the long stops are doubted instead (third session)
-    max_decel_s: float = 1.5
+    #: the longest stop phase looked for [s] and the shortest kept: decel_phase's plausible
+    #: 5 s after a steady cruise, where a candidate must fall from its start (a lower speed
+    #: level is flat first: `decel_shape_z`); after a wavy cruise (a ripple hides that
+    #: shape) 1.5 s, and a lower level within that is taken for a stop (docs/segmentation.md)
+    max_decel_s: float = 5.0
+    max_decel_wavy_s: float = 1.5
     min_decel_s: float = 0.1
     #: a stop phase after a steady cruise must start with a drop of this many sd; the flat
     #: cruise before it is fitted over up to this long [s]
@@ -110,6 +112,16 @@ class MotionParams:
     decel_half_widths_s: tuple[float, ...] = (0.025, 0.08, 0.2)
     #: a stop phase ends closer to idle than this fraction of the cruise power above idle
     decel_end_fraction: float = 0.45
+    #: after a steady cruise a stop's power falls from its start (`_falls_from_start`): a
+    #: candidate is dropped when, by more than this many noise sd, its first third's mean
+    #: falls less than `decel_fall_fraction` of its height above idle to its last third's,
+    #: or its first third falls less than half as much as its last third. 2 sd, not 3: a
+    #: stop dropped by chance (one-sided 2.3% per test where its shape shows nothing) is
+    #: a doubted run (its drop stands unexplained in the cruise), a level kept as a stop
+    #: a silent one. Of 238 stops at field realism (fieldgen's exponential ones of 1-4 s,
+    #: the simulator's linear ones of 0.2-4 s) none was dropped, the closest 3.3 sd clear
+    decel_shape_z: float = 2.0
+    decel_fall_fraction: float = 0.1
     #: a doubt: a cruise whose two parts (the best split into flat pieces of a quarter or
     #: more) differ by this fraction of the motion's swing above idle (and by more than
     #: noise and twice the scatter within them, and fit better than one line) holds two
@@ -808,13 +820,25 @@ def _locate_step(
     split = best_split(y, lo, hi, 3 if wavy else 2, 0, min_len, jump_sign=0 if wavy else -1)
     t3 = split.index if split else b
     t3 = max(t3, t1 + 1)
-    # 5. a stop phase, when the data shows one
+    # 5. a stop phase, when the data shows one. A long stop, or a lower level, at the end
+    # of a steady cruise makes [t1, b) wavy too: the ripple's search is for a cruise that
+    # is wavy before its stop
+    if wavy:
+        lo = max(t1 + min_len, t3 - blocks(params.max_decel_s) - blocks(params.decel_cruise_s))
+        split = best_split(y, lo, t3, 0, 1, min_len, jump_sign=-1)
+        group = blocks(0.01)
+        if split and split.index - t1 >= 20 * group:
+            wavy = _wavy(y, sigma_b, t1, split.index, group)
     t2 = _decel_start(y, sigma_b, t1, t3, wavy, blocks, params, min_len)
     if t2 < t3:
         # the stop phase found, its end is re-fitted as a falling line then flat idle (the
         # quadratic of step 4 straddled the drop at t2), then its start once more
-        stop = min(max(t3, t2 + blocks(params.max_decel_s)) + refine, hi)
-        split = best_split(y, t2 + min_len, stop, 1, 0, min_len, jump_sign=-1)
+        longest = params.max_decel_wavy_s if wavy else params.max_decel_s
+        stop = min(max(t3, t2 + blocks(longest)) + refine, hi)
+        # over the end of the stop only: a line through a whole decay (an exponential
+        # stop) would put the end where the decay flattens, seconds early
+        start = max(t2 + min_len, t3 - blocks(params.end_back_s))
+        split = best_split(y, start, stop, 1, 0, min_len, jump_sign=-1)
         t3 = split.index if split else t3
         t2 = _decel_start(y, sigma_b, t1, t3, wavy, blocks, params, min_len)
     return _Step(t0=t0, t1=t1, t2=t2, t3=t3)
@@ -868,6 +892,80 @@ def _decel_start(
 ) -> int:
     """Start of the stop phase before `t3`, or `t3` when the data shows none.
 
+    After a steady cruise a candidate (`_decel_candidate`) is kept unless its power is
+    seen not to fall from its start (`_falls_from_start`): a stop's power falls towards
+    idle through the phase, a second, lower speed level is flat first. Such a level may
+    end with a stop of its own, so the search is repeated after the level's start (a few
+    times at most). After a wavy cruise the ripple runs on through the stop and hides its
+    shape: the candidate stands (and is looked for over `max_decel_wavy_s` only).
+    """
+    floor = 0
+    for _ in range(3):
+        t2 = _decel_candidate(y, sigma_b, t1, t3, floor, wavy, blocks, params, min_len)
+        if t2 >= t3 or wavy or _falls_from_start(y, sigma_b, t2, t3, blocks, params):
+            return t2
+        floor = t2 + 2  # clear of the drop into the level (it may straddle a block)
+    return t3
+
+
+def _falls_from_start(
+    y: np.ndarray,
+    sigma_b: float,
+    t2: int,
+    t3: int,
+    blocks: Callable[[float], int],
+    params: MotionParams,
+) -> bool:
+    """Whether the power of [t2, t3) may be a stop's, falling from its start, rather than
+    a second, lower speed level's, flat first (docs/segmentation.md, "Stop or level").
+
+    The means m1, m2, m3 of the phase's first, middle and last thirds (1 ms blocks): a
+    stop's power is monotone non-increasing towards idle with a non-increasing steepness
+    (linear, causes.md's form: m1 - m2 = m2 - m3; a decay such as an exponential:
+    m1 - m2 > m2 - m3). A level is flat (m1 = m2 = m3), or flat and then its own stop
+    (m1 - m2 = 0 < m2 - m3). The candidate is not a stop when, by more than
+    `decel_shape_z` sd of the difference,
+
+    - m1 - m3 is below `decel_fall_fraction` of m1's height above idle (a stop of the
+      paper's robot falls by 0.2-0.4 of it between its thirds down to 0.05 m/s, the drive's
+      0.6 W being the part that does not fall), or
+    - m1 - m2 is below half of m2 - m3 (half: the midpoint between a line, 1, and a flat
+      first third, 0; it leaves room for a stop whose fall starts gently).
+
+    The sd is that of the white noise of the blocks (`sigma_b` / sqrt(length) per mean):
+    where noise hides the shape (a short stop, a noisy trace) nothing is dropped, and the
+    drop into the phase and its end near idle decide as before.
+    """
+    n = t3 - t2
+    k = n // 3
+    if k < max(3, blocks(0.01)):
+        return True  # too short to tell: the drop into it and its end near idle decide
+    idle_W = float(median(y[t3 : min(y.size, t3 + blocks(0.3))]))
+    m1 = _mean(y[t2 : t2 + k])
+    m2 = _mean(y[t2 + k : t3 - k])
+    m3 = _mean(y[t3 - k : t3])
+    z = params.decel_shape_z
+    k2 = n - 2 * k
+    fall_sd_W = sigma_b * np.sqrt(2.0 / k)
+    early_sd_W = sigma_b * np.sqrt(1.25 / k + 2.25 / k2)  # of m1 - 1.5 m2 + 0.5 m3
+    falls = (m1 - m3) - params.decel_fall_fraction * (m1 - idle_W) > -z * fall_sd_W
+    early = (m1 - m2) - 0.5 * (m2 - m3) > -z * early_sd_W
+    return bool(falls and early)
+
+
+def _decel_candidate(
+    y: np.ndarray,
+    sigma_b: float,
+    t1: int,
+    t3: int,
+    floor: int,
+    wavy: bool,
+    blocks: Callable[[float], int],
+    params: MotionParams,
+    min_len: int,
+) -> int:
+    """A stop phase's start before `t3` (its window from `floor` on), or `t3`.
+
     A steady cruise: the least-squares split of [.., t3) into a flat cruise and a falling
     line (the onset is a drop: the drive stops pushing), its drop tested against its own
     sd, sigma sqrt(1/n_cruise + 4/n_stop). A wavy cruise (a ripple): the strongest drop of
@@ -878,7 +976,9 @@ def _decel_start(
     """
     refine = blocks(params.refine_s)
     if not wavy:
-        lo = max(t1 + min_len, t3 - blocks(params.max_decel_s) - blocks(params.decel_cruise_s))
+        lo = max(
+            t1 + min_len, floor, t3 - blocks(params.max_decel_s) - blocks(params.decel_cruise_s)
+        )
         split = best_split(y, lo, t3, 0, 1, min_len, jump_sign=-1)
         if split is None:
             return t3
@@ -890,7 +990,7 @@ def _decel_start(
         best: tuple[float, int] | None = None  # (drop in sd, block) over the scales
         for half_width_s in params.decel_half_widths_s:
             w = blocks(half_width_s)
-            first = max(t1 + w + 2 + blocks(0.02), t3 - blocks(params.max_decel_s))
+            first = max(t1 + w + 2 + blocks(0.02), t3 - blocks(params.max_decel_wavy_s))
             last = t3 - max(blocks(params.min_decel_s), w)
             if last <= first:
                 continue
