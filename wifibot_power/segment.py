@@ -35,7 +35,7 @@ Phases cover every sample exactly once; boundaries fall on block edges (1 ms).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Generator
 from dataclasses import dataclass
 from itertools import pairwise
 from pathlib import Path
@@ -44,7 +44,9 @@ import numpy as np
 
 from wifibot_power.changepoint import (
     LevelParams,
+    Split,
     best_split,
+    best_splits,
     block_means,
     detect_levels,
     jump_sd_factor,
@@ -506,11 +508,7 @@ def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
             "without idle at either end needs a speed column",
         )
     sigma_b = robust_sigma_W(y)
-    steps: list[_Step] = []
-    for i, (a, b) in enumerate(coarse):
-        prev_end = steps[-1].t3 if steps else 0
-        next_start = coarse[i + 1][0] if i + 1 < len(coarse) else n_blocks
-        steps.append(_locate_step(y, block_dt, sigma_b, a, b, prev_end, next_start, params))
+    steps = _locate_steps(y, block_dt, sigma_b, coarse, params)
 
     bounds: list[tuple[int, int, str, int]] = []  # (start block, end block, phase, step)
     cursor = 0
@@ -747,6 +745,86 @@ def _coarse_motion(
     return [(s * group, min(e * group, y.size)) for s, e in stretches]
 
 
+#: a split a step's search asks for: (lo, hi, deg_left, deg_right, min_len, jump_sign), the
+#: arguments of `best_split`
+_SplitAsked = tuple[int, int, int, int, int, int]
+#: a step's search (`_locate_step`): yields the splits it needs, one at a time, is sent each
+#: one's `best_split`, and returns the step
+_StepSearch = Generator[_SplitAsked, Split | None, _Step]
+
+
+def _locate_steps(
+    y: np.ndarray,
+    block_dt: float,
+    sigma_b: float,
+    coarse: list[tuple[int, int]],
+    params: MotionParams,
+    assumed_ends: list[int] | None = None,
+) -> list[_Step]:
+    """Fine boundaries of every step (`_locate_step`), the steps searched side by side.
+
+    A step's search needs the end of the step before it only where its idle window starts
+    (`_idle_window_start`: 0.5 s before its coarse start, unless the step before ends
+    later). Every step is first searched with an assumed end of the step before in its
+    place (`assumed_ends`, of every step but the last; by default their coarse ends), all
+    at once (`_drive`); then, in order, a step whose window start the step before's found
+    end changes is searched again on its own. The steps are therefore those of a search
+    step after step, whatever was assumed, and the short windows of ten steps are split
+    for little more than one step's (numpy's overhead per call, not the window, is most of
+    a short split's time).
+    """
+    n_blocks = y.size
+    next_starts = [a for a, _ in coarse[1:]] + [n_blocks]
+    assumed = [0] + (assumed_ends or [b for _, b in coarse[:-1]])  # the first: none before
+
+    def search(i: int, prev_end: int) -> _StepSearch:
+        a, b = coarse[i]
+        return _locate_step(y, block_dt, sigma_b, a, b, prev_end, next_starts[i], params)
+
+    steps = _drive(y, [search(i, prev_end) for i, prev_end in enumerate(assumed)])
+    for i in range(1, len(steps)):
+        a = coarse[i][0]
+        found = _idle_window_start(a, steps[i - 1].t3, block_dt, params)
+        if found != _idle_window_start(a, assumed[i], block_dt, params):
+            steps[i] = _drive(y, [search(i, steps[i - 1].t3)])[0]
+    return steps
+
+
+def _drive(y: np.ndarray, searches: list[_StepSearch]) -> list[_Step]:
+    """Run step searches side by side: at each round, the splits they ask for of one kind
+    (degrees and jump sign) are found by one `best_splits` call."""
+    found: list[_Step | None] = [None] * len(searches)
+    asked: dict[int, _SplitAsked] = {}
+
+    def advance(i: int, split: Split | None, first: bool = False) -> None:
+        try:
+            asked[i] = next(searches[i]) if first else searches[i].send(split)
+        except StopIteration as done:
+            found[i] = done.value
+
+    for i in range(len(searches)):
+        advance(i, None, first=True)
+    while asked:
+        kinds: dict[tuple[int, int, int], list[int]] = {}
+        for i, (_, _, deg_left, deg_right, _, sign) in asked.items():
+            kinds.setdefault((deg_left, deg_right, sign), []).append(i)
+        answers: dict[int, Split | None] = {}
+        for (deg_left, deg_right, sign), who in kinds.items():
+            windows = [(asked[i][0], asked[i][1], asked[i][4]) for i in who]
+            splits = best_splits(y, windows, deg_left, deg_right, 5, sign)
+            answers.update(zip(who, splits, strict=True))
+        asked.clear()
+        for i, split in answers.items():
+            advance(i, split)
+    return [step for step in found if step is not None]
+
+
+def _idle_window_start(a: int, prev_end: int, block_dt: float, params: MotionParams) -> int:
+    """First block of the idle stretch a step's acceleration start is fitted from: up to
+    `idle_probe_s` before its coarse start `a`, after the step before ends."""
+    return max(prev_end + 1, a - max(1, round(params.idle_probe_s / block_dt)))
+
+
 def _locate_step(
     y: np.ndarray,
     block_dt: float,
@@ -756,8 +834,9 @@ def _locate_step(
     prev_end: int,
     next_start: int,
     params: MotionParams,
-) -> _Step:
-    """Fine boundaries of one step whose motion was coarsely found in [a, b)."""
+) -> _StepSearch:
+    """Fine boundaries of one step whose motion was coarsely found in [a, b): a search that
+    yields each split it needs (`_locate_steps` runs it)."""
 
     def blocks(seconds: float) -> int:
         return max(1, round(seconds / block_dt))
@@ -765,8 +844,8 @@ def _locate_step(
     refine = blocks(params.refine_s)
     min_len = max(5, blocks(0.005))
     # 2a. acceleration start: flat idle, then the drive-on step and the ramp (a line)
-    lo = max(prev_end + 1, a - blocks(params.idle_probe_s))
-    split = best_split(y, lo, min(a + blocks(0.04), b), 0, 1, min_len, jump_sign=1)
+    lo = _idle_window_start(a, prev_end, block_dt, params)
+    split = yield (lo, min(a + blocks(0.04), b), 0, 1, min_len, 1)
     t0 = split.index if split else a
     # 3a. acceleration end, coarse: the first clear drop of the jump statistic (its lines
     # start after t0, clear of the step at the start)
@@ -786,18 +865,16 @@ def _locate_step(
     # `accel_probe_s`, clear of the end of acceleration)
     hi = min(t0 + blocks(params.accel_probe_s), (t1c if t1c else b) - min_len, b)
     if hi > t0 + 4 * min_len:
-        split = best_split(y, lo, hi, 0, 1, min_len, jump_sign=1)
+        split = yield (lo, hi, 0, 1, min_len, 1)
         t0 = split.index if split else t0
     # 3b. acceleration end, fine: a quadratic ramp (with any transient) then a quadratic
     # cruise (with any ripple); without a clear drop (a ripple can cancel it at low speed)
     # the split of a ramp line from a smooth cruise over the first `kink_probe_s`
     if t1c is not None:
-        split = best_split(
-            y, max(t0 + min_len, t1c - refine), min(t1c + refine, b), 2, 2, min_len, jump_sign=-1
-        )
+        split = yield (max(t0 + min_len, t1c - refine), min(t1c + refine, b), 2, 2, min_len, -1)
         t1 = split.index if split else t1c
     else:
-        split = best_split(y, t0 + 1, min(t0 + blocks(params.kink_probe_s), b), 1, 2, min_len)
+        split = yield (t0 + 1, min(t0 + blocks(params.kink_probe_s), b), 1, 2, min_len, 0)
         t1 = split.index if split else min(t0 + blocks(params.min_accel_s), b - 1)
     t1 = max(t1, t0 + 1)
     # 4. motion end: a quadratic piece (cruise or stop), then flat idle
@@ -805,18 +882,18 @@ def _locate_step(
     hi = min(next_start - blocks(0.05), b + blocks(params.end_forward_s), y.size)
     # power drops to idle at the end, unless a wavy cruise (ripple) happens to be low there
     wavy = _wavy(y, sigma_b, t1, b, blocks(0.01))
-    split = best_split(y, lo, hi, 3 if wavy else 2, 0, min_len, jump_sign=0 if wavy else -1)
+    split = yield (lo, hi, 3 if wavy else 2, 0, min_len, 0 if wavy else -1)
     t3 = split.index if split else b
     t3 = max(t3, t1 + 1)
     # 5. a stop phase, when the data shows one
-    t2 = _decel_start(y, sigma_b, t1, t3, wavy, blocks, params, min_len)
+    t2 = yield from _decel_start(y, sigma_b, t1, t3, wavy, blocks, params, min_len)
     if t2 < t3:
         # the stop phase found, its end is re-fitted as a falling line then flat idle (the
         # quadratic of step 4 straddled the drop at t2), then its start once more
         stop = min(max(t3, t2 + blocks(params.max_decel_s)) + refine, hi)
-        split = best_split(y, t2 + min_len, stop, 1, 0, min_len, jump_sign=-1)
+        split = yield (t2 + min_len, stop, 1, 0, min_len, -1)
         t3 = split.index if split else t3
-        t2 = _decel_start(y, sigma_b, t1, t3, wavy, blocks, params, min_len)
+        t2 = yield from _decel_start(y, sigma_b, t1, t3, wavy, blocks, params, min_len)
     return _Step(t0=t0, t1=t1, t2=t2, t3=t3)
 
 
@@ -865,8 +942,9 @@ def _decel_start(
     blocks: Callable[[float], int],
     params: MotionParams,
     min_len: int,
-) -> int:
-    """Start of the stop phase before `t3`, or `t3` when the data shows none.
+) -> Generator[_SplitAsked, Split | None, int]:
+    """Start of the stop phase before `t3`, or `t3` when the data shows none (a search, as
+    `_locate_step`, which yields from it).
 
     A steady cruise: the least-squares split of [.., t3) into a flat cruise and a falling
     line (the onset is a drop: the drive stops pushing), its drop tested against its own
@@ -879,7 +957,7 @@ def _decel_start(
     refine = blocks(params.refine_s)
     if not wavy:
         lo = max(t1 + min_len, t3 - blocks(params.max_decel_s) - blocks(params.decel_cruise_s))
-        split = best_split(y, lo, t3, 0, 1, min_len, jump_sign=-1)
+        split = yield (lo, t3, 0, 1, min_len, -1)
         if split is None:
             return t3
         t2 = split.index
@@ -904,7 +982,7 @@ def _decel_start(
         if best is None or best[0] < params.decel_z:
             return t3
         k = best[1]
-        split = best_split(y, max(t1 + min_len, k - refine), min(k + refine, t3), 2, 1, min_len)
+        split = yield (max(t1 + min_len, k - refine), min(k + refine, t3), 2, 1, min_len, 0)
         t2 = split.index if split else k
     if t3 - t2 < blocks(params.min_decel_s):
         return t3
