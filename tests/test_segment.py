@@ -30,6 +30,7 @@ from wifibot_power.changepoint import (
     jump_statistic_W,
     median,
     peaks,
+    percentile,
     robust_sigma_W,
     sliding_max,
 )
@@ -42,6 +43,7 @@ from wifibot_power.segment import (
     _drive,
     _locate_step,
     _locate_steps,
+    _longest_runs,
     _mean,
     _std,
     segment_run,
@@ -114,6 +116,39 @@ def test_mean_sd_and_median_helpers_give_numpys_numbers() -> None:
         assert _std(x) == float(np.std(x))
         assert median(x) == float(np.median(x))
     assert np.isnan(median(np.array([])))
+
+
+def test_percentile_is_numpys_bit_for_bit() -> None:
+    rng = np.random.default_rng(7)
+    for trial in range(400):
+        x = rng.normal(23.0, 3.0, int(rng.integers(1, 40 if trial % 2 else 5000)))
+        if trial % 3 == 0:
+            x = np.round(x, 1)  # ties
+        for q in (0, 1, 50, 95, 99, 99.9, 100):
+            assert percentile(x, q) == float(np.percentile(x, q)), (trial, q)
+
+
+def test_longest_runs_cut_to_spans_are_each_spans_own() -> None:
+    """The longest run of True in each span (and where it starts in it, the first of equal
+    ones), from the runs of the whole mask cut to the spans: as if found in each span's
+    own mask, by brute force."""
+    rng = np.random.default_rng(8)
+    for trial in range(200):
+        mask = rng.uniform(size=int(rng.integers(1, 300))) < rng.uniform(0.1, 0.9)
+        spans = sorted(
+            (int(a), int(a + rng.integers(0, 60)))
+            for a in rng.integers(0, mask.size, int(rng.integers(0, 6)))
+        )
+        spans = [(a, min(b, mask.size)) for a, b in spans]
+        for (a, b), (longest, at) in zip(spans, _longest_runs(mask, spans), strict=True):
+            best = (0, 0)
+            for i in range(a, b):
+                j = i
+                while j < b and mask[j]:
+                    j += 1
+                if j - i > best[0] and (i == a or not mask[i - 1]):
+                    best = (j - i, i - a)
+            assert (longest, at) == best, (trial, a, b)
 
 
 def test_long_medians_narrowed_first_are_numpys() -> None:

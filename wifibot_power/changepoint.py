@@ -77,6 +77,27 @@ def median(values: np.ndarray) -> float:
     return _median_in_place(x) if x.size else float("nan")
 
 
+def percentile(values: np.ndarray, q: float) -> float:
+    """`numpy.percentile(values, q)` of finite values (its default, linear interpolation),
+    the same number, without its Python-level overhead (~0.15 ms a call): the two order
+    statistics around the virtual index (m - 1) q / 100 by a partition of a copy, then
+    numpy's `_lerp` (a + (b - a) g, or b - (b - a)(1 - g) from g = 0.5 on)."""
+    x = np.array(values, dtype=np.float64)
+    m = x.size
+    if m == 0:
+        return float("nan")
+    virtual = (m - 1) * (q / 100)
+    below = math.floor(virtual)
+    if virtual >= m - 1:
+        below = m - 1
+    above = min(below + 1, m - 1)
+    x.partition([below, above] if above != below else [below])
+    a, b = float(x[below]), float(x[above])
+    gamma = virtual - below
+    diff = b - a
+    return b - diff * (1 - gamma) if gamma >= 0.5 else a + diff * gamma
+
+
 def _median_in_place(x: np.ndarray) -> float:
     """`numpy.median` of a 1-d float array that may be reordered (no copy): the same
     value (the middle one, or the mean of the two middle ones).

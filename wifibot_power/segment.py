@@ -53,6 +53,7 @@ from wifibot_power.changepoint import (
     jump_statistic_W,
     median,
     peaks,
+    percentile,
     robust_sigma_W,
 )
 from wifibot_power.errors import LogError
@@ -258,7 +259,7 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     half = blocks(params.smooth_s) // 2
     vs = np.abs(_centred_mean(signed, half))
     sigma_v = robust_sigma_W(signed)
-    top = float(np.percentile(vs, 99)) if n else 0.0
+    top = percentile(vs, 99) if n else 0.0
     smooth_sd = sigma_v / np.sqrt(2 * half + 1)
     threshold = max(params.moving_fraction * top, params.moving_z * smooth_sd)
     moving = vs > threshold
@@ -583,6 +584,14 @@ def _motion_doubts(
         return f"the {name} phase before step 1" if step == 0 else f"the {name} of step {step}"
 
     doubts: list[str] = []
+    # every cruise's two-level split at once (`best_splits`: the splits of `best_split` on
+    # each cruise's own means), and every accel's and cruise's longest stretch at idle
+    cruises = [k for k, (a, b, name, _) in enumerate(spans) if name == "cruise" and b - a >= 20]
+    windows = [(spans[k][0], spans[k][1], (spans[k][1] - spans[k][0]) // 4) for k in cruises]
+    two_levels = dict(zip(cruises, best_splits(y10, windows, 0, 0), strict=True))
+    driven = [(k, a, b) for k, (a, b, name, _) in enumerate(spans) if name in ("accel", "cruise")]
+    at_idle = _longest_runs(np.abs(y10 - idle_W) < near_W, [(a, b) for _, a, b in driven])
+    longest_at_idle = dict(zip((k for k, _, _ in driven), at_idle, strict=True))
     edge = min(5, m)
     starts_moving = float(median(y10[:edge])) > on_W
     ends_moving = float(median(y10[-edge:])) > on_W
@@ -612,26 +621,25 @@ def _motion_doubts(
                     f"{float(values.max()) - idle_W:.3g} W over it): motion labelled idle?"
                 )
         elif name in ("accel", "cruise"):
-            longest, at = _longest_run(np.abs(values - idle_W) < near_W)
-            if name == "cruise" and b - a >= 20:
+            longest, at = longest_at_idle[k]
+            split = two_levels.get(k)
+            if split is not None:
                 # two levels in one cruise: the best split into two flat pieces of at
                 # least a quarter each, their means further apart than noise, than twice
                 # the scatter left within the pieces (a ripple's: it does not split into
                 # levels) and `level_fraction` of the swing, and fitting better than one
                 # line (a slow drift is one line, not two levels)
-                quarter = (b - a) // 4
-                split = best_split(values, 0, b - a, 0, 0, quarter)
-                if split is not None:
-                    step_W = split.jump_W
-                    sd = sigma10 * np.sqrt(1.0 / split.index + 1.0 / (b - a - split.index))
-                    scatter_W = np.sqrt(split.sse / (b - a))
-                    bar_W = max(6.0 * sd, 2.0 * scatter_W, params.level_fraction * swing_W)
-                    if abs(step_W) > bar_W and _beats_line(values, split.sse):
-                        doubts.append(
-                            f"{name_of(name, step)} holds two levels ({step_W:+.3g} W at "
-                            f"{when(a + split.index):.3f} s): a second speed level inside "
-                            "one cruise?"
-                        )
+                index = split.index - a  # into the cruise's means
+                step_W = split.jump_W
+                sd = sigma10 * np.sqrt(1.0 / index + 1.0 / (b - a - index))
+                scatter_W = np.sqrt(split.sse / (b - a))
+                bar_W = max(6.0 * sd, 2.0 * scatter_W, params.level_fraction * swing_W)
+                if abs(step_W) > bar_W and _beats_line(values, split.sse):
+                    doubts.append(
+                        f"{name_of(name, step)} holds two levels ({step_W:+.3g} W at "
+                        f"{when(a + index):.3f} s): a second speed level inside "
+                        "one cruise?"
+                    )
             if longest * dt10 > 0.05:
                 doubts.append(
                     f"{name_of(name, step)} holds {longest * dt10:.2f} s at idle power from "
@@ -665,11 +673,10 @@ def _motion_doubts(
         found = peaks(np.abs(jump), threshold, w)
         edges10 = np.array([b / group for _, b, _, _ in bounds[:-1]], dtype=np.float64)
         tolerance = max(0.06 / dt10, 1.5)
-        unexplained = [
-            int(k)
-            for k in found
-            if edges10.size == 0 or float(np.min(np.abs(edges10 - k))) > tolerance
-        ]
+        if edges10.size and found.size:
+            nearest = np.min(np.abs(edges10[None, :] - found[:, None]), axis=1)
+            found = found[nearest > tolerance]
+        unexplained = [int(k) for k in found]
         for k in unexplained[:3]:
             inside = next((sp for sp in spans if sp[0] <= k < sp[1]), spans[-1])
             doubts.append(
@@ -678,7 +685,7 @@ def _motion_doubts(
                 "(a second speed level, or a stop?)"
             )
     # a motors-only log: idle ~0 W, and the drive stops straight into it
-    peak_W = float(np.percentile(y10, 99))
+    peak_W = percentile(y10, 99)
     abrupt = [k for _, _, name, k in bounds if name == "cruise"]
     with_decel = {k for _, _, name, k in bounds if name == "decel"}
     abrupt = [k for k in abrupt if k not in with_decel]
@@ -696,15 +703,25 @@ def _motion_doubts(
     return doubts
 
 
-def _longest_run(mask: np.ndarray) -> tuple[int, int]:
-    """Length and start of the longest run of True in `mask` ((0, 0) without one)."""
+def _longest_runs(mask: np.ndarray, spans: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """Length and start (from the span's start) of the longest run of True in each span
+    [a, b) of `mask`, the first of equal ones ((0, 0) without one): the runs of the whole
+    mask found once, each cut to each span."""
+    if not spans:
+        return []
     padded = np.concatenate(([False], mask, [False]))
     edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
     if edges.size == 0:
-        return 0, 0
-    lengths = edges[1::2] - edges[::2]
-    k = int(np.argmax(lengths))
-    return int(lengths[k]), int(edges[2 * k])
+        return [(0, 0)] * len(spans)
+    starts, ends = edges[::2], edges[1::2]
+    a, b = np.array(spans).T
+    first = np.maximum(starts[None, :], a[:, None])
+    lengths = np.minimum(ends[None, :], b[:, None]) - first
+    k = np.argmax(lengths, axis=1)
+    rows = np.arange(len(spans))
+    longest = np.maximum(lengths[rows, k], 0)
+    at = np.where(longest > 0, first[rows, k] - a, 0)
+    return list(zip(longest.tolist(), at.tolist(), strict=True))
 
 
 def _coarse_motion(
