@@ -676,7 +676,7 @@ def _stacked_splits(
             for p in range(1, m):
                 for q in range(1, p):
                     pair_terms[p, q] = math.comb(p, q) * shift_pow[p - q]
-        table = _gram_inverse(deg, int(length.max()))
+        table = _gram_inverse(deg, longest)  # no piece is longer than the longest window
         rhs = _own_basis_rhs(sums, shift_pow, pair_terms, ratio_pow)
         coef, explained = _solve(rhs, lambda p, q: table[p, q][length])
         return np.maximum(y2 - explained, 0.0), coef
@@ -696,23 +696,30 @@ def _stacked_splits(
         # `best_split`: the sign is kept only in a window where some split has it
         allowed |= ~allowed.any(axis=1)[:, None]
         total[~allowed] = np.inf
-    best = np.argmin(total, axis=1)
-    out = []
-    for r, (_, lo, _, _) in enumerate(rows):
-        b = int(best[r])
-        left_best = [c[r, b] for c in coef_left]
-        right_best = [c[r, b] for c in coef_right]
-        out.append(
-            Split(
-                index=lo + b,
-                sse=float(total[r, b]),
-                left_end_W=_piece_value(left_best, 0.5, offsets[r]),
-                right_start_W=_piece_value(right_best, -0.5, offsets[r]),
-                left_coef=tuple(float(c) for c in left_best),
-                right_coef=tuple(float(c) for c in right_best),
-            )
+    # each window's best split and its pieces, as Python floats (the same doubles: the
+    # pieces' values by the same float operations as `best_split`'s on numpy scalars)
+    row, best = np.arange(count), np.argmin(total, axis=1)
+    lefts = list(zip(*(c[row, best].tolist() for c in coef_left), strict=True))
+    rights = list(zip(*(c[row, best].tolist() for c in coef_right), strict=True))
+    return [
+        Split(
+            index=lo + b,
+            sse=sse,
+            left_end_W=_piece_value(left, 0.5, offset),
+            right_start_W=_piece_value(right, -0.5, offset),
+            left_coef=left,
+            right_coef=right,
         )
-    return out
+        for (_, lo, _, _), b, sse, left, right, offset in zip(
+            rows,
+            best.tolist(),
+            total[row, best].tolist(),
+            lefts,
+            rights,
+            offsets.tolist(),
+            strict=True,
+        )
+    ]
 
 
 #: how many numbers (windows x longest window) one stack of `best_splits` holds, and the
