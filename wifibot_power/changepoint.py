@@ -5,13 +5,15 @@ cost is linear in the number of samples and independent of the analyser's sample
 
 - `block_means`: the trace averaged over blocks of `block` samples.
 - `robust_sigma_W`: the noise of a series from the median absolute first difference
-  (a slow ripple or a few jumps do not move it).
+  (a slow ripple or a few jumps do not move it); `median`, `percentile`: numpy's numbers
+  without numpy's per-call overhead.
 - `jump_statistic_W`: at every block boundary, the difference between straight lines fitted
   just after and just before it, both extrapolated to the boundary. A step of height h gives
   h; a straight trend or any symmetric curvature (a slow ripple near its crest) gives ~0.
 - `best_split`: where one least-squares polynomial piece ends and the next begins inside a
   window (closed-form Gram matrices and prefix sums: every candidate split at once, in O(1)
-  numpy operations each); the fine locator of every boundary.
+  numpy operations each); the fine locator of every boundary. `best_splits`: the same for
+  many windows at once (short ones stacked as rows of one array).
 - `detect_levels`: steady levels of any trace (e.g. a load switching between levels):
   jumps above a noise threshold, then short start-up spikes (inrush, overshoot) merged into
   the level they start, then changes too small to matter merged.
