@@ -464,8 +464,7 @@ class _PolyCost:
         self.offset = float(np.add.reduce(y) / n) if n else 0.0
         self.scale = float(max(n, 1))
         u = _window_positions(n)
-        terms = np.empty((max_deg + 2, n + 1))
-        terms[:, 0] = 0.0
+        terms = np.zeros((max_deg + 2, n + 1))  # the prefix sums start at 0
         yc = terms[0, 1:]
         np.subtract(y, self.offset, out=yc)
         for q in range(1, max_deg + 1):
@@ -548,7 +547,9 @@ def best_split(
         right_start = coef_right[0]
         for p in range(1, deg_right + 1):
             right_start = right_start + coef_right[p] * (-0.5) ** p
-        allowed = (right_start - left_end) * jump_sign >= 0
+        # (right - left) * sign >= 0, without the two array operations: the sign of a
+        # difference of doubles is that of their comparison (gradual underflow)
+        allowed = right_start >= left_end if jump_sign > 0 else right_start <= left_end
         if allowed.any():
             total = np.where(allowed, total, np.inf)
     best = int(np.argmin(total))
@@ -694,7 +695,7 @@ def _stacked_splits(
         right_start = coef_right[0]
         for p in range(1, deg_right + 1):
             right_start = right_start + coef_right[p] * (-0.5) ** p
-        allowed = ((right_start - left_end) * jump_sign >= 0) & valid
+        allowed = (right_start >= left_end if jump_sign > 0 else right_start <= left_end) & valid
         # `best_split`: the sign is kept only in a window where some split has it
         allowed |= ~allowed.any(axis=1)[:, None]
         total[~allowed] = np.inf
