@@ -159,9 +159,9 @@ def jump_statistic_W(y: np.ndarray, half_width: int) -> np.ndarray:
     s0 = np.empty(n + 1)
     s1 = np.empty(n + 1)
     s0[0] = s1[0] = 0.0
-    np.cumsum(yc, out=s0[1:])
+    yc.cumsum(out=s0[1:])  # methods, not np.cumsum: no Python-level wrapper per call
     np.multiply(j, yc, out=j)
-    np.cumsum(j, out=s1[1:])
+    j.cumsum(out=s1[1:])
     k = np.arange(w, n - w + 1)
     s_xx = w * (w * w - 1) / 12.0
 
@@ -229,9 +229,12 @@ def peaks(score: np.ndarray, threshold: float, separation: int) -> np.ndarray:
         local = (s == sliding_max(s, size)) & (s > threshold)
         candidates = np.flatnonzero(local)
     kept: list[int] = []
-    for idx in candidates[np.argsort(-s[candidates], kind="stable")]:
-        if all(abs(int(idx) - k) >= separation for k in kept):
-            kept.append(int(idx))
+    for idx in candidates[(-s[candidates]).argsort(kind="stable")].tolist():
+        for k in kept:
+            if abs(idx - k) < separation:
+                break
+        else:
+            kept.append(idx)
     return np.array(sorted(kept), dtype=np.int64)
 
 
@@ -470,7 +473,7 @@ class _PolyCost:
         for q in range(1, max_deg + 1):
             np.multiply(terms[q - 1, 1:], u, out=terms[q, 1:])
         np.multiply(yc, yc, out=terms[-1, 1:])
-        np.cumsum(terms, axis=1, out=terms)
+        terms.cumsum(axis=1, out=terms)
         self.puy = list(terms[:-1])  # prefix sums of u^q y, q = 0..max_deg
         self.py2 = terms[-1]  # prefix sums of y^2
 
@@ -506,7 +509,10 @@ class _PolyCost:
 
 def _piece_value(coef: np.ndarray | list[float], x: float, offset: float) -> float:
     """A piece's polynomial `coef` at x (its own basis), plus its window's mean [W]."""
-    return float(sum(c * x**p for p, c in enumerate(coef)) + offset)
+    total = 0  # as sum(): 0 + the first term + the next ..., left to right
+    for p, c in enumerate(coef):
+        total = total + c * x**p
+    return float(total + offset)
 
 
 def best_split(
@@ -552,7 +558,7 @@ def best_split(
         allowed = right_start >= left_end if jump_sign > 0 else right_start <= left_end
         if allowed.any():
             total = np.where(allowed, total, np.inf)
-    best = int(np.argmin(total))
+    best = int(total.argmin())
     left_best = [c[best] for c in coef_left]
     right_best = [c[best] for c in coef_right]
     return Split(
@@ -560,8 +566,8 @@ def best_split(
         sse=float(total[best]),
         left_end_W=cost.value(left_best, 0.5),
         right_start_W=cost.value(right_best, -0.5),
-        left_coef=tuple(float(c) for c in left_best),
-        right_coef=tuple(float(c) for c in right_best),
+        left_coef=tuple(map(float, left_best)),
+        right_coef=tuple(map(float, right_best)),
     )
 
 
@@ -654,7 +660,7 @@ def _stacked_splits(
     for q in range(1, max_deg + 1):
         np.multiply(terms[q - 1, :, 1:], u, out=terms[q, :, 1:])
     np.multiply(yc, yc, out=terms[-1, :, 1:])
-    np.cumsum(terms, axis=2, out=terms)
+    terms.cumsum(axis=2, out=terms)
     totals = terms[:, np.arange(count), sizes][:, :, None]  # over each whole window
     valid = (column[None, :] >= leasts[:, None]) & (column[None, :] <= (sizes - leasts)[:, None])
 
@@ -705,7 +711,7 @@ def _stacked_splits(
         total[~allowed] = np.inf
     # each window's best split and its pieces, as Python floats (the same doubles: the
     # pieces' values by the same float operations as `best_split`'s on numpy scalars)
-    row, best = np.arange(count), np.argmin(total, axis=1)
+    row, best = np.arange(count), total.argmin(axis=1)
     lefts = list(zip(*(c[row, best].tolist() for c in coef_left), strict=True))
     rights = list(zip(*(c[row, best].tolist() for c in coef_right), strict=True))
     return [
