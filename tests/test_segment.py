@@ -23,12 +23,14 @@ from wifibot_power.changepoint import (
     LevelParams,
     _centred_power_sum,
     best_split,
+    best_splits,
     block_means,
     detect_levels,
     jump_sd_factor,
     jump_statistic_W,
     median,
     peaks,
+    percentile,
     robust_sigma_W,
     sliding_max,
 )
@@ -36,7 +38,16 @@ from wifibot_power.cli import app
 from wifibot_power.errors import LogError
 from wifibot_power.io.writer import format_log, write_log
 from wifibot_power.run import Run, RunMeta
-from wifibot_power.segment import _mean, _std, segment_run
+from wifibot_power.segment import (
+    MotionParams,
+    _drive,
+    _locate_step,
+    _locate_steps,
+    _longest_runs,
+    _mean,
+    _std,
+    segment_run,
+)
 from wifibot_power.simulate import EFFECTS, SimConfig, simulate_runs
 
 # -- generic layer -------------------------------------------------------------------------
@@ -107,12 +118,45 @@ def test_mean_sd_and_median_helpers_give_numpys_numbers() -> None:
     assert np.isnan(median(np.array([])))
 
 
+def test_percentile_is_numpys_bit_for_bit() -> None:
+    rng = np.random.default_rng(7)
+    for trial in range(400):
+        x = rng.normal(23.0, 3.0, int(rng.integers(1, 40 if trial % 2 else 5000)))
+        if trial % 3 == 0:
+            x = np.round(x, 1)  # ties
+        for q in (0, 1, 50, 95, 99, 99.9, 100):
+            assert percentile(x, q) == float(np.percentile(x, q)), (trial, q)
+
+
+def test_longest_runs_cut_to_spans_are_each_spans_own() -> None:
+    """The longest run of True in each span (and where it starts in it, the first of equal
+    ones), from the runs of the whole mask cut to the spans: as if found in each span's
+    own mask, by brute force."""
+    rng = np.random.default_rng(8)
+    for trial in range(200):
+        mask = rng.uniform(size=int(rng.integers(1, 300))) < rng.uniform(0.1, 0.9)
+        spans = sorted(
+            (int(a), int(a + rng.integers(0, 60)))
+            for a in rng.integers(0, mask.size, int(rng.integers(0, 6)))
+        )
+        spans = [(a, min(b, mask.size)) for a, b in spans]
+        for (a, b), (longest, at) in zip(spans, _longest_runs(mask, spans), strict=True):
+            best = (0, 0)
+            for i in range(a, b):
+                j = i
+                while j < b and mask[j]:
+                    j += 1
+                if j - i > best[0] and (i == a or not mask[i - 1]):
+                    best = (j - i, i - a)
+            assert (longest, at) == best, (trial, a, b)
+
+
 def test_long_medians_narrowed_first_are_numpys() -> None:
-    # past 32,768 values the median partitions only a band read off a sample: the same
+    # past 4,096 values the median partitions only a band read off a sample: the same
     # number whatever the order and the ties (sorted, rounded, half of them one value)
     rng = np.random.default_rng(6)
-    for trial in range(60):
-        x = rng.normal(0.0, 1.0, int(rng.integers(32_000, 150_000)))
+    for trial in range(90):
+        x = rng.normal(0.0, 1.0, int(rng.integers(4_000, 150_000 if trial < 60 else 9_000)))
         if trial % 3 == 0:
             x = np.round(x, 2)
         if trial % 4 == 0:
@@ -243,6 +287,67 @@ def test_best_split_sign_constraint() -> None:
     assert free.jump_W == pytest.approx(-1.0 - 0.25, abs=1e-9)  # at the boundary x = 29.5
     up = best_split(y, 0, y.size, 0, 1, 5, jump_sign=1)
     assert up is not None and up.index != 30 and up.jump_W >= 0
+
+
+def test_best_splits_are_best_split_bit_for_bit() -> None:
+    """Windows stacked as rows of one padded array (short ones) or split one by one (long
+    ones), with minimum lengths of their own, some too short for two pieces: every `Split`
+    is `best_split`'s, bit for bit (dataclass equality compares the floats exactly)."""
+    rng = np.random.default_rng(12)
+    compared = stacked = 0
+    for trial in range(40):
+        n = int(rng.integers(60, 3000))
+        y = 23.0 + np.cumsum(rng.normal(0, 0.05, n)) + rng.normal(0, 0.2, n)
+        deg_left, deg_right = int(rng.integers(0, 4)), int(rng.integers(0, 4))
+        sign, min_len = int(rng.integers(-1, 2)), int(rng.integers(1, 12))
+        windows = []
+        for _ in range(int(rng.integers(2, 9))):
+            lo = int(rng.integers(-5, n - 10))
+            hi = lo + int(rng.integers(4, 900 if trial % 4 else 2500))
+            windows.append((lo, hi, int(rng.integers(1, 30))) if trial % 3 == 0 else (lo, hi))
+        found = best_splits(y, windows, deg_left, deg_right, min_len, sign)
+        for window, split in zip(windows, found, strict=True):
+            own = window[2] if len(window) > 2 else min_len
+            assert split == best_split(y, window[0], window[1], deg_left, deg_right, own, sign)
+            compared += 1
+            stacked += min(window[1], n) - max(window[0], 0) <= changepoint._STACKED_MAX
+    assert compared > 150 and stacked > 100  # both ways taken, many times
+
+
+def test_steps_searched_side_by_side_are_those_searched_one_by_one() -> None:
+    """`_locate_steps` searches every step at once with an assumed end of the step before,
+    then searches again a step whose idle window the found end changes: its steps are those
+    of a search step after step, whatever was assumed. Steps 0.15 s apart (closer than the
+    0.5 s idle window), whose coarse ends are 60 ms early, make the assumption matter."""
+    rng = np.random.default_rng(13)
+    block_dt, params = 1e-3, MotionParams()
+    y, coarse, cursor = [np.full(800, 23.0)], [], 800
+    for k in range(6):
+        gap = 150 if k % 2 else 900
+        ramp = 23.0 + 6.0 + np.linspace(0, 4.0, 200)
+        motion = np.concatenate([ramp, np.full(1200, 30.0 + k % 3)])
+        y += [motion, np.full(gap, 23.0)]
+        coarse.append((cursor + 20, cursor + motion.size - 60))
+        cursor += motion.size + gap
+    y = np.concatenate(y) + rng.normal(0.0, 0.05, cursor)
+    sigma_b = robust_sigma_W(y)
+
+    def one_by_one(ends_before) -> list:
+        steps: list = []
+        for i, (a, b) in enumerate(coarse):
+            prev_end = ends_before(i, steps)
+            next_start = coarse[i + 1][0] if i + 1 < len(coarse) else y.size
+            search = _locate_step(y, block_dt, sigma_b, a, b, prev_end, next_start, params)
+            steps += _drive(y, [search])
+        return steps
+
+    truth = one_by_one(lambda i, steps: steps[-1].t3 if steps else 0)
+    # each step searched from a wrong end of the step before (0: its idle window reaches
+    # into that step's motion) gives other steps: the assumption must be corrected
+    wrong = one_by_one(lambda i, steps: 0)
+    assert wrong != truth
+    for assumed in (None, [0] * (len(coarse) - 1), [b + 400 for _, b in coarse[:-1]]):
+        assert _locate_steps(y, block_dt, sigma_b, coarse, params, assumed) == truth
 
 
 def _staircase(period_s: float = 1e-3, noise_W: float = 0.01, seed: int = 3):

@@ -37,7 +37,7 @@ Phases cover every sample exactly once; boundaries fall on block edges (1 ms).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Generator
 from dataclasses import dataclass
 from itertools import pairwise
 from pathlib import Path
@@ -46,13 +46,16 @@ import numpy as np
 
 from wifibot_power.changepoint import (
     LevelParams,
+    Split,
     best_split,
+    best_splits,
     block_means,
     detect_levels,
     jump_sd_factor,
     jump_statistic_W,
     median,
     peaks,
+    percentile,
     robust_sigma_W,
 )
 from wifibot_power.errors import LogError
@@ -268,7 +271,7 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     half = blocks(params.smooth_s) // 2
     vs = np.abs(_centred_mean(signed, half))
     sigma_v = robust_sigma_W(signed)
-    top = float(np.percentile(vs, 99)) if n else 0.0
+    top = percentile(vs, 99) if n else 0.0
     smooth_sd = sigma_v / np.sqrt(2 * half + 1)
     threshold = max(params.moving_fraction * top, params.moving_z * smooth_sd)
     moving = vs > threshold
@@ -518,11 +521,7 @@ def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
             "without idle at either end needs a speed column",
         )
     sigma_b = robust_sigma_W(y)
-    steps: list[_Step] = []
-    for i, (a, b) in enumerate(coarse):
-        prev_end = steps[-1].t3 if steps else 0
-        next_start = coarse[i + 1][0] if i + 1 < len(coarse) else n_blocks
-        steps.append(_locate_step(y, block_dt, sigma_b, a, b, prev_end, next_start, params))
+    steps = _locate_steps(y, block_dt, sigma_b, coarse, params)
 
     bounds: list[tuple[int, int, str, int]] = []  # (start block, end block, phase, step)
     cursor = 0
@@ -597,6 +596,14 @@ def _motion_doubts(
         return f"the {name} phase before step 1" if step == 0 else f"the {name} of step {step}"
 
     doubts: list[str] = []
+    # every cruise's two-level split at once (`best_splits`: the splits of `best_split` on
+    # each cruise's own means), and every accel's and cruise's longest stretch at idle
+    cruises = [k for k, (a, b, name, _) in enumerate(spans) if name == "cruise" and b - a >= 20]
+    windows = [(spans[k][0], spans[k][1], (spans[k][1] - spans[k][0]) // 4) for k in cruises]
+    two_levels = dict(zip(cruises, best_splits(y10, windows, 0, 0), strict=True))
+    driven = [(k, a, b) for k, (a, b, name, _) in enumerate(spans) if name in ("accel", "cruise")]
+    at_idle = _longest_runs(np.abs(y10 - idle_W) < near_W, [(a, b) for _, a, b in driven])
+    longest_at_idle = dict(zip((k for k, _, _ in driven), at_idle, strict=True))
     edge = min(5, m)
     starts_moving = float(median(y10[:edge])) > on_W
     ends_moving = float(median(y10[-edge:])) > on_W
@@ -626,26 +633,25 @@ def _motion_doubts(
                     f"{float(values.max()) - idle_W:.3g} W over it): motion labelled idle?"
                 )
         elif name in ("accel", "cruise"):
-            longest, at = _longest_run(np.abs(values - idle_W) < near_W)
-            if name == "cruise" and b - a >= 20:
+            longest, at = longest_at_idle[k]
+            split = two_levels.get(k)
+            if split is not None:
                 # two levels in one cruise: the best split into two flat pieces of at
                 # least a quarter each, their means further apart than noise, than twice
                 # the scatter left within the pieces (a ripple's: it does not split into
                 # levels) and `level_fraction` of the swing, and fitting better than one
                 # line (a slow drift is one line, not two levels)
-                quarter = (b - a) // 4
-                split = best_split(values, 0, b - a, 0, 0, quarter)
-                if split is not None:
-                    step_W = split.jump_W
-                    sd = sigma10 * np.sqrt(1.0 / split.index + 1.0 / (b - a - split.index))
-                    scatter_W = np.sqrt(split.sse / (b - a))
-                    bar_W = max(6.0 * sd, 2.0 * scatter_W, params.level_fraction * swing_W)
-                    if abs(step_W) > bar_W and _beats_line(values, split.sse):
-                        doubts.append(
-                            f"{name_of(name, step)} holds two levels ({step_W:+.3g} W at "
-                            f"{when(a + split.index):.3f} s): a second speed level inside "
-                            "one cruise?"
-                        )
+                index = split.index - a  # into the cruise's means
+                step_W = split.jump_W
+                sd = sigma10 * np.sqrt(1.0 / index + 1.0 / (b - a - index))
+                scatter_W = np.sqrt(split.sse / (b - a))
+                bar_W = max(6.0 * sd, 2.0 * scatter_W, params.level_fraction * swing_W)
+                if abs(step_W) > bar_W and _beats_line(values, split.sse):
+                    doubts.append(
+                        f"{name_of(name, step)} holds two levels ({step_W:+.3g} W at "
+                        f"{when(a + index):.3f} s): a second speed level inside "
+                        "one cruise?"
+                    )
             if longest * dt10 > 0.05:
                 doubts.append(
                     f"{name_of(name, step)} holds {longest * dt10:.2f} s at idle power from "
@@ -679,11 +685,10 @@ def _motion_doubts(
         found = peaks(np.abs(jump), threshold, w)
         edges10 = np.array([b / group for _, b, _, _ in bounds[:-1]], dtype=np.float64)
         tolerance = max(0.06 / dt10, 1.5)
-        unexplained = [
-            int(k)
-            for k in found
-            if edges10.size == 0 or float(np.min(np.abs(edges10 - k))) > tolerance
-        ]
+        if edges10.size and found.size:
+            nearest = np.min(np.abs(edges10[None, :] - found[:, None]), axis=1)
+            found = found[nearest > tolerance]
+        unexplained = [int(k) for k in found]
         for k in unexplained[:3]:
             inside = next((sp for sp in spans if sp[0] <= k < sp[1]), spans[-1])
             doubts.append(
@@ -692,7 +697,7 @@ def _motion_doubts(
                 "(a second speed level, or a stop?)"
             )
     # a motors-only log: idle ~0 W, and the drive stops straight into it
-    peak_W = float(np.percentile(y10, 99))
+    peak_W = percentile(y10, 99)
     abrupt = [k for _, _, name, k in bounds if name == "cruise"]
     with_decel = {k for _, _, name, k in bounds if name == "decel"}
     abrupt = [k for k in abrupt if k not in with_decel]
@@ -710,15 +715,25 @@ def _motion_doubts(
     return doubts
 
 
-def _longest_run(mask: np.ndarray) -> tuple[int, int]:
-    """Length and start of the longest run of True in `mask` ((0, 0) without one)."""
+def _longest_runs(mask: np.ndarray, spans: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """Length and start (from the span's start) of the longest run of True in each span
+    [a, b) of `mask`, the first of equal ones ((0, 0) without one): the runs of the whole
+    mask found once, each cut to each span."""
+    if not spans:
+        return []
     padded = np.concatenate(([False], mask, [False]))
     edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
     if edges.size == 0:
-        return 0, 0
-    lengths = edges[1::2] - edges[::2]
-    k = int(np.argmax(lengths))
-    return int(lengths[k]), int(edges[2 * k])
+        return [(0, 0)] * len(spans)
+    starts, ends = edges[::2], edges[1::2]
+    a, b = np.array(spans).T
+    first = np.maximum(starts[None, :], a[:, None])
+    lengths = np.minimum(ends[None, :], b[:, None]) - first
+    k = np.argmax(lengths, axis=1)
+    rows = np.arange(len(spans))
+    longest = np.maximum(lengths[rows, k], 0)
+    at = np.where(longest > 0, first[rows, k] - a, 0)
+    return list(zip(longest.tolist(), at.tolist(), strict=True))
 
 
 def _coarse_motion(
@@ -759,6 +774,86 @@ def _coarse_motion(
     return [(s * group, min(e * group, y.size)) for s, e in stretches]
 
 
+#: a split a step's search asks for: (lo, hi, deg_left, deg_right, min_len, jump_sign), the
+#: arguments of `best_split`
+_SplitAsked = tuple[int, int, int, int, int, int]
+#: a step's search (`_locate_step`): yields the splits it needs, one at a time, is sent each
+#: one's `best_split`, and returns the step
+_StepSearch = Generator[_SplitAsked, Split | None, _Step]
+
+
+def _locate_steps(
+    y: np.ndarray,
+    block_dt: float,
+    sigma_b: float,
+    coarse: list[tuple[int, int]],
+    params: MotionParams,
+    assumed_ends: list[int] | None = None,
+) -> list[_Step]:
+    """Fine boundaries of every step (`_locate_step`), the steps searched side by side.
+
+    A step's search needs the end of the step before it only where its idle window starts
+    (`_idle_window_start`: 0.5 s before its coarse start, unless the step before ends
+    later). Every step is first searched with an assumed end of the step before in its
+    place (`assumed_ends`, of every step but the last; by default their coarse ends), all
+    at once (`_drive`); then, in order, a step whose window start the step before's found
+    end changes is searched again on its own. The steps are therefore those of a search
+    step after step, whatever was assumed, and the short windows of ten steps are split
+    for little more than one step's (numpy's overhead per call, not the window, is most of
+    a short split's time).
+    """
+    n_blocks = y.size
+    next_starts = [a for a, _ in coarse[1:]] + [n_blocks]
+    assumed = [0] + (assumed_ends or [b for _, b in coarse[:-1]])  # the first: none before
+
+    def search(i: int, prev_end: int) -> _StepSearch:
+        a, b = coarse[i]
+        return _locate_step(y, block_dt, sigma_b, a, b, prev_end, next_starts[i], params)
+
+    steps = _drive(y, [search(i, prev_end) for i, prev_end in enumerate(assumed)])
+    for i in range(1, len(steps)):
+        a = coarse[i][0]
+        found = _idle_window_start(a, steps[i - 1].t3, block_dt, params)
+        if found != _idle_window_start(a, assumed[i], block_dt, params):
+            steps[i] = _drive(y, [search(i, steps[i - 1].t3)])[0]
+    return steps
+
+
+def _drive(y: np.ndarray, searches: list[_StepSearch]) -> list[_Step]:
+    """Run step searches side by side: at each round, the splits they ask for of one kind
+    (degrees and jump sign) are found by one `best_splits` call."""
+    found: list[_Step | None] = [None] * len(searches)
+    asked: dict[int, _SplitAsked] = {}
+
+    def advance(i: int, split: Split | None, first: bool = False) -> None:
+        try:
+            asked[i] = next(searches[i]) if first else searches[i].send(split)
+        except StopIteration as done:
+            found[i] = done.value
+
+    for i in range(len(searches)):
+        advance(i, None, first=True)
+    while asked:
+        kinds: dict[tuple[int, int, int], list[int]] = {}
+        for i, (_, _, deg_left, deg_right, _, sign) in asked.items():
+            kinds.setdefault((deg_left, deg_right, sign), []).append(i)
+        answers: dict[int, Split | None] = {}
+        for (deg_left, deg_right, sign), who in kinds.items():
+            windows = [(asked[i][0], asked[i][1], asked[i][4]) for i in who]
+            splits = best_splits(y, windows, deg_left, deg_right, 5, sign)
+            answers.update(zip(who, splits, strict=True))
+        asked.clear()
+        for i, split in answers.items():
+            advance(i, split)
+    return [step for step in found if step is not None]
+
+
+def _idle_window_start(a: int, prev_end: int, block_dt: float, params: MotionParams) -> int:
+    """First block of the idle stretch a step's acceleration start is fitted from: up to
+    `idle_probe_s` before its coarse start `a`, after the step before ends."""
+    return max(prev_end + 1, a - max(1, round(params.idle_probe_s / block_dt)))
+
+
 def _locate_step(
     y: np.ndarray,
     block_dt: float,
@@ -768,8 +863,9 @@ def _locate_step(
     prev_end: int,
     next_start: int,
     params: MotionParams,
-) -> _Step:
-    """Fine boundaries of one step whose motion was coarsely found in [a, b)."""
+) -> _StepSearch:
+    """Fine boundaries of one step whose motion was coarsely found in [a, b): a search that
+    yields each split it needs (`_locate_steps` runs it)."""
 
     def blocks(seconds: float) -> int:
         return max(1, round(seconds / block_dt))
@@ -777,8 +873,8 @@ def _locate_step(
     refine = blocks(params.refine_s)
     min_len = max(5, blocks(0.005))
     # 2a. acceleration start: flat idle, then the drive-on step and the ramp (a line)
-    lo = max(prev_end + 1, a - blocks(params.idle_probe_s))
-    split = best_split(y, lo, min(a + blocks(0.04), b), 0, 1, min_len, jump_sign=1)
+    lo = _idle_window_start(a, prev_end, block_dt, params)
+    split = yield (lo, min(a + blocks(0.04), b), 0, 1, min_len, 1)
     t0 = split.index if split else a
     # 3a. acceleration end, coarse: the first clear drop of the jump statistic (its lines
     # start after t0, clear of the step at the start)
@@ -798,18 +894,16 @@ def _locate_step(
     # `accel_probe_s`, clear of the end of acceleration)
     hi = min(t0 + blocks(params.accel_probe_s), (t1c if t1c else b) - min_len, b)
     if hi > t0 + 4 * min_len:
-        split = best_split(y, lo, hi, 0, 1, min_len, jump_sign=1)
+        split = yield (lo, hi, 0, 1, min_len, 1)
         t0 = split.index if split else t0
     # 3b. acceleration end, fine: a quadratic ramp (with any transient) then a quadratic
     # cruise (with any ripple); without a clear drop (a ripple can cancel it at low speed)
     # the split of a ramp line from a smooth cruise over the first `kink_probe_s`
     if t1c is not None:
-        split = best_split(
-            y, max(t0 + min_len, t1c - refine), min(t1c + refine, b), 2, 2, min_len, jump_sign=-1
-        )
+        split = yield (max(t0 + min_len, t1c - refine), min(t1c + refine, b), 2, 2, min_len, -1)
         t1 = split.index if split else t1c
     else:
-        split = best_split(y, t0 + 1, min(t0 + blocks(params.kink_probe_s), b), 1, 2, min_len)
+        split = yield (t0 + 1, min(t0 + blocks(params.kink_probe_s), b), 1, 2, min_len, 0)
         t1 = split.index if split else min(t0 + blocks(params.min_accel_s), b - 1)
     t1 = max(t1, t0 + 1)
     # 4. motion end: a quadratic piece (cruise or stop), then flat idle
@@ -817,7 +911,7 @@ def _locate_step(
     hi = min(next_start - blocks(0.05), b + blocks(params.end_forward_s), y.size)
     # power drops to idle at the end, unless a wavy cruise (ripple) happens to be low there
     wavy = _wavy(y, sigma_b, t1, b, blocks(0.01))
-    split = best_split(y, lo, hi, 3 if wavy else 2, 0, min_len, jump_sign=0 if wavy else -1)
+    split = yield (lo, hi, 3 if wavy else 2, 0, min_len, 0 if wavy else -1)
     t3 = split.index if split else b
     t3 = max(t3, t1 + 1)
     # 5. a stop phase, when the data shows one. A long stop, or a lower level, at the end
@@ -825,11 +919,11 @@ def _locate_step(
     # is wavy before its stop
     if wavy:
         lo = max(t1 + min_len, t3 - blocks(params.max_decel_s) - blocks(params.decel_cruise_s))
-        split = best_split(y, lo, t3, 0, 1, min_len, jump_sign=-1)
+        split = yield (lo, t3, 0, 1, min_len, -1)
         group = blocks(0.01)
         if split and split.index - t1 >= 20 * group:
             wavy = _wavy(y, sigma_b, t1, split.index, group)
-    t2 = _decel_start(y, sigma_b, t1, t3, wavy, blocks, params, min_len)
+    t2 = yield from _decel_start(y, sigma_b, t1, t3, wavy, blocks, params, min_len)
     if t2 < t3:
         # the stop phase found, its end is re-fitted as a falling line then flat idle (the
         # quadratic of step 4 straddled the drop at t2), then its start once more
@@ -838,9 +932,9 @@ def _locate_step(
         # over the end of the stop only: a line through a whole decay (an exponential
         # stop) would put the end where the decay flattens, seconds early
         start = max(t2 + min_len, t3 - blocks(params.end_back_s))
-        split = best_split(y, start, stop, 1, 0, min_len, jump_sign=-1)
+        split = yield (start, stop, 1, 0, min_len, -1)
         t3 = split.index if split else t3
-        t2 = _decel_start(y, sigma_b, t1, t3, wavy, blocks, params, min_len)
+        t2 = yield from _decel_start(y, sigma_b, t1, t3, wavy, blocks, params, min_len)
     return _Step(t0=t0, t1=t1, t2=t2, t3=t3)
 
 
@@ -889,8 +983,9 @@ def _decel_start(
     blocks: Callable[[float], int],
     params: MotionParams,
     min_len: int,
-) -> int:
-    """Start of the stop phase before `t3`, or `t3` when the data shows none.
+) -> Generator[_SplitAsked, Split | None, int]:
+    """Start of the stop phase before `t3`, or `t3` when the data shows none (a search, as
+    `_locate_step`, which yields from it).
 
     After a steady cruise a candidate (`_decel_candidate`) is kept unless its power is
     seen not to fall from its start (`_falls_from_start`): a stop's power falls towards
@@ -901,7 +996,7 @@ def _decel_start(
     """
     floor = 0
     for _ in range(3):
-        t2 = _decel_candidate(y, sigma_b, t1, t3, floor, wavy, blocks, params, min_len)
+        t2 = yield from _decel_candidate(y, sigma_b, t1, t3, floor, wavy, blocks, params, min_len)
         if t2 >= t3 or wavy or _falls_from_start(y, sigma_b, t2, t3, blocks, params):
             return t2
         floor = t2 + 2  # clear of the drop into the level (it may straddle a block)
@@ -963,8 +1058,9 @@ def _decel_candidate(
     blocks: Callable[[float], int],
     params: MotionParams,
     min_len: int,
-) -> int:
-    """A stop phase's start before `t3` (its window from `floor` on), or `t3`.
+) -> Generator[_SplitAsked, Split | None, int]:
+    """A stop phase's start before `t3` (its window from `floor` on), or `t3` (a search, as
+    `_decel_start`, which yields from it).
 
     A steady cruise: the least-squares split of [.., t3) into a flat cruise and a falling
     line (the onset is a drop: the drive stops pushing), its drop tested against its own
@@ -979,7 +1075,7 @@ def _decel_candidate(
         lo = max(
             t1 + min_len, floor, t3 - blocks(params.max_decel_s) - blocks(params.decel_cruise_s)
         )
-        split = best_split(y, lo, t3, 0, 1, min_len, jump_sign=-1)
+        split = yield (lo, t3, 0, 1, min_len, -1)
         if split is None:
             return t3
         t2 = split.index
@@ -1004,7 +1100,7 @@ def _decel_candidate(
         if best is None or best[0] < params.decel_z:
             return t3
         k = best[1]
-        split = best_split(y, max(t1 + min_len, k - refine), min(k + refine, t3), 2, 1, min_len)
+        split = yield (max(t1 + min_len, k - refine), min(k + refine, t3), 2, 1, min_len, 0)
         t2 = split.index if split else k
     if t3 - t2 < blocks(params.min_decel_s):
         return t3
