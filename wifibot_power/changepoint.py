@@ -515,6 +515,20 @@ def _piece_value(coef: np.ndarray | list[float], x: float, offset: float) -> flo
     return float(total + offset)
 
 
+def _edge_values(
+    coef_left: list[np.ndarray], coef_right: list[np.ndarray]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each candidate's pieces at the split: the left piece at its x = +1/2, the right one
+    at its x = -1/2 (each in its own basis, `_PolyCost`), coefficients by power."""
+    left_end = coef_left[0]
+    for p in range(1, len(coef_left)):
+        left_end = left_end + coef_left[p] * 0.5**p
+    right_start = coef_right[0]
+    for p in range(1, len(coef_right)):
+        right_start = right_start + coef_right[p] * (-0.5) ** p
+    return left_end, right_start
+
+
 def best_split(
     y: np.ndarray,
     lo: int,
@@ -546,13 +560,7 @@ def best_split(
     sse_right, coef_right = cost.fit_splits(start, stop, deg_right, left=False)
     total = sse_left + sse_right
     if jump_sign:
-        # the split's edge is x = +1/2 of the left piece and x = -1/2 of the right one
-        left_end = coef_left[0]
-        for p in range(1, deg_left + 1):
-            left_end = left_end + coef_left[p] * 0.5**p
-        right_start = coef_right[0]
-        for p in range(1, deg_right + 1):
-            right_start = right_start + coef_right[p] * (-0.5) ** p
+        left_end, right_start = _edge_values(coef_left, coef_right)
         # (right - left) * sign >= 0, without the two array operations: the sign of a
         # difference of doubles is that of their comparison (gradual underflow)
         allowed = right_start >= left_end if jump_sign > 0 else right_start <= left_end
@@ -699,12 +707,7 @@ def _stacked_splits(
     total = sse_left + sse_right
     total[~valid] = np.inf
     if jump_sign:
-        left_end = coef_left[0]
-        for p in range(1, deg_left + 1):
-            left_end = left_end + coef_left[p] * 0.5**p
-        right_start = coef_right[0]
-        for p in range(1, deg_right + 1):
-            right_start = right_start + coef_right[p] * (-0.5) ** p
+        left_end, right_start = _edge_values(coef_left, coef_right)
         allowed = (right_start >= left_end if jump_sign > 0 else right_start <= left_end) & valid
         # `best_split`: the sign is kept only in a window where some split has it
         allowed |= ~allowed.any(axis=1)[:, None]
