@@ -618,19 +618,27 @@ def test_a_cache_keeps_only_what_this_version_can_read(tmp_path: Path, monkeypat
     theirs = ["notes.txt", "runs.json", "0123.parquet", "a" * 40 + ".csv"]
     for name in theirs:
         (folder / name).write_text("the user's")
-    untagged = [
-        "b" * 40 + ".parquet",
-        "b" * 40 + ".json",
-        "b" * 40 + "." + "c" * 16 + ".result.json",
-    ]
-    untagged.append("d" * 40 + ".batch.json")
-    for name in untagged:
-        (folder / name).write_text("{}")
-    fresh_tmp, old_tmp = folder / ".x.parquet.123.tmp", folder / ".y.parquet.456.tmp"
-    fresh_tmp.write_text("")
-    old_tmp.write_text("")
+    # named as the layout before tags, but not the cache's: kept
+    (folder / ("a" * 40 + ".json")).write_text('{"the user": 1}')
+    (folder / ("e" * 40 + ".parquet")).write_text("no cache document beside it")
+    theirs += ["a" * 40 + ".json", "e" * 40 + ".parquet"]
+    untagged = {
+        "b" * 40 + ".json": '{"cache_format": 2, "content_sha256": "x"}',
+        "b" * 40 + ".parquet": "the entry beside it",
+        "b" * 40 + "." + "c" * 16 + ".result.json": '{"content_sha256": "x", "result": 1}',
+        "d" * 40 + ".batch.json": '{"content_sha256": "x", "result": 1}',
+    }
+    for name, text in untagged.items():
+        (folder / name).write_text(text)
+    cache_like = version_a[0]
+    fresh_tmp, old_tmp = folder / f".{cache_like}.123.tmp", folder / f".{cache_like}.456.tmp"
+    theirs_tmp = folder / ".notes.txt.789.tmp"  # an editor's, two days old: not the cache's
+    for tmp in (fresh_tmp, old_tmp, theirs_tmp):
+        tmp.write_text("")
     two_days_ago = os.stat(old_tmp).st_mtime - 2 * 86400
-    os.utime(old_tmp, (two_days_ago, two_days_ago))
+    for tmp in (old_tmp, theirs_tmp):
+        os.utime(tmp, (two_days_ago, two_days_ago))
+    theirs.append(theirs_tmp.name)
 
     # the same version: nothing of it goes
     ParseCache(folder)

@@ -101,9 +101,33 @@ _RESULT_NAME = re.compile(
 )
 _BATCH_NAME = re.compile(r"(?P<code>[0-9a-f]{12})-[0-9a-f]{40}\.batch\.json")
 _UNTAGGED_NAME = re.compile(r"[0-9a-f]{40}(?:\.[0-9a-f]{16}\.result|\.batch)?\.(?:parquet|json)")
-_TEMP_NAME = re.compile(r"\..+\.\d+\.tmp")
+_TEMP_NAME = re.compile(r"\.(?P<name>.+)\.\d+\.tmp")
 #: A temporary file this old is left from a writer that was killed [ns].
 _TEMP_AGE_NS = 24 * 3600 * 10**9
+
+
+def _is_cache_name(name: str) -> bool:
+    """Whether `name` is one a cache file has (`_replace`'s temporary files carry it)."""
+    patterns = (_PARSE_NAME, _RESULT_NAME, _BATCH_NAME, _UNTAGGED_NAME)
+    return any(pattern.fullmatch(name) for pattern in patterns)
+
+
+def _untagged_is_ours(path: Path) -> bool:
+    """Whether a file named as the layout before tags was written by a cache: a JSON
+    document with its keys, or a Parquet entry beside such a document. A user's file that
+    only looks like one (40 hex digits) is never deleted."""
+    document = path if path.suffix == ".json" else path.with_suffix(".json")
+    try:
+        if document.stat().st_size > _UNTAGGED_JSON_MAX:
+            return False
+        kept = json.loads(document.read_bytes())
+    except (OSError, ValueError):
+        return False
+    return isinstance(kept, dict) and bool({"cache_format", "content_sha256"} & set(kept))
+
+
+#: A cache's JSON documents are small (a run's row and phases); larger is not one of them.
+_UNTAGGED_JSON_MAX = 16 << 20
 
 
 def _fingerprint(stat: os.stat_result) -> list[int]:
@@ -200,7 +224,8 @@ class ParseCache:
         (and the reader's of its parse); a kept batch, all the code. A file of another tag was
         written by another version of wbpower (an upgrade, an edit) and would never be read
         again, so without this a cache would grow by a corpus's worth with every version.
-        Also deleted: files of the layout before tags, and temporary files left by a writer
+        Also deleted: files of the layout before tags (JSON documents with the cache's keys,
+        and Parquet entries beside them), and the cache's temporary files left by a writer
         that was killed, a day old. Other files in the folder are never touched. Run once per
         `ParseCache`, in the process that makes it: a scan of the folder (~1 ms a thousand
         files). Two versions of wbpower sharing one folder delete each other's entries (each
@@ -208,6 +233,7 @@ class ParseCache:
         reader_tag, code_tag = _tag(reader_digest()), _tag(code_digest())
         old_enough_ns = time.time_ns() - _TEMP_AGE_NS
         removed = 0
+        doomed: list[str] = []
         try:
             listing = list(os.scandir(self.directory))
         except OSError:
@@ -221,8 +247,8 @@ class ParseCache:
             elif match := _BATCH_NAME.fullmatch(name):
                 stale = match["code"] != code_tag
             elif _UNTAGGED_NAME.fullmatch(name):
-                stale = True
-            elif _TEMP_NAME.fullmatch(name):
+                stale = _untagged_is_ours(Path(item.path))
+            elif (match := _TEMP_NAME.fullmatch(name)) and _is_cache_name(match["name"]):
                 try:
                     stale = item.stat(follow_symlinks=False).st_mtime_ns < old_enough_ns
                 except OSError:
@@ -230,11 +256,14 @@ class ParseCache:
             else:
                 continue
             if stale and item.is_file(follow_symlinks=False):
-                try:
-                    os.unlink(item.path)
-                    removed += 1
-                except OSError:
-                    pass  # another sweep got it, or a read-only folder: nothing depends on it
+                doomed.append(item.path)  # deleted after the scan: an untagged Parquet entry
+                # is judged by the JSON beside it
+        for path in doomed:
+            try:
+                os.unlink(path)
+                removed += 1
+            except OSError:
+                pass  # another sweep got it, or a read-only folder: nothing depends on it
         return removed
 
     def entry_path(
