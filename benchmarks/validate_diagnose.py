@@ -3,14 +3,14 @@
 Each cause of causes.md hidden alone at a size drawn from its realistic range (8 seeds),
 the null robot (8 seeds), a 5x noisier analyser (4 seeds each, null included) and every
 pair of causes (one seed). Diagnose sees only the runs. Prints one line per case and the
-summary table. Not part of `make test`: about 2-4 minutes on 2 cores.
+summary table. Not part of `make test`: a few minutes a suite on 2 cores (all four ~25).
 
     .venv/bin/python benchmarks/validate_diagnose.py [lab] [simfield] [simfield-paper] [field]
 
 `simfield` is the same catalogue at `simulate --realism field` (the causes' own forms) on
 the tests' grid with 10 m runs; `simfield-paper` on the reference study's grid (81 runs);
 `field` runs `validate_field.py` (the independent generator at field realism: off-catalogue
-effects, the catalogue in other forms, false alarms); both by default.
+effects, the catalogue in other forms, false alarms); all four by default.
 """
 
 from __future__ import annotations

@@ -73,3 +73,17 @@ def test_the_simulated_null_robot_at_field_realism_is_not_unexplained():
     result = diagnose_runs([s.run for s in simulate_runs(config)])
     assert result.findings == ()
     assert not result.unexplained, result.unexplained_reasons
+
+
+def test_a_run_fitted_on_acceleration_and_cruise_together_leaves_the_phase_checks_their_rows():
+    """Found in review: fieldgen's 0.1 m/s runs accelerate for 0.125 s (0.8 m/s²), at
+    start_transient's `lump_within_s`, and at seed 3 one of them measures 0.1248 s. Its
+    acceleration row was then acceleration and cruise together (causes/design.py), whose
+    cruise columns, loaded by that run alone, took up a parameter of the acceleration's
+    lack-of-fit test: 0 degrees of freedom left on the 5 speeds, "not testable", and
+    speed_quadratic beside start_transient was missed. A check of one phase now leaves such
+    rows out (`design.mixed_rows`): both are named."""
+    effects = {c: fieldgen.sizes(c, 3) for c in ("speed_quadratic", "start_transient")}
+    runs = fieldgen.to_runs(fieldgen.generate(fieldgen.Batch(effects=effects, seed=3)))
+    result = diagnose_runs(runs)
+    assert sorted(f.cause for f in result.findings) == ["speed_quadratic", "start_transient"]

@@ -1022,7 +1022,7 @@ def _falls_from_start(
     `decel_shape_z` sd of the difference,
 
     - m1 - m3 is below `decel_fall_fraction` of m1's height above idle (a stop of the
-      paper's robot falls by 0.2-0.4 of it between its thirds down to 0.05 m/s, the drive's
+      paper's robot falls by 0.18-0.35 of it between its thirds down to 0.05 m/s, the drive's
       0.6 W being the part that does not fall), or
     - m1 - m2 is below half of m2 - m3 (half: the midpoint between a line, 1, and a flat
       first third, 0; it leaves room for a stop whose fall starts gently).

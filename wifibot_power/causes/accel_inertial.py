@@ -21,7 +21,7 @@ from wifibot_power.causes.base import (
     TripTerms,
 )
 from wifibot_power.causes.common import coefficient_evidence, distinct
-from wifibot_power.causes.design import column, stacked_design
+from wifibot_power.causes.design import column, mixed_rows, stacked_design
 from wifibot_power.causes.design import power_factor as factor_of
 from wifibot_power.stats import ols
 
@@ -79,6 +79,9 @@ class AccelInertial(Cause):
         n = len(runs)
         cruise_payload = np.zeros(2 * n)
         cruise_payload[n:] = column(runs, "payload_kg")
+        # a row of acceleration and cruise together (`mixed_rows`) holds its cruise's share
+        mixed, w_acc = mixed_rows(runs, [*given, self.name])
+        cruise_payload[:n] = np.where(mixed, (1.0 - w_acc) * column(runs, "payload_kg"), 0.0)
         fit = ols(np.column_stack([X, cruise_payload]), y)
         p_value = fit.p_two_sided(X.shape[1])
         ok = not p_value < CHECK_ALPHA

@@ -61,7 +61,6 @@ def stacked_design(
     one, zero = np.ones_like(v), np.zeros_like(v)
     acc_cols, cr_cols = [one, v, zero, zero], [zero, zero, one, v]
     names = list(LINE_COEFFICIENTS)
-    lump_within_s = 0.0
     for name in column_causes(causes):
         cause = CAUSES[name]
         terms = cause.power_terms(runs, 1.0)
@@ -69,24 +68,36 @@ def stacked_design(
         acc = terms.get("ramp0", zero) + terms.get("ramp1", zero) / 2 + terms.get("ramp2", zero) / 3
         if lump is not None:
             acc = acc + lump / t_acc  # a fixed energy spread over the acceleration phase
-            lump_within_s = max(lump_within_s, cause.lump_within_s)
         acc_cols.append(np.broadcast_to(acc, v.shape))
         cr_cols.append(np.broadcast_to(terms.get("cruise", zero), v.shape))
         names.append(cause.parameter)
     X_acc, X_cr = np.column_stack(acc_cols), np.column_stack(cr_cols)
-    short = t_acc < lump_within_s
-    if short.any():
+    mixed, w_acc = mixed_rows(runs, causes)
+    if mixed.any():
         # an acceleration shorter than a lump's time holds only part of the lump, the rest
         # is in the cruise: such a run's acceleration row is its acceleration and cruise
         # together (their time-weighted mean, whose lump column is steps / time however the
         # lump is split), not a mean that reads the lump short. The rows stay in place
-        # (acceleration rows first), as the causes' checks index them
-        accel_s = t_acc * column(runs, "steps_found")
-        w_acc = accel_s / (accel_s + column(runs, "cruise_duration_s"))
+        # (acceleration rows first), as the causes' checks index them; a check of one phase
+        # leaves these rows out of its acceleration rows (`mixed_rows`)
         both = w_acc[:, None] * X_acc + (1.0 - w_acc)[:, None] * X_cr
-        X_acc = np.where(short[:, None], both, X_acc)
-        y_acc = np.where(short, w_acc * y_acc + (1.0 - w_acc) * y_cr, y_acc)
+        X_acc = np.where(mixed[:, None], both, X_acc)
+        y_acc = np.where(mixed, w_acc * y_acc + (1.0 - w_acc) * y_cr, y_acc)
     return np.vstack([X_acc, X_cr]), np.concatenate([y_acc, y_cr]), names
+
+
+def mixed_rows(runs: pd.DataFrame, causes: Iterable[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Which runs' acceleration rows of `stacked_design` are their acceleration and cruise
+    together (the acceleration is shorter than the time a lump cause among `causes` may
+    take, `Cause.lump_within_s`), and each run's acceleration share of that time. Such a
+    row is mostly cruise (a 0.1 s acceleration beside seconds of cruise): a check of the
+    acceleration phase alone leaves it out."""
+    within_s = max((CAUSES[c].lump_within_s for c in column_causes(causes)), default=0.0)
+    t_acc = column(runs, "t_acc_s")
+    accel_s = t_acc * column(runs, "steps_found")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w_acc = accel_s / (accel_s + column(runs, "cruise_duration_s"))
+    return t_acc < within_s, w_acc
 
 
 def stacked_fit(

@@ -20,7 +20,7 @@ from wifibot_power.causes.base import (
     TripTerms,
 )
 from wifibot_power.causes.common import coefficient_evidence, distinct
-from wifibot_power.causes.design import column, stacked_design
+from wifibot_power.causes.design import column, mixed_rows, stacked_design
 from wifibot_power.causes.design import power_factor as factor_of
 from wifibot_power.stats import ols
 
@@ -85,7 +85,9 @@ class SpeedQuadratic(Cause):
         j = names.index(K2)
         n = len(table.runs)
         accel_only = np.zeros(2 * n)
-        accel_only[:n] = X[:n, j]
+        # acceleration rows only: a row of acceleration and cruise together is mostly cruise
+        mixed, _ = mixed_rows(table.runs, [*table.given, self.name])
+        accel_only[:n] = np.where(mixed, 0.0, X[:n, j])
         split = ols(np.column_stack([X, accel_only]), y)
         k2_cruise = float(split.coef[j])
         k2_accel = k2_cruise + float(split.coef[-1])
@@ -116,14 +118,19 @@ class SpeedQuadratic(Cause):
                 for v, p in zip(column(runs, "speed_mps"), column(runs, "payload_kg"), strict=True)
             ]
         )
+        # each phase's own rows: a row of acceleration and cruise together (`mixed_rows`) is
+        # left out of the acceleration's, where its cruise columns would add a parameter
+        # only those runs load on and take up their level's misfit
+        mixed, _ = mixed_rows(runs, [*table.given, self.name])
+        accel = np.flatnonzero(~mixed)
         details, ok = [], True
-        for phase, rows in (("acceleration", slice(0, n)), ("cruise", slice(n, 2 * n))):
+        for phase, rows in (("acceleration", accel), ("cruise", np.arange(n, 2 * n))):
             Xp, yp = X[rows], y[rows]
             used = np.flatnonzero(np.any(Xp != 0, axis=0))
             k = int(np.searchsorted(used, j))
             with_k2 = ols(Xp[:, used], yp)
             without = ols(np.delete(Xp[:, used], k, axis=1), yp)
-            p_value, df_lof, df_pe = with_k2.lack_of_fit(config)
+            p_value, df_lof, df_pe = with_k2.lack_of_fit(config[rows % n])
             if not np.isfinite(p_value):
                 return Check(
                     "no structure left across speed levels",
@@ -131,7 +138,7 @@ class SpeedQuadratic(Cause):
                     f"not testable in {phase}: needs repeated runs at more speeds "
                     f"({df_lof} lack-of-fit, {df_pe} pure-error dof)",
                 )
-            labels = np.unique(config, return_inverse=True)[1]
+            labels = np.unique(config[rows % n], return_inverse=True)[1]
             level_means = np.bincount(labels, with_k2.residual) / np.bincount(labels)
             left_W = float(np.sqrt(np.mean(level_means[labels] ** 2)))
             explained_W = float(np.sqrt(np.mean((without.residual - with_k2.residual) ** 2)))

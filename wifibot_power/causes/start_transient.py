@@ -58,8 +58,9 @@ class StartTransient(Cause):
     fit_stage = "column"
     energy_stage = "lump"
     #: Half the evidence's start window (0.25 s): a decaying transient of causes.md's "~0.2 s"
-    #: has spent most of its energy by then (an inrush of τ = 50 ms: 92%). A run that
-    #: accelerates for less (0.1 m/s: 0.1 s, ~14% of that inrush in its cruise) is fitted on
+    #: has spent most of its energy by then (the simulator's inrush, τ = 50 ms cut at 0.2 s:
+    #: 96%; uncut, 92%). A run that accelerates for less (0.1 m/s: 0.1 s, 8.8% of the
+    #: simulated inrush in its cruise, 13.5% of an uncut one) is fitted on
     #: acceleration and cruise together; one that accelerates longer (0.2 m/s: 0.2 s, all of
     #: it) keeps its acceleration row, whose 1/t_acc is the lump's most telling column. At
     #: the whole window (0.25 s), the 0.2 m/s runs lost it and the lump, left to the faster

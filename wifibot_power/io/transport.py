@@ -52,8 +52,8 @@ def _arrow_pool() -> pa.MemoryPool:
     """The allocator the parse uses: jemalloc where pyarrow has it (its Linux and macOS wheels),
     unless ARROW_DEFAULT_MEMORY_POOL chooses. pyarrow's default, mimalloc, kept freed pages
     across logs even after `release_unused`: one `fit --jobs 1` process over the 89 logs of
-    the bench's power corpus peaked at 198 MB against 141 MB on 2 of them; with jemalloc, 147
-    against 144 MB, and no more CPU (docs/benchmarks.md, "Memory")."""
+    the bench's power corpus peaked at 204-212 MB with mimalloc and 151-162 MB with jemalloc
+    (136-141 MB on 2 of them either way), with no more CPU (docs/log-format.md, "Memory")."""
     if os.environ.get("ARROW_DEFAULT_MEMORY_POOL"):
         return pa.default_memory_pool()
     try:
