@@ -160,3 +160,30 @@ def test_a_lump_longer_than_the_acceleration_is_fitted_on_acceleration_and_cruis
     np.testing.assert_allclose(y[:n][short], w * acc_W + (1 - w) * cruise_W)
     np.testing.assert_allclose(y[n:], motion["cruise_mean_power_W"].to_numpy())
     assert np.all(X[n:, names.index("E_start_J")] == 0.0)
+
+
+def test_a_mixed_row_carries_its_cruise_share_of_the_cruise_payload_column(frame, monkeypatch):
+    """accel_inertial's "cruise does not depend on payload": the cruise-only payload column
+    is the payload in cruise rows, 0 in acceleration rows, and (1 - w) x payload in a row of
+    acceleration and cruise together (w: the acceleration's share of the time), as that
+    row's cruise columns are (`design.mixed_rows`)."""
+    from wifibot_power.causes import accel_inertial
+
+    motion = diagnose.motion_runs(frame).copy()
+    motion["payload_kg"] = np.where(np.arange(len(motion)) % 2, 3.0, 0.0)
+    motion.loc[motion["speed_mps"] == 0.2, "t_acc_s"] = 0.1  # shorter than the lump's time
+    table = RunTable(motion, fit_model(frame, ("start_transient",)), ("start_transient",))
+    seen = []
+    real_ols = accel_inertial.ols
+    monkeypatch.setattr(accel_inertial, "ols", lambda X, y: seen.append(X) or real_ols(X, y))
+    CAUSES["accel_inertial"]._cruise_independent_of_payload(table)
+    column = seen[-1][:, -1]
+    n = len(motion)
+    payload = motion["payload_kg"].to_numpy()
+    t_acc = motion["t_acc_s"].to_numpy()
+    accel_s = t_acc * motion["steps_found"].to_numpy()
+    w = accel_s / (accel_s + motion["cruise_duration_s"].to_numpy())
+    mixed = t_acc < CAUSES["start_transient"].lump_within_s
+    assert mixed.any() and (payload[mixed] > 0).any()
+    np.testing.assert_allclose(column[:n], np.where(mixed, (1 - w) * payload, 0.0))
+    np.testing.assert_array_equal(column[n:], payload)
