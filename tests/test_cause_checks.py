@@ -187,3 +187,27 @@ def test_a_mixed_row_carries_its_cruise_share_of_the_cruise_payload_column(frame
     assert mixed.any() and (payload[mixed] > 0).any()
     np.testing.assert_allclose(column[:n], np.where(mixed, (1 - w) * payload, 0.0))
     np.testing.assert_array_equal(column[n:], payload)
+
+
+def test_a_mixed_row_is_not_an_acceleration_row_of_the_accel_only_k2(frame, monkeypatch):
+    """speed_quadratic's "same k2 in acceleration and cruise": the acceleration-only k2
+    column is the k2 column in acceleration rows and 0 in cruise rows and in a row of
+    acceleration and cruise together (mostly cruise: `design.mixed_rows`)."""
+    from wifibot_power.causes import speed_quadratic
+    from wifibot_power.causes.design import stacked_design
+
+    motion = diagnose.motion_runs(frame).copy()
+    motion.loc[motion["speed_mps"] == 0.2, "t_acc_s"] = 0.1  # shorter than the lump's time
+    table = RunTable(motion, fit_model(frame, ("start_transient",)), ("start_transient",))
+    seen = []
+    real_ols = speed_quadratic.ols
+    monkeypatch.setattr(speed_quadratic, "ols", lambda X, y: seen.append(X) or real_ols(X, y))
+    CAUSES["speed_quadratic"]._same_in_both_phases(table)
+    X = seen[-1]
+    n = len(motion)
+    _, _, names = stacked_design(motion, ["start_transient", "speed_quadratic"], 23.3)
+    j = names.index("k2_W_per_mps2")
+    mixed = motion["t_acc_s"].to_numpy() < CAUSES["start_transient"].lump_within_s
+    assert mixed.any()
+    np.testing.assert_array_equal(X[:n, -1], np.where(mixed, 0.0, X[:n, j]))
+    assert not X[n:, -1].any()
