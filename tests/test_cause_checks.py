@@ -162,6 +162,26 @@ def test_a_lump_longer_than_the_acceleration_is_fitted_on_acceleration_and_cruis
     assert np.all(X[n:, names.index("E_start_J")] == 0.0)
 
 
+def _with_mixed_rows(frame):
+    """The motion runs, the 0.2 m/s ones as if they accelerated for 0.1 s: shorter than
+    start_transient's `lump_within_s`, so their acceleration rows are mixed."""
+    motion = diagnose.motion_runs(frame).copy()
+    motion.loc[motion["speed_mps"] == 0.2, "t_acc_s"] = 0.1
+    return motion
+
+
+def _design_checked(frame, motion, monkeypatch, module, check: str) -> np.ndarray:
+    """The design matrix the cause `module`'s `check` fits (its last `ols`), start_transient
+    given."""
+    table = RunTable(motion, fit_model(frame, ("start_transient",)), ("start_transient",))
+    seen = []
+    real_ols = module.ols
+    monkeypatch.setattr(module, "ols", lambda X, y: seen.append(X) or real_ols(X, y))
+    cause = module.__name__.rsplit(".", 1)[1]
+    getattr(CAUSES[cause], check)(table)
+    return seen[-1]
+
+
 def test_a_mixed_row_carries_its_cruise_share_of_the_cruise_payload_column(frame, monkeypatch):
     """accel_inertial's "cruise does not depend on payload": the cruise-only payload column
     is the payload in cruise rows, 0 in acceleration rows, and (1 - w) x payload in a row of
@@ -169,15 +189,10 @@ def test_a_mixed_row_carries_its_cruise_share_of_the_cruise_payload_column(frame
     row's cruise columns are (`design.mixed_rows`)."""
     from wifibot_power.causes import accel_inertial
 
-    motion = diagnose.motion_runs(frame).copy()
+    motion = _with_mixed_rows(frame)
     motion["payload_kg"] = np.where(np.arange(len(motion)) % 2, 3.0, 0.0)
-    motion.loc[motion["speed_mps"] == 0.2, "t_acc_s"] = 0.1  # shorter than the lump's time
-    table = RunTable(motion, fit_model(frame, ("start_transient",)), ("start_transient",))
-    seen = []
-    real_ols = accel_inertial.ols
-    monkeypatch.setattr(accel_inertial, "ols", lambda X, y: seen.append(X) or real_ols(X, y))
-    CAUSES["accel_inertial"]._cruise_independent_of_payload(table)
-    column = seen[-1][:, -1]
+    check = "_cruise_independent_of_payload"
+    column = _design_checked(frame, motion, monkeypatch, accel_inertial, check)[:, -1]
     n = len(motion)
     payload = motion["payload_kg"].to_numpy()
     t_acc = motion["t_acc_s"].to_numpy()
@@ -196,14 +211,8 @@ def test_a_mixed_row_is_not_an_acceleration_row_of_the_accel_only_k2(frame, monk
     from wifibot_power.causes import speed_quadratic
     from wifibot_power.causes.design import stacked_design
 
-    motion = diagnose.motion_runs(frame).copy()
-    motion.loc[motion["speed_mps"] == 0.2, "t_acc_s"] = 0.1  # shorter than the lump's time
-    table = RunTable(motion, fit_model(frame, ("start_transient",)), ("start_transient",))
-    seen = []
-    real_ols = speed_quadratic.ols
-    monkeypatch.setattr(speed_quadratic, "ols", lambda X, y: seen.append(X) or real_ols(X, y))
-    CAUSES["speed_quadratic"]._same_in_both_phases(table)
-    X = seen[-1]
+    motion = _with_mixed_rows(frame)
+    X = _design_checked(frame, motion, monkeypatch, speed_quadratic, "_same_in_both_phases")
     n = len(motion)
     _, _, names = stacked_design(motion, ["start_transient", "speed_quadratic"], 23.3)
     j = names.index("k2_W_per_mps2")
