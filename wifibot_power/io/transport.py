@@ -487,8 +487,9 @@ class Columns:
 def _csv_options(pre: TextLayout, include_columns: list[str], skip: bool = True) -> dict:
     """pyarrow's options for the data lines: the header's names, the included columns as
     float64 (no type inference, nothing else converted); `skip` the lines up to the header
-    (the first piece of a stream, or the whole file)."""
+    (the first piece of a stream, or the whole file); the parse's allocator (`_POOL`)."""
     return {
+        "memory_pool": _POOL,
         "read_options": pacsv.ReadOptions(
             skip_rows=pre.header_line + 1 if skip else 0,
             column_names=pre.header,
@@ -532,23 +533,15 @@ def read_columns(
     parts = iter(pieces) if pieces is not None else None
     try:
         if pieces is None:
-            table = pacsv.read_csv(
-                source, **_csv_options(pre, include_columns, skip=True), memory_pool=_POOL
-            )
+            table = pacsv.read_csv(source, **_csv_options(pre, include_columns, skip=True))
         else:
             tables = [
-                pacsv.read_csv(
-                    pa.BufferReader(piece),
-                    **_csv_options(pre, include_columns, k == 0),
-                    memory_pool=_POOL,
-                )
+                pacsv.read_csv(pa.BufferReader(piece), **_csv_options(pre, include_columns, k == 0))
                 for k, piece in enumerate(parts)
             ]
             if pieces.tail():  # blanks after the last line end (a cut line is never parsed)
                 options = _csv_options(pre, include_columns, not tables)
-                tables.append(
-                    pacsv.read_csv(pa.BufferReader(pieces.tail()), **options, memory_pool=_POOL)
-                )
+                tables.append(pacsv.read_csv(pa.BufferReader(pieces.tail()), **options))
             table = (
                 pa.concat_tables(tables, memory_pool=_POOL)
                 if tables
