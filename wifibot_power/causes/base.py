@@ -27,6 +27,10 @@ ALPHA = 1e-3
 #: A consequence "must not be there" fails only when the data show it at this level, and one
 #: that "must be there" passes only when they show it at this level.
 CHECK_ALPHA = 1e-3
+#: A "must not be there" structure fails a check only when it is also material: at least this
+#: fraction of what the cause itself explains (phase means known to mW make 1% effects
+#: significant in the lab; speed_quadratic's structure left, start_transient's per-metre part)
+MATERIAL_FRACTION = 0.1
 
 RUN_ENERGY = "run_energy"
 POWER_TRACE = "power_trace"

@@ -12,6 +12,7 @@ import numpy as np
 
 from wifibot_power.causes.base import (
     CHECK_ALPHA,
+    MATERIAL_FRACTION,
     Cause,
     Check,
     Evidence,
@@ -28,9 +29,6 @@ if TYPE_CHECKING:
     import pandas as pd
 
 K2 = "k2_W_per_mps2"
-#: structure left across speed levels counts when it is at least this fraction (RMS) of the
-#: curvature the v² term explains
-MATERIAL_FRACTION = 0.1
 #: k2 in acceleration and in cruise differ when they differ by more than this fraction
 SAME_FRACTION = 0.2
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from wifibot_power.causes.base import (
     CHECK_ALPHA,
+    MATERIAL_FRACTION,
     Cause,
     Check,
     Evidence,
@@ -34,10 +35,6 @@ if TYPE_CHECKING:
     from wifibot_power.model import PowerModel
 
 E_START = "E_start_J"
-#: a per-metre or per-(step x m/s) part of the extra counts when it is significant and at
-#: least this fraction of the per-step energy over the batch's steps (as speed_quadratic's
-#: "structure left"): phase means known to mW make 1% terms significant in the lab
-MATERIAL_FRACTION = 0.1
 
 
 class StartTransient(Cause):
