@@ -113,3 +113,21 @@ def test_quick_subset_keeps_the_first_repeat_and_its_manifest_rows(tmp_path: Pat
     assert sorted(p.name for p in corpora.log_files(sub)) == ["idle_r1.csv", "v0.10_d2_s1_r1.csv"]
     rows = (sub / "runs.csv").read_text().splitlines()
     assert rows == ["file,run_id", "v0.10_d2_s1_r1.csv,v0.10_d2_s1_r1", "idle_r1.csv,idle_r1"]
+
+
+def test_a_corpus_is_written_through_the_simulators_writer_in_its_layout(tmp_path: Path) -> None:
+    """`write_simulation(render=...)` (benchmarks/corpora.py's corpora): each run in the
+    layout's format under the layout's suffix, the manifest naming those files, and the
+    writer named in truth.json."""
+    from wifibot_power.simulate import load_truth, write_simulation
+
+    config = SimConfig(speeds_mps=(0.5,), trips=((2.0, 1),), repeats=1, modes=(), seed=7)
+    written = write_simulation(
+        config, tmp_path, render=corpora.LAYOUTS["full_gz"], generator="a corpus"
+    )
+    (log,) = tmp_path.glob("*.csv.gz")
+    assert gzip.decompress(log.read_bytes()).startswith(b"#")  # gzipped once, by the name
+    assert read_log(log).format == "wbpower-csv"
+    assert log.name in (tmp_path / "runs.csv").read_text()
+    truth = load_truth(tmp_path / "truth.json")
+    assert truth["generator"] == "a corpus" and written["runs"] == 1

@@ -19,7 +19,15 @@ import pytest
 from contract import PHASES_PARQUET_COLUMNS
 from numpy.testing import assert_allclose
 
-from wifibot_power.fit import MeanEstimate, fit_line, fit_logs, fit_table, net_of_idle, write_fit
+from wifibot_power.fit import (
+    MeanEstimate,
+    fit_line,
+    fit_logs,
+    fit_table,
+    fit_table_model,
+    net_of_idle,
+    write_fit,
+)
 from wifibot_power.model import load_model
 from wifibot_power.phases import Phase, Segmentation
 from wifibot_power.runtable import run_row, runs_frame
@@ -200,6 +208,16 @@ def test_idle_falls_back_to_idle_phases_and_components_are_null_without_mode_run
     assert abs(result.model.idle_W - TRUE["idle_W"]) <= TOL_IDLE_W
     assert result.summary()["components_W"] == {"network": None, "video": None, "cpu": None}
     assert any("idle phases" in warning for warning in result.warnings)
+
+
+def test_the_model_alone_is_the_fit_tables_model():
+    """`fit_table_model` (diagnose's ~30 folds) skips the stop-and-go table of a
+    `FitResult`; its model is the very one `fit_table` gives, unusable rows left out too."""
+    sims = simulate_runs(SimConfig(**SMALL, seed=5))
+    rows = [run_row(s.run, truth_segmentation(s.run, s.truth)) for s in sims]
+    rows[1]["usable"], rows[1]["skip_reason"] = False, "test"
+    frame = runs_frame(rows)
+    assert fit_table_model(frame).to_json() == fit_table(frame).model.to_json()
 
 
 def test_unusable_runs_are_left_out_of_the_fit():
