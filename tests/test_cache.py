@@ -274,6 +274,21 @@ def _corpus(folder: Path, trips: tuple = ((2.0, 1),)) -> Path:
     return folder
 
 
+def _raise_one_sample(log: Path) -> None:
+    """5 W more on one sample of a motion log, in the middle of its first cruise (so the fit
+    moves: a sample of an idle phase leaves the summary as it was)."""
+    from wifibot_power.io.reader import read_log
+    from wifibot_power.segment import segment_run
+
+    cruise = next(p for p in segment_run(read_log(log)).phases if p.phase == "cruise")
+    lines = log.read_text().split("\n")
+    header = next(k for k, line in enumerate(lines) if line.startswith("time_s"))
+    row = header + 1 + (cruise.i_start + cruise.i_end) // 2
+    t, v, i, p = lines[row].split(",")
+    lines[row] = f"{t},{v},{i},{float(p) + 5:.4f}"
+    log.write_text("\n".join(lines))
+
+
 def assert_same_fit(a, b) -> None:
     assert a.summary() == b.summary()
     pd.testing.assert_frame_equal(a.runs, b.runs)
@@ -411,12 +426,7 @@ def test_warm_fit_is_kept_and_follows_every_input(tmp_path: Path, settled, monke
     assert fit_logs([copy], jobs=1, cache=cache).summary() == plain.summary()
     assert len(fits) == before + 1
     # one log changed: its row changes, the fit is made again, and replaces the kept one
-    log = corpus / "v0.90_d2_s2_r1.csv"
-    lines = log.read_text().split("\n")
-    header = next(k for k, line in enumerate(lines) if line.startswith("time_s"))
-    t, v, i, p = lines[header + 1].split(",")
-    lines[header + 1] = f"{t},{v},{i},{float(p) + 5:.4f}"  # one sample, 5 W more
-    log.write_text("\n".join(lines))
+    _raise_one_sample(corpus / "v0.90_d2_s2_r1.csv")
     before = len(fits)
     changed = fit_logs([corpus], jobs=1, cache=cache)
     assert len(fits) == before + 1  # fitted again
@@ -564,12 +574,7 @@ def test_warm_fit_forks_no_worker_and_loads_no_parser(tmp_path: Path) -> None:
     assert all(s["model_overhead_pct"] is not None for s in warm_summary["stop_and_go"])
     # one log changed (one sample, 5 W more): that log alone is parsed again, and the fit
     # is the uncached fit of the changed folder
-    log = corpus / "v0.90_d2_s2_r1.csv"
-    lines = log.read_text().split("\n")
-    header = next(k for k, line in enumerate(lines) if line.startswith("time_s"))
-    t, v, i, p = lines[header + 1].split(",")
-    lines[header + 1] = f"{t},{v},{i},{float(p) + 5:.4f}"
-    log.write_text("\n".join(lines))
+    _raise_one_sample(corpus / "v0.90_d2_s2_r1.csv")
     changed_summary, changed = run("spy")
     assert changed["worked_on"] == 1
     assert changed_summary != cold_summary

@@ -20,7 +20,7 @@ from test_diagnose import GRID
 from wifibot_power import diagnose, report
 from wifibot_power.causes import thermal_drift
 from wifibot_power.fit import segment_checked
-from wifibot_power.runtable import CumulativeEnergy, run_row
+from wifibot_power.runtable import WindowEnergy, run_row
 from wifibot_power.simulate import SimConfig, simulate_runs
 from wifibot_power.stats import average_ranks, spearman
 from wifibot_power.traces import bounded_minimum
@@ -106,13 +106,20 @@ def segmented():
     return [(run, segment_checked(run)) for run in runs]
 
 
-def test_one_cumulative_sum_gives_what_each_made_on_its_own(segmented) -> None:
+def test_window_energies_are_the_windows_samples_summed(segmented) -> None:
     for run, segmentation in segmented:
-        energy = CumulativeEnergy(run)
-        cumulative_J = np.concatenate(([0.0], np.cumsum(run.power_W))) * run.sample_period_s
-        i = np.array([0, 1, run.samples // 2, run.samples])
-        assert (energy.at(i) == cumulative_J[i]).all()
-        # the row's phase energies from the shared sum are the phases' samples summed
+        energy = WindowEnergy(run)
+        n = run.samples
+        # windows in any order, overlapping, empty, at the run's two ends
+        starts = np.array([0, 1, n // 2, n // 3, n - 1, n, 7])
+        ends = np.array([n, n // 2, n, n // 2 + 5, n, n, 7])
+        direct_J = [
+            float(run.power_W[a:b].sum(dtype=np.float64)) for a, b in zip(starts, ends, strict=True)
+        ]
+        got_J = energy.between(starts, ends)
+        assert got_J == pytest.approx(np.array(direct_J) * run.sample_period_s, rel=1e-12)
+        assert got_J[-1] == 0.0 and got_J[5] == 0.0
+        # the row's phase energies come from it and are the phases' samples summed
         row = run_row(run, segmentation, energy)
         for phase, key in (("accel", "accel_energy_J"), ("cruise", "cruise_energy_J")):
             direct_J = sum(

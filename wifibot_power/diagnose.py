@@ -52,7 +52,7 @@ from wifibot_power.residuals import residual_table, structure_reasons
 from wifibot_power.run import Run
 from wifibot_power.runtable import (
     DOUBT_REASON,
-    CumulativeEnergy,
+    WindowEnergy,
     admit_doubtful,
     run_row,
     runs_frame,
@@ -226,9 +226,9 @@ def summarize_run(run: Run, segmenter: Segmenter | None = None) -> RunSummary:
 
 def summarize_segmented(run: Run, segmentation: Segmentation) -> RunSummary:
     """A segmented motion run's row, trace statistics and the statistics each cause's tests
-    need (`Cause.run_columns`), from one cumulative sum of its samples: what `diagnose` and
-    `report` keep of it."""
-    energy = CumulativeEnergy(run)
+    need (`Cause.run_columns`), with the phases' and windows' energies from one
+    `runtable.WindowEnergy`: what `diagnose` and `report` keep of it."""
+    energy = WindowEnergy(run)
     columns: dict[str, float] = {}
     for cause in CAUSES.values():
         columns.update(cause.run_columns(run, segmentation))

@@ -17,7 +17,7 @@ import numpy as np
 
 from wifibot_power.phases import Segmentation
 from wifibot_power.run import Run
-from wifibot_power.runtable import CumulativeEnergy
+from wifibot_power.runtable import WindowEnergy
 
 #: Length of the window after each acceleration start where a start transient sits [s].
 START_WINDOW_S = 0.25
@@ -70,14 +70,14 @@ EMPTY = TraceStats(
 
 
 def trace_stats(
-    run: Run, segmentation: Segmentation, energy: CumulativeEnergy | None = None
+    run: Run, segmentation: Segmentation, energy: WindowEnergy | None = None
 ) -> TraceStats:
     """Window sums and cruise spectrum of a motion run (EMPTY for other runs); `energy`: the
-    run's `runtable.CumulativeEnergy` when the caller has it already."""
+    run's `runtable.WindowEnergy` when the caller has it already."""
     if run.meta.mode != "motion" or not segmentation.phases:
         return EMPTY
     dt = run.sample_period_s
-    energy = energy or CumulativeEnergy(run)
+    energy = energy or WindowEnergy(run)
     by_step: dict[int, dict[str, list]] = {}
     for phase in segmentation.phases:
         if phase.phase in ("accel", "cruise", "decel") and phase.step >= 1:
@@ -97,6 +97,7 @@ def trace_stats(
         for s in steps
     ]
     sums = np.zeros(7)
+    windows: list[tuple[int, int]] = []  # each step's start and end windows, in turn
     w_start = max(1, round(START_WINDOW_S / dt))
     w_end = max(1, round(END_WINDOW_S / dt))
     for step, next_start in zip(steps, starts_next, strict=True):
@@ -111,15 +112,20 @@ def trace_stats(
         # sum of ((j + 0.5) / n)² for j < m: (m³/3 - m/12) / n²
         sum_u2 = (n_acc**3 / 3.0 - n_acc / 12.0) / n_ramp**2
         j_stop = min(ic1 + w_end, next_start)
+        windows += [(ia0, i_stop), (ic1, j_stop)]
+        # the two windows' energies (0 and 5) are added below, in one pass over the samples
         sums += [
-            float(energy.at(i_stop)) - float(energy.at(ia0)),
+            0.0,
             n_acc * dt,
             sum_u * dt,
             sum_u2 * dt,
             max(i_stop - ia1, 0) * dt,
-            float(energy.at(j_stop)) - float(energy.at(ic1)),
+            0.0,
             (j_stop - ic1) * dt,
         ]
+    if windows:
+        window_J = energy.between(*np.array(windows).T)
+        sums[0], sums[5] = window_J[0::2].sum(), window_J[1::2].sum()
     hz, amplitude_W, p_value, blocks, block_s = _cruise_spectrum(run, segmentation)
     return TraceStats(len(steps), *map(float, sums), hz, amplitude_W, p_value, blocks, block_s)
 
