@@ -50,6 +50,13 @@ def fisher_p(x: np.ndarray) -> float:
 def main() -> None:
     rng = np.random.default_rng(2)
     t = np.arange(BLOCKS) * BLOCK_S
+
+    def cycles(count: float) -> np.ndarray:
+        """1/f noise of 0.05 W with a 0.5 W line of `count` cycles in the cruise."""
+        phase = rng.uniform(0, 2 * np.pi)
+        line = 0.5 * np.sin(2 * np.pi * count / (BLOCKS * BLOCK_S) * t + phase)
+        return coloured(rng, 6000, 0.05, 1.0)[:BLOCKS] + line
+
     rows = {
         "white 0.08 W": lambda: 0.0,
         "+ 1/f 0.05 W (fieldgen's)": lambda: coloured(rng, 6000, 0.05, 1.0)[:BLOCKS],
@@ -64,14 +71,12 @@ def main() -> None:
             coloured(rng, 6000, 0.5, 1.0)[:BLOCKS]
             + 0.2 * np.sin(2 * np.pi * rng.uniform(0.3, 6.0) * t + rng.uniform(0, 2 * np.pi))
         ),
-        "+ 1/f 0.05 W, line 0.5 W at 0.42 Hz (4.2 cycles)": lambda: (
-            coloured(rng, 6000, 0.05, 1.0)[:BLOCKS]
-            + 0.5 * np.sin(2 * np.pi * 0.42 * t + rng.uniform(0, 2 * np.pi))
-        ),
-        "+ 1/f 0.05 W, line 0.5 W at 0.21 Hz (2.1 cycles)": lambda: (
-            coloured(rng, 6000, 0.05, 1.0)[:BLOCKS]
-            + 0.5 * np.sin(2 * np.pi * 0.21 * t + rng.uniform(0, 2 * np.pi))
-        ),
+        "+ 1/f 0.05 W, line 0.5 W at 0.21 Hz (2.1 cycles)": lambda: cycles(2.1),
+        "+ 1/f 0.05 W, line 0.5 W at 0.33 Hz (3.3 cycles)": lambda: cycles(3.3),
+        "+ 1/f 0.05 W, line 0.5 W at 0.36 Hz (3.6 cycles)": lambda: cycles(3.6),
+        "+ 1/f 0.05 W, line 0.5 W at 0.42 Hz (4.2 cycles)": lambda: cycles(4.2),
+        "+ 1/f 0.05 W, line 0.5 W at 0.445 Hz (4.45 cycles)": lambda: cycles(4.45),
+        "+ 1/f 0.05 W, line 0.5 W at 0.55 Hz (5.5 cycles)": lambda: cycles(5.5),
     }
     head = f"| series ({TRIALS} each, seed 2) | Fisher's g p < {LEVEL} |"
     print(f"{head} line vs neighbours p < {LEVEL} |")

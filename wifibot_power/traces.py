@@ -64,6 +64,10 @@ class TraceStats:
             "ripple_hz": self.ripple_hz,
             "ripple_amplitude_W": self.ripple_amplitude_W,
             "ripple_p_value": self.ripple_p_value,
+            # how long the analysed cruise is: how many cycles of a line it can show
+            "ripple_cruise_s": self.cruise_blocks_W.size * self.block_s
+            if self.cruise_blocks_W.size
+            else np.nan,
         }
 
 
@@ -155,8 +159,9 @@ def _cruise_spectrum(run: Run, segmentation: Segmentation):
 def ripple_peak(x: np.ndarray, block_s: float) -> tuple[float, float, float]:
     """The spectral line of a zero-mean series in RIPPLE_BAND_HZ that stands out most from
     its neighbourhood: frequency [Hz], amplitude of the best-fitting sinusoid [W], and the
-    p-value of that line against the local spectrum (`line_p_values`), times the band's
-    bins for the search over them (Bonferroni)."""
+    p-value of that line against the local spectrum (`line_p_values`; the neighbours taken
+    from the series without the fitted sinusoid), times the band's bins for the search over
+    them (Bonferroni)."""
     n = x.size
     spectrum = np.abs(np.fft.rfft(x)) ** 2
     freqs = np.fft.rfftfreq(n, block_s)
@@ -164,10 +169,14 @@ def ripple_peak(x: np.ndarray, block_s: float) -> tuple[float, float, float]:
     band[0] = band[-1] = False  # the mean and the Nyquist bin are not lines
     if band.sum() < 3:
         return np.nan, np.nan, np.nan
-    p_line = line_p_values(spectrum[1:-1])
+    # which line: the one that stands out most in the Hann-tapered spectrum, against its
+    # neighbours beyond the taper's main lobe (±2 bins). Untapered, an off-grid line's
+    # leakage caps how far it stands out, so a weaker line on the grid (a 2nd harmonic of
+    # 0.3 of the fundamental, fieldgen's ripple at 0.7 m/s) was taken for it
+    tapered = np.abs(np.fft.rfft(x * np.hanning(n))) ** 2
     in_band = np.flatnonzero(band[1:-1])
-    k = 1 + int(in_band[np.argmin(p_line[in_band])])
-    p_value = float(min(1.0, in_band.size * p_line[k - 1]))
+    chosen = line_p_values(tapered[1:-1], gap=2)
+    k = 1 + int(in_band[np.argmin(chosen[in_band])])
     # refine the frequency between the neighbouring bins (the periodogram's grid is 1/T),
     # then fit the sinusoid there: least squares in frequency, amplitude and phase
     t = np.arange(n) * block_s
@@ -179,30 +188,40 @@ def ripple_peak(x: np.ndarray, block_s: float) -> tuple[float, float, float]:
         xatol=step * 1e-4,
     )
     amplitude_W, _ = _sinusoid(x, t, best)
+    # the chosen line against its neighbours in the series without it: an off-grid line
+    # leaks into the bins around it (sidelobes falling as 1/d²), and against its own
+    # leakage a line of 3.5-5.5 cycles never reached 1% however strong it was. Its ordinate:
+    # the bin nearest the refined frequency's (the taper may have chosen the next one)
+    residual = (np.abs(np.fft.rfft(x - _sinusoid_fitted(x, t, best))) ** 2)[1:-1]
+    k = int(np.clip(round(best / step), 1, residual.size))
+    residual[k - 1] = spectrum[k]
+    p_value = float(min(1.0, in_band.size * line_p_values(residual)[k - 1]))
     return float(best), float(amplitude_W), p_value
 
 
-def line_p_values(ordinates: np.ndarray, side: int = LINE_NEIGHBOURS) -> np.ndarray:
+def line_p_values(ordinates: np.ndarray, side: int = LINE_NEIGHBOURS, gap: int = 1) -> np.ndarray:
     """P-value of each periodogram ordinate as a spectral line against its neighbours.
 
     Each ordinate of a stationary series' periodogram is ``S(f)·χ²₂/2``, independent of
     the others (Brockwell & Davis, Time Series: Theory and Methods, §10.3), whatever the
     shape of the spectrum S. Where S is smooth, the mean of the ``r`` ordinates on either
-    side of bin k (2 to r + 1 bins away: a line off the bin grid leaks into the bins next
-    to it) estimates S there, and ``I_k / mean`` is F(2, 4r): P(F > x) = (1 + x/2r)^(-2r).
-    Fisher's g-test (Fisher 1929), used until the fifth session, divides by the whole
-    spectrum's sum, i.e. assumes white noise: under 1/f noise of 0.05 W rms it called 78%
-    of 10 s cruises periodic at 1%, against 0.3% here (docs/diagnose.md). The neighbours are
-    taken as many on each side, so a sloping spectrum (red noise) is not read against its
-    lower side alone; a bin with fewer than one neighbour on a side (the two lowest and
-    highest) gets p = 1: a "line" of under three cycles in the series cannot be told from
-    red noise."""
+    side of bin k (gap + 1 to gap + r bins away: a line off the bin grid leaks into the
+    bins next to it) estimates S there, and ``I_k / mean`` is F(2, 4r): P(F > x) =
+    (1 + x/2r)^(-2r). Fisher's g-test (Fisher 1929), used until the fifth session, divides
+    by the whole spectrum's sum, i.e. assumes white noise: under 1/f noise of 0.05 W rms it
+    called 79% of 10 s cruises periodic at 1%, against 0.2% here (docs/diagnose.md). The
+    neighbours are taken as many on each side, so a sloping spectrum (red noise) is not
+    read against its lower side alone; a bin with no neighbour on a side (within gap + 1
+    of either end) gets p = 1: a "line" of under three cycles in the series cannot be told
+    from red noise."""
     m = ordinates.size
     cumulative = np.concatenate(([0.0], np.cumsum(ordinates)))
     k = np.arange(m)
-    reach = np.clip(np.minimum(side, np.minimum(k - 1, m - 2 - k)), 0, None)
-    window = cumulative[np.clip(k + 2 + reach, 0, m)] - cumulative[np.clip(k - 1 - reach, 0, m)]
-    near = cumulative[np.clip(k + 2, 0, m)] - cumulative[np.clip(k - 1, 0, m)]
+    reach = np.clip(np.minimum(side, np.minimum(k - gap, m - 1 - gap - k)), 0, None)
+    window = (
+        cumulative[np.clip(k + gap + 1 + reach, 0, m)] - cumulative[np.clip(k - gap - reach, 0, m)]
+    )
+    near = cumulative[np.clip(k + gap + 1, 0, m)] - cumulative[np.clip(k - gap, 0, m)]
     count = 2 * reach
     p_values = np.ones(m)
     tested = count > 0
@@ -290,11 +309,22 @@ def _sinusoid(x: np.ndarray, t: np.ndarray, hz: float) -> tuple[float, float]:
     by Frisch-Waugh-Lovell this gives the sinusoid's coefficients as if fitted together with
     the trend, so a cruise of a few periods does not lose the part of the sine that the
     detrending took): its amplitude [W] and the variance it explains."""
+    wave, coef = _sinusoid_coef(x, t, hz)
+    fitted = wave @ coef[:2]
+    return float(np.hypot(coef[0], coef[1])), float(fitted @ fitted)
+
+
+def _sinusoid_fitted(x: np.ndarray, t: np.ndarray, hz: float) -> np.ndarray:
+    """What `_sinusoid` fits of x at `hz`, the sinusoid and the line with it [W]."""
+    wave, coef = _sinusoid_coef(x, t, hz)
+    return wave @ coef[:2] + coef[2] + coef[3] * t
+
+
+def _sinusoid_coef(x: np.ndarray, t: np.ndarray, hz: float) -> tuple[np.ndarray, np.ndarray]:
     wave = np.column_stack([np.sin(2 * np.pi * hz * t), np.cos(2 * np.pi * hz * t)])
     basis = np.column_stack([wave, np.ones_like(t), t])
     coef, *_ = np.linalg.lstsq(basis, x, rcond=None)
-    fitted = wave @ coef[:2]
-    return float(np.hypot(coef[0], coef[1])), float(fitted @ fitted)
+    return wave, coef
 
 
 def ripple_trace_rmse_W(x: np.ndarray, block_s: float, hz: float, amplitude_W: float) -> float:
