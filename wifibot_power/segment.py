@@ -316,6 +316,13 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
         start = lo + int(standstill[-1]) + 1 if standstill.size else lo
         after = _held(stopped[last + 1 :], hold)
         end = last + 1 + after if after is not None else n
+        if motions and first < motions[-1][1]:
+            # the motion before had not come to a standstill when this stretch started (the
+            # speed dipped below the moving threshold, not to a stop: a slow crawl between
+            # two fast stretches): one motion, not two that overlap and count their phases
+            # twice (an F1/10 car's log, docs/real-logs.md)
+            motions[-1] = (motions[-1][0], max(motions[-1][1], end))
+            continue
         motions.append((start, max(end, start + 1)))
     # slope of the smoothed speed (per second), its noise, and the class of each block
     h = max(1, half)
