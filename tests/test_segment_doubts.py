@@ -435,3 +435,28 @@ def test_a_crawl_between_two_fast_stretches_is_one_motion_not_two_that_overlap()
         assert [p.phase for p in phases if p.phase == "idle"] == ["idle", "idle"], seed
         assert sum(p.duration_s for p in phases) == pytest.approx(plan.size * dt, abs=1e-9)
         assert not segment_run(run).doubts, seed
+
+
+def test_an_idle_that_holds_the_drive_pushing_is_doubted() -> None:
+    """With a speed column, an "idle" is wherever the speed reads standstill. The F1/10
+    car's log holds 0.5-1.5 s where the motor pushes at its current limit (26-54 W over
+    standstill's 0 W) while the speed reads 0.04 m/s: labelled idle without a word, and an
+    idle level would take it in. Two motions at 18 Hz with a stop between; in the stop,
+    0.6 s at 50 W (the push) makes the doubt name that idle; the same run without the push
+    has none."""
+    dt = 0.055
+    pieces = [(1.0, 0.0, 0.0), (0.5, 0.0, 2.0), (3.0, 2.0, 2.0), (0.5, 2.0, 0.0)]
+    pieces += [(1.5, 0.0, 0.0), (0.5, 0.0, 2.0), (3.0, 2.0, 2.0), (0.5, 2.0, 0.0), (1.0, 0.0, 0.0)]
+    speed = np.concatenate([np.linspace(a, b, round(s / dt), endpoint=False) for s, a, b in pieces])
+    rng = np.random.default_rng(3)
+    power = np.where(speed > 0, 10.0 + 10.0 * speed, 0.0) + rng.normal(0.0, 0.2, speed.size)
+    meta = RunMeta(run_id="push", mode="motion", speed_mps=2.0, steps=2, sample_period_s=dt)
+    time_s = np.arange(speed.size) * dt
+    quiet = segment_run(Run("push.csv", "canonical", meta, time_s, power, speed_mps=speed))
+    assert not quiet.doubts
+    push = (time_s >= 5.3) & (time_s < 5.9)  # inside the 1.5 s stop (5.0-6.5 s)
+    pushed = np.where(push, 50.0, power)
+    seg = segment_run(Run("push.csv", "canonical", meta, time_s, pushed, speed_mps=speed))
+    (doubt,) = seg.doubts
+    assert doubt.startswith("the idle of step 1 (") and "pushing" in doubt
+    assert "0.60 s of power well above standstill" in doubt

@@ -214,7 +214,7 @@ ENV_VAR = "WBPOWER_REAL_LOGS"
 MIRROR_VAR = "FRICTIONMAPS_MIRROR"
 DEFAULT_MIRROR = "/work/.mirror/AhmadAmine998+FrictionMaps/repo"
 #: the converted files: the whole log, and its two sides of the logger's gap
-FILES = ("ds5.csv.gz", "ds5_a.csv.gz", "ds5_b.csv.gz")
+FILES = ("ds5.csv.gz", "ds5_a.csv.gz", "ds5_b.csv.gz", "ds5_c.csv.gz")
 UNAVAILABLE = (
     f"real F1/10 log not available: set {ENV_VAR} (with {SET_NAME}/), or put it under "
     f"../shared/real_logs/f1tenth/, or fetch {REPO} (docs/real-logs.md)"
