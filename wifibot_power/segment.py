@@ -435,9 +435,10 @@ def _pushing_idles(run: Run, phases: list[Phase], params: SpeedParams) -> list[s
     as from power alone (`_motion_doubts`, test 2), clear of `motion_z` noise sd (of a
     sample), a fifth of the motion's swing (median cruise power above it) and
     `min_excess_W`; for longer than `pushing_s` and two samples (a boundary may be a
-    sample off on either side). An F1/10 car's log (docs/real-logs.md) holds 0.5-1.5 s
-    stretches at 26-54 W, the motor at its 60 A current limit and the speed at 0.04 m/s:
-    the drive pushing without the wheels turning, which an idle level must not take in.
+    sample off on either side). An F1/10 car's log (docs/real-logs.md) holds 0.1-1.5 s
+    stretches at 15-54 W, most with the motor at its 60 A current limit and the speed at
+    0.04 m/s: the drive pushing without the wheels turning, which an idle level must not
+    take in.
     """
     idles = [p for p in phases if p.phase == "idle"]
     cruises = [p for p in phases if p.phase == "cruise"]

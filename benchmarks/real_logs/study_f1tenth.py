@@ -43,6 +43,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import itertools
+import re
 import subprocess
 import sys
 import tempfile
@@ -102,6 +103,7 @@ class Study:
     negative_samples: int = 0
     gaps: int = 0
     truth: list[tuple[float, float]] = dataclasses.field(default_factory=list)
+    stops: int = 0
     commanded_stops: int = 0
     tolerance_s: float = float("nan")
     with_speed: Attempt | None = None
@@ -192,6 +194,7 @@ def study_log(path: Path) -> Study:
         negative_samples=int(np.sum(power < -1.0)),
         gaps=sum(p.kind == "gap" for p in run.problems),
         truth=truth,
+        stops=len(stops),
         commanded_stops=commanded,
         tolerance_s=tolerance_s,
         with_speed=_attempt(run, truth, tolerance_s),
@@ -256,7 +259,7 @@ def rows(studies: list[Study]) -> list[list[str]]:
                 str(s.negative_samples),
                 str(s.gaps),
                 str(len(s.truth)),
-                f"{s.commanded_stops}",
+                f"{s.commanded_stops}/{s.stops}",
                 f"{1000 * s.tolerance_s:.0f}",
                 *_cells(s.with_speed, len(s.truth)),
                 *_cells(s.without_speed, len(s.truth))[:2],
@@ -273,7 +276,7 @@ HEADER = [
     "samples < -1 W",
     "short gaps",
     "true motions",
-    "stops commanded",
+    "stops with a command of 0",
     "tol. ms",
     "with speed: motions",
     "right",
@@ -286,6 +289,12 @@ HEADER = [
 ]
 
 
+def _plain(message: str) -> str:
+    """A message without the folders it was run in (temporary, or this machine's)."""
+    message = re.sub(r"\S*/(ds5\w*\.csv\.gz)", r"\1", message)
+    return re.sub(r"\S*/(" + f1tenth.SET_NAME + ")", r"\1", message)
+
+
 def render_markdown(studies: list[Study], cli: dict[str, str]) -> str:
     lines = ["| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
     for row in rows(studies):
@@ -296,16 +305,9 @@ def render_markdown(studies: list[Study], cli: dict[str, str]) -> str:
     lines.append("")
     for s in studies:
         if s.refused:
-            lines.append(f"- {s.log}: refused by the reader: {s.refused}")
-    for s in studies:
-        if s.with_speed and s.without_speed and not s.refused:
-            lines.append(
-                f"- {s.log}: stops: {len(s.truth) + 1} stretches standing or log ends; "
-                f"commanded speed 0 in {s.commanded_stops} of the stops"
-            )
-            break
+            lines.append(f"- {s.log}: refused by the reader: {_plain(s.refused)}")
     for command, said in cli.items():
-        lines.append(f"- `wbpower {command}` on ds5_a, ds5_b, ds5_c: {said}")
+        lines.append(f"- `wbpower {command}` on ds5_a, ds5_b, ds5_c: {_plain(said)}")
     return "\n".join(lines)
 
 
