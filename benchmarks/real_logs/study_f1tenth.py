@@ -4,8 +4,9 @@ Reads the converted log (`convert_f1tenth.py`: the whole log `ds5` and its three
 the logger's gaps `ds5_a`, `ds5_b`, `ds5_c`) as a user would and scores what wbpower does
 against the truth the log holds:
 
-1. **Reading**: refused (the message), or samples, median period, energy, the negative
-   samples (regeneration) and the time-stamp gaps the reader reports.
+1. **Reading**: refused (the message), or samples, the period wbpower reads, the energy
+   the time stamps give (sum of P_i (t_{i+1} - t_i)) beside wbpower's (its samples at its
+   period), the negative samples (regeneration) and the time-stamp gaps the reader reports.
 2. **Truth**: the car's motions, from the speed column (-ERPM / 7500, the car's own
    odometry): moving where |speed| exceeds `TRUTH_FLOOR_MPS` (0.1 m/s, 750 ERPM). The
    noise floor of benchmarks/score_segmentation_real.py (5 sd of the standing readings'
@@ -100,6 +101,7 @@ class Study:
     period_s: float = float("nan")
     duration_s: float = float("nan")
     energy_J: float = float("nan")
+    wbpower_energy_J: float = float("nan")
     negative_samples: int = 0
     gaps: int = 0
     truth: list[tuple[float, float]] = dataclasses.field(default_factory=list)
@@ -191,6 +193,7 @@ def study_log(path: Path) -> Study:
         period_s=run.sample_period_s,
         duration_s=float(time_s[-1] - time_s[0]),
         energy_J=float(np.sum(power[:-1] * np.diff(time_s)) + power[-1] * period_s),
+        wbpower_energy_J=run.energy_J,
         negative_samples=int(np.sum(power < -1.0)),
         gaps=sum(p.kind == "gap" for p in run.problems),
         truth=truth,
@@ -255,7 +258,7 @@ def rows(studies: list[Study]) -> list[list[str]]:
             [
                 s.log,
                 f"{s.duration_s:.1f} s, {s.samples} @ {1000 * s.period_s:.1f} ms",
-                f"{s.energy_J:.0f}",
+                f"{s.energy_J:.0f} / {s.wbpower_energy_J:.0f}",
                 str(s.negative_samples),
                 str(s.gaps),
                 str(len(s.truth)),
@@ -272,7 +275,7 @@ def rows(studies: list[Study]) -> list[list[str]]:
 HEADER = [
     "log",
     "read",
-    "energy J",
+    "energy J: stamps / wbpower",
     "samples < -1 W",
     "short gaps",
     "true motions",
@@ -319,7 +322,8 @@ def render_text(studies: list[Study], cli: dict[str, str]) -> str:
             continue
         out.append(
             f"{s.log}: {s.duration_s:.1f} s, {s.samples} samples at "
-            f"{1000 * s.period_s:.1f} ms, {s.energy_J:.0f} J, {s.negative_samples} samples "
+            f"{1000 * s.period_s:.1f} ms, {s.energy_J:.0f} J ({s.wbpower_energy_J:.0f} J by "
+            f"wbpower), {s.negative_samples} samples "
             f"< -1 W, {s.gaps} short gaps; {len(s.truth)} true motions, tolerance "
             f"{1000 * s.tolerance_s:.0f} ms"
         )
