@@ -198,3 +198,17 @@ def test_fit_and_diagnose_refuse_a_hand_driven_run_with_the_reason(folder: Path)
     for command in ("fit", "diagnose"):
         assert said[command].startswith("exit 2: "), said[command]
         assert "speed levels; fit takes one speed per run" in said[command]
+
+
+def test_the_report_says_why_nothing_is_fitted_as_fit_does(folder: Path, tmp_path: Path) -> None:
+    """report's headline said "the paper's models need motion runs with speed, distance and
+    steps in their metadata" whatever left the runs out; these runs have all three, and
+    are left out for their 22-25 speed levels: the report now gives fit's reasons."""
+    from wifibot_power.report import build_report
+
+    for name in SIDES:
+        (tmp_path / name).write_bytes((folder / name).read_bytes())
+    built = build_report(tmp_path)
+    assert built.fit is None
+    assert "speed levels; fit takes one speed per run" in built.fit_problem
+    assert "in their metadata" not in built.fit_problem
