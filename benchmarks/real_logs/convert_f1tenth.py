@@ -52,9 +52,10 @@ the tracked tree: data from fetched repositories is never committed):
         /work/.mirror/AhmadAmine998+FrictionMaps/repo --out DIR/f1tenth_frictionmaps
 
 `locate` finds the converted log for the tests and the scoring script, in this order:
-(a) `WBPOWER_REAL_LOGS/f1tenth_frictionmaps/`; (b) `../shared/real_logs/f1tenth/` beside
-the repository; (c) converted on the fly from the fetched mirror (`FRICTIONMAPS_MIRROR`,
-default `DEFAULT_MIRROR`) into a cache folder the caller gives. None: None (`UNAVAILABLE`).
+(a) `WBPOWER_REAL_LOGS/f1tenth_frictionmaps/` (when that folder exists); (b)
+`../shared/real_logs/f1tenth/` beside the repository; (c) converted on the fly from the
+fetched mirror (`FRICTIONMAPS_MIRROR`, default `DEFAULT_MIRROR`) into a cache folder the
+caller gives. None: None (`UNAVAILABLE`).
 Standard library + numpy only.
 """
 
@@ -228,11 +229,14 @@ def _holds(folder: Path) -> bool:
 def locate(cache: Path) -> Path | None:
     """The folder holding FILES: (a) WBPOWER_REAL_LOGS/<set>, (b) ../shared, (c) the mirror.
 
-    A `WBPOWER_REAL_LOGS` whose `f1tenth_frictionmaps/` lacks the files is an error
-    (SystemExit naming it). For (c) the files are converted into `cache` afresh.
+    A `WBPOWER_REAL_LOGS/f1tenth_frictionmaps/` that lacks the files is an error
+    (SystemExit naming it); a `WBPOWER_REAL_LOGS` without that folder (the REGBOT sets
+    alone) is passed over. For (c) the files are converted into `cache` afresh.
     """
     named = os.environ.get(ENV_VAR)
-    if named:
+    # WBPOWER_REAL_LOGS may hold the REGBOT sets alone (it came first): only a
+    # f1tenth_frictionmaps/ folder there is this log's place
+    if named and (Path(named) / SET_NAME).is_dir():
         folder = Path(named) / SET_NAME
         if not _holds(folder):
             raise SystemExit(
