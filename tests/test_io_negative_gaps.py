@@ -183,7 +183,7 @@ def test_a_dead_channel_is_named_as_dead_not_reversed(tmp_path):
 def test_uneven_stamps_give_the_mean_step_as_the_period(tmp_path):
     """A logger that stamps samples on arrival (ROS: the F1/10 car's log, docs/real-logs.md)
     spaces them unevenly: there, steps of 20-85 ms with a median of 54.8 ms and a mean of
-    51.2 ms, so durations and energies at the median were 5-7% high, silently. Here 30% of
+    51.2 ms, so durations and energies at the median were 4-9% high, silently. Here 30% of
     the steps are 25 ms and 70% are 60 ms (median 60 ms, mean ~49.5 ms) at a steady 10 W:
     the energy must be 10 W x the time the stamps span (within 0.5%: the rectangle rule
     counts one period past the last stamp), and the reader says what it did. Stamps even
