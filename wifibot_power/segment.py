@@ -170,7 +170,7 @@ class SpeedParams:
     #: and moved only when the power jump there exceeds this many noise sd (of a block)
     refine_z: float = 5.0
     #: an idle phase holding power well above standstill for longer than this [s] (and two
-    #: samples) is doubted: the drive pushing without the wheels turning
+    #: blocks) is doubted: the drive pushing without the wheels turning
     pushing_s: float = 0.05
 
 
