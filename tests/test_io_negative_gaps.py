@@ -178,3 +178,29 @@ def test_a_dead_channel_is_named_as_dead_not_reversed(tmp_path):
     with pytest.raises(LogError, match="channel 'right' is negative") as error:
         read_log(path)
     assert "sensor looks dead" in error.value.one_line()
+
+
+def test_uneven_stamps_give_the_mean_step_as_the_period(tmp_path):
+    """A logger that stamps samples on arrival (ROS: the F1/10 car's log, docs/real-logs.md)
+    spaces them unevenly: there, steps of 20-85 ms with a median of 54.8 ms and a mean of
+    51.2 ms, so durations and energies at the median were 4-9% high, silently. Here 30% of
+    the steps are 25 ms and 70% are 60 ms (median 60 ms, mean ~49.5 ms) at a steady 10 W:
+    the energy must be 10 W x the time the stamps span (within 0.5%: the rectangle rule
+    counts one period past the last stamp), and the reader says what it did. Stamps even
+    to 0.3% keep their median, without a word."""
+    rng = np.random.default_rng(0)
+    steps_s = np.where(rng.random(2000) < 0.3, 0.025, 0.060)
+    time_s = np.concatenate(([0.0], np.cumsum(steps_s)))
+    path = tmp_path / "ros.csv"
+    lines = ["time_s,power_W", *(f"{t:.6f},10.0" for t in time_s)]
+    path.write_text("\n".join(lines) + "\n")
+    run = read_log(path)
+    assert run.sample_period_s == pytest.approx(np.mean(steps_s), rel=1e-6)
+    assert run.energy_J == pytest.approx(10.0 * time_s[-1], rel=0.005)
+    (uneven,) = run.problems
+    assert uneven.kind == "uneven" and f"mean, {1e3 * np.mean(steps_s):.4g} ms" in uneven.message
+    # even to 0.3%: the median, as before, and no problem
+    even_s = np.cumsum(0.055 * (1 + rng.uniform(-0.003, 0.003, 2000)))
+    period_s, problems = check_samples("even.csv", even_s, np.full(even_s.size, 10.0))
+    assert period_s == pytest.approx(np.median(np.diff(even_s)), rel=1e-9)
+    assert problems == []

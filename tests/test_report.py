@@ -60,7 +60,9 @@ def test_report_of_a_log_without_motion_metadata_draws_its_trace(
     for name in ("power_speed", "figure5", "figure7", "heldout_error", "findings"):
         section = page[page.index(f'id="{name}"') :]
         assert section[: section.index("</section>")].count("not drawn:") == 1
-    assert "motion runs with speed, distance and steps" in page
+    # the fit's own reason for the run, as `fit` gives it
+    assert "no mode or speed in its metadata, so it cannot be fitted" in built.fit_problem
+    assert "no mode or speed in its metadata" in page
     view = built.traces[0]
     assert {p.phase for p in view.phases} == {"level"} and len(view.phases) >= 5
 

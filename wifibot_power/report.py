@@ -25,6 +25,7 @@ import numpy as np
 from wifibot_power.errors import WbpowerError
 from wifibot_power.io import LogSource, ReadOptions, Skipped
 from wifibot_power.io.batch import ProblemHook, map_runs
+from wifibot_power.io.discover import reasons_in_brief
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -107,10 +108,16 @@ def build_report(
     fit, skipped = fit_gathered(rows, phase_rows, read_skipped, keep_doubtful=keep_doubtful)
     fit_problem = None
     if fit is None:
-        fit_problem = (
-            f"none of the {len(rows)} run(s) read can be fitted: the paper's models need "
-            "motion runs with speed, distance and steps in their metadata (log-format.md)"
+        # why, as `fit` says it (the runs' own reasons), not a guess: an F1/10 car's runs
+        # have speed, distance and steps but hold 22-25 speed levels (docs/real-logs.md)
+        unusable = [s for s in skipped if s not in read_skipped]
+        why = (
+            reasons_in_brief(unusable)
+            if unusable
+            else "the paper's models need motion runs with speed, distance and steps in "
+            "their metadata (log-format.md)"
         )
+        fit_problem = f"none of the {len(rows)} run(s) read can be fitted: {why}"
     diagnosis = diagnosis_problem = None
     if fit is not None:
         try:

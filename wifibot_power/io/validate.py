@@ -39,6 +39,11 @@ MAX_GAP_PERIODS = 3
 MAX_GAP_PCT = 1.0
 #: A step between time stamps above this many sample periods is a gap (jitter stays below).
 GAP_FACTOR = 1.5
+#: Time stamps whose mean step (between gaps) is further than this from their median [%]
+#: are uneven (a logger stamping on arrival, e.g. ROS): the period is then their mean, so
+#: that durations and energies follow the stamps (the bar is MAX_GAP_PCT's: as much time
+#: miscounted as gaps that make energies wrong).
+UNEVEN_PCT = 1.0
 #: Consecutive identical readings at a column's maximum that mean the range clipped.
 SATURATION_SAMPLES = 10
 #: A trace with more repeated consecutive values than this share is quantised or noise-free:
@@ -119,15 +124,41 @@ def _check_time(
     period_s, reordered = _median_10_digits(step_s)
     if abs(period_s - default_period_s) <= 1e-6 * default_period_s:
         period_s = default_period_s  # the stated period, not its float-rounded echo
-    if high_s <= GAP_FACTOR * period_s:
-        return period_s, []  # no step long enough to be a gap: no second look at the steps
-    if reordered:  # the median sorted the steps in place: a fresh diff (one held at a time)
-        step_s = None
-        step_s = np.diff(time_s)
-    gaps = np.flatnonzero(step_s > GAP_FACTOR * period_s)
+    spacing_s = period_s  # the median step: gaps are judged against it
+    gaps = np.empty(0, dtype=np.intp)
+    if high_s > GAP_FACTOR * spacing_s:
+        if reordered:  # the median sorted the steps in place: a fresh diff (one held at a time)
+            step_s = None
+            step_s = np.diff(time_s)
+            reordered = False
+        gaps = np.flatnonzero(step_s > GAP_FACTOR * spacing_s)
+    uneven: list[Problem] = []
+    # the steps between gaps: their mean is within high - low of their median, so a log
+    # spaced evenly to 1% (every analyser's) is not looked at again; their sum is the span
+    # less the gaps' steps (no pass over the steps)
+    regular = step_s.size - gaps.size
+    if regular and high_s - low_s > UNEVEN_PCT / 100.0 * spacing_s:
+        gap_steps_s = float(np.sum(time_s[gaps + 1] - time_s[gaps]))
+        mean_s = float(f"{(float(time_s[-1] - time_s[0]) - gap_steps_s) / regular:.10g}")
+        if abs(mean_s - spacing_s) > UNEVEN_PCT / 100.0 * spacing_s:
+            period_s = mean_s
+            if reordered:
+                step_s = None
+                step_s = np.diff(time_s)
+            longest_s = float(np.max(step_s[step_s <= GAP_FACTOR * spacing_s]))
+            uneven.append(
+                Problem(
+                    "uneven",
+                    f"uneven time stamps (steps of {1e3 * float(low_s):.3g}-"
+                    f"{1e3 * longest_s:.3g} ms between gaps): the sample period is their "
+                    f"mean, {1e3 * mean_s:.4g} ms, so that durations and energies follow the "
+                    f"stamps (their median, {1e3 * spacing_s:.4g} ms, would count "
+                    f"{100 * (spacing_s / mean_s - 1):+.2g}% of both)",
+                )
+            )
     del step_s
     if not gaps.size:
-        return period_s, []
+        return period_s, uneven
     missing_s = (time_s[gaps + 1] - time_s[gaps]) - period_s
     longest = int(np.argmax(missing_s))
     span_s = float(time_s[-1] - time_s[0]) + period_s
@@ -157,7 +188,7 @@ def _check_time(
         )
         for index, missing in zip(gaps, missing_s, strict=True)
     ]
-    return period_s, problems
+    return period_s, uneven + problems
 
 
 def _time_error(
