@@ -103,3 +103,27 @@ def test_a_ripple_on_mostly_one_metre_steps_is_named(stop_and_go) -> None:
     assert not result.unexplained
     assert finding.estimate["cruises_found"] == 6  # the 6 m runs
     assert "(12 too short to show it not counted)" in finding.summary
+
+
+def test_the_figure_draws_the_lines_the_evidence_counts() -> None:
+    """The ripple panel's points are the lines the evidence counts (`lines_found`): 1.5 m
+    steps hold 3.7 wheel turns, where the line is found (p < 1%) but not counted, so it is
+    not drawn either, and the panel's n is the summary's (6, the 6 m runs)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from wifibot_power.figures.diagnosis import findings_figure
+
+    grid = {**GRID, "trips": ((6.0, 1), (6.0, 4)), "speeds_mps": (0.2, 0.25, 0.3)}
+    config = SimConfig(**grid, effects={"cruise_ripple": 1.0}, seed=4)
+    result = diagnose_runs([s.run for s in simulate_runs(config)])
+    assert int((result.runs["ripple_p_value"] < 0.01).sum()) == 12  # the 1.5 m steps' too
+    assert result.findings[0].estimate["cruises_found"] == 6
+    points = [
+        line
+        for ax in findings_figure(result, {}).axes
+        for line in ax.get_lines()
+        if line.get_gid() == "runs" and "cruise spectrum" in str(line.get_label())
+    ]
+    assert len(points) == 1 and len(points[0].get_xdata()) == 6
+    assert "(n = 6)" in points[0].get_label()

@@ -783,6 +783,7 @@ def _diagnose(
             "ripple_hz",
             "ripple_amplitude_W",
             "ripple_p_value",
+            "ripple_cruise_s",
         ]
     ].copy()
     table["fold"] = folds

@@ -74,11 +74,7 @@ class CruiseRipple(Cause):
         analysed = runs[np.isfinite(column(runs, "ripple_p_value"))]
         if len(analysed) < 3:
             return Evidence(self.name, False, summary="needs 3 or more cruises of 3 s or more")
-        # a line found in fewer cycles is there, but its frequency is not known to better
-        # than a few % (2-3% in 2.4-turn cruises of 1 m steps): not counted either way
-        is_found = (column(analysed, "ripple_p_value") < RUN_ALPHA) & _long_enough(
-            analysed, column(analysed, "ripple_hz")
-        )
+        is_found = lines_found(analysed)
         found = analysed[is_found]
         k = len(found)
         scaling = ripple_scaling(found) if k >= 3 else None
@@ -234,6 +230,15 @@ def shown_in_most(params: dict[str, float]) -> bool:
     k = params.get("cruises_found", float("nan"))
     n = params.get("cruises_showable", float("nan"))
     return bool(np.isfinite(k) and k >= max(3.0, n / 2))
+
+
+def lines_found(runs: pd.DataFrame) -> np.ndarray:
+    """Which runs' cruises show the line and count for it: found at RUN_ALPHA in a cruise
+    that holds SHOWABLE_CYCLES of it. A line found in fewer cycles is there, but its
+    frequency is not known to better than a few % (2-3% in the 2.4 turns of a 1 m step):
+    not counted either way."""
+    found = column(runs, "ripple_p_value") < RUN_ALPHA
+    return found & _long_enough(runs, column(runs, "ripple_hz"))
 
 
 def _long_enough(analysed: pd.DataFrame, hz: np.ndarray) -> np.ndarray:

@@ -144,12 +144,12 @@ def _estimate_text(finding: Finding) -> str:
 
 
 def _ripple(ax: Axes, diagnosis: Diagnosis, finding: Finding) -> None:
-    from wifibot_power.causes.cruise_ripple import RUN_ALPHA as RIPPLE_RUN_ALPHA
+    from wifibot_power.causes.cruise_ripple import lines_found
 
     runs = diagnosis.runs
     speed = runs["speed_mps"].to_numpy(np.float64)
     hz = runs["ripple_hz"].to_numpy(np.float64)
-    found = runs["ripple_p_value"].to_numpy(np.float64) < RIPPLE_RUN_ALPHA
+    found = lines_found(runs)  # the lines the evidence counts
     ax.plot(
         speed[found],
         hz[found],
