@@ -225,3 +225,16 @@ def test_report_keep_doubtful_uses_the_doubted_runs_in_fit_and_diagnose(
     assert not any(doubtful in s.file for s in kept.skipped)
     assert kept.diagnosis.n_runs == left_out.diagnosis.n_runs + 1
     assert len(kept.fit.runs.query("usable")) == len(left_out.fit.runs.query("usable")) + 1
+
+
+def test_a_report_of_logs_none_of_which_can_be_read_says_so(tmp_path: Path) -> None:
+    """Found in review (fifth session): with no log read, the report guessed that the runs
+    lacked speed, distance and steps in their metadata; it says that no log could be read,
+    and why (the reader's reason, naming the file)."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    (logs / "bad.csv").write_text("this,is\nnot,a log\n")
+    built = build_report(logs)
+    assert built.fit_problem.startswith("no log could be read: ")
+    assert "bad.csv" in built.fit_problem
+    assert "metadata" not in built.fit_problem

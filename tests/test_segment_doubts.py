@@ -438,28 +438,22 @@ def test_a_crawl_between_two_fast_stretches_is_one_motion_not_two_that_overlap()
 
 
 @pytest.mark.parametrize("dt", [0.055, 1e-4])
-def test_an_idle_that_holds_the_drive_pushing_is_doubted(dt: float) -> None:
-    """With a speed column, an "idle" is wherever the speed reads standstill. The F1/10
-    car's log holds 0.5-1.5 s where the motor pushes at its current limit (26-54 W over
-    standstill's 0 W) while the speed reads 0.04 m/s: labelled idle without a word, and an
-    idle level would take it in. Two motions at 18 Hz with a stop between; in the stop,
-    0.6 s at 50 W (the push) makes the doubt name that idle; the same run without the push
-    has none. At ~18 Hz (one sample a block) and at 10 kHz (10 samples a block)."""
+def test_an_idle_at_another_flat_level_is_not_doubted(dt: float) -> None:
+    """With a speed column, an idle is wherever the speed reads standstill, whatever power
+    it holds: electronics switched on after the first motion (5 -> 7 W) or the commanded
+    speed's lag are not doubts. A doubt leaves the run out of `fit`; a "pushing" doubt for
+    idles above the lowest idle's level (merged in the fifth session for the F1/10 car, whose
+    motor pushes at its current limit while the speed reads 0.04 m/s) fired on both and was
+    taken out in review (docs/segmentation.md)."""
     pieces = [(1.0, 0.0, 0.0), (0.5, 0.0, 2.0), (3.0, 2.0, 2.0), (0.5, 2.0, 0.0)]
     pieces += [(1.5, 0.0, 0.0), (0.5, 0.0, 2.0), (3.0, 2.0, 2.0), (0.5, 2.0, 0.0), (1.0, 0.0, 0.0)]
     speed = np.concatenate([np.linspace(a, b, round(s / dt), endpoint=False) for s, a, b in pieces])
     rng = np.random.default_rng(3)
-    power = np.where(speed > 0, 10.0 + 10.0 * speed, 0.0) + rng.normal(0.0, 0.2, speed.size)
-    meta = RunMeta(run_id="push", mode="motion", speed_mps=2.0, steps=2, sample_period_s=dt)
     time_s = np.arange(speed.size) * dt
-    quiet = segment_run(Run("push.csv", "canonical", meta, time_s, power, speed_mps=speed))
-    assert not quiet.doubts
-    push = (time_s >= 5.3) & (time_s < 5.9)  # inside the 1.5 s stop (5.0-6.5 s)
-    pushed = np.where(push, 50.0, power)
-    seg = segment_run(Run("push.csv", "canonical", meta, time_s, pushed, speed_mps=speed))
-    (doubt,) = seg.doubts
-    assert doubt.startswith("the idle of step 1 (") and "pushing" in doubt
-    # its length, printed to 10 ms: measured 0.60 s at 18 Hz and 0.61 s at 10 kHz (the
-    # idle starts ~10 ms before the drive's 10 W ends at standstill), pinned at 20 ms
-    held_s = float(doubt.split(" s of power well above standstill")[0].rsplit(" ", 1)[1])
-    assert held_s == pytest.approx(push.sum() * dt, abs=0.02)
+    electronics_W = np.where(time_s < 5.0, 5.0, 7.0)  # on after the first motion
+    power = electronics_W + np.where(speed > 0, 1.0 + 0.5 * speed, 0.0)
+    power = power + rng.normal(0.0, 0.05, speed.size)
+    meta = RunMeta(run_id="levels", mode="motion", speed_mps=2.0, steps=2, sample_period_s=dt)
+    seg = segment_run(Run("levels.csv", "canonical", meta, time_s, power, speed_mps=speed))
+    assert [p.phase for p in seg.phases].count("idle") == 3
+    assert not seg.doubts

@@ -110,14 +110,18 @@ def build_report(
     if fit is None:
         # why, as `fit` says it (the runs' own reasons), not a guess: an F1/10 car's runs
         # have speed, distance and steps but hold 22-25 speed levels (docs/real-logs.md)
-        unusable = [s for s in skipped if s not in read_skipped]
-        why = (
-            reasons_in_brief(unusable)
-            if unusable
-            else "the paper's models need motion runs with speed, distance and steps in "
-            "their metadata (log-format.md)"
-        )
-        fit_problem = f"none of the {len(rows)} run(s) read can be fitted: {why}"
+        unusable = skipped[len(read_skipped) :]  # fit_gathered puts the unread first
+        if not rows:
+            why = reasons_in_brief(read_skipped) if read_skipped else "no log was given"
+            fit_problem = f"no log could be read: {why}"
+        else:
+            why = (
+                reasons_in_brief(unusable)
+                if unusable
+                else "the paper's models need motion runs with speed, distance and steps in "
+                "their metadata (log-format.md)"
+            )
+            fit_problem = f"none of the {len(rows)} run(s) read can be fitted: {why}"
     diagnosis = diagnosis_problem = None
     if fit is not None:
         try:

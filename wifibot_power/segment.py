@@ -169,9 +169,6 @@ class SpeedParams:
     refine_s: float = 0.06
     #: and moved only when the power jump there exceeds this many noise sd (of a block)
     refine_z: float = 5.0
-    #: an idle phase holding power well above standstill for longer than this [s] (and two
-    #: blocks) is doubted: the drive pushing without the wheels turning
-    pushing_s: float = 0.05
 
 
 @dataclass(frozen=True)
@@ -395,7 +392,6 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     moving_floor = max(floor, params.moving_fraction * top)
     edge_ms = 1000.0 * ends * block_dt
     doubts = _kinematic_doubts(run, end_speeds, edge_ms, moving_floor, motions)
-    doubts += _pushing_idles(phases, y, block, block_dt, sigma_b, params)
     return Segmentation(run.meta.run_id, tuple(phases), (), tuple(doubts))
 
 
@@ -425,48 +421,6 @@ def _kinematic_doubts(
             f"the speed column shows {len(motions)} motion(s) between standstills, the "
             f"metadata says {run.meta.steps} step(s)"
         )
-    return doubts
-
-
-def _pushing_idles(
-    phases: list[Phase],
-    y: np.ndarray,
-    block: int,
-    block_dt: float,
-    sigma_b: float,
-    params: SpeedParams,
-) -> list[str]:
-    """Idle phases (the speed reads standstill) that hold power well above standstill's,
-    on the block means `y` (`block` samples of `block_dt` s each, noise sd `sigma_b`).
-
-    The standing level is the lowest of the idle phases' median powers; "well above" is,
-    as from power alone (`_motion_doubts`, test 2), clear of `motion_z` noise sd, a fifth
-    of the motion's swing (median cruise power above it) and `min_excess_W`; for longer
-    than `pushing_s` and two blocks (a boundary may be a sample off on either side). An
-    F1/10 car's log (docs/real-logs.md) holds 0.1-1.5 s stretches at 15-54 W, most with
-    the motor at its 60 A current limit and the speed at 0.04 m/s: the drive pushing
-    without the wheels turning, which an idle level must not take in.
-    """
-    idles = [p for p in phases if p.phase == "idle"]
-    cruises = [p for p in phases if p.phase == "cruise"]
-    if len(idles) < 2 or not cruises:
-        return []
-    spans = [y[p.i_start // block : max(p.i_end // block, p.i_start // block + 1)] for p in idles]
-    standing_W = min(float(median(values)) for values in spans)
-    swing_W = float(median(np.array([p.mean_power_W for p in cruises]))) - standing_W
-    motion = MotionParams()
-    on_W = standing_W + max(motion.motion_z * sigma_b, 0.2 * swing_W, motion.min_excess_W)
-    doubts = []
-    for p, values in zip(idles, spans, strict=True):
-        above = int(np.count_nonzero(values > on_W))
-        if above >= 2 and above * block_dt > params.pushing_s:
-            doubts.append(
-                f"the idle of step {p.step} ({p.t_start_s:.3f}-{p.t_end_s:.3f} s) holds "
-                f"{above * block_dt:.2f} s of power well above standstill (mean "
-                f"{p.mean_power_W - standing_W:.3g} W over it) while the speed reads "
-                "standing: the drive pushing without the wheels turning (stalled, against "
-                "an obstacle), or a speed sensor blind at low speed?"
-            )
     return doubts
 
 
