@@ -62,7 +62,7 @@ def test_cruises_too_short_to_show_the_line_are_not_counted() -> None:
     assert evidence.passes
     assert evidence.parameters["cruises_showable"] == 8 + counted
     assert checks[MOST] and all(checks.values()), checks
-    assert "(6 too short to show it not counted)" in evidence.summary
+    assert "(6 too short to show it, not counted)" in evidence.summary
     assert RIPPLE.estimate(runs, {}, None) is not None
 
 
@@ -102,7 +102,7 @@ def test_a_ripple_on_mostly_one_metre_steps_is_named(stop_and_go) -> None:
     assert finding.estimate["hz_per_mps"] == pytest.approx(HZ_PER_MPS, rel=0.005)
     assert not result.unexplained
     assert finding.estimate["cruises_found"] == 6  # the 6 m runs
-    assert "(12 too short to show it not counted)" in finding.summary
+    assert "(12 too short to show it, not counted)" in finding.summary
 
 
 def test_the_figure_draws_the_lines_the_evidence_counts() -> None:

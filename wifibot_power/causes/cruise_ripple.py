@@ -86,7 +86,7 @@ class CruiseRipple(Cause):
         n = int(showable.sum())
         p_value = binomial_at_least(k, n, RUN_ALPHA)
         short = len(analysed) - n
-        not_counted = f" ({short} too short to show it not counted)" if short else ""
+        not_counted = f" ({short} too short to show it, not counted)" if short else ""
         if scaling is None:
             return Evidence(
                 self.name,
