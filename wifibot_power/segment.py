@@ -130,6 +130,12 @@ class MotionParams:
     #: noise and twice the scatter within them, and fit better than one line) holds two
     #: levels
     level_fraction: float = 0.25
+    #: doubts of a stop the ripple hid (`_hidden_stop_doubts`): a wavy cruise's last
+    #: `max_decel_wavy_s` off its carried-on ripple by more than this times the rms of the
+    #: ripple's fit before it (twice: the two-levels test's "twice the scatter"); an idle
+    #: whose start stands above its level by more than this many sd of the stretch's mean
+    hidden_stop_ratio: float = 2.0
+    hidden_stop_z: float = 6.0
 
 
 @dataclass(frozen=True)
@@ -730,6 +736,7 @@ def _motion_doubts(
                     f"({start_W:.3g} W at its start, {end_W:.3g} W at its end): a steady "
                     "stretch labelled decel?"
                 )
+    doubts += _hidden_stop_doubts(y10, sigma10, spans, when, name_of, params)
     # power steps where the phase model has no boundary
     w = 5
     if m > 2 * w + 2:
@@ -766,6 +773,144 @@ def _motion_doubts(
             f"found {steps_found} step(s) separated by idle, the metadata says {run.meta.steps}"
         )
     return doubts
+
+
+def _hidden_stop_doubts(
+    y10: np.ndarray,
+    sigma10: float,
+    spans: list[tuple[int, int, str, int]],
+    when: Callable[[int], float],
+    name_of: Callable[[str, int], str],
+    params: MotionParams,
+) -> list[str]:
+    """Stops a ripple may have hidden (docs/segmentation.md, "A stop hidden by the
+    ripple"), on the 10 ms means `y10` (noise sd `sigma10`) of the phases `spans`.
+
+    - A wavy cruise that runs straight into idle (no stop found): its ripple (a line and
+      the sinusoid that fits it best, `_ripple_continuation`) is fitted on the cruise but
+      its last `max_decel_wavy_s` (or third), and carried on over that tail. Where the
+      cruise really held on to the end, the tail scatters about the carried-on ripple as
+      the fitted part does about its fit; a stop inside it (power drops, then falls
+      towards idle, while the ripple fades with the speed) does not. Doubted when the
+      tail's rms off the ripple exceeds `hidden_stop_ratio` times the fitted part's
+      (and noise's).
+    - An idle after a step: power that stands above the idle's own median from its start
+      (the drive still on: a stop labelled idle) by more than `hidden_stop_z` noise sd of
+      the stretch's mean past its first 50 ms (the tolerance of a boundary; a cruise's
+      first and last 50 ms are left out alike).
+    """
+    doubts: list[str] = []
+    dt_ms = 1000.0 * (when(1) - when(0))
+    # a boundary within 50 ms is right (issue 12): the ends of each phase are left out
+    guard = max(1, round(50.0 / dt_ms))
+    for k, (a, b, name, step) in enumerate(spans):
+        following = spans[k + 1][2] if k + 1 < len(spans) else None
+        if name == "cruise" and following == "idle" and b - a - 2 * guard >= 30:
+            values = y10[a + guard : b - guard]
+            if not _wavy_means(values, sigma10):
+                continue
+            n = values.size
+            tail = min(max(1, round(params.max_decel_wavy_s * 1000.0 / dt_ms)), n // 3)
+            fitted = _ripple_continuation(values, n - tail)
+            if fitted is None:
+                continue  # under two cycles of ripple before the tail: no telling
+            carried, fit_rms_W = fitted
+            off = values[n - tail :] - carried[n - tail :]
+            tail_rms_W = float(np.sqrt(np.einsum("i,i->", off, off) / tail))
+            if tail_rms_W > params.hidden_stop_ratio * max(fit_rms_W, sigma10):
+                doubts.append(
+                    f"{name_of(name, step)} ends off its own ripple: over its last "
+                    f"{tail * dt_ms / 1000.0:.2f} s power is {tail_rms_W:.3g} W rms off the "
+                    f"ripple fitted before ({fit_rms_W:.3g} W there): a stop the ripple hid?"
+                )
+        elif name == "idle" and step >= 1 and b - a >= 4 * guard:
+            level_W = median(y10[a:b])
+            values = y10[a + guard : b]  # past the 50 ms a boundary may be off
+            excess = np.cumsum(values - level_W)
+            count = np.arange(1, values.size + 1, dtype=np.float64)
+            z = excess / (sigma10 * np.sqrt(count) + 1e-12)
+            i = int(np.argmax(z))
+            if z[i] > params.hidden_stop_z:
+                doubts.append(
+                    f"{name_of(name, step)} stands {excess[i] / count[i]:.3g} W above its own "
+                    f"level from {when(a):.3f} s for {(count[i] + guard) * dt_ms / 1000.0:.2f} "
+                    "s: the drive still on, a stop labelled idle?"
+                )
+    return doubts
+
+
+def _wavy_means(values: np.ndarray, sigma10: float) -> bool:
+    """Whether 10 ms means wander around their trend line more than noise (rms off it
+    above max(3 sd, 0.1 W)): `_wavy`'s test."""
+    slope, intercept = _line(values)
+    residual = values - (intercept + slope * np.arange(values.size, dtype=np.float64))
+    return _std(residual) > max(3.0 * sigma10, 0.1)
+
+
+def _ripple_continuation(values: np.ndarray, fit_n: int) -> tuple[np.ndarray, float] | None:
+    """A line plus one sinusoid fitted (least squares) to `values[:fit_n]`, evaluated over
+    all of `values`, and the rms of the fit's residual; None when the fitted part holds
+    under `_RIPPLE_CYCLES` cycles of it (a fraction of a cycle fits, but does not
+    carry on: on the default grid's 1 m steps at 0.7 m/s, 0.75 of a cycle carried on
+    0.3 s was 4 times its fit's rms off with no stop).
+
+    The sinusoid's frequency: the strongest peak of the periodogram of the detrended means
+    (zero-padded 4x, the peak interpolated by a parabola), then refined by Gauss-Newton
+    steps on all five parameters (a phase error over the carried-on tail grows with the
+    frequency's error). Normal equations by `einsum` (no BLAS threads) in a centred,
+    scaled time u in [-1/2, 1/2) over the fitted part.
+    """
+    u = (np.arange(values.size, dtype=np.float64) - (fit_n - 1) / 2.0) / fit_n
+    uf, yf = u[:fit_n], values[:fit_n]
+    slope, intercept = _line(yf)
+    detrended = yf - (intercept + slope * np.arange(fit_n, dtype=np.float64))
+    pad = 4 * fit_n
+    spectrum = np.abs(np.fft.rfft(detrended, pad))
+    spectrum[0] = 0.0
+    peak = int(np.argmax(spectrum))
+    if 1 <= peak < spectrum.size - 1:
+        left, mid, right = spectrum[peak - 1 : peak + 2]
+        curve = left - 2.0 * mid + right
+        shift = 0.5 * (left - right) / curve if curve < 0 else 0.0
+        peak_f = peak + shift
+    else:
+        peak_f = float(peak)
+    omega = 2.0 * np.pi * peak_f / pad * fit_n  # radians per unit of u
+    if omega < 2.0 * np.pi * _RIPPLE_CYCLES:
+        return None
+    for _ in range(_RIPPLE_ITERATIONS):
+        sin, cos = np.sin(omega * uf), np.cos(omega * uf)
+        coef = _lsq((np.ones(fit_n), uf, sin, cos), yf)
+        d_omega = uf * (coef[2] * cos - coef[3] * sin)
+        step = _lsq((np.ones(fit_n), uf, sin, cos, d_omega), yf)[4]
+        if not np.isfinite(step):
+            break
+        omega += step
+    sin_all, cos_all = np.sin(omega * u), np.cos(omega * u)
+    columns = (np.ones(fit_n), uf, sin_all[:fit_n], cos_all[:fit_n])
+    coef = _lsq(columns, yf)
+    fitted = coef[0] + coef[1] * u + coef[2] * sin_all + coef[3] * cos_all
+    if not omega >= 2.0 * np.pi * _RIPPLE_CYCLES:  # refined below two cycles (or NaN)
+        return None
+    resid = yf - fitted[:fit_n]
+    return fitted, float(np.sqrt(np.einsum("i,i->", resid, resid) / fit_n))
+
+
+#: Gauss-Newton steps of the ripple's frequency (`_ripple_continuation`), and the fewest
+#: cycles of it the fitted part must hold
+_RIPPLE_ITERATIONS = 3
+_RIPPLE_CYCLES = 2.0
+
+
+def _lsq(columns: tuple[np.ndarray, ...], y: np.ndarray) -> np.ndarray:
+    """Least-squares coefficients of `y` on `columns` (normal equations, `einsum`: no BLAS
+    threads, see changepoint.block_means); NaN where the columns are degenerate."""
+    design = np.stack(columns)
+    gram = np.einsum("ij,kj->ik", design, design)
+    try:
+        return np.linalg.solve(gram, np.einsum("ij,j->i", design, y))
+    except np.linalg.LinAlgError:
+        return np.full(len(columns), np.nan)
 
 
 def _longest_runs(mask: np.ndarray, spans: list[tuple[int, int]]) -> list[tuple[int, int]]:
