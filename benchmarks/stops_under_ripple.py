@@ -11,7 +11,7 @@ when `Segmentation.doubts` is empty. The same grid without `decel_phase` (`--no-
 counts **false doubts**: doubts on runs whose phases are all within 50 ms of the truth.
 
     .venv/bin/python benchmarks/stops_under_ripple.py [--seeds 1-4] [--no-stop] [--ten-steps]
-        [--list]
+        [--stops 0.3,0.5,1] [--before REV] [--list]
 """
 
 from __future__ import annotations
@@ -20,6 +20,8 @@ import argparse
 import itertools
 import multiprocessing
 import sys
+import tempfile
+from pathlib import Path
 
 from wifibot_power.segment import segment_run
 from wifibot_power.simulate import SimConfig, realism, simulate_runs
@@ -27,6 +29,8 @@ from wifibot_power.simulate import SimConfig, realism, simulate_runs
 RIPPLES_W = (0.5, 1.0, 2.0)
 STOPS_S = (0.3, 0.5, 1.0)
 SPEEDS_MPS = (0.1, 0.2, 0.3)
+#: the segmenter measured (`--before REV` swaps in that revision's, as segment_speed.py does)
+SEGMENT = segment_run
 #: a boundary further than this from the truth is wrong (issue 12's tolerance) [s]
 TOLERANCE_S = 0.05
 
@@ -68,7 +72,7 @@ def case(args: tuple[str, float, float | None, int, bool]) -> list[dict]:
     )
     out = []
     for sim in simulate_runs(config):
-        seg = segment_run(sim.run)
+        seg = SEGMENT(sim.run)
         truth = _bounds(sim.truth["phases"])
         found = _bounds([p.as_dict() for p in seg.phases])
         steps = sorted({k for k, name in truth if name == "accel"})
@@ -124,16 +128,26 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-stop", action="store_true", help="the grid without decel_phase")
     parser.add_argument("--ten-steps", action="store_true", help="also 10 m in ten 1 m steps")
     parser.add_argument("--list", action="store_true", help="list every missed or doubted run")
+    parser.add_argument("--stops", help="stop lengths [s], comma-separated (0.3,0.5,1)")
+    parser.add_argument("--before", help="measure the segmenter of this git revision")
     parser.add_argument("--jobs", type=int, default=2)
     args = parser.parse_args(argv)
-    stops = (None,) if args.no_stop else STOPS_S
+    stops = tuple(float(x) for x in args.stops.split(",")) if args.stops else STOPS_S
+    stops = (None,) if args.no_stop else stops
     cells = list(
         itertools.product(
             ("lab", "field"), RIPPLES_W, stops, seeds_of(args.seeds), (args.ten_steps,)
         )
     )
-    with multiprocessing.Pool(args.jobs) as pool:
-        rows = [r for cell in pool.map(case, cells) for r in cell]
+    global SEGMENT
+    with tempfile.TemporaryDirectory() as tmp:
+        if args.before:
+            sys.path.insert(0, str(Path(__file__).resolve().parent))
+            from segment_speed import load_before
+
+            SEGMENT = load_before(args.before, Path(tmp)).segment_run
+        with multiprocessing.get_context("fork").Pool(args.jobs) as pool:
+            rows = [r for cell in pool.map(case, cells) for r in cell]
     runs = len(rows)
     stops_total = sum(r["steps"] for r in rows) if not args.no_stop else 0
     missed = [r for r in rows if r["missed"]]
