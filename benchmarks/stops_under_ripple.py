@@ -201,7 +201,7 @@ def main(argv: list[str] | None = None) -> int:
                     f"{r['level']:5} seed {r['seed']} {r['run_id']:28} v {r['speed_mps']} "
                     f"d {r['distance_m']} ripple {r['ripple_W']} stop {r['stop_s']} "
                     f"missed {r['missed']} wrong {r['wrong']} doubts {len(r['doubts'])}: "
-                    + " | ".join(d[:60] for d in r["doubts"][-2:])
+                    + " | ".join(d[:70] for d in r["doubts"] if _is_hidden_stop(d))
                 )
     return 0
 

@@ -136,6 +136,9 @@ class MotionParams:
     #: whose start stands above its level by more than this many sd of the stretch's mean
     hidden_stop_ratio: float = 2.0
     hidden_stop_z: float = 6.0
+    #: the ripple is fitted over up to this long before the tail [s] (2 cycles at 0.1 m/s
+    #: of the paper's robot: 8.2 s)
+    hidden_stop_fit_s: float = 10.0
 
 
 @dataclass(frozen=True)
@@ -811,13 +814,22 @@ def _hidden_stop_doubts(
                 continue
             n = values.size
             tail = min(max(1, round(params.max_decel_wavy_s * 1000.0 / dt_ms)), n // 3)
-            fitted = _ripple_continuation(values, n - tail)
+            # fitted over up to `hidden_stop_fit_s` before the tail, on means of `group`
+            # 10 ms means (at most `_RIPPLE_POINTS` of them: its cost), the tail alike
+            fit = min(n - tail, max(1, round(params.hidden_stop_fit_s * 1000.0 / dt_ms)))
+            group = -(-(fit + tail) // _RIPPLE_POINTS)
+            fit_g, tail_g = fit // group, tail // group  # (fit + tail) // group <= 256
+            if fit_g < 8 or tail_g < 1:
+                continue
+            means = block_means(values[n - (fit_g + tail_g) * group :], group)
+            fitted = _ripple_continuation(means, fit_g)
             if fitted is None:
                 continue  # under two cycles of ripple before the tail: no telling
             carried, fit_rms_W = fitted
-            off = values[n - tail :] - carried[n - tail :]
-            tail_rms_W = float(np.sqrt(np.einsum("i,i->", off, off) / tail))
-            if tail_rms_W > params.hidden_stop_ratio * max(fit_rms_W, sigma10):
+            off = means[fit_g:] - carried[fit_g:]
+            tail_rms_W = float(np.sqrt(np.einsum("i,i->", off, off) / tail_g))
+            noise_W = sigma10 / np.sqrt(group)
+            if tail_rms_W > params.hidden_stop_ratio * max(fit_rms_W, noise_W):
                 doubts.append(
                     f"{name_of(name, step)} ends off its own ripple: over its last "
                     f"{tail * dt_ms / 1000.0:.2f} s power is {tail_rms_W:.3g} W rms off the "
@@ -848,69 +860,77 @@ def _wavy_means(values: np.ndarray, sigma10: float) -> bool:
 
 
 def _ripple_continuation(values: np.ndarray, fit_n: int) -> tuple[np.ndarray, float] | None:
-    """A line plus one sinusoid fitted (least squares) to `values[:fit_n]`, evaluated over
-    all of `values`, and the rms of the fit's residual; None when the fitted part holds
-    under `_RIPPLE_CYCLES` cycles of it (a fraction of a cycle fits, but does not
-    carry on: on the default grid's 1 m steps at 0.7 m/s, 0.75 of a cycle carried on
+    """A line plus the ripple's sinusoid fitted (least squares) to `values[:fit_n]`,
+    evaluated over all of `values`, and the rms of the fit's residual; None when the fitted
+    part holds under `_RIPPLE_CYCLES` cycles of it (a fraction of a cycle fits, but does
+    not carry on: on the default grid's 1 m steps at 0.7 m/s, 0.75 of a cycle carried on
     0.3 s was 4 times its fit's rms off with no stop).
 
-    The sinusoid's frequency: the strongest peak of the periodogram of the detrended means
-    (zero-padded 4x, the peak interpolated by a parabola), then refined by Gauss-Newton
-    steps on all five parameters (a phase error over the carried-on tail grows with the
-    frequency's error). Normal equations by `einsum` (no BLAS threads) in a centred,
-    scaled time u in [-1/2, 1/2) over the fitted part.
+    The frequency ω₀: the strongest peak of the periodogram of the detrended values
+    (zero-padded 8x, the peak interpolated by a parabola). The fit is linear in the
+    columns 1, u, sin ω₀u, cos ω₀u, u sin ω₀u, u cos ω₀u (u: the time centred and scaled to
+    [-1/2, 1/2) over the fitted part): the last two are the first-order terms of a
+    frequency a little off ω₀ (a Gauss-Newton step in ω, taken at once). Normal equations
+    by `einsum`: no BLAS threads (see changepoint.block_means).
     """
-    u = (np.arange(values.size, dtype=np.float64) - (fit_n - 1) / 2.0) / fit_n
-    uf, yf = u[:fit_n], values[:fit_n]
-    slope, intercept = _line(yf)
-    detrended = yf - (intercept + slope * np.arange(fit_n, dtype=np.float64))
-    pad = 4 * fit_n
+    n = values.size
+    slope, intercept = _line(values[:fit_n])
+    detrended = values[:fit_n] - (intercept + slope * np.arange(fit_n, dtype=np.float64))
+    pad = 8 * fit_n
     spectrum = np.abs(np.fft.rfft(detrended, pad))
     spectrum[0] = 0.0
-    peak = int(np.argmax(spectrum))
+    peak = int(spectrum.argmax())
     if 1 <= peak < spectrum.size - 1:
         left, mid, right = spectrum[peak - 1 : peak + 2]
         curve = left - 2.0 * mid + right
-        shift = 0.5 * (left - right) / curve if curve < 0 else 0.0
-        peak_f = peak + shift
+        peak_f = peak + (0.5 * (left - right) / curve if curve < 0 else 0.0)
     else:
         peak_f = float(peak)
-    omega = 2.0 * np.pi * peak_f / pad * fit_n  # radians per unit of u
-    if omega < 2.0 * np.pi * _RIPPLE_CYCLES:
+    cycles = peak_f * fit_n / pad  # in the fitted part
+    if not cycles >= _RIPPLE_CYCLES:
         return None
-    for _ in range(_RIPPLE_ITERATIONS):
-        sin, cos = np.sin(omega * uf), np.cos(omega * uf)
-        coef = _lsq((np.ones(fit_n), uf, sin, cos), yf)
-        d_omega = uf * (coef[2] * cos - coef[3] * sin)
-        step = _lsq((np.ones(fit_n), uf, sin, cos, d_omega), yf)[4]
-        if not np.isfinite(step):
-            break
-        omega += step
-    sin_all, cos_all = np.sin(omega * u), np.cos(omega * u)
-    columns = (np.ones(fit_n), uf, sin_all[:fit_n], cos_all[:fit_n])
-    coef = _lsq(columns, yf)
-    fitted = coef[0] + coef[1] * u + coef[2] * sin_all + coef[3] * cos_all
-    if not omega >= 2.0 * np.pi * _RIPPLE_CYCLES:  # refined below two cycles (or NaN)
+    u = (np.arange(n, dtype=np.float64) - (fit_n - 1) / 2.0) / fit_n
+    angle = (2.0 * np.pi * cycles) * u
+    design = np.empty((6, n))
+    design[0] = 1.0
+    design[1] = u
+    np.sin(angle, out=design[2])
+    np.cos(angle, out=design[3])
+    np.multiply(u, design[2], out=design[4])
+    np.multiply(u, design[3], out=design[5])
+    coef = _normal_solve(design[:, :fit_n], values[:fit_n])
+    # the frequency's correction d from the first-order terms (c u sin + e u cos of
+    # a sin((w0 + d) u) + b cos((w0 + d) u) is d u (a cos - b sin)): the least-squares d
+    # of c = -b d, e = a d; then the line and sinusoid alone at w0 + d, so that the
+    # carried-on ripple keeps its amplitude (the first-order terms grow with u)
+    a_W, b_W, c_W, e_W = coef[2:]
+    power = a_W * a_W + b_W * b_W
+    if not power > 0.0:
         return None
-    resid = yf - fitted[:fit_n]
+    angle *= 1.0 + (a_W * e_W - b_W * c_W) / power / (2.0 * np.pi * cycles)
+    np.sin(angle, out=design[2])
+    np.cos(angle, out=design[3])
+    coef = _normal_solve(design[:4, :fit_n], values[:fit_n])
+    fitted = np.einsum("i,ij->j", coef, design[:4])
+    resid = values[:fit_n] - fitted[:fit_n]
     return fitted, float(np.sqrt(np.einsum("i,i->", resid, resid) / fit_n))
 
 
-#: Gauss-Newton steps of the ripple's frequency (`_ripple_continuation`), and the fewest
-#: cycles of it the fitted part must hold
-_RIPPLE_ITERATIONS = 3
-_RIPPLE_CYCLES = 2.0
-
-
-def _lsq(columns: tuple[np.ndarray, ...], y: np.ndarray) -> np.ndarray:
-    """Least-squares coefficients of `y` on `columns` (normal equations, `einsum`: no BLAS
-    threads, see changepoint.block_means); NaN where the columns are degenerate."""
-    design = np.stack(columns)
-    gram = np.einsum("ij,kj->ik", design, design)
+def _normal_solve(design: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Least-squares coefficients of `y` on the rows of `design` (normal equations by
+    `einsum`: no BLAS threads); NaN where the rows are degenerate."""
     try:
-        return np.linalg.solve(gram, np.einsum("ij,j->i", design, y))
+        return np.linalg.solve(
+            np.einsum("ij,kj->ik", design, design), np.einsum("ij,j->i", design, y)
+        )
     except np.linalg.LinAlgError:
-        return np.full(len(columns), np.nan)
+        return np.full(design.shape[0], np.nan)
+
+
+#: the fewest cycles of the ripple the fitted part must hold (`_ripple_continuation`), and
+#: the most means it is fitted on (`_hidden_stop_doubts` averages longer cruises to these)
+_RIPPLE_CYCLES = 2.0
+_RIPPLE_POINTS = 256
 
 
 def _longest_runs(mask: np.ndarray, spans: list[tuple[int, int]]) -> list[tuple[int, int]]:
