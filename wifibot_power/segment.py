@@ -189,6 +189,7 @@ class _Step:
     t1: int  # accel end = cruise start
     t2: int  # cruise end (= t3 without a stop phase)
     t3: int  # motion end
+    wavy: bool = False  # [t1, motion end) wavy (a ripple), before any stop was split off
 
 
 def segment_run(
@@ -604,7 +605,10 @@ def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
             speed = run.meta.speed_mps if name == "cruise" else None
             phases.append(_phase(run, number, name, i_start, i_end, speed))
     spikes = tuple(_start_spikes(run, y, block, sigma_b, steps))
-    doubts = _motion_doubts(run, y10, group, sigma10, block_dt, bounds, len(steps), params)
+    wavy = {number for number, st in enumerate(steps, start=1) if st.wavy}
+    doubts = _motion_doubts(
+        run, y10, group, sigma10, block_dt, bounds, len(steps), params, wavy_steps=wavy
+    )
     return Segmentation(run.meta.run_id, tuple(phases), spikes, tuple(doubts))
 
 
@@ -617,6 +621,7 @@ def _motion_doubts(
     bounds: list[tuple[int, int, str, int]],
     steps_found: int,
     params: MotionParams,
+    wavy_steps: set[int] | None = None,
 ) -> list[str]:
     """Why the phases found from power alone may not describe the run (plain sentences);
     empty when the phase model fits the trace.
@@ -739,7 +744,7 @@ def _motion_doubts(
                     f"({start_W:.3g} W at its start, {end_W:.3g} W at its end): a steady "
                     "stretch labelled decel?"
                 )
-    doubts += _hidden_stop_doubts(y10, sigma10, spans, when, name_of, params)
+    doubts += _hidden_stop_doubts(y10, sigma10, spans, when, name_of, params, wavy_steps)
     # power steps where the phase model has no boundary
     w = 5
     if m > 2 * w + 2:
@@ -785,13 +790,17 @@ def _hidden_stop_doubts(
     when: Callable[[int], float],
     name_of: Callable[[str, int], str],
     params: MotionParams,
+    wavy_steps: set[int] | None = None,
 ) -> list[str]:
     """Stops a ripple may have hidden (docs/segmentation.md, "A stop hidden by the
     ripple"), on the 10 ms means `y10` (noise sd `sigma10`) of the phases `spans`.
 
-    - A wavy cruise that runs straight into idle (no stop found): its ripple (a line and
-      the sinusoid that fits it best, `_ripple_continuation`) is fitted on the cruise but
-      its last `max_decel_wavy_s` (or third), and carried on over that tail. Where the
+    - A wavy cruise (`wavy_steps`: the steps whose search found the motion after the
+      acceleration wavy, any stop in it included; by default the cruise's 10 ms means
+      tested as `_wavy` does) that runs straight into idle (no stop
+      found): its ripple (a line and the sinusoid that fits it best,
+      `_ripple_continuation`) is fitted on the cruise but its last `max_decel_wavy_s` (or
+      third), and carried on over that tail. Where the
       cruise really held on to the end, the tail scatters about the carried-on ripple as
       the fitted part does about its fit; a stop inside it (power drops, then falls
       towards idle, while the ripple fades with the speed) does not. Doubted when the
@@ -810,7 +819,10 @@ def _hidden_stop_doubts(
         following = spans[k + 1][2] if k + 1 < len(spans) else None
         if name == "cruise" and following == "idle" and b - a - 2 * guard >= 30:
             values = y10[a + guard : b - guard]
-            if not _wavy_means(values, sigma10):
+            # wavy as the step's search first found it (the cruise with any stop it hides),
+            # else by the same test here
+            wavy = step in wavy_steps if wavy_steps is not None else _wavy_means(values, sigma10)
+            if not wavy:
                 continue
             n = values.size
             tail = min(max(1, round(params.max_decel_wavy_s * 1000.0 / dt_ms)), n // 3)
@@ -826,7 +838,7 @@ def _hidden_stop_doubts(
             if fitted is None:
                 continue  # under two cycles of ripple before the tail: no telling
             carried, fit_rms_W = fitted
-            off = means[fit_g:] - carried[fit_g:]
+            off = means[fit_g:] - carried
             tail_rms_W = float(np.sqrt(np.einsum("i,i->", off, off) / tail_g))
             noise_W = sigma10 / np.sqrt(group)
             if tail_rms_W > params.hidden_stop_ratio * max(fit_rms_W, noise_W):
@@ -860,71 +872,65 @@ def _wavy_means(values: np.ndarray, sigma10: float) -> bool:
 
 
 def _ripple_continuation(values: np.ndarray, fit_n: int) -> tuple[np.ndarray, float] | None:
-    """A line plus the ripple's sinusoid fitted (least squares) to `values[:fit_n]`,
-    evaluated over all of `values`, and the rms of the fit's residual; None when the fitted
-    part holds under `_RIPPLE_CYCLES` cycles of it (a fraction of a cycle fits, but does
-    not carry on: on the default grid's 1 m steps at 0.7 m/s, 0.75 of a cycle carried on
-    0.3 s was 4 times its fit's rms off with no stop).
+    """A line plus the ripple's sinusoid fitted (least squares) to `values[:fit_n]`, carried
+    on over `values[fit_n:]` (returned), and the rms of the fit's residual; None when the
+    fitted part holds under `_RIPPLE_CYCLES` cycles of it (a fraction of a cycle fits, but
+    does not carry on: on the default grid's 1 m steps at 0.7 m/s, 0.75 of a cycle carried
+    on 0.3 s was 4 times its fit's rms off with no stop).
 
-    The frequency ω₀: the strongest peak of the periodogram of the detrended values
-    (zero-padded 8x, the peak interpolated by a parabola). The fit is linear in the
-    columns 1, u, sin ω₀u, cos ω₀u, u sin ω₀u, u cos ω₀u (u: the time centred and scaled to
-    [-1/2, 1/2) over the fitted part): the last two are the first-order terms of a
-    frequency a little off ω₀ (a Gauss-Newton step in ω, taken at once). Normal equations
-    by `einsum`: no BLAS threads (see changepoint.block_means).
+    The frequency w0: the strongest peak of the periodogram of the detrended values
+    (zero-padded 4x, the peak interpolated by a parabola). The fit is linear in the
+    columns 1, u, sin w0 u, cos w0 u, u sin w0 u, u cos w0 u (u: the time centred and
+    scaled to [-1/2, 1/2) over the fitted part): the last two are the first-order terms
+    of a frequency a little off w0, a sin((w0 + d) u) + b cos((w0 + d) u) ~ ... +
+    d u (a cos w0 u - b sin w0 u), so d is read off their coefficients c = -b d, e = a d
+    (least squares) and the line and the sinusoid at w0 + d are carried on, its amplitude
+    held (the first-order terms themselves grow with u). One 6 x 6 solve: the cost is
+    numpy's per call, not the few hundred means. Normal equations by `einsum`: no BLAS
+    threads (see changepoint.block_means).
     """
-    n = values.size
-    slope, intercept = _line(values[:fit_n])
-    detrended = values[:fit_n] - (intercept + slope * np.arange(fit_n, dtype=np.float64))
-    pad = 8 * fit_n
-    spectrum = np.abs(np.fft.rfft(detrended, pad))
+    fit = values[:fit_n]
+    x = np.arange(values.size, dtype=np.float64) - (fit_n - 1) / 2.0
+    x_fit = x[:fit_n]
+    mean_W = float(np.add.reduce(fit)) / fit_n
+    slope = float(np.einsum("i,i->", x_fit, fit)) / (fit_n * (fit_n * fit_n - 1) / 12.0)
+    spectrum = np.abs(np.fft.rfft(fit - mean_W - slope * x_fit, 4 * fit_n))
     spectrum[0] = 0.0
     peak = int(spectrum.argmax())
+    peak_f = float(peak)
     if 1 <= peak < spectrum.size - 1:
         left, mid, right = spectrum[peak - 1 : peak + 2]
         curve = left - 2.0 * mid + right
-        peak_f = peak + (0.5 * (left - right) / curve if curve < 0 else 0.0)
-    else:
-        peak_f = float(peak)
-    cycles = peak_f * fit_n / pad  # in the fitted part
+        if curve < 0:
+            peak_f += 0.5 * (left - right) / curve
+    cycles = peak_f / 4.0  # in the fitted part
     if not cycles >= _RIPPLE_CYCLES:
         return None
-    u = (np.arange(n, dtype=np.float64) - (fit_n - 1) / 2.0) / fit_n
-    angle = (2.0 * np.pi * cycles) * u
-    design = np.empty((6, n))
+    u = x / fit_n
+    omega = 2.0 * np.pi * cycles  # radians per unit of u
+    design = np.empty((6, fit_n))
     design[0] = 1.0
-    design[1] = u
-    np.sin(angle, out=design[2])
-    np.cos(angle, out=design[3])
-    np.multiply(u, design[2], out=design[4])
-    np.multiply(u, design[3], out=design[5])
-    coef = _normal_solve(design[:, :fit_n], values[:fit_n])
-    # the frequency's correction d from the first-order terms (c u sin + e u cos of
-    # a sin((w0 + d) u) + b cos((w0 + d) u) is d u (a cos - b sin)): the least-squares d
-    # of c = -b d, e = a d; then the line and sinusoid alone at w0 + d, so that the
-    # carried-on ripple keeps its amplitude (the first-order terms grow with u)
-    a_W, b_W, c_W, e_W = coef[2:]
-    power = a_W * a_W + b_W * b_W
-    if not power > 0.0:
-        return None
-    angle *= 1.0 + (a_W * e_W - b_W * c_W) / power / (2.0 * np.pi * cycles)
-    np.sin(angle, out=design[2])
-    np.cos(angle, out=design[3])
-    coef = _normal_solve(design[:4, :fit_n], values[:fit_n])
-    fitted = np.einsum("i,ij->j", coef, design[:4])
-    resid = values[:fit_n] - fitted[:fit_n]
-    return fitted, float(np.sqrt(np.einsum("i,i->", resid, resid) / fit_n))
-
-
-def _normal_solve(design: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Least-squares coefficients of `y` on the rows of `design` (normal equations by
-    `einsum`: no BLAS threads); NaN where the rows are degenerate."""
+    design[1] = u[:fit_n]
+    np.sin(omega * design[1], out=design[2])
+    np.cos(omega * design[1], out=design[3])
+    np.multiply(design[1], design[2], out=design[4])
+    np.multiply(design[1], design[3], out=design[5])
     try:
-        return np.linalg.solve(
-            np.einsum("ij,kj->ik", design, design), np.einsum("ij,j->i", design, y)
+        coef = np.linalg.solve(
+            np.einsum("ij,kj->ik", design, design), np.einsum("ij,j->i", design, fit)
         )
     except np.linalg.LinAlgError:
-        return np.full(design.shape[0], np.nan)
+        return None
+    resid = fit - np.einsum("i,ij->j", coef, design)
+    a_W, b_W, c_W, e_W = coef[2:]
+    amplitude2 = a_W * a_W + b_W * b_W
+    if not amplitude2 > 0.0:
+        return None
+    omega += (a_W * e_W - b_W * c_W) / amplitude2
+    u_tail = u[fit_n:]
+    angle = omega * u_tail
+    carried = coef[0] + coef[1] * u_tail + a_W * np.sin(angle) + b_W * np.cos(angle)
+    return carried, float(np.sqrt(np.einsum("i,i->", resid, resid) / fit_n))
 
 
 #: the fewest cycles of the ripple the fitted part must hold (`_ripple_continuation`), and
@@ -1128,7 +1134,7 @@ def _locate_step(
     lo = max(t1 + blocks(0.05), b - blocks(params.end_back_s))
     hi = min(next_start - blocks(0.05), b + blocks(params.end_forward_s), y.size)
     # power drops to idle at the end, unless a wavy cruise (ripple) happens to be low there
-    wavy = _wavy(y, sigma_b, t1, b, blocks(0.01))
+    wavy = wavy_at_first = _wavy(y, sigma_b, t1, b, blocks(0.01))
     split = yield (lo, hi, 3 if wavy else 2, 0, min_len, 0 if wavy else -1)
     t3 = split.index if split else b
     t3 = max(t3, t1 + 1)
@@ -1153,7 +1159,7 @@ def _locate_step(
         split = yield (start, stop, 1, 0, min_len, -1)
         t3 = split.index if split else t3
         t2 = yield from _decel_start(y, sigma_b, t1, t3, wavy, blocks, params, min_len)
-    return _Step(t0=t0, t1=t1, t2=t2, t3=t3)
+    return _Step(t0=t0, t1=t1, t2=t2, t3=t3, wavy=wavy_at_first)
 
 
 def _first_strong_drop(
