@@ -834,13 +834,13 @@ def _hidden_stop_doubts(
             if fit_g < 8 or tail_g < 1:
                 continue
             means = block_means(values[n - (fit_g + tail_g) * group :], group)
-            fitted = _ripple_continuation(means, fit_g)
+            noise_W = sigma10 / np.sqrt(group)
+            fitted = _ripple_continuation(means, fit_g, noise_W)
             if fitted is None:
-                continue  # under two cycles of ripple before the tail: no telling
+                continue  # no ripple to carry on, or under two cycles of it: no telling
             carried, fit_rms_W = fitted
             off = means[fit_g:] - carried
             tail_rms_W = float(np.sqrt(np.einsum("i,i->", off, off) / tail_g))
-            noise_W = sigma10 / np.sqrt(group)
             if tail_rms_W > params.hidden_stop_ratio * max(fit_rms_W, noise_W):
                 doubts.append(
                     f"{name_of(name, step)} ends off its own ripple: over its last "
@@ -871,12 +871,18 @@ def _wavy_means(values: np.ndarray, sigma10: float) -> bool:
     return _std(residual) > max(3.0 * sigma10, 0.1)
 
 
-def _ripple_continuation(values: np.ndarray, fit_n: int) -> tuple[np.ndarray, float] | None:
+def _ripple_continuation(
+    values: np.ndarray, fit_n: int, noise_W: float
+) -> tuple[np.ndarray, float] | None:
     """A line plus the ripple's sinusoid fitted (least squares) to `values[:fit_n]`, carried
-    on over `values[fit_n:]` (returned), and the rms of the fit's residual; None when the
+    on over `values[fit_n:]` (returned), and the rms of the fit's residual. None when the
     fitted part holds under `_RIPPLE_CYCLES` cycles of it (a fraction of a cycle fits, but
     does not carry on: on the default grid's 1 m steps at 0.7 m/s, 0.75 of a cycle carried
-    on 0.3 s was 4 times its fit's rms off with no stop).
+    on 0.3 s was 4 times its fit's rms off with no stop), over a quarter of a cycle per
+    value (a sinusoid near the values' Nyquist frequency is noise's), or when the
+    sinusoid's rms is not above max(3 `noise_W`, 0.1 W), `_wavy`'s bar: no ripple to carry
+    on (a noisy cruise at 0.9 m/s, 1.5 W, had an alternating "ripple" fitted to its noise
+    whose continuation stood 2.4 noise sd off).
 
     The frequency w0: the strongest peak of the periodogram of the detrended values
     (zero-padded 4x, the peak interpolated by a parabola). The fit is linear in the
@@ -904,7 +910,7 @@ def _ripple_continuation(values: np.ndarray, fit_n: int) -> tuple[np.ndarray, fl
         if curve < 0:
             peak_f += 0.5 * (left - right) / curve
     cycles = peak_f / 4.0  # in the fitted part
-    if not cycles >= _RIPPLE_CYCLES:
+    if not _RIPPLE_CYCLES <= cycles <= fit_n / 4.0:
         return None
     u = x / fit_n
     omega = 2.0 * np.pi * cycles  # radians per unit of u
@@ -924,7 +930,7 @@ def _ripple_continuation(values: np.ndarray, fit_n: int) -> tuple[np.ndarray, fl
     resid = fit - np.einsum("i,ij->j", coef, design)
     a_W, b_W, c_W, e_W = coef[2:]
     amplitude2 = a_W * a_W + b_W * b_W
-    if not amplitude2 > 0.0:
+    if not np.sqrt(amplitude2 / 2.0) > max(3.0 * noise_W, 0.1):
         return None
     omega += (a_W * e_W - b_W * c_W) / amplitude2
     u_tail = u[fit_n:]
