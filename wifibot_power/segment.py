@@ -811,56 +811,75 @@ def _hidden_stop_doubts(
       the stretch's mean past its first 50 ms (the tolerance of a boundary; a cruise's
       first and last 50 ms are left out alike).
     """
-    doubts: list[str] = []
+    doubts: dict[int, str] = {}  # by span, in span order at the end
     dt_ms = 1000.0 * (when(1) - when(0))
     # a boundary within 50 ms is right (issue 12): the ends of each phase are left out
     guard = max(1, round(50.0 / dt_ms))
+    # the wavy cruises that run straight into idle: their means (of `group` 10 ms means,
+    # at most `_RIPPLE_POINTS`: the cost), fitted part and tail, fitted all at once
+    cruises: list[tuple[int, np.ndarray, int, float, float]] = []
     for k, (a, b, name, step) in enumerate(spans):
         following = spans[k + 1][2] if k + 1 < len(spans) else None
-        if name == "cruise" and following == "idle" and b - a - 2 * guard >= 30:
-            values = y10[a + guard : b - guard]
-            # wavy as the step's search first found it (the cruise with any stop it hides),
-            # else by the same test here
-            wavy = step in wavy_steps if wavy_steps is not None else _wavy_means(values, sigma10)
-            if not wavy:
-                continue
-            n = values.size
-            tail = min(max(1, round(params.max_decel_wavy_s * 1000.0 / dt_ms)), n // 3)
-            # fitted over up to `hidden_stop_fit_s` before the tail, on means of `group`
-            # 10 ms means (at most `_RIPPLE_POINTS` of them: its cost), the tail alike
-            fit = min(n - tail, max(1, round(params.hidden_stop_fit_s * 1000.0 / dt_ms)))
-            group = -(-(fit + tail) // _RIPPLE_POINTS)
-            fit_g, tail_g = fit // group, tail // group  # (fit + tail) // group <= 256
-            if fit_g < 8 or tail_g < 1:
-                continue
-            means = block_means(values[n - (fit_g + tail_g) * group :], group)
-            noise_W = sigma10 / np.sqrt(group)
-            fitted = _ripple_continuation(means, fit_g, noise_W)
-            if fitted is None:
-                continue  # no ripple to carry on, or under two cycles of it: no telling
-            carried, fit_rms_W = fitted
-            off = means[fit_g:] - carried
-            tail_rms_W = float(np.sqrt(np.einsum("i,i->", off, off) / tail_g))
-            if tail_rms_W > params.hidden_stop_ratio * max(fit_rms_W, noise_W):
-                doubts.append(
-                    f"{name_of(name, step)} ends off its own ripple: over its last "
-                    f"{tail * dt_ms / 1000.0:.2f} s power is {tail_rms_W:.3g} W rms off the "
-                    f"ripple fitted before ({fit_rms_W:.3g} W there): a stop the ripple hid?"
-                )
-        elif name == "idle" and step >= 1 and b - a >= 4 * guard:
-            level_W = median(y10[a:b])
-            values = y10[a + guard : b]  # past the 50 ms a boundary may be off
-            excess = np.cumsum(values - level_W)
-            count = np.arange(1, values.size + 1, dtype=np.float64)
-            z = excess / (sigma10 * np.sqrt(count) + 1e-12)
-            i = int(np.argmax(z))
-            if z[i] > params.hidden_stop_z:
-                doubts.append(
-                    f"{name_of(name, step)} stands {excess[i] / count[i]:.3g} W above its own "
-                    f"level from {when(a):.3f} s for {(count[i] + guard) * dt_ms / 1000.0:.2f} "
-                    "s: the drive still on, a stop labelled idle?"
-                )
-    return doubts
+        if name != "cruise" or following != "idle" or b - a - 2 * guard < 30:
+            continue
+        values = y10[a + guard : b - guard]
+        # wavy as the step's search first found it (the cruise with any stop it hides),
+        # else by the same test here
+        wavy = step in wavy_steps if wavy_steps is not None else _wavy_means(values, sigma10)
+        if not wavy:
+            continue
+        n = values.size
+        tail = min(max(1, round(params.max_decel_wavy_s * 1000.0 / dt_ms)), n // 3)
+        # fitted over up to `hidden_stop_fit_s` before the tail
+        fit = min(n - tail, max(1, round(params.hidden_stop_fit_s * 1000.0 / dt_ms)))
+        group = -(-(fit + tail) // _RIPPLE_POINTS)
+        fit_g, tail_g = fit // group, tail // group  # (fit + tail) // group <= 256
+        if fit_g < 8 or tail_g < 1:
+            continue
+        means = block_means(values[n - (fit_g + tail_g) * group :], group)
+        cruises.append((k, means, fit_g, sigma10 / np.sqrt(group), tail * dt_ms / 1000.0))
+    fits = _ripple_continuations([(means, fit_g, noise) for _, means, fit_g, noise, _ in cruises])
+    for (k, means, fit_g, noise_W, tail_s), fitted in zip(cruises, fits, strict=True):
+        if fitted is None:
+            continue  # no ripple to carry on, or under two cycles of it: no telling
+        carried, fit_rms_W = fitted
+        off = means[fit_g:] - carried
+        tail_rms_W = float(np.sqrt(np.einsum("i,i->", off, off) / off.size))
+        if tail_rms_W > params.hidden_stop_ratio * max(fit_rms_W, noise_W):
+            doubts[k] = (
+                f"{name_of('cruise', spans[k][3])} ends off its own ripple: over its last "
+                f"{tail_s:.2f} s power is {tail_rms_W:.3g} W rms off the ripple fitted "
+                f"before ({fit_rms_W:.3g} W there): a stop the ripple hid?"
+            )
+    # the idles after a step, past the 50 ms a boundary may be off: the running mean above
+    # the idle's median from there on, in sd of that mean, all idles in one pass
+    idles = [
+        (k, a, b)
+        for k, (a, b, name, step) in enumerate(spans)
+        if name == "idle" and step >= 1 and b - a >= 4 * guard
+    ]
+    if idles:
+        lengths = np.array([b - a - guard for _, a, b in idles])
+        starts = np.concatenate(([0], np.cumsum(lengths)[:-1]))
+        levels = np.array([median(y10[a:b]) for _, a, b in idles])
+        excess = np.concatenate([y10[a + guard : b] for _, a, b in idles])
+        excess -= np.repeat(levels, lengths)
+        running = np.cumsum(excess)
+        before = np.concatenate(([0.0], running[starts[1:] - 1]))
+        running -= np.repeat(before, lengths)
+        count = np.arange(1, running.size + 1, dtype=np.float64)
+        count -= np.repeat(starts.astype(np.float64), lengths)
+        z = running / (sigma10 * np.sqrt(count) + 1e-12)
+        for j in np.flatnonzero(np.maximum.reduceat(z, starts) > params.hidden_stop_z):
+            k, a, _ = idles[j]
+            i = int(starts[j]) + int(np.argmax(z[starts[j] : starts[j] + lengths[j]]))
+            doubts[k] = (
+                f"{name_of('idle', spans[k][3])} stands {running[i] / count[i]:.3g} W above "
+                f"its own level from {when(a):.3f} s for "
+                f"{(count[i] + guard) * dt_ms / 1000.0:.2f} s: the drive still on, a stop "
+                "labelled idle?"
+            )
+    return [doubts[k] for k in sorted(doubts)]
 
 
 def _wavy_means(values: np.ndarray, sigma10: float) -> bool:
@@ -875,68 +894,110 @@ def _ripple_continuation(
     values: np.ndarray, fit_n: int, noise_W: float
 ) -> tuple[np.ndarray, float] | None:
     """A line plus the ripple's sinusoid fitted (least squares) to `values[:fit_n]`, carried
-    on over `values[fit_n:]` (returned), and the rms of the fit's residual. None when the
-    fitted part holds under `_RIPPLE_CYCLES` cycles of it (a fraction of a cycle fits, but
-    does not carry on: on the default grid's 1 m steps at 0.7 m/s, 0.75 of a cycle carried
-    on 0.3 s was 4 times its fit's rms off with no stop), over a quarter of a cycle per
-    value (a sinusoid near the values' Nyquist frequency is noise's), or when the
-    sinusoid's rms is not above max(3 `noise_W`, 0.1 W), `_wavy`'s bar: no ripple to carry
-    on (a noisy cruise at 0.9 m/s, 1.5 W, had an alternating "ripple" fitted to its noise
-    whose continuation stood 2.4 noise sd off).
+    on over `values[fit_n:]` (returned), and the rms of the fit's residual; None where
+    there is no ripple to carry on (`_ripple_continuations`, of one window)."""
+    return _ripple_continuations([(values, fit_n, noise_W)])[0]
+
+
+def _ripple_continuations(
+    windows: list[tuple[np.ndarray, int, float]],
+) -> list[tuple[np.ndarray, float] | None]:
+    """`_ripple_continuation` of each window (values, fit_n, noise_W), all at once: the
+    windows as the rows of padded arrays (a step's cost is numpy's per call, not its few
+    hundred means; ten steps cost little more than one).
+
+    Each window: a line plus a sinusoid fitted to `values[:fit_n]`, carried on over the
+    rest, and the rms of the fit's residual. None when the fitted part holds under
+    `_RIPPLE_CYCLES` cycles of it (a fraction of a cycle fits, but does not carry on: on
+    the default grid's 1 m steps at 0.7 m/s, 0.75 of a cycle carried on 0.3 s was 4 times
+    its fit's rms off with no stop), over a quarter of a cycle per value (a sinusoid near
+    the values' Nyquist frequency is noise's), or when the sinusoid's rms is not above
+    max(3 `noise_W`, 0.1 W), `_wavy`'s bar: no ripple to carry on (a noisy cruise at
+    0.9 m/s, 1.5 W, had an alternating "ripple" fitted to its noise whose continuation
+    stood 2.4 noise sd off).
 
     The frequency w0: the strongest peak of the periodogram of the detrended values
-    (zero-padded 4x, the peak interpolated by a parabola). The fit is linear in the
-    columns 1, u, sin w0 u, cos w0 u, u sin w0 u, u cos w0 u (u: the time centred and
-    scaled to [-1/2, 1/2) over the fitted part): the last two are the first-order terms
-    of a frequency a little off w0, a sin((w0 + d) u) + b cos((w0 + d) u) ~ ... +
-    d u (a cos w0 u - b sin w0 u), so d is read off their coefficients c = -b d, e = a d
-    (least squares) and the line and the sinusoid at w0 + d are carried on, its amplitude
-    held (the first-order terms themselves grow with u). One 6 x 6 solve: the cost is
-    numpy's per call, not the few hundred means. Normal equations by `einsum`: no BLAS
-    threads (see changepoint.block_means).
+    (zero-padded to 4x the longest window, the peak interpolated by a parabola). The fit
+    is linear in the columns 1, u, sin w0 u, cos w0 u, u sin w0 u, u cos w0 u (u: the time
+    centred and scaled to [-1/2, 1/2) over the fitted part): the last two are the
+    first-order terms of a frequency a little off w0, a sin((w0 + d) u) + b cos((w0 + d) u)
+    ~ ... + d u (a cos w0 u - b sin w0 u), so d is read off their coefficients c = -b d,
+    e = a d (least squares), and the line and the sinusoid at w0 + d are carried on, its
+    amplitude held (the first-order terms themselves grow with u). Normal equations by
+    `einsum`: no BLAS threads (see changepoint.block_means).
     """
-    fit = values[:fit_n]
-    x = np.arange(values.size, dtype=np.float64) - (fit_n - 1) / 2.0
-    x_fit = x[:fit_n]
-    mean_W = float(np.add.reduce(fit)) / fit_n
-    slope = float(np.einsum("i,i->", x_fit, fit)) / (fit_n * (fit_n * fit_n - 1) / 12.0)
-    spectrum = np.abs(np.fft.rfft(fit - mean_W - slope * x_fit, 4 * fit_n))
-    spectrum[0] = 0.0
-    peak = int(spectrum.argmax())
-    peak_f = float(peak)
-    if 1 <= peak < spectrum.size - 1:
-        left, mid, right = spectrum[peak - 1 : peak + 2]
-        curve = left - 2.0 * mid + right
-        if curve < 0:
-            peak_f += 0.5 * (left - right) / curve
-    cycles = peak_f / 4.0  # in the fitted part
-    if not _RIPPLE_CYCLES <= cycles <= fit_n / 4.0:
-        return None
-    u = x / fit_n
-    omega = 2.0 * np.pi * cycles  # radians per unit of u
-    design = np.empty((6, fit_n))
-    design[0] = 1.0
-    design[1] = u[:fit_n]
-    np.sin(omega * design[1], out=design[2])
-    np.cos(omega * design[1], out=design[3])
-    np.multiply(design[1], design[2], out=design[4])
-    np.multiply(design[1], design[3], out=design[5])
+    if not windows:
+        return []
+    rows = len(windows)
+    fit_n = np.array([w[1] for w in windows])
+    tail_n = np.array([w[0].size - w[1] for w in windows])
+    width, tail_width = int(fit_n.max()), max(1, int(tail_n.max()))
+    fit = np.zeros((rows, width))
+    for i, (values, n, _) in enumerate(windows):
+        fit[i, :n] = values[:n]
+    columns = np.arange(width, dtype=np.float64)
+    inside = columns[None, :] < fit_n[:, None]
+    centre = (fit_n[:, None] - 1) / 2.0
+    x = np.where(inside, columns[None, :] - centre, 0.0)  # centred, 0 past each window
+    mean_W = fit.sum(axis=1) / fit_n
+    s_xx = fit_n * (fit_n * fit_n - 1) / 12.0
+    slope = np.einsum("ij,ij->i", x, fit) / s_xx
+    detrended = np.where(inside, fit - mean_W[:, None] - slope[:, None] * x, 0.0)
+    pad = 4 * width
+    spectrum = np.abs(np.fft.rfft(detrended, pad, axis=1))
+    spectrum[:, 0] = 0.0
+    peak = spectrum.argmax(axis=1)
+    at = np.arange(rows)
+    inner = (peak >= 1) & (peak < spectrum.shape[1] - 1)
+    left = spectrum[at, np.maximum(peak - 1, 0)]
+    mid = spectrum[at, peak]
+    right = spectrum[at, np.minimum(peak + 1, spectrum.shape[1] - 1)]
+    curve = left - 2.0 * mid + right
+    shift = np.where(
+        inner & (curve < 0), 0.5 * (left - right) / np.where(curve < 0, curve, -1.0), 0.0
+    )
+    cycles = (peak + shift) * fit_n / pad  # in each fitted part
+    valid = (cycles >= _RIPPLE_CYCLES) & (cycles <= fit_n / 4.0)
+    u = x / fit_n[:, None]
+    omega = 2.0 * np.pi * cycles
+    design = np.empty((rows, 6, width))
+    design[:, 0] = inside
+    design[:, 1] = u
+    angle = omega[:, None] * u
+    np.sin(angle, out=design[:, 2])
+    np.cos(angle, out=design[:, 3])
+    design[:, 2:4] *= inside[:, None, :]
+    np.multiply(u[:, None, :], design[:, 2:4], out=design[:, 4:6])
+    gram = np.einsum("sij,skj->sik", design, design)
+    gram[~valid] = np.eye(6)  # not solved for: no ripple there
+    rhs = np.einsum("sij,sj->si", design, fit)
     try:
-        coef = np.linalg.solve(
-            np.einsum("ij,kj->ik", design, design), np.einsum("ij,j->i", design, fit)
-        )
-    except np.linalg.LinAlgError:
-        return None
-    resid = fit - np.einsum("i,ij->j", coef, design)
-    a_W, b_W, c_W, e_W = coef[2:]
+        coef = np.linalg.solve(gram, rhs[..., None])[..., 0]
+    except np.linalg.LinAlgError:  # a degenerate window: each solved alone, it left out
+        coef = np.full((rows, 6), np.nan)
+        for i in range(rows):
+            try:
+                coef[i] = np.linalg.solve(gram[i], rhs[i])
+            except np.linalg.LinAlgError:
+                valid[i] = False
+    resid = fit - np.einsum("si,sij->sj", coef, design)
+    rms_W = np.sqrt(np.einsum("ij,ij->i", resid, resid) / fit_n)
+    a_W, b_W, c_W, e_W = coef[:, 2], coef[:, 3], coef[:, 4], coef[:, 5]
     amplitude2 = a_W * a_W + b_W * b_W
-    if not np.sqrt(amplitude2 / 2.0) > max(3.0 * noise_W, 0.1):
-        return None
-    omega += (a_W * e_W - b_W * c_W) / amplitude2
-    u_tail = u[fit_n:]
-    angle = omega * u_tail
-    carried = coef[0] + coef[1] * u_tail + a_W * np.sin(angle) + b_W * np.cos(angle)
-    return carried, float(np.sqrt(np.einsum("i,i->", resid, resid) / fit_n))
+    noise_W = np.array([w[2] for w in windows])
+    valid &= np.sqrt(amplitude2 / 2.0) > np.maximum(3.0 * noise_W, 0.1)
+    omega += (a_W * e_W - b_W * c_W) / np.where(valid, amplitude2, 1.0)
+    u_tail = (np.arange(tail_width, dtype=np.float64)[None, :] + fit_n[:, None] - centre) / fit_n[
+        :, None
+    ]
+    angle = omega[:, None] * u_tail
+    carried = (
+        coef[:, 0:1]
+        + coef[:, 1:2] * u_tail
+        + a_W[:, None] * np.sin(angle)
+        + b_W[:, None] * np.cos(angle)
+    )
+    return [(carried[i, : tail_n[i]], float(rms_W[i])) if valid[i] else None for i in range(rows)]
 
 
 #: the fewest cycles of the ripple the fitted part must hold (`_ripple_continuation`), and
