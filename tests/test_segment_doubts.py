@@ -625,3 +625,34 @@ def test_hidden_stop_doubts_by_hand() -> None:
     idling[(t >= 26.0) & (t < 26.3)] += 0.5
     (found,) = [d for d in doubts(idling) if d.endswith(HIDDEN_STOP)]
     assert found.startswith("the idle of step 1 stands") and found.endswith(HIDDEN_STOP[1])
+
+
+def test_ripple_continuations_side_by_side_are_each_windows_own() -> None:
+    """`_ripple_continuations` of windows of different lengths as padded rows: each the
+    window's own `_ripple_continuation` (the same fit; the periodogram's grid differs with
+    the padding, so not bit for bit: within 1% of the ripple's amplitude), and refused
+    windows refused alike."""
+    from wifibot_power.segment import _ripple_continuation, _ripple_continuations
+
+    rng = np.random.default_rng(9)
+    windows = []
+    for n, cycles, amplitude_W in [
+        (120, 3.1, 1.0),
+        (256, 7.4, 0.5),
+        (90, 1.2, 1.0),
+        (200, 4.6, 2.0),
+    ]:
+        x = np.arange(n, dtype=np.float64)
+        fit_n = 2 * n // 3
+        values = 24.0 - 0.001 * x + amplitude_W * np.sin(2 * np.pi * cycles * x / fit_n + n)
+        windows.append((values + 0.02 * rng.standard_normal(n), fit_n, 0.02))
+    together = _ripple_continuations(windows)
+    for window, found in zip(windows, together, strict=True):
+        alone = _ripple_continuation(*window)
+        assert (found is None) == (alone is None)
+        if alone is not None:
+            assert found[0].shape == alone[0].shape
+            assert np.max(np.abs(found[0] - alone[0])) < 0.01
+            assert found[1] == pytest.approx(alone[1], rel=0.05)
+    assert together[2] is None  # 1.2 cycles before the tail
+    assert sum(found is not None for found in together) == 3
