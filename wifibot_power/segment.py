@@ -646,7 +646,12 @@ def _motion_doubts(
     # each phase in 10 ms means (its whole 10 ms means only)
     spans = [(-(-a // group), min(b // group, m), name, k) for a, b, name, k in bounds]
     # idle: the lowest of the idle phases' medians (an "idle" holding motion is higher)
-    idle_levels = [float(median(y10[a:b])) for a, b, name, _ in spans if name == "idle" and b > a]
+    idle_median_W = {
+        k: float(median(y10[a:b]))
+        for k, (a, b, name, _) in enumerate(spans)
+        if name == "idle" and b > a
+    }
+    idle_levels = list(idle_median_W.values())
     idle_W = min(idle_levels) if idle_levels else float(y10.min())
     cruise_W = [_mean(y10[a:b]) for a, b, name, _ in spans if name == "cruise" and b > a]
     swing_W = float(median(cruise_W)) - idle_W if cruise_W else float(y10.max()) - idle_W
@@ -744,7 +749,9 @@ def _motion_doubts(
                     f"({start_W:.3g} W at its start, {end_W:.3g} W at its end): a steady "
                     "stretch labelled decel?"
                 )
-    doubts += _hidden_stop_doubts(y10, sigma10, spans, when, name_of, params, wavy_steps)
+    doubts += _hidden_stop_doubts(
+        y10, sigma10, spans, idle_median_W, when, name_of, params, wavy_steps
+    )
     # power steps where the phase model has no boundary
     w = 5
     if m > 2 * w + 2:
@@ -787,13 +794,15 @@ def _hidden_stop_doubts(
     y10: np.ndarray,
     sigma10: float,
     spans: list[tuple[int, int, str, int]],
+    idle_median_W: dict[int, float],
     when: Callable[[int], float],
     name_of: Callable[[str, int], str],
     params: MotionParams,
     wavy_steps: set[int] | None = None,
 ) -> list[str]:
     """Stops a ripple may have hidden (docs/segmentation.md, "A stop hidden by the
-    ripple"), on the 10 ms means `y10` (noise sd `sigma10`) of the phases `spans`.
+    ripple"), on the 10 ms means `y10` (noise sd `sigma10`) of the phases `spans` (the
+    idles' medians `idle_median_W`, by span).
 
     - A wavy cruise (`wavy_steps`: the steps whose search found the motion after the
       acceleration wavy, any stop in it included; by default the cruise's 10 ms means
@@ -861,7 +870,7 @@ def _hidden_stop_doubts(
     if idles:
         lengths = np.array([b - a - guard for _, a, b in idles])
         starts = np.concatenate(([0], np.cumsum(lengths)[:-1]))
-        levels = np.array([median(y10[a:b]) for _, a, b in idles])
+        levels = np.array([idle_median_W[k] for k, _, _ in idles])
         excess = np.concatenate([y10[a + guard : b] for _, a, b in idles])
         excess -= np.repeat(levels, lengths)
         running = np.cumsum(excess)
