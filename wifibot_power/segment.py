@@ -913,7 +913,8 @@ def _ripple_continuation(
     whose continuation stood 2.4 noise sd off).
 
     The frequency w0: the strongest peak of the periodogram of the detrended values
-    (zero-padded 4x, the peak interpolated by a parabola). The fit is linear in the
+    (zero-padded to 4x or more, a power of two: `_fft_length`; the peak interpolated by
+    a parabola). The fit is linear in the
     columns 1, u, sin w0 u, cos w0 u, u sin w0 u, u cos w0 u (u: the time centred and
     scaled to [-1/2, 1/2) over the fitted part): the last two are the first-order terms
     of a frequency a little off w0, a sin((w0 + d) u) + b cos((w0 + d) u) ~ ... +
@@ -928,7 +929,8 @@ def _ripple_continuation(
     x_fit = x[:fit_n]
     mean_W = float(np.add.reduce(fit)) / fit_n
     slope = float(np.einsum("i,i->", x_fit, fit)) / (fit_n * (fit_n * fit_n - 1) / 12.0)
-    spectrum = np.abs(np.fft.rfft(fit - mean_W - slope * x_fit, 4 * fit_n))
+    pad = _fft_length(4 * fit_n)
+    spectrum = np.abs(np.fft.rfft(fit - mean_W - slope * x_fit, pad))
     spectrum[0] = 0.0
     peak = int(spectrum.argmax())
     peak_f = float(peak)
@@ -937,7 +939,7 @@ def _ripple_continuation(
         curve = left - 2.0 * mid + right
         if curve < 0:
             peak_f += 0.5 * (left - right) / curve
-    cycles = peak_f / 4.0  # in the fitted part
+    cycles = peak_f * fit_n / pad  # in the fitted part
     if not _RIPPLE_CYCLES <= cycles <= fit_n / 4.0:
         return None
     u = x / fit_n
@@ -973,7 +975,7 @@ def _ripple_continuations(
     """`_ripple_continuation` of each window (values, fit_n, noise_W): one window by that
     function itself, several as the rows of padded arrays (each padded past its window
     with zeros, which the periodogram and the normal equations ignore; the periodogram
-    zero-padded to 4x the longest window). A step's cost is numpy's per call, not its few
+    zero-padded to a power of two, 4x the longest window or more). A step's cost is numpy's per call, not its few
     hundred means: ten windows of 256 means cost 0.2-0.4 ms at once against 0.5-0.8 ms one
     by one, one window 50-70 us by itself against 125-150 us as a row (CPU, medians of 7,
     interleaved)."""
@@ -994,7 +996,7 @@ def _ripple_continuations(
     s_xx = fit_n * (fit_n * fit_n - 1) / 12.0
     slope = np.einsum("ij,ij->i", x, fit) / s_xx
     detrended = np.where(inside, fit - mean_W[:, None] - slope[:, None] * x, 0.0)
-    pad = 4 * width
+    pad = _fft_length(4 * width)
     spectrum = np.abs(np.fft.rfft(detrended, pad, axis=1))
     spectrum[:, 0] = 0.0
     peak = spectrum.argmax(axis=1)
@@ -1049,6 +1051,13 @@ def _ripple_continuations(
         + b_W[:, None] * np.cos(angle)
     )
     return [(carried[i, : tail_n[i]], float(rms_W[i])) if valid[i] else None for i in range(rows)]
+
+
+def _fft_length(n: int) -> int:
+    """The power of two at or above `n`: the periodogram's zero-padded length. A few
+    lengths, each planned once by numpy's FFT (its plans are cached; a new length per
+    cruise was planned per call, which cost more than the transform)."""
+    return 1 << max(0, n - 1).bit_length()
 
 
 #: the fewest cycles of the ripple the fitted part must hold (`_ripple_continuation`), and
