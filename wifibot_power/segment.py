@@ -975,10 +975,10 @@ def _ripple_continuations(
     """`_ripple_continuation` of each window (values, fit_n, noise_W): one window by that
     function itself, several as the rows of padded arrays (each padded past its window
     with zeros, which the periodogram and the normal equations ignore; the periodogram
-    zero-padded to a power of two, 4x the longest window or more). A step's cost is numpy's per call, not its few
-    hundred means: ten windows of 256 means cost 0.2-0.4 ms at once against 0.5-0.8 ms one
-    by one, one window 50-70 us by itself against 125-150 us as a row (CPU, medians of 7,
-    interleaved)."""
+    zero-padded to a power of two, 4x the longest window or more). A step's cost is
+    numpy's per call, not its few hundred means: ten windows of 256 means cost 0.2-0.4 ms
+    at once against 0.5-0.8 ms one by one, one window 50-70 us by itself against
+    125-150 us as a row (CPU, medians of 7, interleaved)."""
     if len(windows) <= 1:
         return [_ripple_continuation(*window) for window in windows]
     rows = len(windows)
