@@ -637,7 +637,9 @@ def _motion_doubts(
     5. a decel phase whose power neither falls nor sits clearly below the cruise before it;
     6. idle at ~0 W (a motors-only log) and power dropping straight to it: the robot may
        coast on, unseen (shorted motors, free wheel);
-    7. the step count against the metadata.
+    7. the step count against the metadata;
+    8. a stop the ripple hid (`_hidden_stop_doubts`): a wavy cruise whose end strays off
+       its own carried-on ripple, or an idle after a step that starts above its level.
     """
     dt10 = group * block_dt
     m = y10.size
