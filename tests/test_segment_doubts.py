@@ -656,3 +656,40 @@ def test_ripple_continuations_side_by_side_are_each_windows_own() -> None:
             assert found[1] == pytest.approx(alone[1], rel=0.05)
     assert together[2] is None  # 1.2 cycles before the tail
     assert sum(found is not None for found in together) == 3
+
+
+@pytest.mark.parametrize("stop_s", [0.3, 0.6])
+def test_hidden_stop_doubts_on_fieldgens_runs_only_where_the_stop_is_wrong(stop_s: float):
+    """tests/fieldgen.py's robot (an independent generator: exponential stops, a wheel
+    ripple with a second harmonic, which the doubt's single sinusoid does not model), 1 W
+    ripple, 0.1-0.9 m/s, 2 m and 10 m: a hidden-stop doubt only on runs whose stop is more
+    than 50 ms off its truth. Measured (seeds 1-3, 5 tau = 0.5, 1, 1.67 s, with and without
+    the ripple, 180 runs): 150 right, none doubted so; of the 30 wrong (stops of 1.67 s
+    after the ripple, longer than `max_decel_wavy_s`) 14 carry the doubt, and 2 have no
+    doubt at all (6 before it)."""
+    import fieldgen
+
+    batch = fieldgen.Batch(
+        trips=((2.0, 1), (10.0, 1)),
+        repeats=1,
+        idle_runs=0,
+        effects={"decel_phase": stop_s, "cruise_ripple": 1.0},
+        seed=1,
+    )
+    generated = fieldgen.generate(batch)
+    right = 0
+    for g, run in zip(generated, fieldgen.to_runs(generated), strict=True):
+        v, d = g.meta["speed_mps"], g.meta["distance_m"]
+        tau, t_acc = g.truth["tau_stop_s"], g.truth["t_acc_s"]
+        (start_s,) = g.truth["phase_starts_s"]
+        stop_start_s = start_s + t_acc + (d - v * t_acc / 2 - v * tau) / v
+        seg = segment_run(run)
+        decel = seg.of("decel")
+        is_right = len(decel) == 1 and (
+            abs(decel[0].t_start_s - stop_start_s) <= 0.05
+            and abs(decel[0].t_end_s - stop_start_s - 5 * tau) <= 0.05
+        )
+        if is_right:
+            right += 1
+            assert not [x for x in seg.doubts if x.endswith(HIDDEN_STOP)], run.meta.run_id
+    assert right >= 5  # the check has runs to look at
