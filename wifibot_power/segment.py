@@ -931,8 +931,13 @@ def _ripple_continuation(
     x_fit = x[:fit_n]
     mean_W = float(np.add.reduce(fit)) / fit_n
     slope = float(np.einsum("i,i->", x_fit, fit)) / (fit_n * (fit_n * fit_n - 1) / 12.0)
+    detrended = fit - mean_W - slope * x_fit
+    # a sinusoid in it holds at most all of its scatter about the line: below the bar,
+    # there is no ripple to fit (a cruise its step's search found wavy by its ends)
+    if not np.einsum("i,i->", detrended, detrended) / fit_n > max(3.0 * noise_W, 0.1) ** 2:
+        return None
     pad = _fft_length(4 * fit_n)
-    spectrum = np.abs(np.fft.rfft(fit - mean_W - slope * x_fit, pad))
+    spectrum = np.abs(np.fft.rfft(detrended, pad))
     spectrum[0] = 0.0
     peak = int(spectrum.argmax())
     peak_f = float(peak)
@@ -998,6 +1003,11 @@ def _ripple_continuations(
     s_xx = fit_n * (fit_n * fit_n - 1) / 12.0
     slope = np.einsum("ij,ij->i", x, fit) / s_xx
     detrended = np.where(inside, fit - mean_W[:, None] - slope[:, None] * x, 0.0)
+    noise_W = np.array([w[2] for w in windows])
+    bar_W = np.maximum(3.0 * noise_W, 0.1)
+    scattered = np.einsum("ij,ij->i", detrended, detrended) / fit_n > bar_W * bar_W
+    if not scattered.any():  # no ripple in any (as `_ripple_continuation`)
+        return [None] * rows
     pad = _fft_length(4 * width)
     spectrum = np.abs(np.fft.rfft(detrended, pad, axis=1))
     spectrum[:, 0] = 0.0
@@ -1012,7 +1022,7 @@ def _ripple_continuations(
         inner & (curve < 0), 0.5 * (left - right) / np.where(curve < 0, curve, -1.0), 0.0
     )
     cycles = (peak + shift) * fit_n / pad  # in each fitted part
-    valid = (cycles >= _RIPPLE_CYCLES) & (cycles <= fit_n / 4.0)
+    valid = scattered & (cycles >= _RIPPLE_CYCLES) & (cycles <= fit_n / 4.0)
     u = x / fit_n[:, None]
     omega = 2.0 * np.pi * cycles
     design = np.empty((rows, 6, width))
@@ -1039,8 +1049,7 @@ def _ripple_continuations(
     rms_W = np.sqrt(np.einsum("ij,ij->i", resid, resid) / fit_n)
     a_W, b_W, c_W, e_W = coef[:, 2], coef[:, 3], coef[:, 4], coef[:, 5]
     amplitude2 = a_W * a_W + b_W * b_W
-    noise_W = np.array([w[2] for w in windows])
-    valid &= np.sqrt(amplitude2 / 2.0) > np.maximum(3.0 * noise_W, 0.1)
+    valid &= np.sqrt(amplitude2 / 2.0) > bar_W
     omega += (a_W * e_W - b_W * c_W) / np.where(valid, amplitude2, 1.0)
     u_tail = (np.arange(tail_width, dtype=np.float64)[None, :] + fit_n[:, None] - centre) / fit_n[
         :, None
