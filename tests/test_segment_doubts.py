@@ -687,3 +687,17 @@ def test_hidden_stop_doubts_on_fieldgens_runs_only_where_the_stop_is_wrong(stop_
             right += 1
             assert not [x for x in seg.doubts if x.endswith(HIDDEN_STOP)], run.meta.run_id
     assert right >= 5  # the check has runs to look at
+
+
+@pytest.mark.parametrize("seed", [105, 112, 114])
+def test_red_noise_in_an_idle_is_not_a_stop_labelled_idle(seed: int) -> None:
+    """fieldgen's null robot (1/f noise of 0.05 W, no stop phase, no ripple): its idles
+    wander 0.075-0.13 W off their median for 0.35-0.53 s, over 6 sd of a mean of white
+    noise that long. Found by validation the hour the doubt was merged (5 of 24 null batches
+    unexplained through the runs it left out); an idle must also stand `min_excess_W` above
+    its level (what the segmenter calls the drive on). These three seeds each had one."""
+    import fieldgen
+
+    runs = fieldgen.to_runs(fieldgen.generate(fieldgen.Batch(effects={}, seed=seed)))
+    doubts = [d for r in runs for d in segment_run(r).doubts if d.endswith(HIDDEN_STOP)]
+    assert doubts == []
