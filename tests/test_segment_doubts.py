@@ -701,3 +701,39 @@ def test_red_noise_in_an_idle_is_not_a_stop_labelled_idle(seed: int) -> None:
     runs = fieldgen.to_runs(fieldgen.generate(fieldgen.Batch(effects={}, seed=seed)))
     doubts = [d for r in runs for d in segment_run(r).doubts if d.endswith(HIDDEN_STOP)]
     assert doubts == []
+
+
+def test_a_next_step_labelled_late_is_not_a_stop_labelled_idle() -> None:
+    """Found in review: the idle test left out an idle's first 50 ms, not its last, so the
+    next step's start labelled 40 ms late (within the 50 ms a boundary may be off) stood
+    0.5 W above the idle's level: "a stop labelled idle?". Both ends are left out now."""
+    from wifibot_power.segment import MotionParams, _hidden_stop_doubts
+
+    rng = np.random.default_rng(1)
+    y10 = np.r_[np.full(100, 5.0), np.full(200, 10.0), np.full(40, 5.0), np.full(200, 10.0)]
+    y10 = np.r_[y10, np.full(100, 5.0)] + rng.normal(0.0, 0.05, 640)
+
+    def doubts(y: np.ndarray, idle_end: int) -> list[str]:
+        spans = [(0, 100, "idle", 0), (100, 300, "cruise", 1), (300, idle_end, "idle", 1)]
+        spans += [(idle_end, 540, "cruise", 2), (540, 640, "idle", 2)]
+        levels = {
+            k: float(np.median(y[a:b])) for k, (a, b, n, _) in enumerate(spans) if n == "idle"
+        }
+        return _hidden_stop_doubts(
+            y,
+            0.05,
+            spans,
+            levels,
+            lambda i: i * 0.01,
+            lambda n, s: f"{n} {s}",
+            MotionParams(),
+            set(),
+        )
+
+    assert doubts(y10, 340) == []  # the boundary where it is
+    assert doubts(y10, 344) == []  # 40 ms late
+    # a stop labelled idle is still seen: 0.6 W for the first 0.15 s of a 0.4 s idle
+    stop = y10.copy()
+    stop[300:315] += 0.6
+    (doubt,) = doubts(stop, 340)
+    assert doubt.startswith("idle 1 stands") and doubt.endswith("a stop labelled idle?")

@@ -773,8 +773,8 @@ def _hidden_stop_doubts(
       (and noise's).
     - An idle after a step: power that stands above the idle's own median from its start
       (the drive still on: a stop labelled idle) by more than `hidden_stop_z` noise sd of
-      the stretch's mean past its first 50 ms (the tolerance of a boundary; a cruise's
-      first and last 50 ms are left out alike), and by `min_excess_W` at least.
+      the stretch's mean from 50 ms past its start to 50 ms before its end (the tolerance
+      of a boundary at either end, as for a cruise), and by `min_excess_W` at least.
     """
     doubts: dict[int, str] = {}  # by span, in span order at the end
     dt_ms = 1000.0 * (when(1) - when(0))
@@ -824,10 +824,11 @@ def _hidden_stop_doubts(
         if name == "idle" and step >= 1 and b - a >= 4 * guard
     ]
     if idles:
-        lengths = np.array([b - a - guard for _, a, b in idles])
+        # its last 50 ms left out too: the next step's start may be labelled that late
+        lengths = np.array([b - a - 2 * guard for _, a, b in idles])
         starts = np.concatenate(([0], np.cumsum(lengths)[:-1]))
         levels = np.array([idle_median_W[k] for k, _, _ in idles])
-        excess = np.concatenate([y10[a + guard : b] for _, a, b in idles])
+        excess = np.concatenate([y10[a + guard : b - guard] for _, a, b in idles])
         excess -= np.repeat(levels, lengths)
         running = np.cumsum(excess)
         before = np.concatenate(([0.0], running[starts[1:] - 1]))
