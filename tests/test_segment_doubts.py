@@ -737,3 +737,33 @@ def test_a_next_step_labelled_late_is_not_a_stop_labelled_idle() -> None:
     stop[300:315] += 0.6
     (doubt,) = doubts(stop, 340)
     assert doubt.startswith("idle 1 stands") and doubt.endswith("a stop labelled idle?")
+
+
+def test_the_last_idle_of_a_run_that_ends_moving_is_not_a_stop_labelled_idle() -> None:
+    """Found in review: a run that ends moving is doubted as such, and the "motion labelled
+    idle" test passes over its last idle; the stop-labelled-idle test did not, and gave a
+    second, misleading reason ("a stop labelled idle?") for motion that is not a stop."""
+    from wifibot_power.segment import MotionParams, _hidden_stop_doubts
+
+    rng = np.random.default_rng(2)
+    y10 = np.r_[np.full(100, 5.0), np.full(200, 10.0), np.full(100, 5.0)]
+    y10 = y10 + rng.normal(0.0, 0.05, 400)
+    y10[300:320] += 0.6  # the last idle starts above its level
+    spans = [(0, 100, "idle", 0), (100, 300, "cruise", 1), (300, 400, "idle", 1)]
+    levels = {0: float(np.median(y10[:100])), 2: float(np.median(y10[300:]))}
+
+    def doubts(ends_moving: bool) -> list[str]:
+        return _hidden_stop_doubts(
+            y10,
+            0.05,
+            spans,
+            levels,
+            lambda i: i * 0.01,
+            lambda n, s: f"{n} {s}",
+            MotionParams(),
+            set(),
+            ends_moving,
+        )
+
+    assert doubts(False)  # looked at when the run ends standing
+    assert doubts(True) == []

@@ -706,7 +706,7 @@ def _motion_doubts(
                     "stretch labelled decel?"
                 )
     doubts += _hidden_stop_doubts(
-        y10, sigma10, spans, idle_median_W, when, name_of, params, wavy_steps
+        y10, sigma10, spans, idle_median_W, when, name_of, params, wavy_steps, ends_moving
     )
     # power steps where the phase model has no boundary
     w = 5
@@ -755,10 +755,12 @@ def _hidden_stop_doubts(
     name_of: Callable[[str, int], str],
     params: MotionParams,
     wavy_steps: set[int] | None = None,
+    ends_moving: bool = False,
 ) -> list[str]:
     """Stops a ripple may have hidden (docs/segmentation.md, "A stop hidden by the
     ripple"), on the 10 ms means `y10` (noise sd `sigma10`) of the phases `spans` (the
-    idles' medians `idle_median_W`, by span).
+    idles' medians `idle_median_W`, by span). When the run `ends_moving` (doubted as such
+    already), its last idle is not looked at: the motion in it is not a stop.
 
     - A wavy cruise (`wavy_steps`: the steps whose search found the motion after the
       acceleration wavy, any stop in it included; by default the cruise's 10 ms means
@@ -821,7 +823,10 @@ def _hidden_stop_doubts(
     idles = [
         (k, a, b)
         for k, (a, b, name, step) in enumerate(spans)
-        if name == "idle" and step >= 1 and b - a >= 4 * guard
+        if name == "idle"
+        and step >= 1
+        and b - a >= 4 * guard
+        and not (ends_moving and k == len(spans) - 1)
     ]
     if idles:
         # its last 50 ms left out too: the next step's start may be labelled that late
