@@ -703,39 +703,37 @@ def test_red_noise_in_an_idle_is_not_a_stop_labelled_idle(seed: int) -> None:
     assert doubts == []
 
 
+def _idle_doubts(y10: np.ndarray, spans: list, ends_moving: bool = False) -> list[str]:
+    """`_hidden_stop_doubts` on 10 ms means of noise sd 0.05 W, each idle at its median."""
+    from wifibot_power.segment import MotionParams, _hidden_stop_doubts
+
+    levels = {k: float(np.median(y10[a:b])) for k, (a, b, n, _) in enumerate(spans) if n == "idle"}
+    when, name_of = (lambda i: i * 0.01), (lambda n, s: f"{n} {s}")
+    return _hidden_stop_doubts(
+        y10, 0.05, spans, levels, when, name_of, MotionParams(), set(), ends_moving
+    )
+
+
 def test_a_next_step_labelled_late_is_not_a_stop_labelled_idle() -> None:
     """Found in review: the idle test left out an idle's first 50 ms, not its last, so the
     next step's start labelled 40 ms late (within the 50 ms a boundary may be off) stood
     0.5 W above the idle's level: "a stop labelled idle?". Both ends are left out now."""
-    from wifibot_power.segment import MotionParams, _hidden_stop_doubts
-
     rng = np.random.default_rng(1)
     y10 = np.r_[np.full(100, 5.0), np.full(200, 10.0), np.full(40, 5.0), np.full(200, 10.0)]
     y10 = np.r_[y10, np.full(100, 5.0)] + rng.normal(0.0, 0.05, 640)
 
-    def doubts(y: np.ndarray, idle_end: int) -> list[str]:
-        spans = [(0, 100, "idle", 0), (100, 300, "cruise", 1), (300, idle_end, "idle", 1)]
-        spans += [(idle_end, 540, "cruise", 2), (540, 640, "idle", 2)]
-        levels = {
-            k: float(np.median(y[a:b])) for k, (a, b, n, _) in enumerate(spans) if n == "idle"
-        }
-        return _hidden_stop_doubts(
-            y,
-            0.05,
-            spans,
-            levels,
-            lambda i: i * 0.01,
-            lambda n, s: f"{n} {s}",
-            MotionParams(),
-            set(),
-        )
+    def spans(idle_end: int) -> list:
+        return [(0, 100, "idle", 0), (100, 300, "cruise", 1), (300, idle_end, "idle", 1)] + [
+            (idle_end, 540, "cruise", 2),
+            (540, 640, "idle", 2),
+        ]
 
-    assert doubts(y10, 340) == []  # the boundary where it is
-    assert doubts(y10, 344) == []  # 40 ms late
+    assert _idle_doubts(y10, spans(340)) == []  # the boundary where it is
+    assert _idle_doubts(y10, spans(344)) == []  # 40 ms late
     # a stop labelled idle is still seen: 0.6 W for the first 0.15 s of a 0.4 s idle
     stop = y10.copy()
     stop[300:315] += 0.6
-    (doubt,) = doubts(stop, 340)
+    (doubt,) = _idle_doubts(stop, spans(340))
     assert doubt.startswith("idle 1 stands") and doubt.endswith("a stop labelled idle?")
 
 
@@ -743,27 +741,10 @@ def test_the_last_idle_of_a_run_that_ends_moving_is_not_a_stop_labelled_idle() -
     """Found in review: a run that ends moving is doubted as such, and the "motion labelled
     idle" test passes over its last idle; the stop-labelled-idle test did not, and gave a
     second, misleading reason ("a stop labelled idle?") for motion that is not a stop."""
-    from wifibot_power.segment import MotionParams, _hidden_stop_doubts
-
     rng = np.random.default_rng(2)
     y10 = np.r_[np.full(100, 5.0), np.full(200, 10.0), np.full(100, 5.0)]
     y10 = y10 + rng.normal(0.0, 0.05, 400)
     y10[300:320] += 0.6  # the last idle starts above its level
     spans = [(0, 100, "idle", 0), (100, 300, "cruise", 1), (300, 400, "idle", 1)]
-    levels = {0: float(np.median(y10[:100])), 2: float(np.median(y10[300:]))}
-
-    def doubts(ends_moving: bool) -> list[str]:
-        return _hidden_stop_doubts(
-            y10,
-            0.05,
-            spans,
-            levels,
-            lambda i: i * 0.01,
-            lambda n, s: f"{n} {s}",
-            MotionParams(),
-            set(),
-            ends_moving,
-        )
-
-    assert doubts(False)  # looked at when the run ends standing
-    assert doubts(True) == []
+    assert _idle_doubts(y10, spans)  # looked at when the run ends standing
+    assert _idle_doubts(y10, spans, ends_moving=True) == []
