@@ -869,8 +869,16 @@ def _wavy_means(values: np.ndarray, sigma10: float) -> bool:
 def _ripple_continuation(
     values: np.ndarray, fit_n: int, noise_W: float
 ) -> tuple[np.ndarray, float] | None:
-    """A line plus the ripple's sinusoid fitted (least squares) to `values[:fit_n]`, carried
-    on over `values[fit_n:]` (returned), and the rms of the fit's residual. None when the
+    """`_ripple_continuations` of one window."""
+    return _ripple_continuations([(values, fit_n, noise_W)])[0]
+
+
+def _ripple_continuations(
+    windows: list[tuple[np.ndarray, int, float]],
+) -> list[tuple[np.ndarray, float] | None]:
+    """For each window (values, fit_n, noise_W): a line plus the ripple's sinusoid fitted
+    (least squares) to `values[:fit_n]`, carried on over `values[fit_n:]` (returned), and
+    the rms of the fit's residual. None when the
     fitted part holds under `_RIPPLE_CYCLES` cycles of it (a fraction of a cycle fits, but
     does not carry on: on the default grid's 1 m steps at 0.7 m/s, 0.75 of a cycle carried
     on 0.3 s was 4 times its fit's rms off with no stop), over a quarter of a cycle per
@@ -887,72 +895,19 @@ def _ripple_continuation(
     of a frequency a little off w0, a sin((w0 + d) u) + b cos((w0 + d) u) ~ ... +
     d u (a cos w0 u - b sin w0 u), so d is read off their coefficients c = -b d, e = a d
     (least squares) and the line and the sinusoid at w0 + d are carried on, its amplitude
-    held (the first-order terms themselves grow with u). One 6 x 6 solve: the cost is
-    numpy's per call, not the few hundred means. Normal equations by `einsum`: no BLAS
-    threads (see changepoint.block_means).
+    held (the first-order terms themselves grow with u). One 6 x 6 solve per window;
+    normal equations by `einsum`: no BLAS threads (see changepoint.block_means).
+
+    The windows are the rows of padded arrays (each padded past its window with zeros,
+    which the periodogram and the normal equations ignore; the periodogram zero-padded to
+    a power of two, 4x the longest window or more). A step's cost is numpy's per call, not
+    its few hundred means: ten windows of 256 means cost 0.2-0.4 ms at once against
+    0.5-0.8 ms one by one; one window costs 125-150 us as a row (a one-window copy of this
+    function, 50-70 us, was dropped in review: the same fit written twice, kept equal by a
+    test; it runs only for a wavy cruise with no stop found).
     """
-    fit = values[:fit_n]
-    x = np.arange(values.size, dtype=np.float64) - (fit_n - 1) / 2.0
-    x_fit = x[:fit_n]
-    mean_W = float(np.add.reduce(fit)) / fit_n
-    slope = float(np.einsum("i,i->", x_fit, fit)) / (fit_n * (fit_n * fit_n - 1) / 12.0)
-    detrended = fit - mean_W - slope * x_fit
-    # a sinusoid in it holds at most all of its scatter about the line: below the bar,
-    # there is no ripple to fit (a cruise its step's search found wavy by its ends)
-    if not np.einsum("i,i->", detrended, detrended) / fit_n > max(3.0 * noise_W, 0.1) ** 2:
-        return None
-    pad = _fft_length(4 * fit_n)
-    spectrum = np.abs(np.fft.rfft(detrended, pad))
-    spectrum[0] = 0.0
-    peak = int(spectrum.argmax())
-    peak_f = float(peak)
-    if 1 <= peak < spectrum.size - 1:
-        left, mid, right = spectrum[peak - 1 : peak + 2]
-        curve = left - 2.0 * mid + right
-        if curve < 0:
-            peak_f += 0.5 * (left - right) / curve
-    cycles = peak_f * fit_n / pad  # in the fitted part
-    if not _RIPPLE_CYCLES <= cycles <= fit_n / 4.0:
-        return None
-    u = x / fit_n
-    omega = 2.0 * np.pi * cycles  # radians per unit of u
-    design = np.empty((6, fit_n))
-    design[0] = 1.0
-    design[1] = u[:fit_n]
-    np.sin(omega * design[1], out=design[2])
-    np.cos(omega * design[1], out=design[3])
-    np.multiply(design[1], design[2], out=design[4])
-    np.multiply(design[1], design[3], out=design[5])
-    try:
-        coef = np.linalg.solve(
-            np.einsum("ij,kj->ik", design, design), np.einsum("ij,j->i", design, fit)
-        )
-    except np.linalg.LinAlgError:
-        return None
-    resid = fit - np.einsum("i,ij->j", coef, design)
-    a_W, b_W, c_W, e_W = coef[2:]
-    amplitude2 = a_W * a_W + b_W * b_W
-    if not np.sqrt(amplitude2 / 2.0) > max(3.0 * noise_W, 0.1):
-        return None
-    omega += (a_W * e_W - b_W * c_W) / amplitude2
-    u_tail = u[fit_n:]
-    angle = omega * u_tail
-    carried = coef[0] + coef[1] * u_tail + a_W * np.sin(angle) + b_W * np.cos(angle)
-    return carried, float(np.sqrt(np.einsum("i,i->", resid, resid) / fit_n))
-
-
-def _ripple_continuations(
-    windows: list[tuple[np.ndarray, int, float]],
-) -> list[tuple[np.ndarray, float] | None]:
-    """`_ripple_continuation` of each window (values, fit_n, noise_W): one window by that
-    function itself, several as the rows of padded arrays (each padded past its window
-    with zeros, which the periodogram and the normal equations ignore; the periodogram
-    zero-padded to a power of two, 4x the longest window or more). A step's cost is
-    numpy's per call, not its few hundred means: ten windows of 256 means cost 0.2-0.4 ms
-    at once against 0.5-0.8 ms one by one, one window 50-70 us by itself against
-    125-150 us as a row (CPU, medians of 7, interleaved)."""
-    if len(windows) <= 1:
-        return [_ripple_continuation(*window) for window in windows]
+    if not windows:
+        return []
     rows = len(windows)
     fit_n = np.array([w[1] for w in windows])
     tail_n = np.array([w[0].size - w[1] for w in windows])
