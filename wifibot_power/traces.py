@@ -187,12 +187,14 @@ def ripple_peak(x: np.ndarray, block_s: float) -> tuple[float, float, float]:
         freqs[k] + step,
         xatol=step * 1e-4,
     )
-    amplitude_W, _ = _sinusoid(x, t, best)
+    wave, coef = _sinusoid_coef(x, t, best)
+    amplitude_W = float(np.hypot(coef[0], coef[1]))
     # the chosen line against its neighbours in the series without it: an off-grid line
     # leaks into the bins around it (sidelobes falling as 1/d²), and against its own
     # leakage a line of 3.5-5.5 cycles never reached 1% however strong it was. Its ordinate:
     # the bin nearest the refined frequency's (the taper may have chosen the next one)
-    residual = (np.abs(np.fft.rfft(x - _sinusoid_fitted(x, t, best))) ** 2)[1:-1]
+    fitted = wave @ coef[:2] + coef[2] + coef[3] * t  # the sinusoid and its line
+    residual = (np.abs(np.fft.rfft(x - fitted)) ** 2)[1:-1]
     k = int(np.clip(round(best / step), 1, residual.size))
     residual[k - 1] = spectrum[k]
     p_value = float(min(1.0, in_band.size * line_p_values(residual)[k - 1]))
@@ -312,12 +314,6 @@ def _sinusoid(x: np.ndarray, t: np.ndarray, hz: float) -> tuple[float, float]:
     wave, coef = _sinusoid_coef(x, t, hz)
     fitted = wave @ coef[:2]
     return float(np.hypot(coef[0], coef[1])), float(fitted @ fitted)
-
-
-def _sinusoid_fitted(x: np.ndarray, t: np.ndarray, hz: float) -> np.ndarray:
-    """What `_sinusoid` fits of x at `hz`, the sinusoid and the line with it [W]."""
-    wave, coef = _sinusoid_coef(x, t, hz)
-    return wave @ coef[:2] + coef[2] + coef[3] * t
 
 
 def _sinusoid_coef(x: np.ndarray, t: np.ndarray, hz: float) -> tuple[np.ndarray, np.ndarray]:
