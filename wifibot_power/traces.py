@@ -9,15 +9,15 @@ while the run is in memory (so diagnosis holds only these small summaries, not t
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from wifibot_power.changepoint import block_means
 from wifibot_power.phases import Segmentation
 from wifibot_power.run import Run
 from wifibot_power.runtable import WindowEnergy
+from wifibot_power.sinusoid import centred_times_s, refined_hz, sinusoid_fit
 
 #: Length of the window after each acceleration start where a start transient sits [s].
 START_WINDOW_S = 0.25
@@ -148,10 +148,14 @@ def _cruise_spectrum(run: Run, segmentation: Segmentation):
     n_blocks = (longest.i_end - longest.i_start) // per_block
     if n_blocks * block_s < MIN_CRUISE_S:
         return np.nan, np.nan, np.nan, np.zeros(0), block_s
-    x = run.power_W[longest.i_start : longest.i_start + n_blocks * per_block]
-    x = x.reshape(n_blocks, per_block).mean(axis=1)
-    t = np.arange(n_blocks) * block_s
-    x = x - np.polyval(np.polyfit(t, x, 1), t)  # drift within a cruise is not ripple
+    x = block_means(
+        run.power_W[longest.i_start : longest.i_start + n_blocks * per_block], per_block
+    )
+    # drift within a cruise is not ripple: its least-squares line removed (centred t: the
+    # level and the slope apart)
+    t = centred_times_s(n_blocks, block_s)
+    x = x - np.add.reduce(x) / n_blocks
+    x = x - t * (float(t @ x) / float(t @ t))
     hz, amplitude_W, p_value = ripple_peak(x, block_s)
     return hz, amplitude_W, p_value, x, block_s
 
@@ -179,23 +183,15 @@ def ripple_peak(x: np.ndarray, block_s: float) -> tuple[float, float, float]:
     k = 1 + int(in_band[np.argmin(chosen[in_band])])
     # refine the frequency between the neighbouring bins (the periodogram's grid is 1/T),
     # then fit the sinusoid there: least squares in frequency, amplitude and phase
-    t = np.arange(n) * block_s
-    step = freqs[1] - freqs[0]
-    best = bounded_minimum(
-        lambda f: -_sinusoid(x, t, f)[1],
-        max(freqs[k] - step, step / 4),
-        freqs[k] + step,
-        xatol=step * 1e-4,
-    )
-    wave, coef = _sinusoid_coef(x, t, best)
+    best = refined_hz(x, block_s, float(freqs[k]))
+    coef, fitted = sinusoid_fit(x, block_s, best)  # the sinusoid and its line
     amplitude_W = float(np.hypot(coef[0], coef[1]))
     # the chosen line against its neighbours in the series without it: an off-grid line
     # leaks into the bins around it (sidelobes falling as 1/d²), and against its own
     # leakage a line of 3.5-5.5 cycles never reached 1% however strong it was. Its ordinate:
     # the bin nearest the refined frequency's (the taper may have chosen the next one)
-    fitted = wave @ coef[:2] + coef[2] + coef[3] * t  # the sinusoid and its line
     residual = (np.abs(np.fft.rfft(x - fitted)) ** 2)[1:-1]
-    k = int(np.clip(round(best / step), 1, residual.size))
+    k = int(np.clip(round(best / (freqs[1] - freqs[0])), 1, residual.size))
     residual[k - 1] = spectrum[k]
     p_value = float(min(1.0, in_band.size * line_p_values(residual)[k - 1]))
     return float(best), float(amplitude_W), p_value
@@ -232,95 +228,6 @@ def line_p_values(ordinates: np.ndarray, side: int = LINE_NEIGHBOURS, gap: int =
         ratio = np.where(background > 0, ordinates[tested] / background, np.inf)
     p_values[tested] = (1.0 + ratio / count[tested]) ** (-count[tested].astype(np.float64))
     return p_values
-
-
-def bounded_minimum(
-    func: Callable[[float], float], low: float, high: float, xatol: float, maxiter: int = 500
-) -> float:
-    """Where `func` is least on [low, high]: Brent's method, golden-section search with
-    parabolic steps (Brent, Algorithms for Minimization without Derivatives, 1973, ch. 5),
-    step for step as `scipy.optimize.minimize_scalar(method="bounded")` (fminbound) takes
-    them, so it finds the same point; written out because importing scipy.optimize cost
-    ~0.4 s of every `diagnose`, more than the minimisations themselves."""
-    sqrt_eps = math.sqrt(2.2e-16)
-    golden_mean = 0.5 * (3.0 - math.sqrt(5.0))
-    a, b = low, high
-    fulc = a + golden_mean * (b - a)
-    nfc, xf = fulc, fulc
-    rat = e = 0.0
-    fx = func(xf)
-    num = 1
-    ffulc = fnfc = fx
-    xm = 0.5 * (a + b)
-    tol1 = sqrt_eps * abs(xf) + xatol / 3.0
-    tol2 = 2.0 * tol1
-    while abs(xf - xm) > (tol2 - 0.5 * (b - a)):
-        golden = True
-        if abs(e) > tol1:  # try a parabola through the three best points
-            golden = False
-            r = (xf - nfc) * (fx - ffulc)
-            q = (xf - fulc) * (fx - fnfc)
-            p = (xf - fulc) * q - (xf - nfc) * r
-            q = 2.0 * (q - r)
-            if q > 0.0:
-                p = -p
-            q = abs(q)
-            r = e
-            e = rat
-            if abs(p) < abs(0.5 * q * r) and p > q * (a - xf) and p < q * (b - xf):
-                rat = (p + 0.0) / q
-                x = xf + rat
-                if (x - a) < tol2 or (b - x) < tol2:
-                    rat = tol1 * (1.0 if xm - xf >= 0 else -1.0)
-            else:
-                golden = True
-        if golden:
-            e = (a - xf) if xf >= xm else (b - xf)
-            rat = golden_mean * e
-        x = xf + (1.0 if rat >= 0 else -1.0) * max(abs(rat), tol1)
-        fu = func(x)
-        num += 1
-        if fu <= fx:
-            if x >= xf:
-                a = xf
-            else:
-                b = xf
-            fulc, ffulc = nfc, fnfc
-            nfc, fnfc = xf, fx
-            xf, fx = x, fu
-        else:
-            if x < xf:
-                a = x
-            else:
-                b = x
-            if fu <= fnfc or nfc == xf:
-                fulc, ffulc = nfc, fnfc
-                nfc, fnfc = x, fu
-            elif fu <= ffulc or fulc == xf or fulc == nfc:
-                fulc, ffulc = x, fu
-        xm = 0.5 * (a + b)
-        tol1 = sqrt_eps * abs(xf) + xatol / 3.0
-        tol2 = 2.0 * tol1
-        if num >= maxiter:
-            break
-    return float(xf)
-
-
-def _sinusoid(x: np.ndarray, t: np.ndarray, hz: float) -> tuple[float, float]:
-    """Least-squares sinusoid at `hz`, fitted jointly with a line [1, t] (x was detrended:
-    by Frisch-Waugh-Lovell this gives the sinusoid's coefficients as if fitted together with
-    the trend, so a cruise of a few periods does not lose the part of the sine that the
-    detrending took): its amplitude [W] and the variance it explains."""
-    wave, coef = _sinusoid_coef(x, t, hz)
-    fitted = wave @ coef[:2]
-    return float(np.hypot(coef[0], coef[1])), float(fitted @ fitted)
-
-
-def _sinusoid_coef(x: np.ndarray, t: np.ndarray, hz: float) -> tuple[np.ndarray, np.ndarray]:
-    wave = np.column_stack([np.sin(2 * np.pi * hz * t), np.cos(2 * np.pi * hz * t)])
-    basis = np.column_stack([wave, np.ones_like(t), t])
-    coef, *_ = np.linalg.lstsq(basis, x, rcond=None)
-    return wave, coef
 
 
 def ripple_trace_rmse_W(x: np.ndarray, block_s: float, hz: float, amplitude_W: float) -> float:

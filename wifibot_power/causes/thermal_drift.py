@@ -21,6 +21,7 @@ from wifibot_power.causes.base import (
 )
 from wifibot_power.causes.design import column, measured_duration_prediction_J, stacked_fit
 from wifibot_power.changepoint import block_means
+from wifibot_power.sinusoid import refined_hz
 from wifibot_power.stats import ols, t_quantile, t_sf
 
 if TYPE_CHECKING:
@@ -258,8 +259,9 @@ class ThermalDrift(Cause):
 
 
 def _strongest_sinusoid(y: np.ndarray, t: np.ndarray, block_s: float) -> list[np.ndarray]:
-    """sin and cos columns at the strongest periodogram peak of `y` (linear trend removed)
-    between 0.1 and 20 Hz, or none when the band holds fewer than 3 frequencies."""
+    """sin and cos columns (over centred `t`) at the strongest periodogram peak of `y`
+    (linear trend removed) between 0.1 and 20 Hz, refined (`sinusoid.refined_hz`), or
+    none when the band holds fewer than 3 frequencies."""
     # the least-squares line of centred t: mean and Σty / Σt² (what np.polyfit gives, to
     # rounding; only the peak's frequency is taken from what is left)
     detrended = y - y.mean() - t * (float(t @ y) / float(t @ t))
@@ -269,32 +271,9 @@ def _strongest_sinusoid(y: np.ndarray, t: np.ndarray, block_s: float) -> list[np
         return []
     power = np.abs(np.fft.rfft(detrended)) ** 2
     peak = float(freqs[band][np.argmax(power[band])])
-    # the periodogram's grid is 1/T: refine within one bin either side, on a grid of 41,
-    # to the frequency whose sinusoid explains most (a sinusoid off by half a bin would
-    # leave most of its tilt in the line)
-    step = float(freqs[1] - freqs[0])
-    candidates = np.linspace(max(peak - step, step / 4), peak + step, 41)
-    # explained variance of each candidate's sin/cos pair (2x2 normal equations) from
-    # e^{iθ}, θ = 2π f t: the candidates are evenly spaced, so each one's wave is the one
-    # before times a fixed turn (a complex product a sample, not a sine and a cosine;
-    # the same choice as the sines and cosines give: checked on 4000 random series by
-    # hand, 300 in tests/test_diagnose_speed.py)
-    wave = np.exp(2j * np.pi * candidates[0] * t)
-    turn = np.exp(2j * np.pi * (candidates[1] - candidates[0]) * t)
-    z = np.empty(candidates.size, dtype=np.complex128)
-    for j in range(candidates.size):  # a candidate per iteration, vectorised over samples
-        if j:
-            wave = wave * turn
-        z[j] = wave @ detrended  # Σ y cos θ + i Σ y sin θ
-    # Σ e^{2iθ} over the centred, evenly spaced t (the Dirichlet kernel): Σ cos 2θ =
-    # sin(2π f Δ n) / sin(2π f Δ), Σ sin 2θ = 0 (odd in t); f is within (0, 1 / (2Δ))
-    phase = 2.0 * np.pi * candidates * block_s
-    cos2 = np.sin(phase * t.size) / np.sin(phase)
-    ss, cc, sc = 0.5 * (t.size - cos2), 0.5 * (t.size + cos2), 0.0
-    sy, cy = z.imag, z.real
-    det = ss * cc - sc**2
-    explained = (cc * sy**2 - 2 * sc * sy * cy + ss * cy**2) / np.where(det > 0, det, np.inf)
-    hz = float(candidates[np.argmax(explained)])
+    # the periodogram's grid is 1/T: refined within one bin either side (a sinusoid off
+    # by half a bin would leave most of its tilt in the line)
+    hz = refined_hz(detrended, block_s, peak)
     return [np.sin(2 * np.pi * hz * t), np.cos(2 * np.pi * hz * t)]
 
 
