@@ -9,6 +9,9 @@ What it does (docs/benchmarks.md shows the figures and how to read them):
    grid as power-only canonical CSV (`time_s,power_W`), voltage+current canonical CSV, Keysight
    N6705 exports, gzip-compressed canonical CSV, all at 0.1024 ms, and power-only (`power_W`)
    at 10 kHz; each several hundred MB.
+   wbpower's bytecode is compiled first, as a regular pip install does (this matters where
+   PYTHONDONTWRITEBYTECODE is set: an editable install would compile every module at
+   every start).
 2. On each shape, alternating in every repeat (the order rotates): a bare multi-threaded
    `pyarrow.csv.read_csv` of every log in a fresh interpreter (`measure.BARE_PARSE`),
    `wbpower fit --jobs 0` (cold: no parse cache) and `wbpower diagnose --jobs 0`. All read the
@@ -32,6 +35,7 @@ The machine is assumed shared: read the CPU columns beside the wall ones.
 from __future__ import annotations
 
 import argparse
+import compileall
 import json
 import shutil
 import statistics
@@ -234,6 +238,10 @@ def main() -> None:
     corpora.main(["--shape", ",".join(names), "--root", str(root)])
     if args.generate_only:
         return
+    # wbpower as installed: its bytecode compiled (pip compiles it at a regular install;
+    # an editable one compiles nothing, and with PYTHONDONTWRITEBYTECODE set, as here, every
+    # start would compile wifibot_power's source again, ~80 ms a command)
+    compileall.compile_dir(ROOT / "wifibot_power", quiet=1)
     started = time.perf_counter()
     folders = {n: root / n for n in names}
     repeats = args.repeats
