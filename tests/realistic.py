@@ -165,7 +165,7 @@ def realistic_run(sc: Scenario) -> tuple[Run, dict[str, object]]:
         file=f"{sc.run_id}.csv",
         format="canonical",
         meta=meta,
-        time_s=np.arange(m) * period,
+        stamps_s=None,  # evenly spaced (`Run.time_s`)
         power_W=power_log,
         speed_mps=speed_log,
     )

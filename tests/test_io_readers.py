@@ -99,6 +99,28 @@ def test_no_time_column_uses_metadata_then_option_then_default(tmp_path):
     assert read_log(plain, ReadOptions(sample_period_s=0.01)).time_s.tolist() == [0.0, 0.01]
 
 
+def test_without_a_time_column_the_axis_is_made_only_when_asked(tmp_path):
+    """A power-only log's run holds no time stamps (`stamps_s` None): `time_s` is i x period,
+    the same floats as numpy's arange times the period, made once on first use; `time_at`
+    gives one of them without making the axis. A log with a time column keeps its own."""
+    n, period = 1000, 0.1024e-3
+    text = "power_W\n" + "23.3\n" * n
+    run = read_log(_write(tmp_path / "power.csv", text))
+    assert run.stamps_s is None and "_even_time_s" not in run.__dict__
+    for i in (0, 1, 7, 500, n - 1, -1, -n):
+        assert run.time_at(i) == float(np.arange(n)[i] * period)
+    assert "_even_time_s" not in run.__dict__  # time_at made nothing
+    for bad in (n, -n - 1):
+        with pytest.raises(IndexError):
+            run.time_at(bad)
+    made = run.time_s
+    assert np.array_equal(made, np.arange(n) * period) and made.dtype == np.float64
+    assert run.time_s is made  # made once
+    stamped = read_log(_write(tmp_path / "stamped.csv", CANONICAL))
+    assert stamped.stamps_s is not None and stamped.time_s is stamped.stamps_s
+    assert stamped.time_at(-1) == 0.0002048 and stamped.time_at(1) == 0.0001024
+
+
 def test_current_only_with_supply_voltage(tmp_path):
     path = _write(tmp_path / "i.csv", "time_s,current_A\n0,1.5\n0.0001024,2.0\n")
     with pytest.raises(LogError, match="current only"):

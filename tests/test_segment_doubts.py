@@ -401,7 +401,7 @@ def test_a_run_standing_at_its_first_sample_that_speeds_up_at_once_does_not_star
         i = round((accel["t_start_s"] + cut_s) / dt)
         run = replace(
             sim.run,
-            time_s=sim.run.time_s[i:] - sim.run.time_s[i],
+            stamps_s=sim.run.time_s[i:] - sim.run.time_s[i],
             power_W=sim.run.power_W[i:],
             speed_mps=speed[i:],
         )

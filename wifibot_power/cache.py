@@ -489,7 +489,6 @@ def _write_validity(entry: Path, validity: dict[str, object]) -> None:
 
 def _load_run(entry: Path, content_sha256: str) -> Run | None:
     """The cached `Run`, or None when the entry is missing, unreadable or of other content."""
-    import numpy as np
     import pyarrow as pa
     import pyarrow.parquet as pq  # only for a parse that is read back: a warm fit needs none
 
@@ -503,10 +502,8 @@ def _load_run(entry: Path, content_sha256: str) -> Run | None:
         started = meta_values.get("started_at")
         meta_values["started_at"] = datetime.fromisoformat(started) if started else None
         meta = RunMeta(**meta_values)
-        if stored["time"] == "column":
-            time_s = table["time_s"].to_numpy()
-        else:
-            time_s = np.arange(power_W.size) * meta.sample_period_s
+        # a regular axis is made when asked for (`Run.time_s`): the same floats
+        time_s = table["time_s"].to_numpy() if stored["time"] == "column" else None
         problems = tuple(Problem(**p) for p in stored["problems"])
         speed_mps = table["speed_mps"].to_numpy() if stored["speed"] else None
         channels_W = {name: table[f"channel:{name}"].to_numpy() for name in stored["channels"]}
@@ -516,7 +513,7 @@ def _load_run(entry: Path, content_sha256: str) -> Run | None:
         file=stored["file"],
         format=stored["format"],
         meta=meta,
-        time_s=time_s,
+        stamps_s=time_s,
         power_W=power_W,
         problems=problems,
         speed_mps=speed_mps,
@@ -533,7 +530,9 @@ def _store(entry: Path, run: Run, validity: dict[str, object]) -> None:
     meta = dataclasses.asdict(run.meta)
     meta["started_at"] = run.meta.started_at.isoformat() if run.meta.started_at else None
     # a time column that is exactly sample index x period need not be stored
-    regular = np.array_equal(run.time_s, np.arange(run.samples) * run.sample_period_s)
+    regular = run.stamps_s is None or np.array_equal(
+        run.stamps_s, np.arange(run.samples) * run.sample_period_s
+    )
     header = {
         "content_sha256": validity["content_sha256"],
         "file": run.file,

@@ -67,7 +67,11 @@ class Run:
     file: str
     format: str
     meta: RunMeta
-    time_s: np.ndarray
+    #: the log's own time stamps [s], or None for a log without a time column, whose
+    #: samples are evenly spaced from 0 at `sample_period_s`: `time_s` makes that axis
+    #: only when asked for it (segmentation, the fit and diagnosis need only the period,
+    #: and making it was a tenth of parsing a power-only log)
+    stamps_s: np.ndarray | None
     power_W: np.ndarray
     problems: tuple[Problem, ...] = ()
     #: the robot's speed at each sample [m/s] when the log has a speed column
@@ -80,6 +84,29 @@ class Run:
     @property
     def samples(self) -> int:
         return int(self.power_W.size)
+
+    @property
+    def time_s(self) -> np.ndarray:
+        """When each sample starts [s]: the log's stamps, or index x `sample_period_s`
+        (made once, on first use)."""
+        if self.stamps_s is not None:
+            return self.stamps_s
+        made = self.__dict__.get("_even_time_s")
+        if made is None:
+            import numpy as np
+
+            made = np.arange(self.samples, dtype=np.float64)
+            made *= self.sample_period_s  # in place: one array, the same floats as i x period
+            object.__setattr__(self, "_even_time_s", made)  # a cache, not a field
+        return made
+
+    def time_at(self, index: int) -> float:
+        """`time_s[index]` (negative from the end) without making the whole axis [s]."""
+        if self.stamps_s is not None:
+            return float(self.stamps_s[index])
+        if not -self.samples <= index < self.samples:
+            raise IndexError(f"sample {index} of {self.samples}")
+        return float((index % self.samples) * self.sample_period_s)
 
     @property
     def sample_period_s(self) -> float:

@@ -393,7 +393,7 @@ def _finish(
         file=f"{spec.run_id}.csv",
         format=FORMAT_CANONICAL,
         meta=meta,
-        time_s=np.arange(power_W.size) * dt,
+        stamps_s=None,  # evenly spaced from 0 at dt (`Run.time_s`)
         power_W=power_W,
     )
     full_truth = {

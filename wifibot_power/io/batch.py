@@ -49,8 +49,8 @@ def run_identity(run: Run) -> str:
         if samples is not None:
             digest.update(memoryview(np.ascontiguousarray(samples, dtype=np.float64)))
         digest.update(b"|")
-    ends = (run.time_s[0], run.time_s[-1]) if run.time_s.size else (0.0, 0.0)
-    digest.update(np.array([*ends, run.time_s.size], dtype=np.float64).tobytes())
+    ends = (run.time_at(0), run.time_at(-1)) if run.samples else (0.0, 0.0)
+    digest.update(np.array([*ends, run.samples], dtype=np.float64).tobytes())
     return digest.hexdigest()
 
 
@@ -65,9 +65,9 @@ def run_fingerprint(run: Run) -> str:
     (`map_runs`)."""
     import numpy as np  # here, as in `run_identity`: a warm batch loads no numpy
 
-    parts = [str(run.time_s.size)]
-    if run.time_s.size:
-        parts += [float(run.time_s[0]).hex(), float(run.time_s[-1]).hex()]
+    parts = [str(run.samples)]
+    if run.samples:
+        parts += [run.time_at(0).hex(), run.time_at(-1).hex()]
     for samples in (run.power_W, run.speed_mps):
         if samples is None or not samples.size:  # as `run_identity`: none and empty alike
             parts.append("-")

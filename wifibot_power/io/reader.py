@@ -110,19 +110,14 @@ def read_log(
     check_channels(str(path), channels_W)
     if speed_mps is not None:
         check_speed(str(path), speed_column, speed_mps, line_of=columns.lines.line_of)
-    if time_s is None:
-        # made as floats and scaled in place: one array, not an integer one and its product
-        # (5x faster; as much as a tenth of parsing a power-only log)
-        time_s = np.arange(power_W.size, dtype=np.float64)
-        time_s *= period_s
-    elif period_s != meta.sample_period_s:
+    if time_s is not None and period_s != meta.sample_period_s:
         values["sample_period_s"] = repr(period_s)
         meta = build_meta(values, file=str(path), stem=_stem(path), where="metadata", origins=where)
     return Run(
         file=str(path),
         format=pre.format,
         meta=meta,
-        time_s=time_s,
+        stamps_s=time_s,  # None without a time column: `Run.time_s` makes the axis if asked
         power_W=power_W,
         problems=(*time_problems, *problems),
         speed_mps=speed_mps,
