@@ -182,6 +182,11 @@ def run_row(
     """
     meta = run.meta
     period_s = run.sample_period_s
+    # the samples summed once for the run's energy and mean power (`Run.energy_J` and
+    # `Run.mean_power_W` each sum them, by the same pairwise sum: the same floats)
+    total_W = float(np.sum(run.power_W, dtype=np.float64)) if run.samples else float("nan")
+    run_energy_J = float(np.float64(total_W) * period_s) if run.samples else 0.0
+    run_mean_W = total_W / run.samples if run.samples else float("nan")
     speed_mps, cruise_levels = _cruise_speed(segmentation)
     if speed_mps is None:
         speed_mps = meta.speed_mps
@@ -199,8 +204,8 @@ def run_row(
         "samples": run.samples,
         "sample_period_s": period_s,
         "duration_s": run.duration_s,
-        "energy_J": run.energy_J,
-        "mean_power_W": run.mean_power_W,
+        "energy_J": run_energy_J,
+        "mean_power_W": run_mean_W,
         "spike_energy_J": float(sum(s.energy_above_level_J for s in segmentation.spikes)),
         "doubts": "; ".join(segmentation.doubts),
         "cruise_levels": cruise_levels,
@@ -245,7 +250,7 @@ def run_row(
         decel_duration_s=decel_total_s / steps_found if steps_found else 0.0,
         decel_mean_power_W=mean_W("decel"),
         decel_energy_J=decel_energy_J,
-        idle_mean_power_W=mean_W("idle") if meta.mode != "idle" else run.mean_power_W,
+        idle_mean_power_W=mean_W("idle") if meta.mode != "idle" else run_mean_W,
         idle_duration_s=total("idle")[1] if meta.mode != "idle" else run.duration_s,
     )
     reason = cover_problem if meta.mode == "motion" else None
