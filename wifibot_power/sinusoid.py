@@ -68,14 +68,21 @@ def refined_hz(x: np.ndarray, step_s: float, peak_hz: float) -> float:
     """The frequency [Hz] within one periodogram bin of `peak_hz` whose sinusoid, fitted
     with a level and a line, explains the most of `x` (`explained_W2`, on `x` detrended
     here): the best of `CANDIDATES` evenly spaced, then the vertex of the parabola through
-    it and its two neighbours."""
+    it and its two neighbours. Kept to one cycle in the series or more and under the
+    Nyquist frequency."""
     x = np.asarray(x, dtype=np.float64)
     t = centred_times_s(x.size, step_s)
     x = x - np.add.reduce(x) / x.size  # detrended, as `explained_W2` needs (to rounding)
     x = x - t * (float(t @ x) / float(t @ t))
     bin_hz = 1.0 / (x.size * step_s)
-    low_hz = max(peak_hz - bin_hz, bin_hz / 4)
-    candidates_hz = np.linspace(low_hz, peak_hz + bin_hz, CANDIDATES)
+    # at least one cycle in the series: under one, a sinusoid beside a line is a bend, and
+    # takes up the curvature of a slow creep (a warming motor's) rather than a ripple; and
+    # below the Nyquist frequency, where the sine vanishes at every sample
+    low_hz = max(peak_hz - bin_hz, bin_hz)
+    high_hz = min(peak_hz + bin_hz, 0.5 / step_s - bin_hz / 4)
+    if x.size < 4 or high_hz <= low_hz:
+        return float(peak_hz)  # no room to refine (a series of a few values)
+    candidates_hz = np.linspace(low_hz, high_hz, CANDIDATES)
     explained = explained_W2(x, step_s, candidates_hz)
     j = int(np.argmax(explained))
     if 0 < j < candidates_hz.size - 1:
