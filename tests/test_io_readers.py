@@ -321,3 +321,24 @@ def test_a_cut_first_data_line_is_reported_as_cut_not_as_its_field_count():
     # the same line, ended, is what it says: a line with too few fields
     with pytest.raises(LogError, match=r"line 5: 1 fields where the header has 2"):
         read_log("short.csv", data=head + b"0\n")
+
+
+def test_fit_and_diagnosis_of_a_power_only_log_make_no_time_axis(tmp_path):
+    """Segmentation, the run's row and its trace statistics read times through
+    `Run.time_at`: the axis of a power-only log is never made (review, sixth session: it was
+    made by segmentation for every run, so the reader's saving moved there)."""
+    from wifibot_power.diagnose import summarize_run
+    from wifibot_power.simulate import SimConfig, simulate_runs
+
+    config = SimConfig(speeds_mps=(0.5,), trips=((2.0, 1),), repeats=1, seed=1)
+    (sim,) = [s for s in simulate_runs(config) if s.run.meta.mode == "motion"]
+    path = tmp_path / "motion.csv"
+    period = sim.run.sample_period_s
+    path.write_text(
+        f"# mode: motion\n# speed_mps: 0.5\n# distance_m: 2\n# sample_period_s: {period!r}\n"
+        "power_W\n" + "\n".join(f"{w:.6f}" for w in sim.run.power_W) + "\n"
+    )
+    run = read_log(path)
+    summary = summarize_run(run)
+    assert summary.row["usable"], summary.row["skip_reason"]
+    assert run.stamps_s is None and "_even_time_s" not in run.__dict__

@@ -618,7 +618,7 @@ def _motion_doubts(
     near_W = max(3.0 * sigma10, 0.1 * swing_W)
 
     def when(index10: int) -> float:
-        return float(run.time_s[0]) + index10 * dt10
+        return run.time_at(0) + index10 * dt10
 
     def name_of(name: str, step: int) -> str:
         return f"the {name} phase before step 1" if step == 0 else f"the {name} of step {step}"
@@ -1497,8 +1497,8 @@ def _start_spikes(
 def _time_at(run: Run, index: int) -> float:
     """Start time of sample `index`; the end of the run for index == samples."""
     if index < run.samples:
-        return float(run.time_s[index])
-    return float(run.time_s[-1] + run.sample_period_s)
+        return run.time_at(index)
+    return run.time_at(-1) + run.sample_period_s
 
 
 def _phase(
