@@ -68,6 +68,45 @@ print(json.dumps({
 }))
 """
 
+#: stage label -> (module, function) timed by `timed_shares`, CPU time, no profiler
+TIMED_STAGES = {
+    "read_log": ("wifibot_power.io.reader", "read_log"),
+    "  CSV parse to numpy (read_columns)": ("wifibot_power.io.transport", "read_columns"),
+    "  sample checks (check_samples)": ("wifibot_power.io.validate", "check_samples"),
+    "segmentation (segment_run)": ("wifibot_power.segment", "segment_run"),
+    "run_row": ("wifibot_power.runtable", "run_row"),
+}
+
+TIMED = r"""
+import importlib, json, sys, time
+from pathlib import Path
+folder, stages = Path(sys.argv[1]), json.loads(sys.argv[2])
+from wifibot_power.fit import fit_logs
+spent = dict.fromkeys(stages, 0.0)
+swaps = []
+for label, (module, name) in stages.items():
+    original = getattr(importlib.import_module(module), name)
+    def timed(*args, _original=original, _label=label, **kwargs):
+        start = time.process_time()
+        try:
+            return _original(*args, **kwargs)
+        finally:
+            spent[_label] += time.process_time() - start
+    swaps.append((original, timed))
+# every name bound to a stage's function in wifibot_power's modules, the defining one too
+for module in [m for n, m in sys.modules.items() if n.startswith("wifibot_power")]:
+    for attr, value in list(vars(module).items()):
+        for original, timed in swaps:
+            if value is original:
+                setattr(module, attr, timed)
+fit_logs([folder], jobs=1)  # the page cache and lazy imports warmed
+spent = dict.fromkeys(stages, 0.0)
+start = time.process_time()
+fit_logs([folder], jobs=1)
+whole = time.process_time() - start
+print(json.dumps({"whole_cpu_s": whole, "stages": spent}))
+"""
+
 LIBRARY = r"""
 import json, shutil, statistics, sys, tempfile, time
 from pathlib import Path
@@ -106,6 +145,14 @@ def profile(what: str, folder: Path) -> dict:
     if missing:
         print(f"bench: WARNING: no time found for {missing}: renamed? (benchmarks/profiles.py)")
     return result
+
+
+def timed_shares(folder: Path) -> dict:
+    """`fit_logs` over `folder` with 1 job, its stages timed by CPU time around each call
+    (`TIMED_STAGES`), no profiler: cProfile charges every call, so it inflates the share of
+    code made of many small calls (segmentation) against one long call (the parse).
+    {"whole_cpu_s", "stages": {label: CPU s}}."""
+    return _run(TIMED, str(folder), json.dumps(TIMED_STAGES))
 
 
 def library_times(folder: Path, scratch: Path) -> dict[str, float]:

@@ -22,7 +22,9 @@ What it does (docs/benchmarks.md shows the figures and how to read them):
    to the cold result), `fit_logs()` timed after its imports, and the fixed overhead (`fit` of
    one tiny log).
 4. cProfile of `fit_logs` and of `diagnose_logs` with 1 job on the `--profile-shape` corpus
-   (default power): the share of segmentation, the parse, the sample checks, run_row, ...
+   (default power): the share of segmentation, the parse, the sample checks, run_row, ...;
+   and the same stages of `fit_logs` timed by CPU time around each call, without a
+   profiler (which inflates code made of many small calls).
 5. Writes docs/benchmarks.md (text below its hand-written marker is kept) and
    ROOT/last-bench.json (every figure; `--render FILE` writes the page again from it).
 
@@ -275,6 +277,7 @@ def main() -> None:
         print(f"bench: cProfile of fit_logs and diagnose_logs on {profile_name}", flush=True)
         extras["profile_shape"] = profile_name
         extras["profile_fit"] = profiles.profile("fit", folders[profile_name])
+        extras["timed_fit"] = profiles.timed_shares(folders[profile_name])
         extras["profile_diagnose"] = profiles.profile("diagnose", folders[profile_name])
     info["load average at end"] = load_average()
     info["bench took"] = f"{(time.perf_counter() - started) / 60:.1f} min"
