@@ -169,6 +169,22 @@ def test_long_medians_narrowed_first_are_numpys() -> None:
         assert robust_sigma_W(x) == float(1.4826 * mad / np.sqrt(2.0)), trial
 
 
+def test_long_medians_narrowed_twice_or_missed_are_numpys() -> None:
+    # a band still longer than 4,096 values is narrowed again, with the wanted ranks off
+    # its middle (a skewed array: most of the band on one side); a sample that misses the
+    # middle (every 7th value the same: the sample is all zeros) falls back to a partition
+    # of what is left. Each the same number as numpy's, odd and even sizes.
+    rng = np.random.default_rng(16)
+    for size in (4_097, 4_098, 60_001, 60_002, 300_000, 300_001):
+        skewed = rng.exponential(1.0, size) ** 3
+        assert median(skewed) == float(np.median(skewed)), size
+        periodic = np.tile(np.arange(7.0), -(-size // 7))[:size]
+        periodic[:: (size // 2048)] = 0.0
+        assert median(periodic) == float(np.median(periodic)), size
+        ties = np.round(rng.normal(0.0, 1.0, size), 1)
+        assert median(ties) == float(np.median(ties)), size
+
+
 def test_jump_statistic_noise_matches_its_sd_factor() -> None:
     rng = np.random.default_rng(2)
     jump = jump_statistic_W(rng.normal(0.0, 1.0, 200_000), 10)

@@ -104,34 +104,45 @@ def _median_in_place(x: np.ndarray) -> float:
     """`numpy.median` of a 1-d float array that may be reordered (no copy): the same
     value (the middle one, or the mean of the two middle ones).
 
-    A long array (the noise of a run's 1 ms blocks: ~100 k differences) is first narrowed
-    to a band of values that must hold the middle ones: the band is read off a sample of
-    2,048 values (its order statistics ± 4 sd of the sample median's rank, by a partition
-    of the sample: a sort gave the same two values at twice the cost), the values below it
-    counted, and only those inside it partitioned: exact, checked by the counts (else the
-    whole array is partitioned), and from ~4 k values on a half to a third of the time of
-    a partition of everything (measured: 20 k values 0.24 ms against 0.58 ms)."""
+    A long array (the noise of a run's 1 ms blocks: ~10-100 k differences) is first
+    narrowed to a band of values that must hold the middle ones: the band is read off a
+    sample of 2,048 values (its order statistics ± 3 sqrt(2,048) ranks around the wanted
+    ones, 6 sd of the rank of a population's order statistic among the sample, by a
+    partition of the sample), the values below it counted, and only those inside it kept:
+    exact, checked by the counts (else what is left is partitioned whole). A band still
+    longer than `_NARROW_FROM` is narrowed again the same way (the wanted ranks then
+    anywhere in it), and the last one is partitioned at the upper wanted rank only: the
+    lower of two middle ones is then the largest value before it. From ~4 k values on a
+    fraction of the time of a partition of everything (measured, 33 k block differences
+    of `power10k`: 182 µs with one narrowing and a two-rank partition, 146 µs so)."""
     n = x.size
     k = n // 2
     ranks = [k] if n % 2 else [k - 1, k]
-    if n > _NARROW_FROM:
-        sample = x[:: n // 2048]
-        middle = sample.size // 2
-        reach = int(4.0 * np.sqrt(sample.size)) + 2
-        edges = [max(middle - reach, 0), min(middle + reach, sample.size - 1)]
-        # the two order statistics of the sample, by a partition (a sort's values there)
+    while x.size > _NARROW_FROM:
+        m = x.size
+        sample = x[:: m // 2048]
+        s = sample.size
+        reach = int(3.0 * np.sqrt(s)) + 2
+        # the sample ranks around the wanted ones (floor and ceiling of their share)
+        edges = [max(ranks[0] * s // m - reach, 0), min(-(-ranks[-1] * s // m) + reach, s - 1)]
         sample = np.partition(sample, edges)
         low, high = sample[edges[0]], sample[edges[1]]
-        below = int(np.count_nonzero(x < low))
+        keep = x >= low
+        below = m - int(np.count_nonzero(keep))
+        keep &= x <= high
         # compress, not a boolean index: the same values in the same order, 3x faster
-        band = np.compress((x >= low) & (x <= high), x)
+        band = np.compress(keep, x)
         inside = [r - below for r in ranks]
-        if inside[0] >= 0 and inside[-1] < band.size:
-            x, ranks = band, inside
-    x.partition(ranks)
+        if inside[0] < 0 or inside[-1] >= band.size:
+            break  # the sample missed: partition what is left
+        x, ranks = band, inside
+        if 2 * band.size > m:
+            break  # ties (many values equal to the middle one): narrowing no longer pays
+    top = ranks[-1]
+    x.partition(top)
     if n % 2:
-        return float(x[ranks[0]])
-    return float((x[ranks[0]] + x[ranks[1]]) / 2.0)
+        return float(x[top])
+    return float((np.max(x[:top]) + x[top]) / 2.0)
 
 
 #: arrays longer than this are narrowed before the median's partition (`_median_in_place`;
