@@ -22,6 +22,7 @@ from wifibot_power import changepoint
 from wifibot_power.changepoint import (
     LevelParams,
     _centred_power_sum,
+    _solve,
     best_split,
     best_splits,
     block_means,
@@ -183,6 +184,39 @@ def test_long_medians_narrowed_twice_or_missed_are_numpys() -> None:
         assert median(periodic) == float(np.median(periodic)), size
         ties = np.round(rng.normal(0.0, 1.0, size), 1)
         assert median(ties) == float(np.median(ties)), size
+
+
+def test_solve_written_out_for_low_degrees_is_the_loop_bit_for_bit() -> None:
+    # `_solve` writes degrees 0 and 1 out (most splits): each coefficient and the explained
+    # sum the very doubles of the general loop (here), on random rows of G⁻¹ and b
+    rng = np.random.default_rng(17)
+
+    def loop(rhs, inverse):
+        coef = []
+        for p in range(len(rhs)):
+            c_p = inverse[p, p % 2] * rhs[p % 2]
+            for q in range(p % 2 + 2, len(rhs), 2):
+                c_p = c_p + inverse[p, q] * rhs[q]
+            coef.append(c_p)
+        explained = coef[0] * rhs[0]
+        for p in range(1, len(rhs)):
+            explained = explained + coef[p] * rhs[p]
+        return coef, explained
+
+    for m in (1, 2, 3, 4):
+        for _ in range(20):
+            size = int(rng.integers(1, 300))
+            rhs = [rng.normal(0.0, 10.0 ** rng.integers(-3, 4), size) for _ in range(m)]
+            inverse = {
+                (p, q): rng.normal(0.0, 1.0, size)
+                for p in range(m)
+                for q in range(m)
+                if (p + q) % 2 == 0
+            }
+            coef, explained = _solve(rhs, inverse)
+            want_coef, want_explained = loop(rhs, inverse)
+            assert all(np.array_equal(a, b) for a, b in zip(coef, want_coef, strict=True))
+            assert np.array_equal(explained, want_explained)
 
 
 def test_jump_statistic_noise_matches_its_sd_factor() -> None:

@@ -29,7 +29,7 @@ References
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import pairwise
 
@@ -357,9 +357,6 @@ class _PieceShape:
             array.setflags(write=False)
         self.size = sum(a.size for a in kept)
 
-    def inverse(self, p: int, q: int) -> np.ndarray:
-        return self.inverse_rows[p, q]
-
 
 #: shapes made so far, and how many numbers they hold (kept under `_SHAPES_MAX_SIZE`)
 _SHAPES: dict[tuple[int, int, int, int, bool], _PieceShape] = {}
@@ -402,17 +399,25 @@ def _piece_shape(n: int, start: int, stop: int, deg: int, left: bool) -> _PieceS
 
 
 def _solve(
-    rhs: list[np.ndarray], inverse: Callable[[int, int], np.ndarray]
+    rhs: list[np.ndarray], inverse: dict[tuple[int, int], np.ndarray]
 ) -> tuple[list[np.ndarray], np.ndarray]:
-    """Coefficients c = G⁻¹ b of each piece (`inverse(p, q)`: the (p, q) entry of G⁻¹ for
+    """Coefficients c = G⁻¹ b of each piece (`inverse[p, q]`: the (p, q) entry of G⁻¹ for
     every piece; zero where p + q is odd, so skipped) and the explained sum of squares
-    c · b (the SSE is Σ y² minus it)."""
+    c · b (the SSE is Σ y² minus it). Degrees 0 and 1 written out (most splits): the same
+    operations in the same order as the loops."""
     m = len(rhs)
+    if m == 1:
+        c_0 = inverse[0, 0] * rhs[0]
+        return [c_0], c_0 * rhs[0]
+    if m == 2:
+        c_0 = inverse[0, 0] * rhs[0]
+        c_1 = inverse[1, 1] * rhs[1]
+        return [c_0, c_1], c_0 * rhs[0] + c_1 * rhs[1]
     coef = []
     for p in range(m):
-        c_p = inverse(p, p % 2) * rhs[p % 2]
+        c_p = inverse[p, p % 2] * rhs[p % 2]
         for q in range(p % 2 + 2, m, 2):
-            c_p = c_p + inverse(p, q) * rhs[q]
+            c_p = c_p + inverse[p, q] * rhs[q]
         coef.append(c_p)
     explained = coef[0] * rhs[0]
     for p in range(1, m):
@@ -478,15 +483,16 @@ class _PolyCost:
         self.offset = float(np.add.reduce(y) / n) if n else 0.0
         self.scale = float(max(n, 1))
         u = _window_positions(n)
-        terms = np.zeros((max_deg + 2, n + 1))  # the prefix sums start at 0
+        terms = np.empty((max_deg + 2, n + 1))
+        terms[:, 0] = 0.0  # the prefix sums start at 0
         yc = terms[0, 1:]
         np.subtract(y, self.offset, out=yc)
         for q in range(1, max_deg + 1):
             np.multiply(terms[q - 1, 1:], u, out=terms[q, 1:])
         np.multiply(yc, yc, out=terms[-1, 1:])
         terms.cumsum(axis=1, out=terms)
-        self.puy = list(terms[:-1])  # prefix sums of u^q y, q = 0..max_deg
-        self.py2 = terms[-1]  # prefix sums of y^2
+        # rows: prefix sums of u^q y (q = 0..max_deg), then of y^2 (one array, no views)
+        self.terms = terms
 
     def fit_splits(
         self, start: int, stop: int, deg: int, left: bool
@@ -496,21 +502,20 @@ class _PolyCost:
         table (no index arrays, no stacked coefficients: `best_split` calls this twice per
         window, most of its cost). Returns the SSE and the coefficients as one array per
         power."""
-        m = deg + 1
         n = self.n
+        terms = self.terms
         if left:
             # sums over [0, s): prefix[s] - prefix[0], and prefix[0] is 0
-            sums = [self.puy[q][start:stop] for q in range(m)]
-            y2 = self.py2[start:stop]
+            sums = [terms[q, start:stop] for q in range(deg + 1)]
+            y2 = terms[-1, start:stop]
         else:
-            sums = [self.puy[q][n] - self.puy[q][start:stop] for q in range(m)]
-            y2 = self.py2[n] - self.py2[start:stop]
-        shape = _piece_shape(n, start, stop, deg, left)
-        rhs = _own_basis_rhs(sums, shape.shift_pow, shape.terms, shape.ratio_pow)
-        inverse = shape.inverse
-        coef, explained = _solve(rhs, inverse)
+            sums = [terms[q, n] - terms[q, start:stop] for q in range(deg + 1)]
+            y2 = terms[-1, n] - terms[-1, start:stop]
+        shape = _SHAPES.get((n, start, stop, deg, left)) or _piece_shape(n, start, stop, deg, left)
+        rhs = _own_basis_rhs(sums, shape.shift_pow, shape.terms, shape.ratio_pow) if deg else sums
+        coef, explained = _solve(rhs, shape.inverse_rows)
         sse = y2 - explained
-        return np.maximum(sse, 0.0), coef
+        return np.maximum(sse, 0.0, out=sse), coef
 
     def value(self, coef: np.ndarray | list[float], x: float) -> float:
         """The piece at x (its own basis: -1/2 at its first sample's start edge, +1/2 at its
@@ -578,15 +583,16 @@ def best_split(
         if allowed.any():
             total = np.where(allowed, total, np.inf)
     best = int(total.argmin())
-    left_best = [c[best] for c in coef_left]
-    right_best = [c[best] for c in coef_right]
+    # Python floats: the same doubles, and the same float operations in `_piece_value`
+    left_best = tuple([c.item(best) for c in coef_left])
+    right_best = tuple([c.item(best) for c in coef_right])
     return Split(
         index=lo + start + best,
-        sse=float(total[best]),
-        left_end_W=cost.value(left_best, 0.5),
-        right_start_W=cost.value(right_best, -0.5),
-        left_coef=tuple(map(float, left_best)),
-        right_coef=tuple(map(float, right_best)),
+        sse=total.item(best),
+        left_end_W=_piece_value(left_best, 0.5, cost.offset),
+        right_start_W=_piece_value(right_best, -0.5, cost.offset),
+        left_coef=left_best,
+        right_coef=right_best,
     )
 
 
@@ -710,7 +716,7 @@ def _stacked_splits(
                     pair_terms[p, q] = math.comb(p, q) * shift_pow[p - q]
         table = _gram_inverse(deg, longest)  # no piece is longer than the longest window
         rhs = _own_basis_rhs(sums, shift_pow, pair_terms, ratio_pow)
-        coef, explained = _solve(rhs, lambda p, q: table[p, q][length])
+        coef, explained = _solve(rhs, {key: row[length] for key, row in table.items()})
         return np.maximum(y2 - explained, 0.0), coef
 
     sse_left, coef_left = fit(deg_left, left=True)
