@@ -173,19 +173,24 @@ def jump_statistic_W(y: np.ndarray, half_width: int) -> np.ndarray:
     yc.cumsum(out=s0[1:])  # methods, not np.cumsum: no Python-level wrapper per call
     np.multiply(j, yc, out=j)
     j.cumsum(out=s1[1:])
-    k = np.arange(w, n - w + 1)
+    count = n - 2 * w + 1  # boundaries k = w .. n - w
     s_xx = w * (w * w - 1) / 12.0
 
     def line_at_boundary(first: int) -> np.ndarray:
         # the lines over [start, start + w) for start = first + 0, 1, ...: prefix sums by
         # slices (not gathers)
-        start = k - (w - first)
-        stop = first + k.size
+        stop = first + count
         sum_y = s0[first + w : stop + w] - s0[first:stop]
         sum_jy = s1[first + w : stop + w] - s1[first:stop]
-        mean_j = start + (w - 1) / 2.0
+        # their centres start + (w - 1) / 2, start = first, first + 1, ...: half-integers,
+        # exact in doubles whether summed or counted by arange
+        centre = first + (w - 1) / 2.0
+        mean_j = np.arange(centre, centre + count)
         slope = (sum_jy - mean_j * sum_y) / s_xx
-        return sum_y / w + slope * (k - 0.5 - mean_j)
+        # each line at the boundary k - 1/2, from its centre mean_j: -w/2 for the line
+        # after it (first = w), +w/2 for the one before; in doubles exactly what
+        # k - 0.5 - mean_j gives (half-integers), without its two array operations
+        return sum_y / w + slope * ((w / 2.0) if first == 0 else (-w / 2.0))
 
     out[w : n - w + 1] = line_at_boundary(w) - line_at_boundary(0)
     return out
