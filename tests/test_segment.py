@@ -145,6 +145,9 @@ def test_percentile_is_numpys_bit_for_bit() -> None:
             x = np.round(x, 1)  # ties
         for q in (0, 1, 50, 95, 99, 99.9, 100):
             assert percentile(x, q) == float(np.percentile(x, q)), (trial, q)
+        # detect_levels takes the 1st and 99th together, numpy took them as a pair
+        pair = np.percentile(x, [1, 99])
+        assert (percentile(x, 1), percentile(x, 99)) == (float(pair[0]), float(pair[1]))
 
 
 def test_longest_runs_cut_to_spans_are_each_spans_own() -> None:

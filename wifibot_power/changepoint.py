@@ -826,7 +826,8 @@ def detect_levels(
     if params.min_step_W is not None:
         min_step = float(params.min_step_W)
     elif y.size:
-        lo_W, hi_W = np.percentile(y, [1, 99])
+        # numpy's percentiles, the same numbers, without its overhead (~3 ms on an idle run)
+        lo_W, hi_W = percentile(y, 1), percentile(y, 99)
         min_step = 0.02 * float(hi_W - lo_W)
     else:
         min_step = 0.0
@@ -841,7 +842,7 @@ def detect_levels(
     spike_max = max(1, round(params.spike_max_s / sample_period_s))
     bounds = _merge_spikes(power_W, bounds, spike_max)
     bounds = _merge_small(power_W, bounds, min_step)
-    levels = tuple(float(np.median(power_W[a:b])) for a, b in pairwise(bounds))
+    levels = tuple(_level(power_W, a, b) for a, b in pairwise(bounds))
     spikes = _find_spikes(
         power_W, sample_period_s, bounds, levels, block, spike_max, sigma, params.z
     )
@@ -864,7 +865,9 @@ def _refine_to_sample(power_W: np.ndarray, i_guess: int, block: int) -> int:
 
 
 def _level(power_W: np.ndarray, a: int, b: int) -> float:
-    return float(np.median(power_W[a:b]))
+    """The median of the samples [a, b): `numpy.median`'s number (`median`, narrowed first:
+    a level of a whole idle run is some 10^5-10^6 samples)."""
+    return median(power_W[a:b])
 
 
 def _merge_spikes(power_W: np.ndarray, bounds: list[int], spike_max: int) -> list[int]:
