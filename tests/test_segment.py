@@ -22,6 +22,7 @@ from wifibot_power import changepoint
 from wifibot_power.changepoint import (
     LevelParams,
     _centred_power_sum,
+    _solve,
     best_split,
     best_splits,
     block_means,
@@ -78,6 +79,24 @@ def test_jump_statistic_is_the_step_and_ignores_trends_and_curvature() -> None:
     assert np.nanmax(np.abs(jump_statistic_W(0.01 * i**2, 10))) < 1e-9
 
 
+def test_jump_statistic_is_its_definition_at_every_boundary() -> None:
+    # the prefix-sum form (each line's value at the boundary from its centre, +-w/2) against
+    # two numpy polyfits per boundary, on random walks, every boundary (agree to ~1e-12 W
+    # on values of ~10 W; NaN where a line does not fit)
+    rng = np.random.default_rng(18)
+    for trial in range(6):
+        n, w = int(rng.integers(20, 120)), int(rng.integers(2, 9))
+        y = 10.0 + rng.normal(0.0, 1.0, n).cumsum()
+        jump = jump_statistic_W(y, w)
+        for k in range(n + 1):
+            if k < w or k > n - w:
+                assert np.isnan(jump[k]), (trial, k)
+                continue
+            before = np.polyval(np.polyfit(np.arange(k - w, k), y[k - w : k], 1), k - 0.5)
+            after = np.polyval(np.polyfit(np.arange(k, k + w), y[k : k + w], 1), k - 0.5)
+            assert_allclose(jump[k], after - before, atol=1e-9), (trial, k)
+
+
 def _peaks_by_definition(score: np.ndarray, threshold: float, separation: int) -> list[int]:
     """Local maxima over the centred window of 2 separation + 1 (NaN and beyond the ends
     -inf) above the threshold, then greedy from the largest, at least `separation` apart:
@@ -126,6 +145,9 @@ def test_percentile_is_numpys_bit_for_bit() -> None:
             x = np.round(x, 1)  # ties
         for q in (0, 1, 50, 95, 99, 99.9, 100):
             assert percentile(x, q) == float(np.percentile(x, q)), (trial, q)
+        # detect_levels takes the 1st and 99th together, numpy took them as a pair
+        pair = np.percentile(x, [1, 99])
+        assert (percentile(x, 1), percentile(x, 99)) == (float(pair[0]), float(pair[1]))
 
 
 def test_longest_runs_cut_to_spans_are_each_spans_own() -> None:
@@ -167,6 +189,55 @@ def test_long_medians_narrowed_first_are_numpys() -> None:
         d = np.diff(x)
         mad = float(np.median(np.abs(d - np.median(d))))
         assert robust_sigma_W(x) == float(1.4826 * mad / np.sqrt(2.0)), trial
+
+
+def test_long_medians_narrowed_twice_or_missed_are_numpys() -> None:
+    # a band still longer than 4,096 values is narrowed again, with the wanted ranks off
+    # its middle (a skewed array: most of the band on one side); a sample that misses the
+    # middle (every 7th value the same: the sample is all zeros) falls back to a partition
+    # of what is left. Each the same number as numpy's, odd and even sizes.
+    rng = np.random.default_rng(16)
+    for size in (4_097, 4_098, 60_001, 60_002, 300_000, 300_001):
+        skewed = rng.exponential(1.0, size) ** 3
+        assert median(skewed) == float(np.median(skewed)), size
+        periodic = np.tile(np.arange(7.0), -(-size // 7))[:size]
+        periodic[:: (size // 2048)] = 0.0
+        assert median(periodic) == float(np.median(periodic)), size
+        ties = np.round(rng.normal(0.0, 1.0, size), 1)
+        assert median(ties) == float(np.median(ties)), size
+
+
+def test_solve_written_out_for_low_degrees_is_the_loop_bit_for_bit() -> None:
+    # `_solve` writes degrees 0 and 1 out (most splits): each coefficient and the explained
+    # sum the very doubles of the general loop (here), on random rows of G⁻¹ and b
+    rng = np.random.default_rng(17)
+
+    def loop(rhs, inverse):
+        coef = []
+        for p in range(len(rhs)):
+            c_p = inverse[p, p % 2] * rhs[p % 2]
+            for q in range(p % 2 + 2, len(rhs), 2):
+                c_p = c_p + inverse[p, q] * rhs[q]
+            coef.append(c_p)
+        explained = coef[0] * rhs[0]
+        for p in range(1, len(rhs)):
+            explained = explained + coef[p] * rhs[p]
+        return coef, explained
+
+    for m in (1, 2, 3, 4):
+        for _ in range(20):
+            size = int(rng.integers(1, 300))
+            rhs = [rng.normal(0.0, 10.0 ** rng.integers(-3, 4), size) for _ in range(m)]
+            inverse = {
+                (p, q): rng.normal(0.0, 1.0, size)
+                for p in range(m)
+                for q in range(m)
+                if (p + q) % 2 == 0
+            }
+            coef, explained = _solve(rhs, inverse)
+            want_coef, want_explained = loop(rhs, inverse)
+            assert all(np.array_equal(a, b) for a, b in zip(coef, want_coef, strict=True))
+            assert np.array_equal(explained, want_explained)
 
 
 def test_jump_statistic_noise_matches_its_sd_factor() -> None:
