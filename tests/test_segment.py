@@ -207,6 +207,21 @@ def test_long_medians_narrowed_twice_or_missed_are_numpys() -> None:
         assert median(ties) == float(np.median(ties)), size
 
 
+def test_a_zero_median_is_plus_zero() -> None:
+    # review (sixth session): with -0.0 and +0.0 both at the middle, which one the
+    # partition leaves there depends on the order; a 0 W idle level read "-0". Short and
+    # long (narrowed) arrays, odd and even sizes, quantised readings around 0 W
+    rng = np.random.default_rng(18)
+    for size in (5, 6, 4_097, 50_000, 50_001):
+        for _ in range(10):
+            x = np.round(rng.normal(0.0, 0.004, size), 2)
+            x[rng.random(size) < 0.5] *= -1.0  # both zeros, shuffled
+            found = median(x)
+            assert found == float(np.median(x))
+            if found == 0.0:
+                assert np.copysign(1.0, found) == 1.0, size
+
+
 def test_solve_written_out_for_low_degrees_is_the_loop_bit_for_bit() -> None:
     # `_solve` writes degrees 0 and 1 out (most splits): each coefficient and the explained
     # sum the very doubles of the general loop (here), on random rows of G⁻¹ and b

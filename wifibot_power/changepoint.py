@@ -140,9 +140,11 @@ def _median_in_place(x: np.ndarray) -> float:
             break  # ties (many values equal to the middle one): narrowing no longer pays
     top = ranks[-1]
     x.partition(top)
+    # + 0.0: a zero median is +0 whichever zero the partition put in the middle (with -0.0
+    # and +0.0 both there, numpy's choice depends on the order: a 0 W idle read "-0")
     if n % 2:
-        return float(x[top])
-    return float((np.max(x[:top]) + x[top]) / 2.0)
+        return float(x[top]) + 0.0
+    return float((np.max(x[:top]) + x[top]) / 2.0) + 0.0
 
 
 #: arrays longer than this are narrowed before the median's partition (`_median_in_place`;
