@@ -58,7 +58,7 @@ def _mirror() -> Path:
 
 
 def _source(name: str) -> pd.DataFrame:
-    text = convert._git(_mirror(), "show", f"{convert.COMMIT}:{convert.FOLDER}/{name}")
+    text = convert.git(_mirror(), "show", f"{convert.COMMIT}:{convert.FOLDER}/{name}")
     return pd.read_csv(io.BytesIO(text), index_col=0)
 
 

@@ -62,7 +62,6 @@ Standard library + numpy only.
 from __future__ import annotations
 
 import argparse
-import gzip
 import io
 import os
 import subprocess
@@ -70,6 +69,9 @@ import sys
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from canonical_out import canonical_text, git, write_gzip  # noqa: E402  (a module beside this one)
 
 SET_NAME = "f1tenth_frictionmaps"
 REPO = "AhmadAmine998/FrictionMaps"
@@ -100,12 +102,6 @@ COLUMNS = (
     ("erpm", "%.0f"),
     ("commanded_speed_mps", "%.4f"),
 )
-
-
-def _git(mirror: Path, *args: str) -> bytes:
-    return subprocess.run(
-        ["git", f"--git-dir={mirror}", *args], check=True, capture_output=True
-    ).stdout
 
 
 def _table(text: str, source: str, names: tuple[str, ...]) -> dict[str, np.ndarray]:
@@ -162,18 +158,15 @@ def to_canonical(cols: dict[str, np.ndarray], meta: dict[str, str]) -> str:
     """The canonical wbpower CSV text of (a slice of) the log."""
     top = np.nanmax(np.abs(cols["commanded_speed_mps"]))
     meta = {**meta, "speed_mps": f"{top:.2f}"}
-    head = ["# wbpower-log: 1", *(f"# {k}: {v}" for k, v in meta.items())]
     table = np.column_stack([cols[name] for name, _ in COLUMNS])
-    lines = [",".join(name for name, _ in COLUMNS)]
-    lines += [",".join(f % x for (_, f), x in zip(COLUMNS, row, strict=True)) for row in table]
-    return "\n".join(head + lines) + "\n"
+    return canonical_text(meta, [n for n, _ in COLUMNS], [f for _, f in COLUMNS], table)
 
 
 def convert(mirror: Path, out: Path, split_at_gaps: bool = False) -> list[Path]:
     source = f"{REPO}@{COMMIT[:12]}:{FOLDER}"
 
     def show(name: str) -> str:
-        return _git(mirror, "show", f"{COMMIT}:{FOLDER}/{name}").decode()
+        return git(mirror, "show", f"{COMMIT}:{FOLDER}/{name}").decode()
 
     cols = parse(show("coreData.csv"), show("commandData.csv"), source)
     pieces = {"ds5": slice(None)}
@@ -201,9 +194,7 @@ def convert(mirror: Path, out: Path, split_at_gaps: bool = False) -> list[Path]:
             "robot": ROBOT,
         }
         target = out / f"{stem}.csv.gz"
-        # mtime 0: the same input gives the same bytes
-        with open(target, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as gz:
-            gz.write(to_canonical(part, meta).encode())
+        write_gzip(target, to_canonical(part, meta))
         written.append(target)
     return written
 

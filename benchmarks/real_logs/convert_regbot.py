@@ -53,7 +53,6 @@ from __future__ import annotations
 
 import argparse
 import fnmatch
-import gzip
 import os
 import re
 import subprocess
@@ -62,6 +61,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from canonical_out import canonical_text, git, write_gzip  # noqa: E402  (a module beside this one)
 
 
 @dataclass(frozen=True)
@@ -124,12 +126,6 @@ _HEADER = re.compile(r"^%\s+(\d+)\s+(?:\d+\s+)*(Motor voltage|Motor current|Whee
 _ROBOT = re.compile(r"^%%? ?logfile from robot\s+(.*?)\s*$")
 
 
-def _git(mirror: Path, *args: str) -> bytes:
-    return subprocess.run(
-        ["git", f"--git-dir={mirror}", *args], check=True, capture_output=True
-    ).stdout
-
-
 def parse_regbot(text: str, source: str) -> dict[str, np.ndarray | str]:
     """Columns of one REGBOT log: time, per-motor voltage/current/wheel velocity, robot name."""
     first: dict[str, int] = {}
@@ -184,18 +180,15 @@ def to_canonical(cols: dict[str, np.ndarray | str], meta: dict[str, str]) -> str
     """The canonical wbpower CSV text of one parsed log."""
     speed_mps = (cols["v_left_mps"] + cols["v_right_mps"]) / 2 + 0.0  # + 0.0: no "-0"
     meta = {**meta, "speed_mps": f"{np.max(np.abs(speed_mps)):.2f}"}
-    head = ["# wbpower-log: 1", *(f"# {k}: {v}" for k, v in meta.items())]
     table = np.column_stack([speed_mps if k is None else cols[k] for _, k, _ in COLUMNS])
-    lines = [",".join(name for name, _, _ in COLUMNS)]
-    lines += [",".join(f % x for (_, _, f), x in zip(COLUMNS, row, strict=True)) for row in table]
-    return "\n".join(head + lines) + "\n"
+    return canonical_text(meta, [n for n, _, _ in COLUMNS], [f for _, _, f in COLUMNS], table)
 
 
 def convert(set_name: str, mirror: Path, out: Path, everything: bool) -> list[Path]:
     spec = SETS[set_name]
     paths = [
         p
-        for p in _git(mirror, "ls-tree", "-r", "--name-only", spec.commit).decode().split("\n")
+        for p in git(mirror, "ls-tree", "-r", "--name-only", spec.commit).decode().split("\n")
         if fnmatch.fnmatch(p, spec.pattern)
     ]
     if not everything:
@@ -207,7 +200,7 @@ def convert(set_name: str, mirror: Path, out: Path, everything: bool) -> list[Pa
     written = []
     for path in sorted(paths):
         source = f"{spec.repo}@{spec.commit[:12]}:{path}"
-        cols = parse_regbot(_git(mirror, "show", f"{spec.commit}:{path}").decode(), source)
+        cols = parse_regbot(git(mirror, "show", f"{spec.commit}:{path}").decode(), source)
         stem = Path(path).stem
         meta = {
             "run_id": f"{set_name}/{stem}",
@@ -220,9 +213,7 @@ def convert(set_name: str, mirror: Path, out: Path, everything: bool) -> list[Pa
             "robot": f"REGBOT {cols['robot']}".strip(),
         }
         target = out / f"{stem}.csv.gz"
-        # mtime 0: the same input gives the same bytes (no churn in git)
-        with open(target, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as gz:
-            gz.write(to_canonical(cols, meta).encode())
+        write_gzip(target, to_canonical(cols, meta))
         written.append(target)
     return written
 
