@@ -68,13 +68,18 @@ print(json.dumps({
 }))
 """
 
-#: stage label -> (module, function) timed by `timed_shares`, CPU time, no profiler
+#: the modules of the files `FIT_STAGES` names, for `timed_shares`
+_MODULES = {
+    "reader.py": "wifibot_power.io.reader",
+    "transport.py": "wifibot_power.io.transport",
+    "validate.py": "wifibot_power.io.validate",
+    "segment.py": "wifibot_power.segment",
+    "runtable.py": "wifibot_power.runtable",
+}
+#: stage label -> (module, function) timed by `timed_shares`, CPU time, no profiler: the
+#: per-file stages of `FIT_STAGES`, under the same labels
 TIMED_STAGES = {
-    "read_log": ("wifibot_power.io.reader", "read_log"),
-    "  CSV parse to numpy (read_columns)": ("wifibot_power.io.transport", "read_columns"),
-    "  sample checks (check_samples)": ("wifibot_power.io.validate", "check_samples"),
-    "segmentation (segment_run)": ("wifibot_power.segment", "segment_run"),
-    "run_row": ("wifibot_power.runtable", "run_row"),
+    label: (_MODULES[file], name) for label, (file, name) in FIT_STAGES.items() if file in _MODULES
 }
 
 TIMED = r"""
