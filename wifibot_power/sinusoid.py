@@ -25,6 +25,14 @@ def centred_times_s(n: int, step_s: float) -> np.ndarray:
     return (np.arange(n) - (n - 1) / 2.0) * step_s
 
 
+def detrended(x: np.ndarray, step_s: float) -> np.ndarray:
+    """`x` less its least-squares level and line in time [same unit]: over centred t the two
+    are apart, the mean and Σtx / Σt² (what numpy.polyfit's line gives, to rounding)."""
+    t = centred_times_s(x.size, step_s)
+    centred = np.asarray(x, dtype=np.float64) - np.add.reduce(x) / x.size
+    return centred - t * (float(t @ centred) / float(t @ t))
+
+
 def explained_W2(x: np.ndarray, step_s: float, candidates_hz: np.ndarray) -> np.ndarray:
     """Sum of squares [W²] the least-squares sinusoid at each candidate frequency explains
     in `x`, fitted jointly with a level and a line in time.
@@ -70,10 +78,7 @@ def refined_hz(x: np.ndarray, step_s: float, peak_hz: float) -> float:
     here): the best of `CANDIDATES` evenly spaced, then the vertex of the parabola through
     it and its two neighbours. Kept to one cycle in the series or more and under the
     Nyquist frequency."""
-    x = np.asarray(x, dtype=np.float64)
-    t = centred_times_s(x.size, step_s)
-    x = x - np.add.reduce(x) / x.size  # detrended, as `explained_W2` needs (to rounding)
-    x = x - t * (float(t @ x) / float(t @ t))
+    x = detrended(x, step_s)  # as `explained_W2` needs (a no-op, to rounding, if it was)
     bin_hz = 1.0 / (x.size * step_s)
     # at least one cycle in the series: under one, a sinusoid beside a line is a bend, and
     # takes up the curvature of a slow creep (a warming motor's) rather than a ripple; and

@@ -17,7 +17,7 @@ from wifibot_power.changepoint import block_means
 from wifibot_power.phases import Segmentation
 from wifibot_power.run import Run
 from wifibot_power.runtable import WindowEnergy
-from wifibot_power.sinusoid import centred_times_s, refined_hz, sinusoid_fit
+from wifibot_power.sinusoid import detrended, refined_hz, sinusoid_fit
 
 #: Length of the window after each acceleration start where a start transient sits [s].
 START_WINDOW_S = 0.25
@@ -151,11 +151,7 @@ def _cruise_spectrum(run: Run, segmentation: Segmentation):
     x = block_means(
         run.power_W[longest.i_start : longest.i_start + n_blocks * per_block], per_block
     )
-    # drift within a cruise is not ripple: its least-squares line removed (centred t: the
-    # level and the slope apart)
-    t = centred_times_s(n_blocks, block_s)
-    x = x - np.add.reduce(x) / n_blocks
-    x = x - t * (float(t @ x) / float(t @ t))
+    x = detrended(x, block_s)  # drift within a cruise is not ripple
     hz, amplitude_W, p_value = ripple_peak(x, block_s)
     return hz, amplitude_W, p_value, x, block_s
 

@@ -21,7 +21,7 @@ from wifibot_power.causes.base import (
 )
 from wifibot_power.causes.design import column, measured_duration_prediction_J, stacked_fit
 from wifibot_power.changepoint import block_means
-from wifibot_power.sinusoid import refined_hz
+from wifibot_power.sinusoid import detrended, refined_hz
 from wifibot_power.stats import ols, t_quantile, t_sf
 
 if TYPE_CHECKING:
@@ -262,18 +262,16 @@ def _strongest_sinusoid(y: np.ndarray, t: np.ndarray, block_s: float) -> list[np
     """sin and cos columns (over centred `t`) at the strongest periodogram peak of `y`
     (linear trend removed) between 0.1 and 20 Hz, refined (`sinusoid.refined_hz`), or
     none when the band holds fewer than 3 frequencies."""
-    # the least-squares line of centred t: mean and Σty / Σt² (what np.polyfit gives, to
-    # rounding; only the peak's frequency is taken from what is left)
-    detrended = y - y.mean() - t * (float(t @ y) / float(t @ t))
+    residual = detrended(y, block_s)  # only the peak's frequency is taken from it
     freqs = np.fft.rfftfreq(y.size, block_s)
     band = (freqs >= 0.1) & (freqs <= min(20.0, 0.5 / block_s))
     if band.sum() < 3:
         return []
-    power = np.abs(np.fft.rfft(detrended)) ** 2
+    power = np.abs(np.fft.rfft(residual)) ** 2
     peak = float(freqs[band][np.argmax(power[band])])
     # the periodogram's grid is 1/T: refined within one bin either side (a sinusoid off
     # by half a bin would leave most of its tilt in the line)
-    hz = refined_hz(detrended, block_s, peak)
+    hz = refined_hz(residual, block_s, peak)
     return [np.sin(2 * np.pi * hz * t), np.cos(2 * np.pi * hz * t)]
 
 
