@@ -51,6 +51,9 @@ def test_a_failed_install_does_not_stick(tmp_path: Path) -> None:
     again = _make(venv)
     assert again.returncode == 0, again.stderr
     assert (venv / ".installed").is_file()
+    # the install compiles wifibot_power's bytecode (an editable install does not, and with
+    # PYTHONDONTWRITEBYTECODE set every command would compile it again), and it succeeded
+    assert f"{venv}/bin/python -m compileall -q wifibot_power" in again.stdout
     assert not (venv / "stale").exists(), "the stale venv was reused, not rebuilt"
     assert "Nothing to be done" in _make(venv).stdout  # a good venv is left alone
 
