@@ -231,13 +231,17 @@ def test_without_a_distance_a_speed_column_gives_the_path_of_the_motion_phases()
     assert "without a distance" in neither["skip_reason"]
 
 
-def test_run_energy_and_mean_power_are_the_runs_own_to_the_bit():
-    """The row sums the samples once for both (`run_row`): the same floats as
-    `Run.energy_J` and `Run.mean_power_W`, on noisy samples whose sum rounds."""
+def test_run_energy_and_mean_power_are_the_samples_own_to_the_bit():
+    """The row sums the samples once for both (`Run.energy_and_mean`): the same floats as
+    the rectangle rule (`run.energy_J(power, period)`) and numpy's mean of the samples, on
+    noisy samples whose sum rounds."""
+    from wifibot_power.run import energy_J
+
     rng = np.random.default_rng(4)
     for n in (1, 7, 1000, 131_073):
         power = 23.3 + rng.normal(0, 3, n)
         run, segmentation = build([("idle", 0, power)], mode="idle")
         row = run_row(run, segmentation)
-        assert row["energy_J"] == run.energy_J and row["mean_power_W"] == run.mean_power_W
-        assert row["idle_mean_power_W"] == run.mean_power_W
+        assert row["energy_J"] == energy_J(power, PERIOD_S) == run.energy_J
+        assert row["mean_power_W"] == float(power.mean()) == run.mean_power_W
+        assert row["idle_mean_power_W"] == float(power.mean())

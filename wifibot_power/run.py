@@ -118,11 +118,21 @@ class Run:
 
     @property
     def mean_power_W(self) -> float:
-        return float(self.power_W.mean()) if self.samples else float("nan")
+        return self.energy_and_mean()[1]
 
     @property
     def energy_J(self) -> float:
-        return energy_J(self.power_W, self.sample_period_s)
+        return self.energy_and_mean()[0]
+
+    def energy_and_mean(self) -> tuple[float, float]:
+        """The run's energy [J] (`energy_J`, Eq. 1's integral by the rectangle rule) and mean
+        power [W] (NaN without samples) from one sum of the samples: what `energy_J` and
+        `mean_power_W` give (numpy's mean is the same pairwise sum over the count)."""
+        import numpy as np
+
+        total_W = np.sum(self.power_W, dtype=np.float64)
+        mean_W = float(total_W / self.samples) if self.samples else float("nan")
+        return float(total_W * self.sample_period_s), mean_W
 
 
 def energy_J(power_W: np.ndarray, sample_period_s: float) -> float:

@@ -182,11 +182,7 @@ def run_row(
     """
     meta = run.meta
     period_s = run.sample_period_s
-    # the samples summed once for the run's energy and mean power (`Run.energy_J` and
-    # `Run.mean_power_W` each sum them, by the same pairwise sum: the same floats)
-    total_W = float(np.sum(run.power_W, dtype=np.float64)) if run.samples else float("nan")
-    run_energy_J = float(np.float64(total_W) * period_s) if run.samples else 0.0
-    run_mean_W = total_W / run.samples if run.samples else float("nan")
+    run_energy_J, run_mean_W = run.energy_and_mean()  # one pass over the samples for both
     speed_mps, cruise_levels = _cruise_speed(segmentation)
     if speed_mps is None:
         speed_mps = meta.speed_mps
