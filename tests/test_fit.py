@@ -29,6 +29,7 @@ from wifibot_power.fit import (
     write_fit,
 )
 from wifibot_power.model import load_model
+from wifibot_power.parallel import can_fork
 from wifibot_power.phases import Phase, Segmentation
 from wifibot_power.runtable import run_row, runs_frame
 from wifibot_power.simulate import SimConfig, simulate_runs, true_parameters, write_simulation
@@ -385,3 +386,56 @@ def test_cold_fit_json_never_imports_pandas(sim_dir) -> None:
     )
     assert json.loads(done.stdout)["cruise"]["n_runs"] > 0
     assert done.stderr.strip().splitlines()[-1] == "False"
+
+
+WORKER_IMPORTS = r"""
+import os, sys
+import wifibot_power.parallel as parallel
+from wifibot_power.diagnose import diagnose_logs
+from wifibot_power.errors import LogError
+from wifibot_power.fit import fit_logs
+
+report = sys.argv[2]
+original = parallel._run_task
+
+
+def _run_task(index):
+    before = set(sys.modules)
+    result = original(index)
+    with open(report, "a") as f:
+        f.write(" ".join(sorted(set(sys.modules) - before)) + "\n")
+    return result
+
+
+parallel._run_task = _run_task  # looked up by name in the forked workers
+fit_logs([sys.argv[1]], jobs=2)
+open(report, "a").write("diagnose\n")
+try:
+    diagnose_logs([sys.argv[1]], jobs=2)
+except LogError:
+    pass  # too few runs to diagnose: the workers' part is what is looked at
+"""
+
+
+def test_forked_workers_import_nothing_the_parent_could_have(sim_dir, tmp_path) -> None:
+    """`fit` and `diagnose` import what their work on a file needs (the segmenter, numpy.ma
+    that `np.median` loads at its first call, numpy.fft) before forking workers, so no
+    worker imports a module of its own: ~9-15 ms of CPU each, in every worker (issue 14).
+    Each task writes the modules it imported; every line must be empty."""
+    import subprocess
+    import sys
+
+    if not can_fork():
+        pytest.skip("workers are forked on Linux only")
+    report = tmp_path / "imports.txt"
+    subprocess.run(
+        [sys.executable, "-c", WORKER_IMPORTS, str(sim_dir[0]), str(report)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    fit_part, diagnose_part = report.read_text().split("diagnose\n")
+    for part in (fit_part, diagnose_part):
+        lines = part.splitlines()
+        assert len(lines) == 14  # one line a log: the tasks ran in the workers
+        assert [line for line in lines if line] == []

@@ -41,7 +41,7 @@ from wifibot_power.causes.extended import NotEstimable, predict_motion_energy_J
 from wifibot_power.causes.extended import fit_model as _fit_model
 from wifibot_power.causes.registry import ordered
 from wifibot_power.errors import LogError
-from wifibot_power.fit import segment_checked
+from wifibot_power.fit import _import_work_modules, segment_checked
 from wifibot_power.io import LogSource, ReadOptions, Skipped
 from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.io.discover import reasons_in_brief
@@ -258,6 +258,7 @@ def diagnose_logs(
         wrap=wrap,
         jobs=jobs,
         on_problems=on_problems,
+        prepare=_import_work_modules,
     )
     try:
         return diagnose_summaries(

@@ -784,7 +784,14 @@ def fit_gathered(
 def _import_work_modules() -> None:
     """What `fit_logs`' work on a file imports (the run table, the segmenter), imported once
     here, before workers are forked, rather than once in every worker. Not pandas: the run
-    table's rows and the fit need none (`fit --json` never loads it; the tables do)."""
+    table's rows and the fit need none (`fit --json` never loads it; the tables do).
+    numpy's submodules that load at first use: `numpy.ma` (`np.median`'s NaN check imports
+    it, ~9 ms of CPU) and `numpy.fft` (the segmenter's ripple continuation, diagnose's trace
+    statistics), which every worker would otherwise import for itself. `diagnose` and
+    `report` do the same work and more, and prepare their workers with this too."""
+    import numpy.fft  # noqa: F401
+    import numpy.ma  # noqa: F401
+
     import wifibot_power.runtable  # noqa: F401
     import wifibot_power.segment  # noqa: F401
 
