@@ -439,3 +439,31 @@ def test_forked_workers_import_nothing_the_parent_could_have(sim_dir, tmp_path) 
         lines = part.splitlines()
         assert len(lines) == 14  # one line a log: the tasks ran in the workers
         assert [line for line in lines if line] == []
+
+
+CODE_DIGEST_USE = r"""
+import sys
+from wifibot_power.cache import ParseCache, code_digest
+from wifibot_power.fit import fit_logs
+
+fit_logs([sys.argv[1]])
+print(code_digest.cache_info().misses)
+fit_logs([sys.argv[1]], cache=ParseCache(sys.argv[2]))
+print(code_digest.cache_info().misses)
+"""
+
+
+def test_only_a_cached_fit_hashes_the_source(sim_dir, tmp_path) -> None:
+    """The cache's key hashes all of wifibot_power's source (`code_digest`, ~11 ms a command);
+    a fit without a cache never computes it (nor does importing `wifibot_power.fit`), a fit
+    with one does, once."""
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-c", CODE_DIGEST_USE, str(sim_dir[0]), str(tmp_path / "cache")],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert done.stdout.split() == ["0", "1"]

@@ -232,8 +232,8 @@ def test_prepare_runs_once_before_work_and_not_when_all_is_kept(corpus: Path, tm
     when some file needs work, and not at all when the cache keeps every result."""
     import shutil
 
-    from wifibot_power.cache import ParseCache
-    from wifibot_power.fit import RESULT_MEMO, fit_logs
+    from wifibot_power.cache import ParseCache, ResultMemo
+    from wifibot_power.fit import fit_logs
 
     good = tmp_path / "good"  # the corpus without its 2 broken logs (those are never kept)
     shutil.copytree(corpus, good, ignore=shutil.ignore_patterns("broken_*"))
@@ -246,7 +246,7 @@ def test_prepare_runs_once_before_work_and_not_when_all_is_kept(corpus: Path, tm
 
     # a fresh memo key: nothing kept for it yet -> work on the 5 logs (3 speeds, idle,
     # network), prepare once
-    memo = type(RESULT_MEMO)(key="test prepare", to_json=lambda r: r, from_json=lambda r: r)
+    memo = ResultMemo(key="test prepare", to_json=lambda r: r, from_json=lambda r: r)
     names, _ = map_runs(
         [good], ReadOptions(), lambda run: Path(run.file).name, jobs=2, cache=cache,
         memo=memo, prepare=prepare,

@@ -586,12 +586,16 @@ def _result_from_json(stored: object) -> tuple[dict[str, object], list[dict[str,
     return row, list(stored["phases"])  # type: ignore[index]
 
 
-#: How `fit --cache` keeps each run's row and phases (valid for this code only).
-RESULT_MEMO = ResultMemo(
-    key=f"fit.run_row+segment_run {code_digest()}",
-    to_json=_result_to_json,
-    from_json=_result_from_json,
-)
+@functools.lru_cache(maxsize=1)
+def result_memo() -> ResultMemo[tuple[dict[str, object], list[dict[str, object]]]]:
+    """How `fit --cache` keeps each run's row and phases (valid for this code only). Made at
+    first use: its key hashes all of wifibot_power's source (`code_digest`, ~11 ms of reading
+    and hashing), which a fit without a cache never needs."""
+    return ResultMemo(
+        key=f"fit.run_row+segment_run {code_digest()}",
+        to_json=_result_to_json,
+        from_json=_result_from_json,
+    )
 
 
 def fit_logs(
@@ -634,7 +638,7 @@ def fit_logs(
 
     # with the default segmenter, what a run gives is a function of its content and of this
     # code: a cache keeps it (a custom segmenter's is not kept: its code is not known here)
-    memo = RESULT_MEMO if segmenter is None else None
+    memo = result_memo() if segmenter is None and cache is not None else None
     results, read_skipped = map_runs(
         [Path(p) for p in paths],
         options or ReadOptions(),
@@ -689,11 +693,12 @@ def _fit_batch(
     import hashlib
     import json
 
-    inputs = [RESULT_MEMO.key, [str(p) for p in paths], dataclasses.asdict(options), keep_doubtful]
+    key = result_memo().key
+    inputs = [key, [str(p) for p in paths], dataclasses.asdict(options), keep_doubtful]
     try:
         content = json.dumps(
             [
-                RESULT_MEMO.key,
+                key,
                 [_result_to_json((row, [])) for row in rows],
                 [s.as_dict() for s in read_skipped],
                 keep_doubtful,
