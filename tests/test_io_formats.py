@@ -71,3 +71,81 @@ def test_an_instruments_column_names_live_in_its_module_only():
         str(p.relative_to(ROOT)) for p in ROOT.rglob("*.py") if pattern.search(p.read_text())
     )
     assert knowing == ["io/formats/n6705.py"]
+
+
+def _full_preamble(path: Path) -> tuple[object, object]:
+    """Format and preamble from every line of the head, as before the short first try."""
+    from wifibot_power.io.transport import Content, decode, head_lines
+
+    content, head = decode(path, Content(path))
+    lines = head_lines(path, content, head)
+    log_format = formats.format_of(lines)
+    return log_format, log_format.preamble(path, lines, ())
+
+
+def _head_logs(tmp_path: Path) -> list[Path]:
+    """Logs whose preamble, header and sniffed lines lie at various places of the head."""
+    data = "".join(f"{0.0001 * k:.4f},{20 + (k % 7) * 0.1:.1f}\n" for k in range(400))
+    logs = {
+        "plain.csv": "# wbpower-log: 1\n# mode: idle\ntime_s,power_W\n" + data,
+        # 240 comment lines: the header within the first 256 lines, < 50 data lines after it
+        "long_preamble.csv": "# c\n" * 240 + "time_s,power_W\n" + data,
+        # the header past line 256
+        "longer_preamble.csv": "# c\n" * 300 + "time_s,power_W\n" + data,
+        # blank lines among the data: sniffing skips them
+        "blanks.csv": "time_s,power_W\n" + data.replace("\n", "\n\n", 120),
+        "crlf.csv": ("# mode: idle\ntime_s;power_W\n" + data.replace(",", ";")).replace(
+            "\n", "\r\n"
+        ),
+        "decimal_comma.csv": "time_s;power_W\n" + data.replace(",", ";").replace(".", ","),
+        "short.csv": "time_s,power_W\n" + "".join(data.splitlines(True)[:10]),
+    }
+    paths = []
+    for name, text in logs.items():
+        (tmp_path / name).write_text(text)
+        paths.append(tmp_path / name)
+    return paths
+
+
+def test_the_preamble_from_the_first_lines_is_the_one_from_all(tmp_path) -> None:
+    """`read_log` reads a format's preamble from the head's first `FIRST_LINES` lines when
+    they hold the header and the sniffed data lines, else from all of them: the same result
+    either way, on made-up layouts, the sample logs and the real N6705C export."""
+    from wifibot_power.io import reader
+    from wifibot_power.io.transport import Content, decode
+
+    real = Path(__file__).parent.parent.parent / "shared" / "real_logs"
+    samples = sorted((Path(__file__).parent.parent / "sample_logs").glob("*.csv.gz"))[:6]
+    paths = _head_logs(tmp_path) + samples + sorted(real.glob("*.csv"))
+    for path in paths:
+        content, head = decode(path, Content(path))
+        assert reader._preamble(path, content, head, ()) == _full_preamble(path), path.name
+
+
+def test_a_usual_head_is_split_once_and_a_long_preamble_falls_back(tmp_path, monkeypatch):
+    """The short first try is taken for a usual log (one split of 256 lines), and the whole
+    head is split when the header or the sniffed lines lie beyond them."""
+    from wifibot_power.io import reader
+
+    limits: list[int | None] = []
+    original = reader.head_lines
+
+    def counting(path, content, head, limit=None):
+        limits.append(limit)
+        return original(path, content, head, limit)
+
+    monkeypatch.setattr(reader, "head_lines", counting)
+    by_name = {p.name: p for p in _head_logs(tmp_path)}
+    expected = {
+        "plain.csv": [reader.FIRST_LINES],
+        "blanks.csv": [reader.FIRST_LINES],
+        "crlf.csv": [reader.FIRST_LINES],
+        "decimal_comma.csv": [reader.FIRST_LINES],
+        "long_preamble.csv": [reader.FIRST_LINES, None],
+        "longer_preamble.csv": [reader.FIRST_LINES, None],
+        "short.csv": [reader.FIRST_LINES],  # fewer lines than the first try: all of them
+    }
+    for name, calls in expected.items():
+        limits.clear()
+        read_log(by_name[name], ReadOptions(sample_period_s=0.0001))
+        assert limits == calls, name

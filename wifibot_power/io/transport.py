@@ -201,9 +201,13 @@ def head_ends_cut(head: bytes) -> bool:
     return 0 < len(head) <= HEAD_BYTES and not head.endswith((b"\n", b"\r"))
 
 
-def head_lines(path: Path, content: Content, head: bytes) -> list[str]:
+def head_lines(path: Path, content: Content, head: bytes, limit: int | None = None) -> list[str]:
     """The lines of the content's first bytes (`Content.head`), as text: what a format's
-    preamble is read from. An empty, binary or non-UTF-8 head is an error here."""
+    preamble is read from. An empty, binary or non-UTF-8 head is an error here.
+
+    With `limit`, at most the first `limit` lines (only those are split off the text: a
+    64 KiB head of a power-only log holds ~8,000 lines, and splitting them all is most of
+    reading the head); fewer means these are all the head's lines."""
     head = head.removeprefix(UTF8_BOM)
     more = len(head) > HEAD_BYTES
     head = head[:HEAD_BYTES]
@@ -226,7 +230,12 @@ def head_lines(path: Path, content: Content, head: bytes) -> list[str]:
     # line ends are ASCII bytes, never inside a multi-byte character: decode once, then split
     # at the same line ends (a plain split at \n when there is no \r: ~10x faster than the
     # pattern on the 64 KiB head, which is most of reading the head)
-    lines = text.split("\n") if "\r" not in text else _TEXT_LINE_END.split(text)
+    if limit is None:
+        lines = text.split("\n") if "\r" not in text else _TEXT_LINE_END.split(text)
+    else:  # at most `limit` splits: the item after the first `limit` lines is the rest
+        lines = text.split("\n", limit) if "\r" not in text else _TEXT_LINE_END.split(text, limit)
+    if limit is not None and len(lines) > limit:
+        return lines[:limit]  # the item after them is the unsplit rest
     if more:
         lines = lines[:-1]  # the last line of the head may be cut by the head limit
     return lines

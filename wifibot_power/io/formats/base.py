@@ -23,7 +23,7 @@ from wifibot_power.io.transport import TextLayout
 from wifibot_power.run import Problem
 
 #: Data lines of the head looked at to tell the decimal mark and the field count.
-_SNIFF_LINES = 50
+SNIFF_LINES = 50
 _DECIMAL_COMMA_CELL = re.compile(r"^\s*[+-]?\d*,\d+(?:[eE][+-]?\d+)?\s*$")
 _DECIMAL_POINT_CELL = re.compile(r"^\s*[+-]?\d*\.\d+(?:[eE][+-]?\d+)?\s*$")
 
@@ -117,7 +117,7 @@ def sniff_data(
     """Whether numbers use a decimal comma; a first data line whose field count does not match
     the header (e.g. decimal commas in a ','-separated file) is an error here, with a hint."""
     rows = enumerate(lines[header_index + 1 :], start=header_index + 2)
-    data = list(islice(((k, ln) for k, ln in rows if ln), _SNIFF_LINES))
+    data = list(islice(((k, ln) for k, ln in rows if ln), SNIFF_LINES))
     if not data:
         return False
     line_no, first = data[0]
