@@ -4,6 +4,7 @@ instrument is one `LogFormat` and one entry in `FORMATS`, and nothing else knows
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from pathlib import Path
 from typing import ClassVar
@@ -64,6 +65,23 @@ def test_the_registry_tries_the_canonical_format_last():
     assert formats.format_of(["time_s,power_W"]).name == "wbpower-csv"
 
 
+def test_an_n6705_export_after_blank_lines_is_read_as_without_them(tmp_path):
+    """format_of skips blank lines to sniff an N6705 export, so its preamble must too: the
+    instrument's name is read off the first line that is not blank (a leading blank line
+    was an IndexError, an internal error, before)."""
+    body = (
+        'N6705C exported datalog\n"Sample interval: 0.001"\n'
+        'Sample,"Curr avg 1","Volt avg 1"\n0,0.1,12\n1,0.2,12\n'
+    )
+    plain, blank = tmp_path / "plain.csv", tmp_path / "blank.csv"
+    plain.write_text(body)
+    blank.write_text("\n  \n" + body)
+    a, b = read_log(plain), read_log(blank)
+    assert_allclose(b.power_W, a.power_W, rtol=0)
+    assert a.meta == dataclasses.replace(b.meta, run_id=a.meta.run_id)
+    assert b.meta.extra["instrument"] == "N6705C"
+
+
 def test_an_instruments_column_names_live_in_its_module_only():
     """'Curr avg 3' is known to formats/n6705.py and nowhere else in the package."""
     pattern = re.compile(r"(Curr|Volt|Power) (avg|min|max)")
@@ -99,6 +117,12 @@ def _head_logs(tmp_path: Path) -> list[Path]:
         ),
         "decimal_comma.csv": "time_s;power_W\n" + data.replace(",", ";").replace(".", ","),
         "short.csv": "time_s,power_W\n" + "".join(data.splitlines(True)[:10]),
+        # blank lines among the data lines near the bound: 49 data lines within the first
+        # 256 lines, the 50th after them (sniffing counts non-blank lines only)
+        "blanks_at_bound.csv": "time_s,power_W\n"
+        + "".join(data.splitlines(True)[:49])
+        + "\n" * 210
+        + "".join(data.splitlines(True)[49:]),
     }
     paths = []
     for name, text in logs.items():
@@ -144,6 +168,7 @@ def test_a_usual_head_is_split_once_and_a_long_preamble_falls_back(tmp_path, mon
         "long_preamble.csv": [reader.FIRST_LINES, None],
         "longer_preamble.csv": [reader.FIRST_LINES, None],
         "short.csv": [reader.FIRST_LINES],  # fewer lines than the first try: all of them
+        "blanks_at_bound.csv": [reader.FIRST_LINES, None],
     }
     for name, calls in expected.items():
         limits.clear()

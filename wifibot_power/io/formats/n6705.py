@@ -59,7 +59,9 @@ class N6705(LogFormat):
         return FIRST_LINE.match(first_line) is not None
 
     def preamble(self, path: Path, lines: list[str], named: tuple[str, ...]) -> Preamble:
-        metadata: dict[str, str] = {"instrument": lines[0].split()[0] if lines else "N6705"}
+        # the instrument's name opens the first line that is not blank (the one sniffed)
+        first = next((line.split() for line in lines if line.strip()), ["N6705"])
+        metadata: dict[str, str] = {"instrument": first[0]}
         where: dict[str, str] = {}
         for index, line in enumerate(lines):
             stripped = line.strip().strip('"')
