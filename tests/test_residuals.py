@@ -162,3 +162,39 @@ def test_the_runs_own_spread_is_unknown_with_fewer_repeats_than_configurations_a
     enough = pd.concat([once, once.iloc[: n - 1]], ignore_index=True)
     assert residuals.unknown_spread(enough) is None
     assert residuals.structure_reasons(_table(7)) == []  # the null with repeats: nothing
+
+
+def _sequential_cell_sums(values: np.ndarray, codes: np.ndarray) -> np.ndarray:
+    """The plain computation `cell_sums` stands for: each configuration's runs added one
+    after another in run order (Python's `sum` goes left to right), per row of draws."""
+    rows = np.atleast_2d(values)
+    out = np.array(
+        [[sum(row[codes == c].tolist()) for c in range(codes.max() + 1)] for row in rows]
+    )
+    return out if values.ndim == 2 else out[0]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_cell_sums_are_the_sequential_sums_of_each_configuration(seed):
+    """`cell_sums` (the outlier test's configuration means, for the data and its 4999 normal
+    draws) equals adding each configuration's runs in run order, bit for bit: random
+    configurations, one-run ones among them, tied values, one row or many."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 60))
+    codes = rng.integers(0, max(1, n // 3), n)
+    codes[rng.integers(n)] = codes.max() + 1  # a one-run configuration
+    codes = np.unique(codes, return_inverse=True)[1]
+    values = rng.standard_normal((int(rng.integers(1, 40)), n)) * 10.0 ** rng.integers(-3, 4)
+    values[:, : n // 4] = values[:, :1]  # ties
+    for v in (values, values[0]):
+        assert np.array_equal(residuals.cell_sums(v, codes), _sequential_cell_sums(v, codes))
+
+
+def test_cell_sums_add_in_run_order_not_pairwise():
+    """1e16, fifteen 1s, -1e16 added in order lose every 1 beside 1e16 (total 0); np.sum
+    (pairwise, eight accumulators) gives 14 and a matrix product 12 here: either in place
+    of the sequential sum would fail this."""
+    values = np.array([1e16] + [1.0] * 15 + [-1e16] + [3.0])
+    codes = np.array([0] * 17 + [1])
+    assert residuals.cell_sums(values, codes).tolist() == [0.0, 3.0]
+    assert residuals.cell_sums(np.tile(values, (3, 1)), codes).tolist() == [[0.0, 3.0]] * 3
