@@ -198,3 +198,28 @@ def test_cell_sums_add_in_run_order_not_pairwise():
     codes = np.array([0] * 17 + [1])
     assert residuals.cell_sums(values, codes).tolist() == [0.0, 3.0]
     assert residuals.cell_sums(np.tile(values, (3, 1)), codes).tolist() == [[0.0, 3.0]] * 3
+
+
+def _plain_cells(table: pd.DataFrame) -> np.ndarray:
+    """What `residuals._cells` computes, the plain pandas way it was written before."""
+    keys = table[list(residuals.CONFIG_KEYS)].astype(np.float64).fillna(0.0).round(6)
+    return keys.groupby(list(residuals.CONFIG_KEYS), sort=True).ngroup().to_numpy()
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_cells_are_pandas_groupby_ngroup(seed):
+    """The configuration index equals pandas' sorted `groupby(...).ngroup()` of the rounded
+    keys: random keys with ties, one-run configurations, NaN (a missing payload: 0),
+    -0.0 beside 0.0, keys that differ below the rounding, infinities, 1 to 80 runs."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 80))
+    pick = lambda *v: rng.choice(np.array(v, dtype=np.float64), n)  # noqa: E731
+    table = pd.DataFrame(
+        {
+            "speed_mps": pick(0.2, 0.4, 0.4 + 1e-9, 0.6, 0.8) * rng.choice([1, 1, 1 + 1e-4], n),
+            "distance_m": pick(2.0, 5.0, np.nan, 10.0, np.inf),
+            "steps": rng.choice([1, 4, 10], n),
+            "payload_kg": pick(0.0, -0.0, 3.0, np.nan),
+        }
+    )
+    assert np.array_equal(residuals._cells(table), _plain_cells(table))

@@ -111,9 +111,19 @@ def residual_table(
 
 
 def _cells(table: pd.DataFrame) -> np.ndarray:
-    """Configuration index of each run (keys rounded so float noise cannot split a cell)."""
-    keys = table[list(CONFIG_KEYS)].astype(np.float64).fillna(0.0).round(6)
-    return keys.groupby(list(CONFIG_KEYS), sort=True).ngroup().to_numpy()
+    """Configuration index of each run (keys rounded so float noise cannot split a cell),
+    numbered in the sorted order of the configurations (what pandas' `groupby(keys,
+    sort=True).ngroup()` gives, in numpy: a tenth of the time, and it runs 5 times a test
+    family)."""
+    code = np.zeros(len(table), dtype=np.int64)
+    for key in CONFIG_KEYS:
+        values = table[key].to_numpy(np.float64)
+        values = np.round(np.where(np.isnan(values), 0.0, values), 6)
+        # each key's sorted level (-0.0 and 0.0 one level), then lexicographic over the
+        # keys so far, renumbered 0 .. cells - 1 (no overflow however many keys and runs)
+        levels, level = np.unique(values, return_inverse=True)
+        code = np.unique(code * levels.size + level.reshape(-1), return_inverse=True)[1]
+    return code.reshape(-1)
 
 
 def _sse_rank(X: np.ndarray, y: np.ndarray) -> tuple[float, int, np.ndarray]:
@@ -164,9 +174,9 @@ def lack_of_fit(table: pd.DataFrame) -> ReplicationTest:
     p = f_sf(f_stat, df1, df2)
     # where: the configuration whose mean residual stands out most from pure error
     ms_pe = sse_pe / df2
-    frame = pd.DataFrame({"cell": cells, "u": u, "J": table["residual_J"].to_numpy()})
-    per = frame.groupby("cell").agg(u=("u", "mean"), J=("J", "mean"), count=("u", "size"))
-    z = per["u"] / np.sqrt(ms_pe / per["count"])
+    # pandas' group means (compensated sums); a named .agg() took ten times as long
+    per = pd.DataFrame({"u": u, "J": table["residual_J"].to_numpy()}).groupby(cells).mean()
+    z = per["u"] / np.sqrt(ms_pe / np.bincount(cells))
     worst = int(z.abs().idxmax())
     row = table[cells == worst].iloc[0]
     where = (
@@ -280,18 +290,22 @@ def change_point(table: pd.DataFrame, permutations: int = PERMUTATIONS) -> Repli
     k = np.arange(MIN_SEGMENT_RUNS, n - MIN_SEGMENT_RUNS + 1)
     weight = np.sqrt(k * (n - k) / n)
 
-    def stat(series: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """max over k of the weighted difference of means, for each row of `series`."""
-        head = np.cumsum(series, axis=-1)[..., k - 1]
-        total = series.sum(axis=-1, keepdims=True)
-        diff = (total - head) / (n - k) - head / k
-        return np.abs(diff) * weight, diff
+    def mean_differences(series: np.ndarray) -> np.ndarray:
+        """The difference of means after and before each k, for each row of `series`
+        (in place where it can: the null's rows are 4999 shuffles)."""
+        head = np.cumsum(series, axis=-1)[..., k[0] - 1 : k[-1]]  # the sums of the first k
+        diff = series.sum(axis=-1, keepdims=True) - head
+        diff /= n - k
+        diff -= head / k
+        return diff
 
-    observed, diff = stat(u)
+    diff = mean_differences(u)
+    observed = np.abs(diff) * weight
     best = int(np.argmax(observed))
     rng = np.random.default_rng(_SEED)
     shuffled = rng.permuted(np.broadcast_to(u, (permutations, n)), axis=1)
-    null = stat(shuffled)[0].max(axis=1)
+    null = mean_differences(shuffled)
+    null = np.multiply(np.abs(null, out=null), weight, out=null).max(axis=1)
     p = float((1 + np.sum(null >= observed[best])) / (permutations + 1))
     at = int(k[best])
     energy_J = sub["measured_J"].to_numpy()
