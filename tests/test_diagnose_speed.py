@@ -9,15 +9,18 @@ sum shared by the per-run row and the trace statistics against each made on its 
 
 from __future__ import annotations
 
+import json
 import warnings
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy import stats as scipy_stats
 from test_diagnose import GRID
 
 from wifibot_power import diagnose, report
-from wifibot_power.fit import segment_checked
+from wifibot_power.causes.extended import motion_of
+from wifibot_power.fit import fit_table, fit_table_model, segment_checked
 from wifibot_power.runtable import WindowEnergy, run_row
 from wifibot_power.simulate import SimConfig, simulate_runs
 from wifibot_power.stats import average_ranks, spearman
@@ -91,3 +94,60 @@ def test_report_summarises_a_run_as_diagnose_does(segmented) -> None:
             _same(row[k], alone[k]) if isinstance(alone[k], float) else row[k] == alone[k]
             for k in alone
         )
+
+
+@pytest.fixture(scope="module")
+def table():
+    """A diagnose table (`diagnose.summary_table`): 30 motion runs and a run of each other
+    mode, the second motion run unusable."""
+    sims = simulate_runs(SimConfig(**GRID, seed=3))
+    summaries = [diagnose.summarize_run(s.run) for s in sims]
+    first = next(i for i, s in enumerate(summaries) if s.row["mode"] == "motion")
+    summaries[first + 1].row.update(usable=False, skip_reason="test")
+    return diagnose.summary_table(summaries)
+
+
+def _frames_equal(a, b) -> bool:
+    return a.equals(b) and a.index.equals(b.index) and (a.dtypes == b.dtypes).all()
+
+
+@pytest.mark.parametrize("with_others", [True, False])
+def test_fold_tables_are_the_concat_of_each_fold(table, with_others) -> None:
+    """`diagnose.fold_tables` takes each fold's rows from one stacked table: the same
+    tables, index and all, as the concat per fold it replaced; the other modes' index
+    labels repeat the motion runs' (0, 1, ...), so the rows are taken by position."""
+    runs = table[table["usable"]]
+    runs = runs if with_others else runs[runs["mode"] == "motion"]
+    motion = diagnose.motion_runs(runs)
+    folds = diagnose.assign_folds(motion["run_id"])
+    others = runs[runs["mode"] != "motion"]
+    assert with_others == (len(others) > 0)
+    dealt = list(diagnose.fold_tables(runs, motion, folds))
+    assert [k for k, _, _ in dealt] == sorted(set(folds.tolist()))
+    for k, train, held in dealt:
+        assert _frames_equal(train, pd.concat([others, motion[folds != k]]))
+        assert _frames_equal(held, motion[folds == k])
+
+
+def test_motion_of_is_the_pandas_selection(table) -> None:
+    expected = table[(table["mode"] == "motion") & table["usable"]]
+    assert _frames_equal(motion_of(table), expected)
+    assert _frames_equal(motion_of(table.iloc[::-1]), expected.iloc[::-1])
+
+
+def test_fit_table_model_reads_columns_as_fit_table_reads_rows(table) -> None:
+    """`fit.fit_table_model` reads the table's columns whole; `fit_table` its records one
+    by one. The same model: on the table, on it with a motion run's values missing (NaN)
+    and an idle run unusable, and without its idle run (idle from the idle phases) or its
+    other modes."""
+    variants = [table]
+    holed = table.copy()
+    motion_rows = np.flatnonzero(holed["mode"] == "motion")
+    holed.loc[holed.index[motion_rows[3]], ["accel_mean_power_W", "t_acc_s"]] = np.nan
+    holed.loc[holed.index[motion_rows[5]], "cruise_mean_power_W"] = np.nan
+    holed.loc[holed["mode"] == "idle", "usable"] = False
+    variants += [holed, table[table["mode"] != "idle"], table[table["mode"] == "motion"]]
+    variants += [table.iloc[:0]]
+    for frame in variants:  # as JSON text: NaN (no line through no runs) equals NaN
+        columns, rows = fit_table_model(frame).to_json(), fit_table(frame).model.to_json()
+        assert json.dumps(columns) == json.dumps(rows)

@@ -358,6 +358,21 @@ def _missing_data(motion: pd.DataFrame) -> str:
     )
 
 
+def fold_tables(
+    all_runs: pd.DataFrame, motion: pd.DataFrame, folds: np.ndarray
+) -> Iterator[tuple[int, pd.DataFrame, pd.DataFrame]]:
+    """Each fold `k` of the motion runs, its training runs (the runs of other modes, then
+    the motion runs of the other folds: `pd.concat([others, motion[folds != k]])`, index
+    and all) and its held-out runs (`motion[folds == k]`). The two tables are stacked once
+    and each fold's rows taken from them by position: a concat per fold cost twice that."""
+    others = all_runs[all_runs["mode"].to_numpy() != "motion"]
+    stacked = pd.concat([others, motion])
+    first = np.arange(len(others))
+    for k in np.unique(folds).tolist():
+        train = stacked.take(np.concatenate([first, len(others) + np.flatnonzero(folds != k)]))
+        yield k, train, motion.take(np.flatnonzero(folds == k))
+
+
 def heldout_energy_J(
     all_runs: pd.DataFrame,
     motion: pd.DataFrame,
@@ -370,15 +385,13 @@ def heldout_energy_J(
     `strict`: raise `NotEstimable` when a fold's training runs cannot identify the model,
     or its prediction is not a finite, positive energy."""
     causes = list(causes)
-    others = all_runs[all_runs["mode"] != "motion"]
     predicted = np.full(len(motion), np.nan)
-    for k in np.unique(folds):
-        train = pd.concat([others, motion[folds != k]])
+    for k, train, held in fold_tables(all_runs, motion, folds):
         try:
             model = fit_model(train, causes, strict=strict)
         except NotEstimable as exc:
             raise NotEstimable(f"without held-out fold {k}, {exc}") from None
-        predicted[folds == k] = predict_motion_energy_J(model, motion[folds == k])
+        predicted[folds == k] = predict_motion_energy_J(model, held)
     if strict and not (np.isfinite(predicted).all() and (predicted > 0).all()):
         raise NotEstimable("a held-out prediction is not a finite, positive energy")
     return predicted
