@@ -19,8 +19,8 @@ from scipy import stats as scipy_stats
 from test_diagnose import GRID
 
 from wifibot_power import diagnose, report
-from wifibot_power.causes.extended import motion_of
-from wifibot_power.fit import fit_table, fit_table_model, segment_checked
+from wifibot_power.causes.extended import motion_of, predict_motion_energy_J
+from wifibot_power.fit import TableColumns, fit_table, fit_table_model, segment_checked
 from wifibot_power.runtable import WindowEnergy, run_row
 from wifibot_power.simulate import SimConfig, simulate_runs
 from wifibot_power.stats import average_ranks, spearman
@@ -112,21 +112,29 @@ def _frames_equal(a, b) -> bool:
 
 
 @pytest.mark.parametrize("with_others", [True, False])
-def test_fold_tables_are_the_concat_of_each_fold(table, with_others) -> None:
-    """`diagnose.fold_tables` takes each fold's rows from one stacked table: the same
-    tables, index and all, as the concat per fold it replaced; the other modes' index
-    labels repeat the motion runs' (0, 1, ...), so the rows are taken by position."""
+def test_a_held_out_deal_is_its_folds_tables(table, with_others) -> None:
+    """`diagnose.HeldOut` takes each fold's rows from one stacked table and from its
+    columns read once: its tables are the concat per fold it replaced (index and all: the
+    other modes' index labels repeat the motion runs' 0, 1, ..., so rows are taken by
+    position), its fits that of `fit_model` on them (the lines alone from the columns, with
+    causes from the table) and its predictions `predict_motion_energy_J` of the fold."""
     runs = table[table["usable"]]
     runs = runs if with_others else runs[runs["mode"] == "motion"]
     motion = diagnose.motion_runs(runs)
     folds = diagnose.assign_folds(motion["run_id"])
     others = runs[runs["mode"] != "motion"]
     assert with_others == (len(others) > 0)
-    dealt = list(diagnose.fold_tables(runs, motion, folds))
-    assert [k for k, _, _ in dealt] == sorted(set(folds.tolist()))
-    for k, train, held in dealt:
-        assert _frames_equal(train, pd.concat([others, motion[folds != k]]))
-        assert _frames_equal(held, motion[folds == k])
+    deal = diagnose.HeldOut(runs, motion, folds)
+    assert list(deal) == sorted(set(folds.tolist()))
+    for k in deal:
+        train = pd.concat([others, motion[folds != k]])
+        assert _frames_equal(deal.train(k), train)
+        assert _frames_equal(deal.held(k), motion[folds == k])
+        for causes in ([], ["decel_phase", "start_transient"]):
+            model = diagnose.fit_model(train, causes)
+            assert json.dumps(deal.fit(k, causes).to_json()) == json.dumps(model.to_json())
+            predicted = predict_motion_energy_J(model, motion[folds == k])
+            assert np.array_equal(deal.predict(model, k), predicted)
 
 
 def test_motion_of_is_the_pandas_selection(table) -> None:
@@ -151,3 +159,16 @@ def test_fit_table_model_reads_columns_as_fit_table_reads_rows(table) -> None:
     for frame in variants:  # as JSON text: NaN (no line through no runs) equals NaN
         columns, rows = fit_table_model(frame).to_json(), fit_table(frame).model.to_json()
         assert json.dumps(columns) == json.dumps(rows)
+
+
+def test_table_columns_fit_any_rows_as_their_table(table) -> None:
+    """`fit.TableColumns(table).model(rows)` (a fold's lines from columns read once) is
+    `fit_table_model(table.take(rows))`: rows in any order, repeated, an unusable one
+    among them, the other modes' or none of them."""
+    columns = TableColumns(table)
+    rng = np.random.default_rng(1)
+    assert not table["usable"].all()
+    for size in (len(table), 20, 12):
+        rows = rng.choice(len(table), size, replace=size > len(table) // 2)
+        expected = fit_table_model(table.take(rows)).to_json()
+        assert json.dumps(columns.model(rows).to_json()) == json.dumps(expected)

@@ -369,8 +369,30 @@ def fit_table(
 def fit_table_model(runs: pd.DataFrame) -> PowerModel:
     """`fit_table(runs).model`, without the rest of a `FitResult` (its stop-and-go table took
     a third of the time): `diagnose` fits the model on ~50 subsets of runs. Read from the
-    table's columns (`_Columns.of_table`), not row by row."""
-    return _fitted_columns(_Columns.of_table(runs)).model
+    table's columns (`TableColumns`), not row by row."""
+    return TableColumns(runs).model()
+
+
+class TableColumns:
+    """The columns of a per-run table (`runtable.runs_frame`) that the model's fit reads,
+    each read once as an array, so that the model of any subset of its rows is fitted
+    without making that subset's table (`diagnose` fits ~30 subsets of one table)."""
+
+    def __init__(self, runs: pd.DataFrame) -> None:
+        import numpy as np
+
+        self.usable = runs["usable"].to_numpy(dtype=bool)
+        self.mode = runs["mode"].to_numpy(dtype=object)
+        self.values = {name: runs[name].to_numpy(dtype=np.float64) for name in _FIT_VALUES}
+
+    def model(self, rows: np.ndarray | None = None) -> PowerModel:
+        """`fit_table_model` of the table's `rows` (positions, in their order; all rows by
+        default): the same numbers as of the table `runs.take(rows)`."""
+        import numpy as np
+
+        usable = np.flatnonzero(self.usable) if rows is None else rows[self.usable[rows]]
+        columns = _Columns(self.mode[usable], arrays={n: v[usable] for n, v in self.values.items()})
+        return _fitted_columns(columns).model
 
 
 def _records(runs: pd.DataFrame) -> list[Row]:
@@ -435,7 +457,7 @@ _FIT_VALUES = (
 @dataclass(frozen=True)
 class _Columns:
     """The usable runs' modes, and the values `_fitted` reads of a selection of them: from
-    per-run rows, or from the columns of a per-run table read whole (`of_table`)."""
+    per-run rows, or from the columns of a per-run table read whole (`TableColumns`)."""
 
     mode: np.ndarray
     rows: Sequence[Row] = ()
@@ -446,18 +468,6 @@ class _Columns:
         import numpy as np
 
         return cls(np.array([row["mode"] for row in used], dtype=object), rows=used)
-
-    @classmethod
-    def of_table(cls, runs: pd.DataFrame) -> _Columns:
-        """The usable rows of a per-run table (`runtable.runs_frame`): each column `_fitted`
-        reads as one array, the same numbers its records give (`_records`)."""
-        import numpy as np
-
-        usable = runs["usable"].to_numpy(dtype=bool)
-        return cls(
-            runs["mode"].to_numpy(dtype=object)[usable],
-            arrays={name: runs[name].to_numpy(dtype=np.float64)[usable] for name in _FIT_VALUES},
-        )
 
     def column(self, selected: np.ndarray, name: str) -> np.ndarray:
         """Column `name` of the `selected` runs (a mask over the usable runs)."""
