@@ -223,3 +223,22 @@ def test_cells_are_pandas_groupby_ngroup(seed):
         }
     )
     assert np.array_equal(residuals._cells(table), _plain_cells(table))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_largest_and_median_are_numpys(seed):
+    """`largest_and_median` (the outlier test's robust scale, from one sort a row) gives
+    np.max and np.median bit for bit: odd and even rows, one value, ties, zeros, NaN in a
+    row (NaN for both), one row or many."""
+    rng = np.random.default_rng(seed)
+    for n in (1, 2, 3, int(rng.integers(4, 90)), int(rng.integers(4, 90))):
+        values = np.abs(rng.standard_normal((int(rng.integers(1, 30)), n)))
+        values *= 10.0 ** rng.integers(-3, 4)
+        values[:, : n // 3] = values[:, :1]  # ties
+        values[0] = 0.0
+        if len(values) > 2:
+            values[2, rng.integers(n)] = np.nan
+        for v in (values, values[-1]):
+            largest, median = residuals.largest_and_median(v)
+            assert np.array_equal(largest, np.max(v, axis=-1), equal_nan=True)
+            assert np.array_equal(median, np.median(v, axis=-1), equal_nan=True)

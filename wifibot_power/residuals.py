@@ -157,6 +157,21 @@ def cell_sums(values: np.ndarray, codes: np.ndarray) -> np.ndarray:
     return np.moveaxis(sums, 0, -1)
 
 
+def largest_and_median(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`values.max(axis=-1)` and `np.median(values, axis=-1)` (NaN where a row holds NaN),
+    from one sort of each row: numpy's median selects per row, 4-5 times slower than
+    sorting on the outlier test's 4999 rows of 80-220 runs. The same numbers: the middle
+    value, or the mean of the middle two, `(a + b) / 2` as np.mean takes it."""
+    ordered = np.sort(values, axis=-1)  # NaN last, as np.max and np.median see it
+    largest = ordered[..., -1]
+    half = ordered.shape[-1] // 2
+    if ordered.shape[-1] % 2:
+        median = ordered[..., half]
+    else:
+        median = (ordered[..., half - 1] + ordered[..., half]) / 2
+    return largest, np.where(np.isnan(largest), np.nan, median)
+
+
 def lack_of_fit(table: pd.DataFrame) -> ReplicationTest:
     """Test 1: configurations differ more than repeats of one configuration (module doc)."""
     r = table["residual_pct"].to_numpy(np.float64)
@@ -296,7 +311,7 @@ def change_point(table: pd.DataFrame, permutations: int = PERMUTATIONS) -> Repli
         head = np.cumsum(series, axis=-1)[..., k[0] - 1 : k[-1]]  # the sums of the first k
         diff = series.sum(axis=-1, keepdims=True) - head
         diff /= n - k
-        diff -= head / k
+        diff -= np.divide(head, k, out=head)  # the mean of the first k, where their sums were
         return diff
 
     diff = mean_differences(u)
@@ -338,9 +353,8 @@ def outlying_run(table: pd.DataFrame, draws: int = PERMUTATIONS) -> ReplicationT
     def stat(r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         means = cell_sums(r, codes) / counts
         dev = (r - means[..., codes]) * scale
-        spread = np.abs(dev)
-        robust = 1.4826 * np.median(spread, axis=-1, keepdims=True)
-        return spread.max(axis=-1) / robust[..., 0], dev
+        largest, median = largest_and_median(np.abs(dev))
+        return largest / (1.4826 * median), dev
 
     r = sub["residual_pct"].to_numpy(np.float64)
     observed, dev = stat(r)
