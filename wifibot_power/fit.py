@@ -489,7 +489,6 @@ def _fitted(rows: Sequence[Row]) -> _Fitted:
 
 def _fitted_columns(columns: _Columns) -> _Fitted:
     """`_fitted` of the usable runs' columns (`used` left empty: the caller has the rows)."""
-
     mode = columns.mode
     motion = mode == "motion"
     column = columns.column
