@@ -9,15 +9,18 @@ sum shared by the per-run row and the trace statistics against each made on its 
 
 from __future__ import annotations
 
+import json
 import warnings
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy import stats as scipy_stats
 from test_diagnose import GRID
 
 from wifibot_power import diagnose, report
-from wifibot_power.fit import segment_checked
+from wifibot_power.causes.extended import motion_of, predict_motion_energy_J
+from wifibot_power.fit import TableColumns, fit_table, fit_table_model, segment_checked
 from wifibot_power.runtable import WindowEnergy, run_row
 from wifibot_power.simulate import SimConfig, simulate_runs
 from wifibot_power.stats import average_ranks, spearman
@@ -91,3 +94,81 @@ def test_report_summarises_a_run_as_diagnose_does(segmented) -> None:
             _same(row[k], alone[k]) if isinstance(alone[k], float) else row[k] == alone[k]
             for k in alone
         )
+
+
+@pytest.fixture(scope="module")
+def table():
+    """A diagnose table (`diagnose.summary_table`): 30 motion runs and a run of each other
+    mode, the second motion run unusable."""
+    sims = simulate_runs(SimConfig(**GRID, seed=3))
+    summaries = [diagnose.summarize_run(s.run) for s in sims]
+    first = next(i for i, s in enumerate(summaries) if s.row["mode"] == "motion")
+    summaries[first + 1].row.update(usable=False, skip_reason="test")
+    return diagnose.summary_table(summaries)
+
+
+def _frames_equal(a, b) -> bool:
+    return a.equals(b) and a.index.equals(b.index) and (a.dtypes == b.dtypes).all()
+
+
+@pytest.mark.parametrize("with_others", [True, False])
+def test_a_held_out_deal_is_its_folds_tables(table, with_others) -> None:
+    """`diagnose.HeldOut` takes each fold's rows from one stacked table and from its
+    columns read once: its tables are the concat per fold it replaced (index and all: the
+    other modes' index labels repeat the motion runs' 0, 1, ..., so rows are taken by
+    position), its fits that of `fit_model` on them (the lines alone from the columns, with
+    causes from the table) and its predictions `predict_motion_energy_J` of the fold."""
+    runs = table[table["usable"]]
+    runs = runs if with_others else runs[runs["mode"] == "motion"]
+    motion = diagnose.motion_runs(runs)
+    folds = diagnose.assign_folds(motion["run_id"])
+    others = runs[runs["mode"] != "motion"]
+    assert with_others == (len(others) > 0)
+    deal = diagnose.HeldOut(runs, motion, folds)
+    assert list(deal) == sorted(set(folds.tolist()))
+    for k in deal:
+        train = pd.concat([others, motion[folds != k]])
+        assert _frames_equal(deal.train(k), train)
+        assert _frames_equal(deal.held(k), motion[folds == k])
+        for causes in ([], ["decel_phase", "start_transient"]):
+            model = diagnose.fit_model(train, causes)
+            assert json.dumps(deal.fit(k, causes).to_json()) == json.dumps(model.to_json())
+            predicted = predict_motion_energy_J(model, motion[folds == k])
+            assert np.array_equal(deal.predict(model, k), predicted)
+
+
+def test_motion_of_is_the_pandas_selection(table) -> None:
+    expected = table[(table["mode"] == "motion") & table["usable"]]
+    assert _frames_equal(motion_of(table), expected)
+    assert _frames_equal(motion_of(table.iloc[::-1]), expected.iloc[::-1])
+
+
+def test_fit_table_model_reads_columns_as_fit_table_reads_rows(table) -> None:
+    """`fit.fit_table_model` reads the table's columns whole; `fit_table` its records one
+    by one. The same model: on the table, on it with a motion run's values missing (NaN)
+    and an idle run unusable, and without its idle run (idle from the idle phases) or its
+    other modes."""
+    variants = [table]
+    holed = table.copy()
+    motion_rows = np.flatnonzero(holed["mode"] == "motion")
+    holed.loc[holed.index[motion_rows[3]], ["accel_mean_power_W", "t_acc_s"]] = np.nan
+    holed.loc[holed.index[motion_rows[5]], "cruise_mean_power_W"] = np.nan
+    holed.loc[holed["mode"] == "idle", "usable"] = False
+    variants += [holed, table[table["mode"] != "idle"], table[table["mode"] == "motion"]]
+    variants += [table.iloc[:0]]
+    for frame in variants:  # as JSON text: NaN (no line through no runs) equals NaN
+        columns, rows = fit_table_model(frame).to_json(), fit_table(frame).model.to_json()
+        assert json.dumps(columns) == json.dumps(rows)
+
+
+def test_table_columns_fit_any_rows_as_their_table(table) -> None:
+    """`fit.TableColumns(table).model(rows)` (a fold's lines from columns read once) is
+    `fit_table_model(table.take(rows))`: rows in any order, repeated, an unusable one
+    among them, the other modes' or none of them."""
+    columns = TableColumns(table)
+    rng = np.random.default_rng(1)
+    assert not table["usable"].all()
+    for size in (len(table), 20, 12):
+        rows = rng.choice(len(table), size, replace=size > len(table) // 2)
+        expected = fit_table_model(table.take(rows)).to_json()
+        assert json.dumps(columns.model(rows).to_json()) == json.dumps(expected)

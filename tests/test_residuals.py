@@ -162,3 +162,83 @@ def test_the_runs_own_spread_is_unknown_with_fewer_repeats_than_configurations_a
     enough = pd.concat([once, once.iloc[: n - 1]], ignore_index=True)
     assert residuals.unknown_spread(enough) is None
     assert residuals.structure_reasons(_table(7)) == []  # the null with repeats: nothing
+
+
+def _sequential_cell_sums(values: np.ndarray, codes: np.ndarray) -> np.ndarray:
+    """The plain computation `cell_sums` stands for: each configuration's runs added one
+    after another in run order (Python's `sum` goes left to right), per row of draws."""
+    rows = np.atleast_2d(values)
+    out = np.array(
+        [[sum(row[codes == c].tolist()) for c in range(codes.max() + 1)] for row in rows]
+    )
+    return out if values.ndim == 2 else out[0]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_cell_sums_are_the_sequential_sums_of_each_configuration(seed):
+    """`cell_sums` (the outlier test's configuration means, for the data and its 4999 normal
+    draws) equals adding each configuration's runs in run order, bit for bit: random
+    configurations, one-run ones among them, tied values, one row or many."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 60))
+    codes = rng.integers(0, max(1, n // 3), n)
+    codes[rng.integers(n)] = codes.max() + 1  # a one-run configuration
+    codes = np.unique(codes, return_inverse=True)[1]
+    values = rng.standard_normal((int(rng.integers(1, 40)), n)) * 10.0 ** rng.integers(-3, 4)
+    values[:, : n // 4] = values[:, :1]  # ties
+    for v in (values, values[0]):
+        assert np.array_equal(residuals.cell_sums(v, codes), _sequential_cell_sums(v, codes))
+
+
+def test_cell_sums_add_in_run_order_not_pairwise():
+    """1e16, fifteen 1s, -1e16 added in order lose every 1 beside 1e16 (total 0); np.sum
+    (pairwise, eight accumulators) gives 14 and a matrix product 12 here: either in place
+    of the sequential sum would fail this."""
+    values = np.array([1e16] + [1.0] * 15 + [-1e16] + [3.0])
+    codes = np.array([0] * 17 + [1])
+    assert residuals.cell_sums(values, codes).tolist() == [0.0, 3.0]
+    assert residuals.cell_sums(np.tile(values, (3, 1)), codes).tolist() == [[0.0, 3.0]] * 3
+
+
+def _plain_cells(table: pd.DataFrame) -> np.ndarray:
+    """What `residuals._cells` computes, the plain pandas way it was written before."""
+    keys = table[list(residuals.CONFIG_KEYS)].astype(np.float64).fillna(0.0).round(6)
+    return keys.groupby(list(residuals.CONFIG_KEYS), sort=True).ngroup().to_numpy()
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_cells_are_pandas_groupby_ngroup(seed):
+    """The configuration index equals pandas' sorted `groupby(...).ngroup()` of the rounded
+    keys: random keys with ties, one-run configurations, NaN (a missing payload: 0),
+    -0.0 beside 0.0, keys that differ below the rounding, infinities, 1 to 80 runs."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 80))
+    pick = lambda *v: rng.choice(np.array(v, dtype=np.float64), n)  # noqa: E731
+    table = pd.DataFrame(
+        {
+            "speed_mps": pick(0.2, 0.4, 0.4 + 1e-9, 0.6, 0.8) * rng.choice([1, 1, 1 + 1e-4], n),
+            "distance_m": pick(2.0, 5.0, np.nan, 10.0, np.inf),
+            "steps": rng.choice([1, 4, 10], n),
+            "payload_kg": pick(0.0, -0.0, 3.0, np.nan),
+        }
+    )
+    assert np.array_equal(residuals._cells(table), _plain_cells(table))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_largest_and_median_are_numpys(seed):
+    """`largest_and_median` (the outlier test's robust scale, from one sort a row) gives
+    np.max and np.median bit for bit: odd and even rows, one value, ties, zeros, NaN in a
+    row (NaN for both), one row or many."""
+    rng = np.random.default_rng(seed)
+    for n in (1, 2, 3, int(rng.integers(4, 90)), int(rng.integers(4, 90))):
+        values = np.abs(rng.standard_normal((int(rng.integers(1, 30)), n)))
+        values *= 10.0 ** rng.integers(-3, 4)
+        values[:, : n // 3] = values[:, :1]  # ties
+        values[0] = 0.0
+        if len(values) > 2:
+            values[2, rng.integers(n)] = np.nan
+        for v in (values, values[-1]):
+            largest, median = residuals.largest_and_median(v)
+            assert np.array_equal(largest, np.max(v, axis=-1), equal_nan=True)
+            assert np.array_equal(median, np.median(v, axis=-1), equal_nan=True)

@@ -37,11 +37,16 @@ from wifibot_power.causes import (
     Evidence,
     RunTable,
 )
-from wifibot_power.causes.extended import NotEstimable, predict_motion_energy_J
+from wifibot_power.causes.extended import (
+    PREDICT_COLUMNS,
+    NotEstimable,
+    predict_columns_J,
+    predict_motion_energy_J,
+)
 from wifibot_power.causes.extended import fit_model as _fit_model
 from wifibot_power.causes.registry import ordered
 from wifibot_power.errors import LogError
-from wifibot_power.fit import _import_work_modules, segment_checked
+from wifibot_power.fit import TableColumns, _import_work_modules, segment_checked
 from wifibot_power.io import LogSource, ReadOptions, Skipped
 from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.io.discover import reasons_in_brief
@@ -83,19 +88,31 @@ def fit_model(
     """`causes.extended.fit_model`, fitted once per rows (in their order), causes and
     `strict` within one diagnosis: the same fit of the same rows is the same model, and a
     fit the rows cannot identify raises `NotEstimable` each time it is asked for."""
+    return _fitted_once(
+        lambda: (runs["file"].tolist(), runs["run_id"].tolist()),
+        causes,
+        strict,
+        lambda: _fit_model(runs, causes, strict=strict),
+    )
+
+
+def _fitted_once(
+    rows: Callable[[], tuple[list, list]],
+    causes: Iterable[str],
+    strict: bool,
+    fit: Callable[[], PowerModel],
+) -> PowerModel:
+    """`fit()`, or what it gave (a model or `NotEstimable`) when the diagnosis under way
+    fitted the same `rows` (their files and run ids, in order) with the same causes and
+    `strict` before."""
     memo = _FITS.get()
     if memo is None:
-        return _fit_model(runs, causes, strict=strict)
-    causes = ordered(causes)
-    key = (
-        tuple(runs["file"].tolist()),
-        tuple(runs["run_id"].tolist()),
-        tuple(causes),
-        strict,
-    )
+        return fit()
+    files, run_ids = rows()
+    key = (tuple(files), tuple(run_ids), tuple(ordered(causes)), strict)
     if key not in memo:
         try:
-            memo[key] = _fit_model(runs, causes, strict=strict)
+            memo[key] = fit()
         except NotEstimable as exc:
             memo[key] = exc
     found = memo[key]
@@ -359,6 +376,55 @@ def _missing_data(motion: pd.DataFrame) -> str:
     )
 
 
+class HeldOut:
+    """A deal of the motion runs into held-out folds, and the runs each fold's model is
+    fitted on: the runs of other modes, then the motion runs of the other folds (`train`:
+    `pd.concat([others, motion[folds != k]])`, index and all). The two tables are stacked
+    once, and the columns the paper's lines and the predictions read are read once from
+    them: a fold's fit of the lines alone (most fits) and its prediction select rows of
+    those arrays by position, and only a fit with causes makes the fold's table."""
+
+    def __init__(self, all_runs: pd.DataFrame, motion: pd.DataFrame, folds: np.ndarray) -> None:
+        others = all_runs[all_runs["mode"].to_numpy() != "motion"]
+        self.motion, self.folds = motion, folds
+        self.table = pd.concat([others, motion])
+        self.columns = TableColumns(self.table)
+        self.files = self.table["file"].to_numpy(dtype=object)
+        self.run_ids = self.table["run_id"].to_numpy(dtype=object)
+        self.predictors = {c: motion[c].to_numpy() for c in PREDICT_COLUMNS}
+        self._others = np.arange(len(others))
+
+    def __iter__(self) -> Iterator[int]:
+        return iter(np.unique(self.folds).tolist())
+
+    def train_rows(self, k: int) -> np.ndarray:
+        return np.concatenate([self._others, self._others.size + np.flatnonzero(self.folds != k)])
+
+    def train(self, k: int) -> pd.DataFrame:
+        """The runs fold `k`'s model is fitted on."""
+        return self.table.take(self.train_rows(k))
+
+    def held(self, k: int) -> pd.DataFrame:
+        """The runs of fold `k` (`motion[folds == k]`)."""
+        return self.motion.take(np.flatnonzero(self.folds == k))
+
+    def fit(self, k: int, causes: list[str], *, strict: bool = False) -> PowerModel:
+        """`fit_model(self.train(k), causes, strict=strict)`."""
+        rows = self.train_rows(k)
+        if causes or strict:
+            fit = lambda: _fit_model(self.table.take(rows), causes, strict=strict)  # noqa: E731
+        else:  # the paper's lines alone, all `_fit_model` fits then
+            fit = lambda: self.columns.model(rows)  # noqa: E731
+        return _fitted_once(
+            lambda: (self.files[rows].tolist(), self.run_ids[rows].tolist()), causes, strict, fit
+        )
+
+    def predict(self, model: PowerModel, k: int) -> np.ndarray:
+        """`predict_motion_energy_J(model, self.held(k))`."""
+        held = np.flatnonzero(self.folds == k)
+        return predict_columns_J(model, {c: v[held] for c, v in self.predictors.items()})
+
+
 def heldout_energy_J(
     all_runs: pd.DataFrame,
     motion: pd.DataFrame,
@@ -371,15 +437,14 @@ def heldout_energy_J(
     `strict`: raise `NotEstimable` when a fold's training runs cannot identify the model,
     or its prediction is not a finite, positive energy."""
     causes = list(causes)
-    others = all_runs[all_runs["mode"] != "motion"]
     predicted = np.full(len(motion), np.nan)
-    for k in np.unique(folds):
-        train = pd.concat([others, motion[folds != k]])
+    deal = HeldOut(all_runs, motion, folds)
+    for k in deal:
         try:
-            model = fit_model(train, causes, strict=strict)
+            model = deal.fit(k, causes, strict=strict)
         except NotEstimable as exc:
             raise NotEstimable(f"without held-out fold {k}, {exc}") from None
-        predicted[folds == k] = predict_motion_energy_J(model, motion[folds == k])
+        predicted[folds == k] = deal.predict(model, k)
     if strict and not (np.isfinite(predicted).all() and (predicted > 0).all()):
         raise NotEstimable("a held-out prediction is not a finite, positive energy")
     return predicted

@@ -24,7 +24,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -368,13 +368,36 @@ def fit_table(
 
 def fit_table_model(runs: pd.DataFrame) -> PowerModel:
     """`fit_table(runs).model`, without the rest of a `FitResult` (its stop-and-go table took
-    a third of the time): `diagnose` fits the model on ~50 subsets of runs."""
-    return _fitted(_records(runs)).model
+    a third of the time): `diagnose` fits the model on ~50 subsets of runs. Read from the
+    table's columns (`TableColumns`), not row by row."""
+    return TableColumns(runs).model()
+
+
+class TableColumns:
+    """The columns of a per-run table (`runtable.runs_frame`) that the model's fit reads,
+    each read once as an array, so that the model of any subset of its rows is fitted
+    without making that subset's table (`diagnose` fits ~30 subsets of one table)."""
+
+    def __init__(self, runs: pd.DataFrame) -> None:
+        import numpy as np
+
+        self.usable = runs["usable"].to_numpy(dtype=bool)
+        self.mode = runs["mode"].to_numpy(dtype=object)
+        self.values = {name: runs[name].to_numpy(dtype=np.float64) for name in _FIT_VALUES}
+
+    def model(self, rows: np.ndarray | None = None) -> PowerModel:
+        """`fit_table_model` of the table's `rows` (positions, in their order; all rows by
+        default): the same numbers as of the table `runs.take(rows)`."""
+        import numpy as np
+
+        usable = np.flatnonzero(self.usable) if rows is None else rows[self.usable[rows]]
+        columns = _Columns(self.mode[usable], arrays={n: v[usable] for n, v in self.values.items()})
+        return _fitted_columns(columns).model
 
 
 def _records(runs: pd.DataFrame) -> list[Row]:
     """The run-table columns of `runs` as one dict per row. Only those: a diagnose table
-    carries ~30 more, and this runs per fold. Built column by column: to_dict("records")
+    carries ~30 more. Built column by column: to_dict("records")
     boxes every cell through pandas indexing, 10 ms a call."""
     from wifibot_power.runtable import RUN_COLUMNS
 
@@ -420,27 +443,66 @@ class _Fitted:
     notes: tuple[str, ...]
 
 
+#: The columns `_fitted` reads: each run's mode, and the values it fits.
+_FIT_VALUES = (
+    "speed_mps",
+    "accel_mean_power_W",
+    "cruise_mean_power_W",
+    "t_acc_s",
+    "mean_power_W",
+    "idle_mean_power_W",
+)
+
+
+@dataclass(frozen=True)
+class _Columns:
+    """The usable runs' modes, and the values `_fitted` reads of a selection of them: from
+    per-run rows, or from the columns of a per-run table read whole (`TableColumns`)."""
+
+    mode: np.ndarray
+    rows: Sequence[Row] = ()
+    arrays: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @classmethod
+    def of_rows(cls, used: Sequence[Row]) -> _Columns:
+        import numpy as np
+
+        return cls(np.array([row["mode"] for row in used], dtype=object), rows=used)
+
+    def column(self, selected: np.ndarray, name: str) -> np.ndarray:
+        """Column `name` of the `selected` runs (a mask over the usable runs)."""
+        import numpy as np
+
+        if name in self.arrays:
+            return self.arrays[name][selected]
+        # only the selected rows: a row need not hold the values other modes' rows have
+        chosen = [row[name] for row, keep in zip(self.rows, selected.tolist(), strict=True) if keep]
+        return np.array(chosen, dtype=np.float64)  # None -> NaN
+
+
 def _fitted(rows: Sequence[Row]) -> _Fitted:
     """Paper Eq. 1-4 by least squares over the motion rows (`fit_line`), idle and Table 1
     component powers as means over runs (`MeanEstimate`, `net_of_idle`)."""
-    import numpy as np
-
     used = [row for row in rows if row["usable"]]
-    motion = [row for row in used if row["mode"] == "motion"]
+    return replace(_fitted_columns(_Columns.of_rows(used)), used=used)
 
-    def column(selected: list[Row], name: str) -> np.ndarray:
-        return np.array([row[name] for row in selected], dtype=np.float64)  # None -> NaN
+
+def _fitted_columns(columns: _Columns) -> _Fitted:
+    """`_fitted` of the usable runs' columns (`used` left empty: the caller has the rows)."""
+    mode = columns.mode
+    motion = mode == "motion"
+    column = columns.column
 
     speed = column(motion, "speed_mps")
     accel = fit_line(speed, column(motion, "accel_mean_power_W"))
     cruise = fit_line(speed, column(motion, "cruise_mean_power_W"))
     t_acc = fit_line(speed, column(motion, "t_acc_s"))
     notes: list[str] = []
-    if len(motion) and not math.isfinite(accel.slope):
+    if motion.any() and not math.isfinite(accel.slope):
         notes.append("fewer than 2 distinct speeds among motion runs: P_acc, P_v not fitted")
 
-    idle_runs = [row for row in used if row["mode"] == "idle"]
-    if len(idle_runs):
+    idle_runs = mode == "idle"
+    if idle_runs.any():
         idle = MeanEstimate.of(column(idle_runs, "mean_power_W"))
         idle_source = "idle runs"
     else:
@@ -449,12 +511,12 @@ def _fitted(rows: Sequence[Row]) -> _Fitted:
         idle_source = "idle phases of motion runs" if idle.n_runs else "none"
 
     components: dict[str, MeanEstimate | None] = {}
-    for mode in COMPONENT_MODES:
-        mode_runs = [row for row in used if row["mode"] == mode]
-        if len(mode_runs) == 0:
-            components[mode] = None
+    for name in COMPONENT_MODES:
+        mode_runs = mode == name
+        if not mode_runs.any():
+            components[name] = None
             continue
-        components[mode] = net_of_idle(MeanEstimate.of(column(mode_runs, "mean_power_W")), idle)
+        components[name] = net_of_idle(MeanEstimate.of(column(mode_runs, "mean_power_W")), idle)
     warnings = fit_warnings(accel, cruise, speed, idle_source, idle.value_W)
     model = PowerModel(
         accel=accel,
@@ -466,7 +528,7 @@ def _fitted(rows: Sequence[Row]) -> _Fitted:
         speed_range_mps=_speed_range(speed),
         fit_warnings=tuple(warnings),
     )
-    return _Fitted(model, idle, idle_source, components, used, tuple(notes))
+    return _Fitted(model, idle, idle_source, components, [], tuple(notes))
 
 
 def _speed_range(speed_mps: np.ndarray) -> tuple[float, float] | None:
@@ -490,9 +552,9 @@ def speed_levels(speeds_mps: np.ndarray) -> list[list[float]]:
     (max(`SPEED_RESOLUTION_MPS`, `SPEED_RESOLUTION_FRACTION` x the larger speed))."""
     import numpy as np
 
-    distinct = sorted(
-        {float(v) for v in np.asarray(speeds_mps, dtype=np.float64) if np.isfinite(v)}
-    )
+    speeds = np.asarray(speeds_mps, dtype=np.float64)
+    # the finite speeds as Python floats in one call (not one numpy scalar at a time)
+    distinct = sorted(set(speeds[np.isfinite(speeds)].tolist()))
     levels: list[list[float]] = []
     for v in distinct:
         if levels and v - levels[-1][-1] < max(SPEED_RESOLUTION_MPS, SPEED_RESOLUTION_FRACTION * v):

@@ -26,7 +26,10 @@ class NotEstimable(Exception):  # noqa: N818 (a result, not a failure)
 
 
 def motion_of(runs: pd.DataFrame) -> pd.DataFrame:
-    return runs[(runs["mode"] == "motion") & runs["usable"]]
+    """The usable motion runs of `runs` (a mask made in numpy: pandas' own comparison of
+    the text column and `&` of two Series cost more than the selection; ~30-70 times a
+    diagnosis)."""
+    return runs[(runs["mode"].to_numpy() == "motion") & runs["usable"].to_numpy(dtype=bool)]
 
 
 def fit_model(
@@ -44,6 +47,8 @@ def fit_model(
     """
     base = fit_table_model(runs)
     causes = ordered(causes)
+    if not (causes or strict):
+        return base  # the paper's lines alone: most of a diagnosis's fits
     motion = motion_of(runs)
     if strict:
         problem = _not_estimable(motion, base, causes)
@@ -94,15 +99,25 @@ def _not_estimable(motion: pd.DataFrame, base: PowerModel, causes: list[str]) ->
     return None
 
 
+#: The columns a run's predicted motion energy is simulated from.
+PREDICT_COLUMNS = ("speed_mps", "distance_m", "steps", "payload_kg", "tau_before_min")
+
+
 def predict_motion_energy_J(model: PowerModel, runs: pd.DataFrame) -> np.ndarray:
     """Motion energy of each run as the model simulates it from (v, D, N, payload) alone:
     paper Eq. 5/6 per step with the model's extensions (energy.trip_energy), the run starting
     the motor-on minutes into its session that precede it (tau_before_min)."""
-    out = np.empty(len(runs))
-    # the five columns as Python lists (itertuples boxes every column of a ~60-column table)
-    columns = (runs[c].tolist() for c in ("speed_mps", "distance_m", "steps", "payload_kg"))
-    tau = runs["tau_before_min"].to_numpy(np.float64)
-    for i, (speed, distance, steps, payload) in enumerate(zip(*columns, strict=True)):
+    return predict_columns_J(model, {c: runs[c].to_numpy() for c in PREDICT_COLUMNS})
+
+
+def predict_columns_J(model: PowerModel, columns: dict[str, np.ndarray]) -> np.ndarray:
+    """`predict_motion_energy_J` of runs given as their `PREDICT_COLUMNS` (arrays, a run
+    each): `diagnose` predicts each held-out fold from the columns read once."""
+    # the four columns as Python lists (itertuples boxes every column of a ~60-column table)
+    values = (columns[c].tolist() for c in ("speed_mps", "distance_m", "steps", "payload_kg"))
+    tau = np.asarray(columns["tau_before_min"], dtype=np.float64)
+    out = np.empty(len(tau))
+    for i, (speed, distance, steps, payload) in enumerate(zip(*values, strict=True)):
         trip = trip_energy(  # a run per iteration, not a sample
             model,
             speed,
@@ -115,4 +130,10 @@ def predict_motion_energy_J(model: PowerModel, runs: pd.DataFrame) -> np.ndarray
     return out
 
 
-__all__ = ["NotEstimable", "fit_model", "power_factor", "predict_motion_energy_J"]
+__all__ = [
+    "NotEstimable",
+    "fit_model",
+    "power_factor",
+    "predict_columns_J",
+    "predict_motion_energy_J",
+]
