@@ -627,6 +627,11 @@ def _motion_doubts(
     # every cruise's two-level split at once (`best_splits`: the splits of `best_split` on
     # each cruise's own means), and every accel's and cruise's longest stretch at idle
     cruises = [k for k, (a, b, name, _) in enumerate(spans) if name == "cruise" and b - a >= 20]
+    # only where a split could pass the test (`_may_hold_two_levels`: none, as a rule)
+    may = _may_hold_two_levels(
+        y10, [spans[k][:2] for k in cruises], sigma10, params.level_fraction * swing_W
+    )
+    cruises = [k for k, kept in zip(cruises, may, strict=True) if kept]
     windows = [(spans[k][0], spans[k][1], (spans[k][1] - spans[k][0]) // 4) for k in cruises]
     two_levels = dict(zip(cruises, best_splits(y10, windows, 0, 0), strict=True))
     driven = [(k, a, b) for k, (a, b, name, _) in enumerate(spans) if name in ("accel", "cruise")]
@@ -749,6 +754,50 @@ def _motion_doubts(
             f"found {steps_found} step(s) separated by idle, the metadata says {run.meta.steps}"
         )
     return doubts
+
+
+def _may_hold_two_levels(
+    y10: np.ndarray, spans: list[tuple[int, int]], sigma10: float, fraction_W: float
+) -> list[bool]:
+    """For each cruise [a, b) of the 10 ms means `y10`: whether the two-levels test of
+    `_motion_doubts` could pass, False only where it cannot (its split is then not made).
+
+    The test's split is the best split of the cruise into two flat pieces of n // 4 means
+    or more (`best_split`, degrees 0 and 0), and it passes when the pieces' means differ by
+    more than max(6 sd, twice the scatter left, `fraction_W`), sd = sigma10 sqrt(1/i +
+    1/(n - i)) at the split i. Over every allowed split s, with d(s) the difference of the
+    two pieces' means: the split's difference is at most max |d(s)|; sd is at least
+    sigma10 sqrt(4 / n) (1/i + 1/(n - i) is least at i = n/2); the scatter's square is
+    its SSE over n, SSE = SST - s (n - s) / n d(s)² at the best split, so at least SST -
+    max s (n - s) / n d(s)² (SST: the squares about the cruise's mean). When max |d(s)|
+    stays below that bound the test cannot pass. Margins of 1e-9 (relative) cover the
+    rounding of these sums against `best_split`'s own (~1e-13 W). All cruises at once,
+    by one prefix sum over their means (each centred on its own mean)."""
+    if not spans:
+        return []
+    n = np.array([span[1] - span[0] for span in spans], dtype=np.int64)
+    least = np.maximum(n // 4, 2)
+    starts = np.concatenate(([0], np.cumsum(n)[:-1]))
+    values = np.concatenate([y10[lo:hi] for lo, hi in spans])
+    centred = values - np.repeat(np.add.reduceat(values, starts) / n, n)
+    prefix = np.concatenate(([0.0], np.cumsum(centred)))
+    sst = np.add.reduceat(centred * centred, starts)
+    # every allowed split s = least .. n - least of every cruise
+    counts = n - 2 * least + 1
+    first = np.concatenate(([0], np.cumsum(counts)[:-1]))
+    s = np.arange(int(counts.sum())) - np.repeat(first - least, counts)
+    at = np.repeat(starts, counts)
+    size = np.repeat(n, counts)
+    left = prefix[at + s] - prefix[at]
+    total = np.repeat(prefix[starts + n] - prefix[starts], counts)
+    d = (total - left) / (size - s) - left / s
+    largest = np.maximum.reduceat(np.abs(d), first)
+    between = np.maximum.reduceat(s * (size - s) / size * d * d, first)
+    sse_least = np.maximum(sst - between - 1e-9 * sst, 0.0)
+    bar_least = np.maximum(
+        np.maximum(6.0 * sigma10 * np.sqrt(4.0 / n), 2.0 * np.sqrt(sse_least / n)), fraction_W
+    )
+    return (largest * (1.0 + 1e-9) + 1e-9 >= bar_least * (1.0 - 1e-9)).tolist()
 
 
 def _hidden_stop_doubts(
@@ -1471,6 +1520,11 @@ def _start_spikes(
         slope, tail_intercept = _line(tail)
         intercept = tail_intercept - slope * (seg.size // 2)  # the line at x = 0
         excess = seg - (intercept + slope * x)
+        # a spike starts at the first block: where that block stands within 6 sd of noise
+        # (+ 0.5 W) of the line, it stands within the bar below whatever the tail's scatter
+        # (the bar is at least that), so the tail's median is not taken (most steps)
+        if not excess[0] > 6.0 * sigma_b + 0.5:
+            continue
         # above the tail's own scatter, not only the analyser's: a ripple during the ramp
         # (sample_logs: 1 W) bends it, and a hump of the ripple at its start was taken for
         # a spike of 0.27 s (drawn in red on the README's trace figure)
