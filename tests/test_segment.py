@@ -49,6 +49,8 @@ from wifibot_power.segment import (
     _longest_runs,
     _may_hold_two_levels,
     _mean,
+    _most_within,
+    _stands_above,
     _start_spikes,
     _std,
     _Step,
@@ -348,6 +350,7 @@ def test_longest_runs_cut_to_spans_are_each_spans_own() -> None:
     ones), from the runs of the whole mask cut to the spans: as if found in each span's
     own mask, by brute force."""
     rng = np.random.default_rng(8)
+    longer = skipped = 0
     for trial in range(200):
         mask = rng.uniform(size=int(rng.integers(1, 300))) < rng.uniform(0.1, 0.9)
         spans = sorted(
@@ -355,7 +358,11 @@ def test_longest_runs_cut_to_spans_are_each_spans_own() -> None:
             for a in rng.integers(0, mask.size, int(rng.integers(0, 6)))
         )
         spans = [(a, min(b, mask.size)) for a, b in spans]
-        for (a, b), (longest, at) in zip(spans, _longest_runs(mask, spans), strict=True):
+        # with `longer_than` (the doubts' 50 ms): a span that cannot hold a longer run
+        # (no more Trues in all) may give (0, 0), any other its longest run
+        longer_than = int(rng.integers(1, 12)) if trial % 2 else 0
+        found = _longest_runs(mask, spans, longer_than=longer_than)
+        for (a, b), (longest, at) in zip(spans, found, strict=True):
             best = (0, 0)
             for i in range(a, b):
                 j = i
@@ -363,7 +370,89 @@ def test_longest_runs_cut_to_spans_are_each_spans_own() -> None:
                     j += 1
                 if j - i > best[0] and (i == a or not mask[i - 1]):
                     best = (j - i, i - a)
-            assert (longest, at) == best, (trial, a, b)
+            if best[0] > longer_than:
+                assert (longest, at) == best, (trial, a, b)
+                longer += longer_than > 0
+            else:
+                assert (longest, at) in ((0, 0), best), (trial, a, b)
+                skipped += (longest, at) != best
+    assert longer > 50 and skipped > 50, (longer, skipped)
+
+
+def test_most_steps_within_a_duration_as_the_doubts_test_it() -> None:
+    # the idle-in-motion doubt fires for k means when k * dt10 > 0.05: the stretches it
+    # skips are those of at most `_most_within(0.05, dt10)` means, in doubles
+    rng = np.random.default_rng(26)
+    for step_s in [
+        0.01,
+        0.0102,
+        0.001024,
+        0.05,
+        0.025,
+        0.0125,
+        0.06,
+        1 / 3,
+        *rng.uniform(1e-4, 0.07, 300),
+    ]:
+        k = _most_within(0.05, step_s)
+        assert k * step_s <= 0.05 < (k + 1) * step_s, step_s
+    assert _most_within(0.05, 0.01) == 5  # 5 x 0.01 is 0.05 in doubles: not over 50 ms
+
+
+def test_stands_above_is_any_window_maximum_over_its_level() -> None:
+    """`_stands_above` (each window's maximum by one reduceat over the windows' edges)
+    against each window's own maximum, windows reaching the end of the series or one
+    value long, maxima a hair (1e-12 W) either side of the bar (less its 1e-6 W margin)."""
+    rng = np.random.default_rng(24)
+    outcomes = set()
+    for trial in range(400):
+        y10 = 23.0 + rng.normal(0.0, 0.05, int(rng.integers(5, 400)))
+        cuts = np.sort(rng.choice(y10.size + 1, 2 * int(rng.integers(1, 5)), replace=False))
+        windows = [(int(a), int(b)) for a, b in zip(cuts[::2], cuts[1::2], strict=True)]
+        levels = rng.normal(23.0, 0.1, len(windows)).tolist()
+        excess_W = 0.25
+        if trial % 3 == 0:  # one window's maximum at the bar, a hair either side
+            k = int(rng.integers(len(windows)))
+            a, b = windows[k]
+            y10[a:b] = np.minimum(y10[a:b], levels[k])
+            side = 1e-12 if trial % 2 else -1e-12
+            y10[int(rng.integers(a, b))] = levels[k] + excess_W - 1e-6 + side
+        want = any(
+            float(y10[a:b].max()) - level >= excess_W - 1e-6
+            for (a, b), level in zip(windows, levels, strict=True)
+        )
+        assert _stands_above(y10, windows, levels, excess_W) == want, trial
+        outcomes.add(want)
+    assert outcomes == {True, False}
+
+
+def test_idles_below_the_excess_everywhere_hold_no_stop_labelled_idle() -> None:
+    """What `_hidden_stop_doubts` skips when no idle mean stands `min_excess_W` above its
+    level (`_stands_above` False): the test in full (the running mean from the idle's
+    start above its level by 6 sd of that mean and by `min_excess_W`) never passes there,
+    on idles of noise, of a slow rise, and of a step up at any place, sd small or large."""
+    rng = np.random.default_rng(25)
+    params = MotionParams()
+    fired = skipped = 0
+    for trial in range(600):
+        n = int(rng.integers(1, 300))
+        sigma10 = float(rng.choice([1e-4, 0.01, 0.05]))
+        window = rng.normal(0.0, sigma10, n)
+        if trial % 3 == 1:
+            window += np.linspace(0.0, rng.uniform(0.0, 1.0), n)
+        if trial % 3 == 2:
+            window[int(rng.integers(n)) :] += rng.uniform(0.0, 1.0)
+        level = float(rng.normal(23.0, 1.0))
+        y10 = level + window
+        running = np.cumsum(y10 - level)
+        count = np.arange(1, n + 1)
+        z = running / (sigma10 * np.sqrt(count) + 1e-12)
+        passes = bool(np.any((running >= params.min_excess_W * count) & (z > params.hidden_stop_z)))
+        stands = _stands_above(y10, [(0, n)], [level], params.min_excess_W)
+        assert stands or not passes, trial
+        fired += passes
+        skipped += not stands
+    assert fired > 50 and skipped > 200, (fired, skipped)
 
 
 def test_long_medians_narrowed_first_are_numpys() -> None:

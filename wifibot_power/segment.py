@@ -634,8 +634,13 @@ def _motion_doubts(
     cruises = [k for k, kept in zip(cruises, may, strict=True) if kept]
     windows = [(spans[k][0], spans[k][1], (spans[k][1] - spans[k][0]) // 4) for k in cruises]
     two_levels = dict(zip(cruises, best_splits(y10, windows, 0, 0), strict=True))
+    # (only where it could pass the test's 50 ms: `_longest_runs`'s `longer_than`)
     driven = [(k, a, b) for k, (a, b, name, _) in enumerate(spans) if name in ("accel", "cruise")]
-    at_idle = _longest_runs(np.abs(y10 - idle_W) < near_W, [(a, b) for _, a, b in driven])
+    at_idle = _longest_runs(
+        np.abs(y10 - idle_W) < near_W,
+        [(a, b) for _, a, b in driven],
+        longer_than=_most_within(0.05, dt10),
+    )
     longest_at_idle = dict(zip((k for k, _, _ in driven), at_idle, strict=True))
     edge = min(5, m)
     starts_moving = float(median(y10[:edge])) > on_W
@@ -759,26 +764,42 @@ def _motion_doubts(
 def _may_hold_two_levels(
     y10: np.ndarray, spans: list[tuple[int, int]], sigma10: float, fraction_W: float
 ) -> list[bool]:
-    """For each cruise [a, b) of the 10 ms means `y10`: whether the two-levels test of
-    `_motion_doubts` could pass, False only where it cannot (its split is then not made).
+    """For each cruise [a, b) of the 10 ms means `y10` (in order, apart): whether the
+    two-levels test of `_motion_doubts` could pass, False only where it cannot (its split
+    is then not made).
 
     The test's split is the best split of the cruise into two flat pieces of n // 4 means
     or more (`best_split`, degrees 0 and 0), and it passes when the pieces' means differ by
     more than max(6 sd, twice the scatter left, `fraction_W`), sd = sigma10 sqrt(1/i +
-    1/(n - i)) at the split i. Over every allowed split s, with d(s) the difference of the
-    two pieces' means: the split's difference is at most max |d(s)|; sd is at least
-    sigma10 sqrt(4 / n) (1/i + 1/(n - i) is least at i = n/2); the scatter's square is
-    its SSE over n, SSE = SST - s (n - s) / n d(s)² at the best split, so at least SST -
-    max s (n - s) / n d(s)² (SST: the squares about the cruise's mean). When max |d(s)|
-    stays below that bound the test cannot pass. Margins of 1e-9 (relative) cover the
-    rounding of these sums against `best_split`'s own (~1e-13 W). All cruises at once,
-    by one prefix sum over their means (each centred on its own mean)."""
+    1/(n - i)) at the split i. sd is at least sigma10 sqrt(4 / n) (1/i + 1/(n - i) is
+    least at i = n/2), and the pieces' means differ by at most the cruise's range (max -
+    min): a cruise whose range stays below max(6 sigma10 sqrt(4 / n), `fraction_W`)
+    cannot pass (every cruise of `power10k`). For the others, over every allowed split s,
+    with d(s) the difference of the two pieces' means: the split's difference is at most
+    max |d(s)|, and the scatter's square is its SSE over n, SSE = SST - s (n - s) / n
+    d(s)² at the best split, so at least SST - max s (n - s) / n d(s)² (SST: the squares
+    about the cruise's mean); when max |d(s)| stays below max(6 sigma10 sqrt(4 / n), 2
+    sqrt(that / n), `fraction_W`) the test cannot pass. Margins of 1e-9 (relative and in
+    W) cover the rounding of these sums against `best_split`'s own (~1e-13 W). All
+    cruises at once: the ranges by one `reduceat` over the cruises' edges, the splits by
+    one prefix sum over their means (each centred on its own mean)."""
     if not spans:
         return []
-    n = np.array([span[1] - span[0] for span in spans], dtype=np.int64)
+    n = np.array([hi - lo for lo, hi in spans], dtype=np.int64)
+    noise_W = 6.0 * sigma10 * np.sqrt(4.0 / n)
+    # each cruise's range: its max and min at the even places of a reduceat over the
+    # cruises' edges (the odd places reduce the gaps between them)
+    edges = np.array([edge for span in spans for edge in span], dtype=np.int64)
+    edges = edges[:-1] if edges[-1] >= y10.size else edges
+    spread = np.maximum.reduceat(y10, edges)[::2] - np.minimum.reduceat(y10, edges)[::2]
+    may = spread * (1.0 + 1e-9) + 1e-9 >= np.maximum(noise_W, fraction_W) * (1.0 - 1e-9)
+    if not may.any():
+        return may.tolist()
+    keep = np.flatnonzero(may)
+    n, noise_W = n[keep], noise_W[keep]
     least = np.maximum(n // 4, 2)
     starts = np.concatenate(([0], np.cumsum(n)[:-1]))
-    values = np.concatenate([y10[lo:hi] for lo, hi in spans])
+    values = np.concatenate([y10[spans[k][0] : spans[k][1]] for k in keep.tolist()])
     centred = values - np.repeat(np.add.reduceat(values, starts) / n, n)
     prefix = np.concatenate(([0.0], np.cumsum(centred)))
     sst = np.add.reduceat(centred * centred, starts)
@@ -794,10 +815,9 @@ def _may_hold_two_levels(
     largest = np.maximum.reduceat(np.abs(d), first)
     between = np.maximum.reduceat(s * (size - s) / size * d * d, first)
     sse_least = np.maximum(sst - between - 1e-9 * sst, 0.0)
-    bar_least = np.maximum(
-        np.maximum(6.0 * sigma10 * np.sqrt(4.0 / n), 2.0 * np.sqrt(sse_least / n)), fraction_W
-    )
-    return (largest * (1.0 + 1e-9) + 1e-9 >= bar_least * (1.0 - 1e-9)).tolist()
+    bar_least = np.maximum(np.maximum(noise_W, 2.0 * np.sqrt(sse_least / n)), fraction_W)
+    may[keep] = largest * (1.0 + 1e-9) + 1e-9 >= bar_least * (1.0 - 1e-9)
+    return may.tolist()
 
 
 def _hidden_stop_doubts(
@@ -882,6 +902,12 @@ def _hidden_stop_doubts(
         and b - a >= 4 * guard
         and not (ends_moving and k == len(spans) - 1)
     ]
+    # a running mean stands `min_excess_W` above the level only where some mean does:
+    # where none does (noise of a few sd under 0.25 W, as a rule), nothing to test
+    windows = [(a + guard, b - guard) for _, a, b in idles]
+    levels_W = [idle_median_W[k] for k, _, _ in idles]
+    if idles and not _stands_above(y10, windows, levels_W, params.min_excess_W):
+        idles = []
     if idles:
         # its last 50 ms left out too: the next step's start may be labelled that late
         lengths = np.array([b - a - 2 * guard for _, a, b in idles])
@@ -910,6 +936,20 @@ def _hidden_stop_doubts(
                 "labelled idle?"
             )
     return [doubts[k] for k in sorted(doubts)]
+
+
+def _stands_above(
+    y10: np.ndarray, windows: list[tuple[int, int]], levels_W: list[float], excess_W: float
+) -> bool:
+    """Whether any value of `y10` in the windows [a, b) (in order, apart, not empty)
+    stands `excess_W` or more above its window's level, less 1e-6 W (a margin far above
+    the rounding of the running sums this stands in for): each window's maximum by one
+    `reduceat` over the windows' edges."""
+    edges = [edge for window in windows for edge in window]
+    if edges[-1] >= y10.size:
+        edges.pop()
+    tops = np.maximum.reduceat(y10, edges)[::2].tolist()
+    return max(top - level for top, level in zip(tops, levels_W, strict=True)) >= excess_W - 1e-6
 
 
 def _wavy_means(values: np.ndarray, sigma10: float) -> bool:
@@ -1051,10 +1091,32 @@ _RIPPLE_CYCLES = 2.0
 _RIPPLE_POINTS = 256
 
 
-def _longest_runs(mask: np.ndarray, spans: list[tuple[int, int]]) -> list[tuple[int, int]]:
+def _most_within(seconds: float, step_s: float) -> int:
+    """The most steps of `step_s` that last `seconds` or less, as the doubts test it:
+    the largest k with k * step_s <= seconds in doubles (0 when one step is longer)."""
+    k = int(seconds / step_s) + 1
+    while k > 0 and k * step_s > seconds:
+        k -= 1
+    return k
+
+
+def _longest_runs(
+    mask: np.ndarray, spans: list[tuple[int, int]], longer_than: int = 0
+) -> list[tuple[int, int]]:
     """Length and start (from the span's start) of the longest run of True in each span
     [a, b) of `mask`, the first of equal ones ((0, 0) without one): the runs of the whole
-    mask found once, each cut to each span."""
+    mask found once, each cut to each span. With `longer_than`, only where the run could
+    be longer than that: a span holding no more Trues in all gives (0, 0) (counted by one
+    prefix sum; the runs are not found when no span holds more)."""
+    if longer_than > 0 and spans:
+        held = np.concatenate(([0], mask.cumsum()))
+        counts = [int(held[b] - held[a]) if b > a else 0 for a, b in spans]
+        wanted = [k for k, count in enumerate(counts) if count > longer_than]
+        found = _longest_runs(mask, [spans[k] for k in wanted])
+        out = [(0, 0)] * len(spans)
+        for k, run in zip(wanted, found, strict=True):
+            out[k] = run
+        return out
     if not spans:
         return []
     padded = np.concatenate(([False], mask, [False]))
