@@ -250,6 +250,11 @@ def peaks(score: np.ndarray, threshold: float, separation: int) -> np.ndarray:
         s = np.nan_to_num(s, nan=-np.inf)
         local = (s == sliding_max(s, size)) & (s > threshold)
         candidates = np.flatnonzero(local)
+    # (in index order) each is the maximum of its window, so two closer than `separation`
+    # are equal: the greedy pass below drops one of a tie. Without two that close (as a
+    # rule) it keeps every one
+    if candidates.size < 2 or int((candidates[1:] - candidates[:-1]).min()) >= separation:
+        return candidates.astype(np.int64)
     kept: list[int] = []
     for idx in candidates[(-s[candidates]).argsort(kind="stable")].tolist():
         for k in kept:
