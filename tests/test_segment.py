@@ -42,6 +42,7 @@ from wifibot_power.phases import Spike
 from wifibot_power.run import Run, RunMeta
 from wifibot_power.segment import (
     MotionParams,
+    _above_off_edges,
     _drive,
     _line,
     _locate_step,
@@ -397,6 +398,42 @@ def test_most_steps_within_a_duration_as_the_doubts_test_it() -> None:
         k = _most_within(0.05, step_s)
         assert k * step_s <= 0.05 < (k + 1) * step_s, step_s
     assert _most_within(0.05, 0.01) == 5  # 5 x 0.01 is 0.05 in doubles: not over 50 ms
+
+
+def test_above_off_edges_misses_no_score_the_doubts_would_keep() -> None:
+    """The doubts look for peaks of the jump statistic only where `_above_off_edges`
+    says one may stand more than the tolerance from every edge: wherever a score above the
+    threshold stands that far (|edge - k| > tolerance in doubles, as the doubts test it),
+    it says so; edges at fractional places, tolerances of 1.5 to 12 means, NaN scores,
+    scores above the threshold right at the tolerance's reach."""
+    rng = np.random.default_rng(27)
+    kept = skipped = 0
+    for trial in range(500):
+        m = int(rng.integers(12, 400))
+        score = np.abs(rng.normal(0.0, 1.0, m + 1))
+        score[: int(rng.integers(0, 6))] = np.nan
+        edges = sorted(rng.uniform(0, m, int(rng.integers(0, 8))) // 0.1 * 0.1)
+        tolerance = float(rng.choice([1.5, 6.0, 0.06 / 0.0102, 12.0]))
+        threshold = 2.0
+        score[score > threshold] = 0.0
+        # a score above the threshold near (or right at) some edge's reach
+        if edges and trial % 2:
+            edge = edges[int(rng.integers(len(edges)))]
+            k = int(round(edge + rng.choice([-1.0, 1.0]) * (tolerance + rng.uniform(-1.0, 1.0))))
+            if 0 <= k <= m:
+                score[k] = 3.0
+        k = np.arange(m + 1)
+        nearest = (
+            np.min(np.abs(np.array(edges)[None, :] - k[:, None]), axis=1)
+            if edges
+            else np.full(m + 1, np.inf)
+        )
+        wanted = bool(np.any((score > threshold) & (nearest > tolerance)))
+        found = _above_off_edges(score, threshold, edges, tolerance)
+        assert found or not wanted, trial
+        kept += wanted
+        skipped += not found
+    assert kept > 50 and skipped > 100, (kept, skipped)
 
 
 def test_stands_above_is_any_window_maximum_over_its_level() -> None:

@@ -144,7 +144,7 @@ def _median_in_place(x: np.ndarray) -> float:
     # and +0.0 both there, numpy's choice depends on the order: a 0 W idle read "-0")
     if n % 2:
         return float(x[top]) + 0.0
-    return float((np.max(x[:top]) + x[top]) / 2.0) + 0.0
+    return float((x[:top].max() + x[top]) / 2.0) + 0.0
 
 
 #: arrays longer than this are narrowed before the median's partition (`_median_in_place`;

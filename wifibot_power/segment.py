@@ -37,6 +37,7 @@ Phases cover every sample exactly once; boundaries fall on block edges (1 ms).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Generator
 from dataclasses import dataclass
 from itertools import pairwise
@@ -723,9 +724,14 @@ def _motion_doubts(
     if m > 2 * w + 2:
         jump = jump_statistic_W(y10, w)
         threshold = max(6.0 * jump_sd_factor(w) * sigma10, 0.25 * swing_W)
-        found = peaks(np.abs(jump), threshold, w)
         edges10 = np.array([b / group for _, b, _, _ in bounds[:-1]], dtype=np.float64)
         tolerance = max(0.06 / dt10, 1.5)
+        score = np.abs(jump)
+        found = (
+            peaks(score, threshold, w)
+            if _above_off_edges(score, threshold, edges10.tolist(), tolerance)
+            else np.empty(0, dtype=np.int64)
+        )
         if edges10.size and found.size:
             nearest = np.min(np.abs(edges10[None, :] - found[:, None]), axis=1)
             found = found[nearest > tolerance]
@@ -936,6 +942,23 @@ def _hidden_stop_doubts(
                 "labelled idle?"
             )
     return [doubts[k] for k in sorted(doubts)]
+
+
+def _above_off_edges(
+    score: np.ndarray, threshold: float, edges: list[float], tolerance: float
+) -> bool:
+    """Whether `score` stands above `threshold` anywhere more than `tolerance` from every
+    edge, or may (False only where it cannot): the doubts' peaks of the jump statistic
+    are kept only there, so without such a place there are none to find. Each edge's
+    reach is shrunk by one index either side (its rounding against |edge - k| <=
+    tolerance in doubles); NaN is never above."""
+    far = np.ones(score.size, dtype=bool)
+    for edge in edges:
+        lo = max(math.ceil(edge - tolerance) + 1, 0)
+        hi = math.floor(edge + tolerance)
+        if hi > lo:
+            far[lo:hi] = False
+    return bool((score[far] > threshold).any())
 
 
 def _stands_above(
