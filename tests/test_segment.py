@@ -38,7 +38,7 @@ from wifibot_power.changepoint import (
 from wifibot_power.cli import app
 from wifibot_power.errors import LogError
 from wifibot_power.io.writer import format_log, write_log
-from wifibot_power.phases import Spike
+from wifibot_power.phases import Phase, Spike
 from wifibot_power.run import Run, RunMeta
 from wifibot_power.segment import (
     MotionParams,
@@ -51,6 +51,7 @@ from wifibot_power.segment import (
     _may_hold_two_levels,
     _mean,
     _most_within,
+    _phases,
     _stands_above,
     _start_spikes,
     _std,
@@ -434,6 +435,44 @@ def test_above_off_edges_misses_no_score_the_doubts_would_keep() -> None:
         kept += wanted
         skipped += not found
     assert kept > 50 and skipped > 100, (kept, skipped)
+
+
+def test_phases_made_together_are_each_phases_own_numbers() -> None:
+    """`_phases` (the run's period, samples and stamps looked up once) against each phase
+    made on its own as before (fcbcdd0's `_phase`: numpy's mean and sum, `Run.time_at`,
+    the run's end for its last sample's index), bit for bit: runs with and without time
+    stamps, phases at the start, at the end and one sample long."""
+    rng = np.random.default_rng(28)
+    for trial in range(60):
+        samples = int(rng.integers(2, 5000))
+        period = float(rng.choice([1e-4, 1.024e-4, 0.001, 1 / 18]))
+        power = rng.normal(23.0, 2.0, samples)
+        stamps = None if trial % 2 else np.cumsum(rng.uniform(0.5, 1.5, samples)) * period
+        meta = RunMeta(run_id="r", mode="motion", sample_period_s=period)
+        run = Run("r.csv", "wbpower-csv", meta, stamps, power)
+        cuts = sorted({0, samples, *rng.integers(0, samples, int(rng.integers(0, 12))).tolist()})
+        if trial % 3 == 0 and samples > 2:
+            cuts = sorted({*cuts, samples - 1})  # a last phase one sample long
+        pieces = [
+            (k, "cruise", a, b, float(rng.uniform()) if k % 2 else None)
+            for k, (a, b) in enumerate(zip(cuts[:-1], cuts[1:], strict=True))
+        ]
+
+        want = [
+            Phase(
+                step=k,
+                phase=name,
+                i_start=a,
+                i_end=b,
+                t_start_s=_time_at(run, a),
+                t_end_s=_time_at(run, b),
+                mean_power_W=float(np.mean(power[a:b])),
+                energy_J=float(np.sum(power[a:b]) * period),
+                speed_mps=speed,
+            )
+            for k, name, a, b, speed in pieces
+        ]
+        assert _phases(run, pieces) == want, trial
 
 
 def test_stands_above_is_any_window_maximum_over_its_level() -> None:
