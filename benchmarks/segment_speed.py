@@ -14,13 +14,18 @@ moving any boundary. This script:
   interleaved in one process on the same runs in memory, so the load of a shared machine
   hits both alike. Prints ns per sample;
 - measures segmentation's **share** of `fit_logs(folder, jobs=1)` (`--share`, with
-  `--before REV` the two segmentations alternating), CPU time.
+  `--before REV` the two segmentations alternating), CPU time;
+- checks that **every field** of every `Segmentation` (each phase's times, energy, mean
+  power and speed, each spike, each doubt; floats by their exact repr) is the one the code
+  of `--before REV` gives (`--exact`), with and without the speed column: the record
+  above holds boundaries and doubts, this holds every number bit for bit.
 
 Usage:
   python benchmarks/segment_speed.py LOGS... --record base.json
   python benchmarks/segment_speed.py LOGS... --compare base.json
   python benchmarks/segment_speed.py LOGS... --time --before 4e9e4af [--repeats 9]
   python benchmarks/segment_speed.py FOLDER... --share --before 4e9e4af [--repeats 3]
+  python benchmarks/segment_speed.py LOGS... --exact --before fcbcdd0
 
 LOGS are files or folders (every *.csv, *.csv.gz, *.csv.zst in them, recursively); the
 real N6705C log (../shared/real_logs/n6705c_dlog1.csv) is read at 12.6 V like its test.
@@ -156,6 +161,36 @@ def load_before(rev: str, tmp: Path) -> ModuleType:
     return importlib.import_module("_before.segment")
 
 
+def exact(files: list[Path], rev: str) -> int:
+    """Print every run whose `Segmentation` (repr: every float exact) differs from the
+    one `rev`'s code gives; the number of such runs."""
+    with tempfile.TemporaryDirectory() as tmp:
+        before = load_before(rev, Path(tmp))
+        same = differ = 0
+        for path in files:
+            try:
+                run = read(path)
+            except WbpowerError:
+                continue
+            variants = [("", run)]
+            if run.speed_mps is not None:
+                variants.append(("#no-speed", dataclasses.replace(run, speed_mps=None)))
+            for tag, each in variants:
+                found = []
+                for segment in (before.segment_run, segment_run):
+                    try:
+                        found.append(repr(segment(each)))
+                    except WbpowerError as exc:
+                        found.append(f"error: {exc}")
+                if found[0] == found[1]:
+                    same += 1
+                else:
+                    differ += 1
+                    print(f"differs: {path}{tag}")
+        print(f"{same} segmentations identical to {rev}'s in every field, {differ} differ")
+        return differ
+
+
 def cpu_ms(call, run: Run) -> float:
     start = time.process_time()
     call(run)
@@ -255,6 +290,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--before", default="HEAD", help="git revision of the 'before' code")
     parser.add_argument("--repeats", type=int, default=9, help="calls per run and code")
     parser.add_argument("--share", action="store_true", help="share of fit_logs (a folder)")
+    parser.add_argument(
+        "--exact", action="store_true", help="every field equal to --before's, bit for bit"
+    )
     parser.add_argument("--largest", type=int, default=6, help="time the N largest runs")
     args = parser.parse_args(argv)
     files = log_files(args.logs)
@@ -266,6 +304,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{len(found)} answers written to {args.record}")
         if args.compare:
             status = 1 if compare(json.loads(args.compare.read_text()), found) else 0
+    if args.exact:
+        status = 1 if exact(files, args.before) else status
     if args.share:
         for folder in args.logs:
             share(Path(folder), args.repeats, args.before if args.before != "HEAD" else None)

@@ -144,7 +144,7 @@ def _median_in_place(x: np.ndarray) -> float:
     # and +0.0 both there, numpy's choice depends on the order: a 0 W idle read "-0")
     if n % 2:
         return float(x[top]) + 0.0
-    return float((np.max(x[:top]) + x[top]) / 2.0) + 0.0
+    return float((x[:top].max() + x[top]) / 2.0) + 0.0
 
 
 #: arrays longer than this are narrowed before the median's partition (`_median_in_place`;
@@ -177,24 +177,28 @@ def jump_statistic_W(y: np.ndarray, half_width: int) -> np.ndarray:
     j.cumsum(out=s1[1:])
     count = n - 2 * w + 1  # boundaries k = w .. n - w
     s_xx = w * (w * w - 1) / 12.0
-
-    def line_at_boundary(first: int) -> np.ndarray:
-        # the lines over [start, start + w) for start = first + 0, 1, ...: prefix sums by
-        # slices (not gathers)
-        stop = first + count
-        sum_y = s0[first + w : stop + w] - s0[first:stop]
-        sum_jy = s1[first + w : stop + w] - s1[first:stop]
-        # their centres start + (w - 1) / 2, start = first, first + 1, ...: half-integers,
-        # exact in doubles whether summed or counted by arange
-        centre = first + (w - 1) / 2.0
-        mean_j = np.arange(centre, centre + count)
-        slope = (sum_jy - mean_j * sum_y) / s_xx
-        # each line at the boundary k - 1/2, from its centre mean_j: -w/2 for the line
-        # after it (first = w), +w/2 for the one before; in doubles exactly what
-        # k - 0.5 - mean_j gives (half-integers), without its two array operations
-        return sum_y / w + slope * ((w / 2.0) if first == 0 else (-w / 2.0))
-
-    out[w : n - w + 1] = line_at_boundary(w) - line_at_boundary(0)
+    # the line over [i, i + w) for every i = 0 .. n - w, once: the line before boundary k
+    # starts at i = k - w, the one after it at i = k. Its sums by slices of the prefix
+    # sums; its centre i + (w - 1) / 2 (half-integers: exact in doubles, whether summed or
+    # counted by arange); its slope (sum_jy - centre sum_y) / S_xx; and its value at the
+    # boundary from its centre, mean + slope (+-w/2): the line before the boundary ends
+    # w/2 after its centre, the one after starts w/2 before its centre. Each number is
+    # made by the same operations as when the two sides were fitted apart (slope (-w/2) is
+    # -(slope w/2) in IEEE doubles, and a + (-b) is a - b), so the jumps are the same bit
+    # for bit, in half the array operations
+    lines = n - w + 1
+    sum_y = s0[w : w + lines] - s0[:lines]
+    slope = s1[w : w + lines] - s1[:lines]
+    centre = np.arange((w - 1) / 2.0, (w - 1) / 2.0 + lines)
+    np.multiply(centre, sum_y, out=centre)
+    np.subtract(slope, centre, out=slope)
+    slope /= s_xx
+    sum_y /= w  # each line's mean
+    slope *= w / 2.0  # each line's rise over half its width
+    after = sum_y[w:] - slope[w:]  # a new array: the two sides overlap in sum_y
+    before = sum_y[:count]
+    before += slope[:count]
+    np.subtract(after, before, out=out[w : n - w + 1])
     return out
 
 
@@ -246,6 +250,11 @@ def peaks(score: np.ndarray, threshold: float, separation: int) -> np.ndarray:
         s = np.nan_to_num(s, nan=-np.inf)
         local = (s == sliding_max(s, size)) & (s > threshold)
         candidates = np.flatnonzero(local)
+    # (in index order) each is the maximum of its window, so two closer than `separation`
+    # are equal: the greedy pass below drops one of a tie. Without two that close (as a
+    # rule) it keeps every one
+    if candidates.size < 2 or int((candidates[1:] - candidates[:-1]).min()) >= separation:
+        return candidates.astype(np.int64)
     kept: list[int] = []
     for idx in candidates[(-s[candidates]).argsort(kind="stable")].tolist():
         for k in kept:

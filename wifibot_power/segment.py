@@ -37,6 +37,7 @@ Phases cover every sample exactly once; boundaries fall on block edges (1 ms).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Generator
 from dataclasses import dataclass
 from itertools import pairwise
@@ -227,9 +228,10 @@ def segment_file(path: str | Path, options: ReadOptions | None = None) -> tuple[
 def _segment_levels(run: Run, params: LevelParams) -> Segmentation:
     found = detect_levels(run.power_W, run.sample_period_s, params)
     bounds = list(found.bounds)
-    phases = [
-        _phase(run, level, "level", a, b) for level, (a, b) in enumerate(pairwise(bounds), start=1)
-    ]
+    phases = _phases(
+        run,
+        [(level, "level", a, b, None) for level, (a, b) in enumerate(pairwise(bounds), start=1)],
+    )
     spikes = tuple(
         Spike(
             t_start_s=_time_at(run, s.i_start),
@@ -382,7 +384,7 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
         split = best_split(y, lo, hi, deg_left, deg_right, min_len, jump_sign=sign)
         if split is not None and abs(split.jump_W) > params.refine_z * sigma_b:
             starts[k] = split.index
-    phases = []
+    pieces: list[tuple[int, str, int, int, float | None]] = []
     # the magnitude of each phase's mean signed speed (a standing robot's speed noise
     # averages to ~0; the mean of |v| would give it a speed of ~0.8 sigma)
     speed_sum = np.concatenate(([0.0], np.cumsum(np.nan_to_num(run.speed_mps))))
@@ -391,7 +393,8 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
         i_end = run.samples if starts[k + 1] >= n else starts[k + 1] * block
         if i_end > i_start:
             mean_speed = abs(float((speed_sum[i_end] - speed_sum[i_start]) / (i_end - i_start)))
-            phases.append(_phase(run, number, name, i_start, i_end, mean_speed))
+            pieces.append((number, name, i_start, i_end, mean_speed))
+    phases = _phases(run, pieces)
     # the speed at the log's first and last instants: the signed speed averaged over the
     # edge window (`edge_s`, as a motion's ends are found; signed, so a standing estimate's
     # noise averages out). Over 50 ms, a robot that starts from standstill at its first
@@ -550,14 +553,15 @@ def _segment_motion(run: Run, params: MotionParams) -> Segmentation:
             bounds.append((st.t2, st.t3, "decel", number))
         cursor = st.t3
     bounds.append((cursor, n_blocks, "idle", len(steps)))
-    phases = []
+    pieces: list[tuple[int, str, int, int, float | None]] = []
     for a, b, name, number in bounds:
         i_start = a * block
         i_end = run.samples if b >= n_blocks else b * block
         if i_end > i_start:
             # without a speed column, a cruise is at the run's commanded speed (cli.md)
             speed = run.meta.speed_mps if name == "cruise" else None
-            phases.append(_phase(run, number, name, i_start, i_end, speed))
+            pieces.append((number, name, i_start, i_end, speed))
+    phases = _phases(run, pieces)
     spikes = tuple(_start_spikes(run, y, block, sigma_b, steps))
     wavy = {number for number, st in enumerate(steps, start=1) if st.wavy}
     doubts = _motion_doubts(
@@ -627,10 +631,20 @@ def _motion_doubts(
     # every cruise's two-level split at once (`best_splits`: the splits of `best_split` on
     # each cruise's own means), and every accel's and cruise's longest stretch at idle
     cruises = [k for k, (a, b, name, _) in enumerate(spans) if name == "cruise" and b - a >= 20]
+    # only where a split could pass the test (`_may_hold_two_levels`: none, as a rule)
+    may = _may_hold_two_levels(
+        y10, [spans[k][:2] for k in cruises], sigma10, params.level_fraction * swing_W
+    )
+    cruises = [k for k, kept in zip(cruises, may, strict=True) if kept]
     windows = [(spans[k][0], spans[k][1], (spans[k][1] - spans[k][0]) // 4) for k in cruises]
     two_levels = dict(zip(cruises, best_splits(y10, windows, 0, 0), strict=True))
+    # (only where it could pass the test's 50 ms: `_longest_runs`'s `longer_than`)
     driven = [(k, a, b) for k, (a, b, name, _) in enumerate(spans) if name in ("accel", "cruise")]
-    at_idle = _longest_runs(np.abs(y10 - idle_W) < near_W, [(a, b) for _, a, b in driven])
+    at_idle = _longest_runs(
+        np.abs(y10 - idle_W) < near_W,
+        [(a, b) for _, a, b in driven],
+        longer_than=_most_within(0.05, dt10),
+    )
     longest_at_idle = dict(zip((k for k, _, _ in driven), at_idle, strict=True))
     edge = min(5, m)
     starts_moving = float(median(y10[:edge])) > on_W
@@ -713,9 +727,14 @@ def _motion_doubts(
     if m > 2 * w + 2:
         jump = jump_statistic_W(y10, w)
         threshold = max(6.0 * jump_sd_factor(w) * sigma10, 0.25 * swing_W)
-        found = peaks(np.abs(jump), threshold, w)
         edges10 = np.array([b / group for _, b, _, _ in bounds[:-1]], dtype=np.float64)
         tolerance = max(0.06 / dt10, 1.5)
+        score = np.abs(jump)
+        found = (
+            peaks(score, threshold, w)
+            if _above_off_edges(score, threshold, edges10.tolist(), tolerance)
+            else np.empty(0, dtype=np.int64)
+        )
         if edges10.size and found.size:
             nearest = np.min(np.abs(edges10[None, :] - found[:, None]), axis=1)
             found = found[nearest > tolerance]
@@ -749,6 +768,65 @@ def _motion_doubts(
             f"found {steps_found} step(s) separated by idle, the metadata says {run.meta.steps}"
         )
     return doubts
+
+
+def _may_hold_two_levels(
+    y10: np.ndarray, spans: list[tuple[int, int]], sigma10: float, fraction_W: float
+) -> list[bool]:
+    """For each cruise [a, b) of the 10 ms means `y10` (in order, apart): whether the
+    two-levels test of `_motion_doubts` could pass, False only where it cannot (its split
+    is then not made).
+
+    The test's split is the best split of the cruise into two flat pieces of n // 4 means
+    or more (`best_split`, degrees 0 and 0), and it passes when the pieces' means differ by
+    more than max(6 sd, twice the scatter left, `fraction_W`), sd = sigma10 sqrt(1/i +
+    1/(n - i)) at the split i. sd is at least sigma10 sqrt(4 / n) (1/i + 1/(n - i) is
+    least at i = n/2), and the pieces' means differ by at most the cruise's range (max -
+    min): a cruise whose range stays below max(6 sigma10 sqrt(4 / n), `fraction_W`)
+    cannot pass (every cruise of `power10k`). For the others, over every allowed split s,
+    with d(s) the difference of the two pieces' means: the split's difference is at most
+    max |d(s)|, and the scatter's square is its SSE over n, SSE = SST - s (n - s) / n
+    d(s)² at the best split, so at least SST - max s (n - s) / n d(s)² (SST: the squares
+    about the cruise's mean); when max |d(s)| stays below max(6 sigma10 sqrt(4 / n), 2
+    sqrt(that / n), `fraction_W`) the test cannot pass. Margins of 1e-9 (relative and in
+    W) cover the rounding of these sums against `best_split`'s own (~1e-13 W). All
+    cruises at once: the ranges by one `reduceat` over the cruises' edges, the splits by
+    one prefix sum over their means (each centred on its own mean)."""
+    if not spans:
+        return []
+    n = np.array([hi - lo for lo, hi in spans], dtype=np.int64)
+    noise_W = 6.0 * sigma10 * np.sqrt(4.0 / n)
+    # each cruise's range: its max and min at the even places of a reduceat over the
+    # cruises' edges (the odd places reduce the gaps between them)
+    edges = np.array([edge for span in spans for edge in span], dtype=np.int64)
+    edges = edges[:-1] if edges[-1] >= y10.size else edges
+    spread = np.maximum.reduceat(y10, edges)[::2] - np.minimum.reduceat(y10, edges)[::2]
+    may = spread * (1.0 + 1e-9) + 1e-9 >= np.maximum(noise_W, fraction_W) * (1.0 - 1e-9)
+    if not may.any():
+        return may.tolist()
+    keep = np.flatnonzero(may)
+    n, noise_W = n[keep], noise_W[keep]
+    least = np.maximum(n // 4, 2)
+    starts = np.concatenate(([0], np.cumsum(n)[:-1]))
+    values = np.concatenate([y10[spans[k][0] : spans[k][1]] for k in keep.tolist()])
+    centred = values - np.repeat(np.add.reduceat(values, starts) / n, n)
+    prefix = np.concatenate(([0.0], np.cumsum(centred)))
+    sst = np.add.reduceat(centred * centred, starts)
+    # every allowed split s = least .. n - least of every cruise
+    counts = n - 2 * least + 1
+    first = np.concatenate(([0], np.cumsum(counts)[:-1]))
+    s = np.arange(int(counts.sum())) - np.repeat(first - least, counts)
+    at = np.repeat(starts, counts)
+    size = np.repeat(n, counts)
+    left = prefix[at + s] - prefix[at]
+    total = np.repeat(prefix[starts + n] - prefix[starts], counts)
+    d = (total - left) / (size - s) - left / s
+    largest = np.maximum.reduceat(np.abs(d), first)
+    between = np.maximum.reduceat(s * (size - s) / size * d * d, first)
+    sse_least = np.maximum(sst - between - 1e-9 * sst, 0.0)
+    bar_least = np.maximum(np.maximum(noise_W, 2.0 * np.sqrt(sse_least / n)), fraction_W)
+    may[keep] = largest * (1.0 + 1e-9) + 1e-9 >= bar_least * (1.0 - 1e-9)
+    return may.tolist()
 
 
 def _hidden_stop_doubts(
@@ -833,6 +911,12 @@ def _hidden_stop_doubts(
         and b - a >= 4 * guard
         and not (ends_moving and k == len(spans) - 1)
     ]
+    # a running mean stands `min_excess_W` above the level only where some mean does:
+    # where none does (noise of a few sd under 0.25 W, as a rule), nothing to test
+    windows = [(a + guard, b - guard) for _, a, b in idles]
+    levels_W = [idle_median_W[k] for k, _, _ in idles]
+    if idles and not _stands_above(y10, windows, levels_W, params.min_excess_W):
+        idles = []
     if idles:
         # its last 50 ms left out too: the next step's start may be labelled that late
         lengths = np.array([b - a - 2 * guard for _, a, b in idles])
@@ -861,6 +945,37 @@ def _hidden_stop_doubts(
                 "labelled idle?"
             )
     return [doubts[k] for k in sorted(doubts)]
+
+
+def _above_off_edges(
+    score: np.ndarray, threshold: float, edges: list[float], tolerance: float
+) -> bool:
+    """Whether `score` stands above `threshold` anywhere more than `tolerance` from every
+    edge, or may (False only where it cannot): the doubts' peaks of the jump statistic
+    are kept only there, so without such a place there are none to find. Each edge's
+    reach is shrunk by one index either side (its rounding against |edge - k| <=
+    tolerance in doubles); NaN is never above."""
+    far = np.ones(score.size, dtype=bool)
+    for edge in edges:
+        lo = max(math.ceil(edge - tolerance) + 1, 0)
+        hi = math.floor(edge + tolerance)
+        if hi > lo:
+            far[lo:hi] = False
+    return bool((score[far] > threshold).any())
+
+
+def _stands_above(
+    y10: np.ndarray, windows: list[tuple[int, int]], levels_W: list[float], excess_W: float
+) -> bool:
+    """Whether any value of `y10` in the windows [a, b) (in order, apart, not empty)
+    stands `excess_W` or more above its window's level, less 1e-6 W (a margin far above
+    the rounding of the running sums this stands in for): each window's maximum by one
+    `reduceat` over the windows' edges."""
+    edges = [edge for window in windows for edge in window]
+    if edges[-1] >= y10.size:
+        edges.pop()
+    tops = np.maximum.reduceat(y10, edges)[::2].tolist()
+    return max(top - level for top, level in zip(tops, levels_W, strict=True)) >= excess_W - 1e-6
 
 
 def _wavy_means(values: np.ndarray, sigma10: float) -> bool:
@@ -1002,10 +1117,32 @@ _RIPPLE_CYCLES = 2.0
 _RIPPLE_POINTS = 256
 
 
-def _longest_runs(mask: np.ndarray, spans: list[tuple[int, int]]) -> list[tuple[int, int]]:
+def _most_within(seconds: float, step_s: float) -> int:
+    """The most steps of `step_s` that last `seconds` or less, as the doubts test it:
+    the largest k with k * step_s <= seconds in doubles (0 when one step is longer)."""
+    k = int(seconds / step_s) + 1
+    while k > 0 and k * step_s > seconds:
+        k -= 1
+    return k
+
+
+def _longest_runs(
+    mask: np.ndarray, spans: list[tuple[int, int]], longer_than: int = 0
+) -> list[tuple[int, int]]:
     """Length and start (from the span's start) of the longest run of True in each span
     [a, b) of `mask`, the first of equal ones ((0, 0) without one): the runs of the whole
-    mask found once, each cut to each span."""
+    mask found once, each cut to each span. With `longer_than`, only where the run could
+    be longer than that: a span holding no more Trues in all gives (0, 0) (counted by one
+    prefix sum; the runs are not found when no span holds more)."""
+    if longer_than > 0 and spans:
+        held = np.concatenate(([0], mask.cumsum()))
+        counts = [int(held[b] - held[a]) if b > a else 0 for a, b in spans]
+        wanted = [k for k, count in enumerate(counts) if count > longer_than]
+        found = _longest_runs(mask, [spans[k] for k in wanted])
+        out = [(0, 0)] * len(spans)
+        for k, run in zip(wanted, found, strict=True):
+            out[k] = run
+        return out
     if not spans:
         return []
     padded = np.concatenate(([False], mask, [False]))
@@ -1471,6 +1608,11 @@ def _start_spikes(
         slope, tail_intercept = _line(tail)
         intercept = tail_intercept - slope * (seg.size // 2)  # the line at x = 0
         excess = seg - (intercept + slope * x)
+        # a spike starts at the first block: where that block stands within 6 sd of noise
+        # (+ 0.5 W) of the line, it stands within the bar below whatever the tail's scatter
+        # (the bar is at least that), so the tail's median is not taken (most steps)
+        if not excess[0] > 6.0 * sigma_b + 0.5:
+            continue
         # above the tail's own scatter, not only the analyser's: a ripple during the ramp
         # (sample_logs: 1 W) bends it, and a hump of the ripple at its start was taken for
         # a spike of 0.27 s (drawn in red on the README's trace figure)
@@ -1506,24 +1648,44 @@ def _time_at(run: Run, index: int) -> float:
     return run.time_at(-1) + run.sample_period_s
 
 
-def _phase(
-    run: Run, step: int, name: str, i_start: int, i_end: int, speed_mps: float | None = None
-) -> Phase:
-    power = run.power_W[i_start:i_end]
-    # one pass: the mean is the same sum / n (`np.sum`'s reduction, without its wrapper)
-    total_W = np.add.reduce(power, dtype=np.float64)
-    energy = float(total_W * run.sample_period_s)
-    return Phase(
-        step=step,
-        phase=name,
-        i_start=i_start,
-        i_end=i_end,
-        t_start_s=_time_at(run, i_start),
-        t_end_s=_time_at(run, i_end),
-        mean_power_W=float(total_W / power.size),
-        energy_J=energy,
-        speed_mps=speed_mps,
-    )
+def _phases(run: Run, pieces: list[tuple[int, str, int, int, float | None]]) -> list[Phase]:
+    """The phase of each piece (step, name, i_start, i_end, speed_mps) of the run: its
+    times (`_time_at`), mean power and energy from one pairwise sum of its samples (the
+    mean is the same sum over the count, as `numpy.mean`'s; `np.add.reduce`: `np.sum`'s
+    reduction without its wrapper). The run's period, samples and time stamps are looked
+    up once for all phases (~4 us a phase less than per phase: the same numbers)."""
+    power = run.power_W
+    period = run.sample_period_s
+    samples = power.size
+    stamps = run.stamps_s
+    # `_time_at` (`Run.time_at`, and the end of the run for index == samples)
+    if stamps is not None:
+        end_s = float(stamps[-1]) + period
+    else:
+        end_s = float((samples - 1) * period) + period
+    phases = []
+    for step, name, i_start, i_end, speed_mps in pieces:
+        total_W = np.add.reduce(power[i_start:i_end], dtype=np.float64)
+        if stamps is not None:
+            t_start_s = float(stamps[i_start]) if i_start < samples else end_s
+            t_end_s = float(stamps[i_end]) if i_end < samples else end_s
+        else:
+            t_start_s = float(i_start * period) if i_start < samples else end_s
+            t_end_s = float(i_end * period) if i_end < samples else end_s
+        phases.append(
+            Phase(
+                step=step,
+                phase=name,
+                i_start=i_start,
+                i_end=i_end,
+                t_start_s=t_start_s,
+                t_end_s=t_end_s,
+                mean_power_W=float(total_W / (i_end - i_start)),
+                energy_J=float(total_W * period),
+                speed_mps=speed_mps,
+            )
+        )
+    return phases
 
 
 __all__ = ["MotionParams", "SpeedParams", "segment_file", "segment_run"]
