@@ -172,3 +172,74 @@ def test_table_columns_fit_any_rows_as_their_table(table) -> None:
         rows = rng.choice(len(table), size, replace=size > len(table) // 2)
         expected = fit_table_model(table.take(rows)).to_json()
         assert json.dumps(columns.model(rows).to_json()) == json.dumps(expected)
+
+
+PANDAS_BESIDE = r"""
+import os, sys
+import wifibot_power.parallel as parallel
+from wifibot_power.diagnose import diagnose_logs
+from wifibot_power.errors import LogError
+
+report = sys.argv[2]
+original = parallel._run_task
+
+
+def _run_task(index):
+    with open(report, "a") as f:  # what the worker inherited from the parent at the fork
+        f.write(f"{os.getpid()} {'pandas' in sys.modules}\n")
+    return original(index)
+
+
+parallel._run_task = _run_task  # looked up by name in the forked workers
+import threading
+import wifibot_power.diagnose as diagnose
+
+importing = diagnose._import_pandas
+
+
+def _import_pandas():
+    with open(report, "a") as f:
+        f.write(f"beside {threading.current_thread() is threading.main_thread()}\n")
+    importing()
+
+
+diagnose._import_pandas = _import_pandas
+loaded_before = "pandas" in sys.modules
+try:
+    diagnose_logs([sys.argv[1]], jobs=2)
+except LogError:
+    pass
+print(os.getpid(), loaded_before, "pandas" in sys.modules)
+"""
+
+
+def test_diagnose_loads_pandas_beside_its_workers_not_before(tmp_path) -> None:
+    """pandas (~0.3 s of CPU to import) is what the diagnosis after the workers needs, not
+    their work: `diagnose_logs` imports it in a thread while the forked workers read the
+    logs (`map_runs(beside=...)`), so that the ~0.3 s overlaps their work instead of coming
+    before it. No worker inherits it (the parent had not loaded it when they were forked),
+    and it is loaded when the diagnosis runs."""
+    import subprocess
+    import sys
+
+    from wifibot_power.parallel import can_fork
+    from wifibot_power.simulate import write_simulation
+
+    if not can_fork():
+        pytest.skip("workers are forked on Linux only")
+    logs = tmp_path / "logs"
+    write_simulation(SimConfig(**GRID, seed=3), logs)
+    report = tmp_path / "inherited.txt"
+    done = subprocess.run(
+        [sys.executable, "-c", PANDAS_BESIDE, str(logs), str(report)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    parent, loaded_before, loaded_after = done.stdout.split()
+    lines = [line.split() for line in report.read_text().splitlines()]
+    assert [line for line in lines if line[0] == "beside"] == [["beside", "False"]]
+    tasks = [line for line in lines if line[0] != "beside"]
+    assert len(tasks) >= 6 and all(pid != parent for pid, _ in tasks)
+    assert {inherited for _, inherited in tasks} == {"False"}
+    assert (loaded_before, loaded_after) == ("False", "True")

@@ -103,6 +103,32 @@ def test_jobs_1_runs_here() -> None:
 
 
 @needs_fork
+def test_beside_runs_once_in_a_thread_after_the_workers_are_forked() -> None:
+    """`beside` is this process's work while the workers run: called once, in a thread
+    that is not the main one, when every worker exists (a thread running at a fork could
+    leave a lock held in the child), finished before the results come back; never called
+    when the work runs in this process."""
+    import multiprocessing
+    import threading
+
+    seen: list[tuple[str, int]] = []
+
+    def beside() -> None:
+        workers = len(multiprocessing.active_children())
+        time.sleep(0.2)  # still running when the workers are done: joined all the same
+        seen.append((threading.current_thread().name, workers))
+
+    out = parallel.map_ordered([1, 2, 3, 4, 5], lambda x: x * 2, jobs=2, beside=beside)
+    assert out == [2, 4, 6, 8, 10]
+    assert len(seen) == 1
+    name, workers = seen[0]
+    assert name != threading.main_thread().name and workers == 2
+    seen.clear()
+    assert parallel.map_ordered([1, 2], lambda x: x, jobs=1, beside=beside) == [1, 2]
+    assert seen == []
+
+
+@needs_fork
 def test_a_worker_that_dies_is_a_one_line_error() -> None:
     def die(x: int) -> int:
         if x == 2:

@@ -25,9 +25,9 @@ from collections.abc import Callable, Iterable, Iterator
 from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from wifibot_power.causes import (
     CAUSES,
@@ -64,6 +64,9 @@ from wifibot_power.runtable import (
 )
 from wifibot_power.stats import spearman
 from wifibot_power.traces import EMPTY, TraceStats, trace_stats
+
+if TYPE_CHECKING:  # pandas (~0.3 s to import) loads where the tables are made, while
+    import pandas as pd  # the workers read the logs (`diagnose_logs`)
 
 #: Smallest held-out gain that makes a significant cause a finding [%].
 MIN_GAIN_PCT = {"run_energy": 5.0, "power_trace": 10.0}
@@ -276,6 +279,8 @@ def diagnose_logs(
         jobs=jobs,
         on_problems=on_problems,
         prepare=_import_work_modules,
+        # the tables' library loads while the workers read: the diagnosis after them needs it
+        beside=_import_pandas,
     )
     try:
         return diagnose_summaries(
@@ -283,6 +288,10 @@ def diagnose_logs(
         )
     except LogError as exc:  # about the batch: named by what the user gave
         raise exc.with_file(", ".join(map(str, paths))) from None
+
+
+def _import_pandas() -> None:
+    import pandas  # noqa: F401
 
 
 def diagnose_runs(
@@ -302,6 +311,8 @@ def session_clock(runs: pd.DataFrame) -> pd.DataFrame:
 
     Runs are ordered by `started_at`; a gap of over 30 min ends a session (motors cool).
     Runs without `started_at` get NaN (thermal drift is then not testable)."""
+    import pandas as pd
+
     runs = runs.copy()
     motion_s = np.where(
         runs["mode"] == "motion",
@@ -385,6 +396,8 @@ class HeldOut:
     those arrays by position, and only a fit with causes makes the fold's table."""
 
     def __init__(self, all_runs: pd.DataFrame, motion: pd.DataFrame, folds: np.ndarray) -> None:
+        import pandas as pd
+
         others = all_runs[all_runs["mode"].to_numpy() != "motion"]
         self.motion, self.folds = motion, folds
         self.table = pd.concat([others, motion])
@@ -619,6 +632,8 @@ def nested_heldout_energy_J(
     flattered by having chosen its causes on the runs it then predicts. A fold whose
     choice differs from `causes` (the findings, chosen on all runs) is noted; one whose
     training runs are too few to choose from (`enough_to_choose`) uses `causes`."""
+    import pandas as pd
+
     others = runs[runs["mode"] != "motion"]
     predicted = np.full(len(motion), np.nan)
     for k in np.unique(folds):
@@ -692,6 +707,8 @@ def motion_runs(runs: pd.DataFrame) -> pd.DataFrame:
 
 def summary_table(summaries: list[RunSummary]) -> pd.DataFrame:
     """One row per run: its run-table row, trace statistics and place in its session."""
+    import pandas as pd
+
     runs = runs_frame([s.row for s in summaries])
     traces = pd.DataFrame([s.trace.as_row() for s in summaries], index=runs.index)
     extra = pd.DataFrame([s.cause_columns for s in summaries], index=runs.index)

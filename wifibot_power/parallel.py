@@ -19,6 +19,7 @@ import multiprocessing
 import os
 import signal
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -133,6 +134,7 @@ def map_ordered(
     jobs: int | None = 1,
     on_done: Callable[[T], None] | None = None,
     cost: Callable[[T], float] | None = None,
+    beside: Callable[[], object] | None = None,
 ) -> list[R]:
     """`[task(item) for item in items]`, run by `jobs` forked workers, in the order of `items`.
 
@@ -142,6 +144,12 @@ def map_ordered(
     files are in memory at once. With `cost(item)` (e.g. file size), the costliest items are
     started first, so no large file is left to run alone at the end (longest processing time
     first scheduling); the results stay in the order of `items`.
+
+    `beside()` is what this process does meanwhile: called in a thread of its own once the
+    workers are forked (never before: a thread running while a process forks can leave a
+    lock held in the child), done before the results are returned; not called when the
+    work runs in this process. E.g. importing what comes after the work (`diagnose_logs`:
+    pandas), which this process, waiting for the workers, would otherwise do after them.
     """
     workers = min(resolve_jobs(jobs), len(items))
     if workers <= 1 or not can_fork():
@@ -154,6 +162,7 @@ def map_ordered(
 
     global _TASK
     previous, _TASK = _TASK, lambda index: task(items[index])
+    meanwhile: threading.Thread | None = None
     results_by_index: dict[int, R] = {}
     context = multiprocessing.get_context("fork")
     threads = max(available_cores() // workers, 1)
@@ -176,6 +185,9 @@ def map_ordered(
                 with _sigint_blocked():
                     pending[pool.submit(_run_task, index)] = index
                     processes = list(pool._processes.values())  # noqa: SLF001
+                if beside is not None:  # every worker is forked by now (fork: all at once)
+                    meanwhile = threading.Thread(target=beside, name="beside", daemon=True)
+                    meanwhile.start()
             else:
                 pending[pool.submit(_run_task, index)] = index
             if len(pending) >= 2 * workers:
@@ -203,4 +215,6 @@ def map_ordered(
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
         _TASK = previous
+    if meanwhile is not None:
+        meanwhile.join()
     return [results_by_index[index] for index in range(len(items))]

@@ -31,11 +31,14 @@ most `alpha` (docs/diagnose.md gives the rate measured on null data).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from wifibot_power.stats import f_sf, ols
+
+if TYPE_CHECKING:  # imported where used: `diagnose_logs` loads pandas beside its workers
+    import pandas as pd
 
 #: Overall false-alarm rate of the family of tests (Bonferroni over the tests run).
 ALPHA = 0.01
@@ -97,6 +100,8 @@ def residual_table(
 ) -> pd.DataFrame:
     """The per-run table the tests read: run_id, the configuration keys, session_order
     (-1 when unknown), measured and predicted energy [J] and the residual in J and %."""
+    import pandas as pd
+
     table = keys.reset_index(drop=True).copy()
     for key in CONFIG_KEYS:
         table[key] = table[key].astype(np.float64).fillna(0.0) if key in table else 0.0
@@ -190,6 +195,8 @@ def lack_of_fit(table: pd.DataFrame) -> ReplicationTest:
     # where: the configuration whose mean residual stands out most from pure error
     ms_pe = sse_pe / df2
     # pandas' group means (compensated sums); a named .agg() took ten times as long
+    import pandas as pd
+
     per = pd.DataFrame({"u": u, "J": table["residual_J"].to_numpy()}).groupby(cells).mean()
     z = per["u"] / np.sqrt(ms_pe / np.bincount(cells))
     worst = int(z.abs().idxmax())
@@ -282,6 +289,8 @@ def session_trend(table: pd.DataFrame) -> ReplicationTest:
     f_stat = (sse_base - sse_full) / (sse_full / df2)
     p = f_sf(f_stat, 1, df2)
     # the slope within configurations
+    import pandas as pd
+
     xc = x - pd.Series(x).groupby(cells).transform("mean").to_numpy()
     rc = r - pd.Series(r).groupby(cells).transform("mean").to_numpy()
     slope = float(xc @ rc / (xc @ xc)) if replicated else float(np.polyfit(x, r, 1)[0])

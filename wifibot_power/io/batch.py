@@ -96,6 +96,7 @@ def map_runs(
     memo: ResultMemo[T] | None = None,
     on_problems: ProblemHook | None = None,
     prepare: Callable[[], object] | None = None,
+    beside: Callable[[], object] | None = None,
 ) -> tuple[list[T], list[Skipped]]:
     """Read each log under `paths` and apply `work` to it, one file in memory at a time per
     worker; results in the order of the logs.
@@ -109,7 +110,8 @@ def map_runs(
 
     `prepare()` is called in this process once, before the first file is worked on (not at
     all when every result is kept in the cache): e.g. importing what `work` needs, so forked
-    workers inherit it instead of each importing it.
+    workers inherit it instead of each importing it. `beside()` is called in a thread of
+    this process while forked workers do the work (`parallel.map_ordered`).
 
     `on_problems(file, problems)` is called in this process, in the order of the logs, for
     each log read with problems (`Run.problems`: short gaps), after all are done.
@@ -189,7 +191,12 @@ def map_runs(
             if prepare is not None:
                 prepare()
             computed = map_ordered(
-                [sources[k] for k in todo], one, jobs=jobs, on_done=on_done, cost=_size_bytes
+                [sources[k] for k in todo],
+                one,
+                jobs=jobs,
+                on_done=on_done,
+                cost=_size_bytes,
+                beside=beside,
             )
         for k, outcome in zip(todo, computed, strict=True):
             outcomes[k] = outcome
