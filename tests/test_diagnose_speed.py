@@ -141,6 +141,34 @@ def test_motion_of_is_the_pandas_selection(table) -> None:
     expected = table[(table["mode"] == "motion") & table["usable"]]
     assert _frames_equal(motion_of(table), expected)
     assert _frames_equal(motion_of(table.iloc[::-1]), expected.iloc[::-1])
+    # other column types than the per-run table's (a library caller's table): pandas' own
+    # semantics, a missing `usable` not usable, a missing mode not motion (the review's
+    # cases: numpy's bool of NaN is True, and a comparison with pd.NA raises)
+    odd = table.copy()
+    odd["usable"] = odd["usable"].astype(object)
+    odd.loc[odd.index[odd["mode"] == "motion"][:3], "usable"] = np.nan
+    odd["mode"] = odd["mode"].astype("string")
+    odd.loc[odd.index[5], "mode"] = pd.NA
+    expected = odd[(odd["mode"] == "motion") & odd["usable"]]
+    assert len(expected) < (table["mode"] == "motion").sum() - 3
+    assert _frames_equal(motion_of(odd), expected)
+
+
+def test_a_fit_asked_with_an_iterator_of_causes_fits_them(table) -> None:
+    """`diagnose.fit_model` keys its memo by the causes and fits them: an iterator read
+    once for the key left the fit none, and the causeless model was kept under the causes'
+    key (the review's case)."""
+    runs = table[table["usable"]]
+    causes = ["decel_phase", "start_transient"]
+    token = diagnose._FITS.set({})
+    try:
+        from_iterator = diagnose.fit_model(runs, iter(causes))
+        from_list = diagnose.fit_model(runs, causes)
+    finally:
+        diagnose._FITS.reset(token)
+    expected = diagnose._fit_model(runs, causes)
+    assert json.dumps(from_iterator.to_json()) == json.dumps(expected.to_json())
+    assert json.dumps(from_list.to_json()) == json.dumps(expected.to_json())
 
 
 def test_fit_table_model_reads_columns_as_fit_table_reads_rows(table) -> None:

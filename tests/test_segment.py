@@ -214,6 +214,25 @@ def test_two_level_splits_are_skipped_only_where_the_test_cannot_pass() -> None:
     assert passed > 100 and skipped > 300 and edge > 5, (passed, skipped, edge)
 
 
+def test_two_level_bound_holds_at_high_power() -> None:
+    """The bound's squares are taken about each cruise's exact mean: about the rounded
+    mean they exceed the true SST by (sum of the centred values)² / n, which at 1e7 W (an
+    ulp of 2e-9 W) beat the 1e-9 margins and skipped a split the test passes (the review's
+    case: nine means at 1e7 W, thirty an ulp above, no noise, a bar of 1e-9 W)."""
+    y10 = np.array([1e7] * 9 + [np.nextafter(1e7, np.inf)] * 30)
+    assert _passes_two_levels(y10, 0, 39, 0.0, 1e-9)
+    assert _may_hold_two_levels(y10, [(0, 39)], 0.0, 1e-9) == [True]
+    rng = np.random.default_rng(8)
+    for offset_W in (1e6, 1e7, 1e9):  # steps of a few ulps at large powers, either side
+        for _ in range(40):
+            n = int(rng.integers(20, 200))
+            y10 = offset_W + np.spacing(offset_W) * rng.integers(0, 4, n).astype(np.float64)
+            y10[int(rng.integers(1, n)) :] += np.spacing(offset_W) * rng.integers(0, 3)
+            fraction_W = float(rng.choice([1e-9, 1e-6])) * offset_W / 1e7
+            may = _may_hold_two_levels(y10, [(0, n)], 0.0, fraction_W)[0]
+            assert may or not _passes_two_levels(y10, 0, n, 0.0, fraction_W)
+
+
 def _start_spikes_in_full(
     run: Run, y: np.ndarray, block: int, sigma_b: float, steps: list[_Step]
 ) -> list[Spike]:
@@ -529,6 +548,22 @@ def test_idles_below_the_excess_everywhere_hold_no_stop_labelled_idle() -> None:
         fired += passes
         skipped += not stands
     assert fired > 50 and skipped > 200, (fired, skipped)
+
+
+def test_the_stop_labelled_idle_gate_holds_only_for_a_bar_of_0_sd_or_more(monkeypatch):
+    """`_stands_above` stands in for the stop-labelled-idle test only when its bar is 0 sd or
+    more (`MotionParams.hidden_stop_z`): under it an idle at its own level passes, so the
+    gate is not used. A run segmented with a bar of -1 sd gets the doubts it gets with the
+    gate taken out (every idle after a step, on a quiet simulated run)."""
+    import wifibot_power.segment as segment
+
+    config = SimConfig(repeats=1, modes=(), sample_period_s=1.024e-3, seed=5, speeds_mps=(0.5,))
+    run = next(s.run for s in simulate_runs(config) if s.run.meta.steps > 1)
+    params = MotionParams(hidden_stop_z=-1.0)
+    gated = segment._segment_motion(run, params).doubts
+    monkeypatch.setattr(segment, "_stands_above", lambda *a: True)
+    assert gated == segment._segment_motion(run, params).doubts
+    assert any("a stop labelled idle?" in d for d in gated)
 
 
 def test_long_medians_narrowed_first_are_numpys() -> None:

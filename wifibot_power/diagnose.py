@@ -91,6 +91,7 @@ def fit_model(
     """`causes.extended.fit_model`, fitted once per rows (in their order), causes and
     `strict` within one diagnosis: the same fit of the same rows is the same model, and a
     fit the rows cannot identify raises `NotEstimable` each time it is asked for."""
+    causes = ordered(causes)  # a list: the key and the fit both read it (an iterator once)
     return _fitted_once(
         lambda: (runs["file"].tolist(), runs["run_id"].tolist()),
         causes,

@@ -788,8 +788,9 @@ def _may_hold_two_levels(
     max |d(s)|, and the scatter's square is its SSE over n, SSE = SST - s (n - s) / n
     d(s)² at the best split, so at least SST - max s (n - s) / n d(s)² (SST: the squares
     about the cruise's mean); when max |d(s)| stays below max(6 sigma10 sqrt(4 / n), 2
-    sqrt(that / n), `fraction_W`) the test cannot pass. Margins of 1e-9 (relative and in
-    W) cover the rounding of these sums against `best_split`'s own (~1e-13 W). All
+    sqrt(that / n), `fraction_W`) the test cannot pass. Margins of 1e-9 (relative, and in
+    W plus 64 ulps of the cruise's largest power) cover the rounding of these sums against
+    `best_split`'s own (~1e-13 W at a robot's powers). All
     cruises at once: the ranges by one `reduceat` over the cruises' edges, the splits by
     one prefix sum over their means (each centred on its own mean)."""
     if not spans:
@@ -800,18 +801,25 @@ def _may_hold_two_levels(
     # cruises' edges (the odd places reduce the gaps between them)
     edges = np.array([edge for span in spans for edge in span], dtype=np.int64)
     edges = edges[:-1] if edges[-1] >= y10.size else edges
-    spread = np.maximum.reduceat(y10, edges)[::2] - np.minimum.reduceat(y10, edges)[::2]
-    may = spread * (1.0 + 1e-9) + 1e-9 >= np.maximum(noise_W, fraction_W) * (1.0 - 1e-9)
+    top, bottom = np.maximum.reduceat(y10, edges)[::2], np.minimum.reduceat(y10, edges)[::2]
+    spread = top - bottom
+    # the margin in W: 1e-9, and 64 ulps of the cruise's largest value (`best_split` adds
+    # the window's mean back to its pieces: ulps of the power, ~1e-7 W at 1e9 W)
+    slack_W = 1e-9 + 64.0 * np.spacing(np.maximum(np.abs(top), np.abs(bottom)))
+    may = spread * (1.0 + 1e-9) + slack_W >= np.maximum(noise_W, fraction_W) * (1.0 - 1e-9)
     if not may.any():
         return may.tolist()
     keep = np.flatnonzero(may)
-    n, noise_W = n[keep], noise_W[keep]
+    n, noise_W, slack_W = n[keep], noise_W[keep], slack_W[keep]
     least = np.maximum(n // 4, 2)
     starts = np.concatenate(([0], np.cumsum(n)[:-1]))
     values = np.concatenate([y10[spans[k][0] : spans[k][1]] for k in keep.tolist()])
     centred = values - np.repeat(np.add.reduceat(values, starts) / n, n)
     prefix = np.concatenate(([0.0], np.cumsum(centred)))
-    sst = np.add.reduceat(centred * centred, starts)
+    # about the exact mean: the rounded one leaves a sum c of the centred values, and the
+    # squares about it exceed SST by c² / n (far above the margins at powers of 1e6 W+)
+    residue = prefix[starts + n] - prefix[starts]
+    sst = np.add.reduceat(centred * centred, starts) - residue * residue / n
     # every allowed split s = least .. n - least of every cruise
     counts = n - 2 * least + 1
     first = np.concatenate(([0], np.cumsum(counts)[:-1]))
@@ -825,7 +833,7 @@ def _may_hold_two_levels(
     between = np.maximum.reduceat(s * (size - s) / size * d * d, first)
     sse_least = np.maximum(sst - between - 1e-9 * sst, 0.0)
     bar_least = np.maximum(np.maximum(noise_W, 2.0 * np.sqrt(sse_least / n)), fraction_W)
-    may[keep] = largest * (1.0 + 1e-9) + 1e-9 >= bar_least * (1.0 - 1e-9)
+    may[keep] = largest * (1.0 + 1e-9) + slack_W >= bar_least * (1.0 - 1e-9)
     return may.tolist()
 
 
@@ -915,7 +923,12 @@ def _hidden_stop_doubts(
     # where none does (noise of a few sd under 0.25 W, as a rule), nothing to test
     windows = [(a + guard, b - guard) for _, a, b in idles]
     levels_W = [idle_median_W[k] for k, _, _ in idles]
-    if idles and not _stands_above(y10, windows, levels_W, params.min_excess_W):
+    # (a bound only for a bar of 0 sd or more: under it, an idle at its level is doubted)
+    if (
+        idles
+        and params.hidden_stop_z >= 0
+        and not _stands_above(y10, windows, levels_W, params.min_excess_W)
+    ):
         idles = []
     if idles:
         # its last 50 ms left out too: the next step's start may be labelled that late

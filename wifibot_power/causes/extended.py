@@ -26,10 +26,15 @@ class NotEstimable(Exception):  # noqa: N818 (a result, not a failure)
 
 
 def motion_of(runs: pd.DataFrame) -> pd.DataFrame:
-    """The usable motion runs of `runs` (a mask made in numpy: pandas' own comparison of
-    the text column and `&` of two Series cost more than the selection; ~30-70 times a
-    diagnosis)."""
-    return runs[(runs["mode"].to_numpy() == "motion") & runs["usable"].to_numpy(dtype=bool)]
+    """The usable motion runs of `runs`: ``runs[(runs["mode"] == "motion") & runs["usable"]]``,
+    the mask made in numpy for the per-run table's own column types (text as objects,
+    `usable` bool: pandas' comparison of the text column and `&` of two Series cost more
+    than the selection, ~30-70 times a diagnosis); pandas' expression for any others (a
+    missing value is not usable, a missing mode not motion)."""
+    mode, usable = runs["mode"], runs["usable"]
+    if mode.dtype == object and usable.dtype == bool:
+        return runs[(mode.to_numpy() == "motion") & usable.to_numpy()]
+    return runs[(mode == "motion") & usable]
 
 
 def fit_model(
