@@ -90,14 +90,19 @@ def corpus(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.mark.parametrize("after_s", [0.0, 0.3])
+@pytest.mark.parametrize("name", ["fit", "diagnose"])
 def test_ctrl_c_during_fit_with_workers_stops_cleanly(
-    corpus: Path, tmp_path: Path, after_s: float
+    corpus: Path, tmp_path: Path, after_s: float, name: str
 ) -> None:
+    """fit (with a cache), and diagnose, whose parent imports pandas in a thread while its
+    workers read (`map_runs(beside=...)`): at 0 s the signal lands as that import starts."""
     cache, out = tmp_path / "cache", tmp_path / "out"
-    command = [*WBPOWER, "fit", str(corpus), "-j", "2"]
+    command = [*WBPOWER, name, str(corpus), "-j", "2", "-o", str(out)]
+    if name == "fit":
+        command += ["--cache", str(cache)]
     inherited = _sigint_state()  # what the command would inherit from this test process
     process = subprocess.Popen(
-        [*command, "--cache", str(cache), "-o", str(out)],
+        command,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         start_new_session=True,  # its own process group, as a shell gives a job
@@ -127,7 +132,7 @@ def test_ctrl_c_during_fit_with_workers_stops_cleanly(
     assert took_s < PROMPT_S
     time.sleep(0.1)
     assert _group(process.pid) == [], "a worker outlived the command"
-    assert not out.exists(), "fit -o wrote outputs of an interrupted fit"
+    assert not out.exists(), f"{name} -o wrote outputs of an interrupted run"
     assert not [p for p in cache.rglob("*") if p.name.endswith(".tmp")], "half-written cache"
 
 
