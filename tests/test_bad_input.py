@@ -378,6 +378,32 @@ def test_clipped_current_is_found_although_power_is_not_flat(tmp_path, wbpower):
     )
 
 
+@pytest.mark.parametrize("clipped_share", [0.6, 0.82, 0.97])
+def test_a_clip_through_most_of_the_log_is_an_error(tmp_path, wbpower, clipped_share):
+    # a noisy run whose cruise stands above the range: power stuck at 28 W for most of the
+    # log, so the median is the clip itself (the check once judged clipping against the
+    # median and let these through, energy silently short)
+    rng = np.random.default_rng(4)
+    n = 1000
+    power_W = 23.3 + 0.05 * rng.standard_normal(n)
+    first = n - int(clipped_share * n)
+    power_W[first:] = 28.0
+    path = tmp_path / "clip_most.csv"
+    path.write_text(log(rows(power_W)))
+    assert_one_line_error(
+        wbpower("inspect", path), path, "'power_W' clipped", f"{n - first} samples"
+    )
+
+
+def test_a_steady_noise_free_log_is_not_called_clipping(tmp_path, wbpower):
+    # one value throughout, or but for fewer samples than show their noise: a steady load
+    for power_W in (np.full(200, 23.3), np.r_[np.full(195, 23.3), 23.1, 23.2, 23.0, 23.2, 23.1]):
+        path = tmp_path / "steady.csv"
+        path.write_text(log(rows(power_W)))
+        result = wbpower("inspect", "--json", path)
+        assert result.exit_code == 0, result.stderr
+
+
 def test_noise_free_levels_are_not_called_clipping(tmp_path, wbpower):
     # a noise-free load stepping 23.3 W -> 27.7 W for 500 samples: a flat top that is a level
     power_W = np.r_[np.full(500, 23.3), np.full(500, 27.7)]
@@ -494,12 +520,18 @@ def test_n6705_dropped_samples_show_as_gaps_in_the_sample_index(tmp_path, wbpowe
     assert row["problems"] == ["line 508: 3 ms of samples dropped after t = 0.499 s"]
 
 
-def test_zero_sample_period_option_is_an_error(tmp_path, wbpower):
-    path = tmp_path / "no_time.csv"
-    path.write_text("power_W\n23.3\n23.4\n")
-    assert_one_line_error(
-        wbpower("inspect", "--sample-period", "0", path),
-        path,
-        "--sample-period",
-        "sample_period_s is 0",
-    )
+@pytest.mark.parametrize("option", ["--supply-voltage", "--sample-period"])
+@pytest.mark.parametrize("value", ["0", "nan", "inf"])
+def test_a_reading_option_that_is_no_positive_number_is_a_usage_error(
+    tmp_path, wbpower, option, value
+):
+    # --supply-voltage 0 read the real export as 0 W and 0 J with exit 0; nan was blamed
+    # on the file's first data line. Both are the option's fault: exit 2, one line naming it
+    path = tmp_path / "current_only.csv"
+    path.write_text(log("0.0,1.8\n0.001,1.8\n", header="time_s,current_A"))
+    result = wbpower("inspect", "--supply-voltage", "12.6", option, value, path)
+    assert result.exit_code == 2, (result.stdout, result.stderr)
+    assert result.stdout == ""
+    (line,) = result.stderr.strip().splitlines()
+    unit = {"--supply-voltage": "V", "--sample-period": "s"}[option]
+    assert line == f"wbpower: error: {option} {value} (give a number > 0 [{unit}])"

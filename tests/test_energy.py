@@ -298,3 +298,11 @@ def test_trip_energy_matches_the_simulated_robot(cause):
             assert abs(trip.energy_J - base.energy_J) > 10 * atol_J
         checked += 1
     assert checked >= 1
+
+
+@pytest.mark.parametrize("speed_mps", [math.nan, math.inf, 0.0, -0.5])
+def test_a_speed_that_is_no_positive_number_is_named_as_the_speed(speed_mps):
+    # a NaN speed made t_acc(v) NaN, and the error told the user to fix --t-acc
+    with pytest.raises(UsageError, match=r"^speed .* m/s") as error:
+        trip_energy(paper_model(), speed_mps, 10.0, 1)
+    assert "give a speed > 0" in error.value.one_line()

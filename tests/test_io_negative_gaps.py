@@ -79,6 +79,34 @@ def test_power_negative_most_of_the_time_names_the_option_to_flip(tmp_path, wbpo
     assert result.exit_code == 0, result.stderr
 
 
+@pytest.mark.parametrize(
+    ("negative_share", "why"),
+    [
+        (0.53, "53% of its samples below -1 W"),  # 59% of the energy: by time only
+        (0.8, "negative samples hold 84% of its energy"),  # the energy rule first
+        (0.45, None),
+    ],
+)
+def test_power_negative_most_of_the_time_by_time_is_refused(tmp_path, negative_share, why):
+    # -30 W for part of the log, then the robot idling at 23.3 W: over half the samples
+    # negative is "negative most of the time" (log-format.md) even when the negative
+    # energy is under 2/3 of the whole (here 59% at 0.53): once read with a warning and a
+    # negative mean power
+    n = 3000
+    power_W = np.full(n, 23.3)
+    power_W[: int(negative_share * n)] = -30.0
+    lines = [f"{k / 1000:.3f},{p:.3f}" for k, p in enumerate(power_W)]
+    path = tmp_path / "neg.csv"
+    path.write_text("time_s,power_W\n" + "\n".join(lines) + "\n")
+    if why:
+        with pytest.raises(LogError, match=f"negative most of the time.*{why}") as error:
+            read_log(path)
+        assert "--flip-current" in error.value.one_line()
+    else:  # brief enough to be data: read, reported
+        (problem,) = read_log(path).problems
+        assert problem.kind == "negative"
+
+
 def test_zero_mean_noise_of_a_motor_log_at_rest_is_neither_reversed_nor_reported(tmp_path):
     rng = np.random.default_rng(3)
     noise = np.round(rng.normal(0.0, 0.2, 5000), 3)  # within +-1 W: an offset, not negative
@@ -147,6 +175,33 @@ def test_long_gap_against_the_logs_spacing_is_still_refused(tmp_path):
                 check_samples("fast.csv", time_s, power_W)
         else:
             assert len(check_samples("fast.csv", time_s, power_W)[1]) == 1
+
+
+@pytest.mark.parametrize(
+    ("dropped", "refused"),
+    [
+        ([12], False),  # one of 30 samples (3% of the log): a slow logger dropping one
+        ([12, 13, 14], False),  # three in a row: one gap as long as a gap may be
+        ([5, 20], False),  # two single samples: 2 s, under 3 sample periods
+        ([5, 6, 20, 21], True),  # 4 s in two gaps: over 1% and over 3 sample periods
+        ([12, 13, 14, 15], True),  # one gap of 4 periods
+    ],
+)
+def test_a_short_log_from_a_slow_logger_dropping_a_sample_is_read(tmp_path, dropped, refused):
+    # 1 Hz for 30 s (log-format.md: "a slow logger that drops one sample is not refused");
+    # the 1% rule alone once refused any log of under 100 samples that dropped one
+    keep = np.setdiff1d(np.arange(30), dropped)
+    path = tmp_path / "slow1hz.csv"
+    path.write_text("time_s,power_W\n" + "".join(f"{k}.0,{5 + k % 3}\n" for k in keep))
+    if refused:
+        with pytest.raises(LogError, match="gap"):
+            read_log(path)
+    else:
+        run = read_log(path)
+        assert sum(p.duration_s for p in run.problems if p.kind == "gap") == pytest.approx(
+            len(dropped)
+        )
+        assert_allclose(run.energy_J, sum(5 + k % 3 for k in keep) * 1.0)
 
 
 def test_one_channel_wired_the_other_way_is_an_error_naming_it(tmp_path):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import gzip
 import json
+import re
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -160,6 +161,38 @@ def test_n6705_power_column_and_named_columns(tmp_path):
         read_log(both)
     named = read_log(both, ReadOptions(current_column="curr avg 1", voltage_column="Volt avg 1"))
     assert_allclose(named.power_W, [18.0, 25.0, 12.0], rtol=1e-15)
+
+
+def _advised_options(message: str) -> ReadOptions:
+    """The reading options an error's fix names (`--opt 'value'` pairs), as ReadOptions: the
+    first of each option, as a user following "e.g." would, every --power-column."""
+    pairs = re.findall(r"--([a-z-]+) '([^']+)'", message)
+    fields = {"current-column": "current_column", "voltage-column": "voltage_column"}
+    named = {fields[k]: v for k, v in reversed(pairs) if k in fields}
+    powers = tuple(dict.fromkeys(v for k, v in pairs if k == "power-column"))
+    return ReadOptions(power_columns=powers, **named)
+
+
+@pytest.mark.parametrize("logs", ["current and voltage", "power"])
+def test_n6705_several_outputs_error_advises_options_that_read_the_file(tmp_path, logs):
+    # the advice once named 'Power avg 1' and 'Power avg 2' whatever the file held: followed
+    # on an export with V and I on two outputs, it failed again
+    header = 'Sample,"Curr avg 1","Volt avg 1","Curr avg 3","Volt avg 3"\n'
+    rows = "0,1.8,12.8,0.5,5.0\n1,1.9,12.8,0.5,5.0\n"
+    if logs == "power":
+        header = 'Sample,"Power avg 2","Power avg 4"\n'
+        rows = "0,23.0,2.5\n1,24.0,2.5\n"
+    text = 'N6705B exported datalog\n\n"Sample interval: 0.001"\n\n' + header + rows
+    path = _write(tmp_path / "two.csv", text)
+    with pytest.raises(LogError, match="several analyser outputs") as error:
+        read_log(path)
+    advice = error.value.one_line()
+    for first in _advised_options(advice), _advised_options(advice.split(", or ")[0]):
+        run = read_log(path, first)
+        expected = [23.04, 24.32] if logs != "power" else [23.0, 24.0]
+        if first.power_columns and len(first.power_columns) > 1:
+            expected = [25.5, 26.5]  # both outputs summed
+        assert_allclose(run.power_W, expected, rtol=1e-12)
 
 
 def _real_columns(path: Path) -> tuple[list[float], list[float]]:

@@ -198,6 +198,9 @@ def trip_energy(
     `motor_on_before_min` is how far into a session of driving the trip starts (for terms
     that depend on it, e.g. a warming motor; 0: from cold).
     """
+    if not math.isfinite(speed_mps) or speed_mps <= 0:
+        # before t_acc(v), which a NaN speed would make NaN and be blamed for
+        raise UsageError(f"speed {speed_mps} m/s", fix="give a speed > 0")
     if not math.isfinite(distance_m) or distance_m <= 0:
         raise UsageError(f"distance {distance_m} m", fix="give a distance > 0")
     if int(steps) != steps or steps < 1:

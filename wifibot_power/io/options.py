@@ -6,6 +6,7 @@ need neither pyarrow nor the parser: a warm `fit --cache` imports neither (docs/
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -47,6 +48,16 @@ class ReadOptions:
     flip_current: bool = False
 
     def __post_init__(self) -> None:
+        for option, value, unit in (
+            ("--supply-voltage", self.supply_voltage_V, "V"),
+            ("--sample-period", self.sample_period_s, "s"),
+        ):
+            # 0 V would read every log as 0 W and 0 J, NaN as a NaN in the file's first
+            # line: a usage error, named as such, before any file is read
+            if value is not None and not (math.isfinite(value) and value > 0):
+                from wifibot_power.errors import UsageError
+
+                raise UsageError(f"{option} {value:g}", fix=f"give a number > 0 [{unit}]")
         if self.time_unit is not None and self.time_unit not in TIME_UNITS:
             from wifibot_power.errors import UsageError
 

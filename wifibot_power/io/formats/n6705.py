@@ -119,8 +119,7 @@ class N6705(LogFormat):
                 raise LogError(
                     f"several analyser outputs log power (outputs {', '.join(sorted(candidates))})",
                     file=path,
-                    fix="name the columns to use with --current-column and --voltage-column, or "
-                    "sum outputs with --power-column 'Power avg 1' --power-column 'Power avg 2'",
+                    fix=_several_outputs_fix([outputs[k] for k in sorted(candidates)]),
                 )
         if currents:
             have = ", ".join(f"'{n}'" for q in outputs.values() for n in q.values())
@@ -151,3 +150,17 @@ class N6705(LogFormat):
                 file=path,
                 fix="give the sample spacing with --sample-period S, or re-export the datalog",
             )
+
+
+def _several_outputs_fix(outputs: list[dict[str, str]]) -> str:
+    """What to give when several outputs log power, in the file's own column names: the
+    advice once named 'Power avg 1' and 'Power avg 2' whatever the file held."""
+    first = outputs[0]
+    if all("power" in q for q in outputs):
+        summed = " ".join(f"--power-column '{q['power']}'" for q in outputs)
+        return f"name the one to use with --power-column '{first['power']}', or sum them: {summed}"
+    return (
+        f"name one output's columns, e.g. --current-column '{first['current']}' "
+        f"--voltage-column '{first['voltage']}' (outputs are summed only from their "
+        "'Power avg K' columns, with --power-column)"
+    )
