@@ -587,7 +587,7 @@ def test_fit_tables_are_made_when_asked_for(tmp_path: Path) -> None:
     assert "_frames" not in vars(result)
     runs = result.runs
     assert runs is result.runs and len(runs) == 3 and result.n_runs == 3
-    assert list(result.phases.columns)[:3] == ["run_id", "step", "phase"]
+    assert list(result.phases.columns)[:4] == ["run_id", "file", "step", "phase"]
 
 
 def test_component_modes_are_the_run_tables() -> None:

@@ -111,6 +111,10 @@ def test_out_dir_writes_tables_and_a_model_that_loads(logs, truth_segments, tmp_
     assert len(runs) == 14
     phases = pd.read_parquet(out / "phases.parquet")
     assert set(phases["run_id"]) == set(truth_segments)
+    # a phase names its log too: two runs of one run_id would still be told apart
+    assert list(phases.columns[:2]) == ["run_id", "file"]
+    pairs = set(zip(phases["run_id"], phases["file"], strict=True))
+    assert pairs == set(zip(runs["run_id"], runs["file"], strict=True))
     model = load_model(out / "model.json")
     summary = json.loads(result.stdout)
     assert model.accel.slope == summary["accel"]["slope_W_per_mps"]

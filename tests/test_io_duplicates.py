@@ -94,11 +94,18 @@ def test_a_file_named_twice_is_read_once_with_a_warning(folder: Path, wbpower, c
         assert json.loads(cli.stdout)["cruise"]["n_runs"] == 6
 
 
+def _renamed(text: str, run_id: str) -> str:
+    """The log with `run_id` in its metadata: another run may not claim its original's
+    run_id (test_io_run_ids.py)."""
+    (line,) = [ln for ln in text.splitlines() if ln.startswith("# run_id: ")]
+    return text.replace(line, f"# run_id: {run_id}", 1)
+
+
 def test_different_runs_are_not_duplicates(folder: Path) -> None:
-    # same metadata, other samples: two runs
+    # same metadata but the run_id, other samples: two runs
     text = (folder / "v0.30_d2_s1_r1.csv").read_text()
-    other = text.replace("\n23.3", "\n23.4", 1)
-    assert other != text
+    other = _renamed(text.replace("\n23.3", "\n23.4", 1), "edited")
+    assert other.count("\n23.4") == text.count("\n23.4") + 1
     (folder / "edited.csv").write_text(other)
     files = [folder / "v0.30_d2_s1_r1.csv", folder / "edited.csv"]
     runs, skipped = map_runs(files, ReadOptions(), lambda run: run.file)
@@ -125,7 +132,7 @@ def test_same_fingerprint_other_samples_are_not_duplicates(
     logs to compare in full."""
     original = folder / "v0.60_d2_s1_r1.csv"  # power_W alone: a line is one reading
     swapped = folder / "swapped.csv"
-    swapped.write_text(_swapped(original.read_text()))
+    swapped.write_text(_renamed(_swapped(original.read_text()), "swapped"))
     runs = [read_log(f, ReadOptions()) for f in (original, swapped)]
     assert not np.array_equal(runs[0].power_W, runs[1].power_W)
     assert run_fingerprint(runs[0]) == run_fingerprint(runs[1])  # the case this test is for

@@ -745,6 +745,22 @@ def diagnose_summaries(
         _FITS.reset(token)
 
 
+def _check_one_run_per_run_id(summaries: list[RunSummary]) -> None:
+    """Raise when two runs have one run_id: their traces would be one (the later's), and
+    they would share a fold. A batch of logs never has them (`map_runs` gives path run_ids
+    to logs named alike and leaves out a log that claims another's run_id); runs given in
+    memory (`diagnose_runs`) can."""
+    file_of: dict[str, str] = {}
+    for summary in summaries:
+        run_id, file = str(summary.row["run_id"]), str(summary.row["file"])
+        if run_id in file_of:
+            raise LogError(
+                f"two runs have the run_id '{run_id}' ({file_of[run_id]} and {file})",
+                fix="give each run its own run_id",
+            )
+        file_of[run_id] = file
+
+
 def _diagnose(
     summaries: list[RunSummary],
     skipped: Iterable[Skipped],
@@ -758,6 +774,8 @@ def _diagnose(
     if keep_doubtful:
         summaries = [RunSummary(admit_doubtful(s.row), s.trace, s.cause_columns) for s in summaries]
     runs = summary_table(summaries)
+    # per-run data is keyed by run_id (here, the folds, the causes' evidence): one run each
+    _check_one_run_per_run_id(summaries)
     blocks = {s.row["run_id"]: (s.trace.cruise_blocks_W, s.trace.block_s) for s in summaries}
     for row in runs[~runs["usable"]].itertuples():
         skipped.append(Skipped(str(row.file), f"{row.file}: {row.skip_reason}"))

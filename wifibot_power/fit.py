@@ -185,7 +185,8 @@ class FitResult:
 
     @property
     def phases(self) -> pd.DataFrame:
-        """A row per phase of every run (phases.parquet, `Segmentation.frame` columns)."""
+        """A row per phase of every run (phases.parquet: `Segmentation.frame`'s columns, and
+        the run's `file` after its `run_id`)."""
         return self._frames[1]
 
     @property
@@ -695,7 +696,10 @@ def fit_logs(
         if run.meta.mode == "unknown":  # nothing to fit it to: not worth segmenting
             return run_row(run, Segmentation(run.meta.run_id, ())), []
         segmentation = segment_checked(run, segmenter)
-        phases = [{"run_id": segmentation.run_id, **p.as_dict()} for p in segmentation.phases]
+        phases = [
+            {"run_id": segmentation.run_id, "file": run.file, **p.as_dict()}
+            for p in segmentation.phases
+        ]
         return run_row(run, segmentation), phases
 
     # with the default segmenter, what a run gives is a function of its content and of this
@@ -872,8 +876,9 @@ def _tables(
     from wifibot_power.phases import Segmentation
     from wifibot_power.runtable import runs_frame
 
-    empty = Segmentation("", ()).frame()
-    phases = pd.DataFrame(phase_rows, columns=empty.columns) if phase_rows else empty
+    # the log of each phase beside its run_id (cli.md: "More keys may be added")
+    first, *rest = Segmentation("", ()).frame().columns
+    phases = pd.DataFrame(phase_rows, columns=[first, "file", *rest])
     return runs_frame(rows), phases
 
 

@@ -10,6 +10,12 @@ run's `run_fingerprint`, a cheap key that the same samples always share, and the
 process keeps the first of each. Only logs whose fingerprints are equal are read again, for
 their `run_identity` (a SHA-256 of the samples): two logs are duplicates when those are
 equal, never on the fingerprint alone.
+
+A run_id names one run of the batch (log-format.md): logs whose run_ids would be the same
+file name get run_ids from their paths before any is read (`find_logs`), and of two different
+logs that give one run_id in their metadata or the manifest, the later is left out, listed in
+`skipped` with both files named: never merged into one run. Copies are found first, so a copy
+(which has its original's run_id) stays a duplicate, not a contradiction.
 """
 
 from __future__ import annotations
@@ -33,6 +39,10 @@ T = TypeVar("T")
 
 #: `hook(file, problems)`: called in the calling process for each log read with problems.
 ProblemHook = Callable[[str, tuple[Problem, ...]], None]
+
+#: What a worker returns for a log: its problems, its fingerprint (None: not asked for), its
+#: run_id and what `work` made of it.
+Outcome = tuple[tuple[Problem, ...], str | None, str, T]
 
 
 def run_identity(run: Run) -> str:
@@ -117,7 +127,9 @@ def map_runs(
     each log read with problems (`Run.problems`: short gaps), after all are done.
     Problems come back from workers and from the cache too. A log with the same samples as
     one before it in the batch (`run_identity`) is left out of the results, and
-    `on_problems` gets a "duplicate" problem for it that names both files.
+    `on_problems` gets a "duplicate" problem for it that names both files. A different log
+    with the run_id of a log before it is left out too, as a `Skipped` entry that names both:
+    the results hold one run per run_id.
 
     A single named file that fails raises (exit 2); in a batch the failure is recorded in
     the returned `Skipped` list and the rest goes on (exit 1).
@@ -132,14 +144,13 @@ def map_runs(
     single = is_single_input([Path(p) for p in paths])
     batch = len(sources) > 1
 
-    def with_problems(run: Run) -> tuple[tuple[Problem, ...], str | None, T]:
+    def with_problems(run: Run) -> Outcome[T]:
         # a kept result may serve a later batch: it keeps its fingerprint too
         identify = batch or memo is not None
-        return run.problems, run_fingerprint(run) if identify else None, work(run)
+        fingerprint = run_fingerprint(run) if identify else None
+        return run.problems, fingerprint, run.meta.run_id, work(run)
 
-    def one(
-        source: LogSource,
-    ) -> tuple[bool, tuple[tuple[Problem, ...], str | None, T] | Skipped]:
+    def one(source: LogSource) -> tuple[bool, Outcome[T] | Skipped]:
         from wifibot_power.io.reader import read_log  # loaded before workers fork (below)
 
         try:
@@ -147,12 +158,12 @@ def map_runs(
                 return True, cache.process(
                     source.path,
                     options,
-                    source.overrides,
+                    source.read_overrides,
                     origin=source.origin,
                     work=with_problems,
                     memo=_keeping_problems(memo) if memo is not None else None,
                 )
-            run = read_log(source.path, options, source.overrides, origin=source.origin)
+            run = read_log(source.path, options, source.read_overrides, origin=source.origin)
             return True, with_problems(run)
         except WbpowerError as exc:
             exc.with_file(source.path)
@@ -207,20 +218,35 @@ def map_runs(
     keys = _duplicate_keys(sources, outcomes, options, jobs, cache)
     results: list[T] = []
     first_of: dict[str, str] = {}  # duplicate key -> the first file with it
+    run_of: dict[str, str] = {}  # run_id -> the file of the run kept with it
     for source, (ok, value), identity in zip(sources, outcomes, keys, strict=True):
-        if ok:
-            problems, _, result = value  # type: ignore[misc]
-            if identity is not None and identity in first_of:
-                problems = (_duplicate(first_of[identity], str(source.path)),)
-            else:
-                results.append(result)
-                if identity is not None:
-                    first_of[identity] = str(source.path)
-            if problems and on_problems is not None:
-                on_problems(str(source.path), problems)
-        else:
+        if not ok:
             skipped.append(value)  # type: ignore[arg-type]
+            continue
+        problems, _, run_id, result = value  # type: ignore[misc]
+        file = str(source.path)
+        if identity is not None and identity in first_of:  # a copy first: analysed once
+            problems = (_duplicate(first_of[identity], file),)
+        elif run_id in run_of:  # another log: two runs under one name cannot be told apart
+            skipped.append(_same_run_id(run_of[run_id], file, run_id))
+            continue
+        else:
+            results.append(result)
+            run_of[run_id] = file
+            if identity is not None:
+                first_of[identity] = file
+        if problems and on_problems is not None:
+            on_problems(file, problems)
     return results, skipped
+
+
+def _same_run_id(first: str, this: str, run_id: str) -> Skipped:
+    return Skipped(
+        this,
+        f"{this}: run_id '{run_id}' is also the run_id of {first}, a different log: left "
+        "out, not merged with it into one run (give each run its own run_id in its metadata "
+        "or runs.csv)",
+    )
 
 
 def _duplicate_keys(
@@ -251,11 +277,13 @@ def _duplicate_keys(
         source = sources[k]
         try:
             if cache is not None:
-                run = cache.process(source.path, options, source.overrides, origin=source.origin)
+                run = cache.process(
+                    source.path, options, source.read_overrides, origin=source.origin
+                )
             else:
                 from wifibot_power.io.reader import read_log
 
-                run = read_log(source.path, options, source.overrides, origin=source.origin)
+                run = read_log(source.path, options, source.read_overrides, origin=source.origin)
         except Exception:  # noqa: BLE001 - analysed already: not compared, kept as distinct
             return f"unread {k}"
         if run_fingerprint(run) != fingerprints[k]:  # changed since it was analysed
@@ -279,29 +307,32 @@ def _duplicate(first: str, this: str) -> Problem:
     )
 
 
-def _keeping_problems(
-    memo: ResultMemo[T],
-) -> ResultMemo[tuple[tuple[Problem, ...], str | None, T]]:
-    """`memo`, keeping the run's problems and identity beside its result, so a result taken
-    from the cache still says what reading the log found, and is still known as a duplicate."""
+def _keeping_problems(memo: ResultMemo[T]) -> ResultMemo[Outcome[T]]:
+    """`memo`, keeping the run's problems, identity and run_id beside its result, so a result
+    taken from the cache still says what reading the log found, and is still known as a
+    duplicate or as a run_id another log has."""
     from wifibot_power.cache import ResultMemo
 
-    def to_json(kept: tuple[tuple[Problem, ...], str | None, T]) -> object:
-        problems, identity, result = kept
+    def to_json(kept: Outcome[T]) -> object:
+        problems, identity, run_id, result = kept
         return {
             "problems": [dataclasses.asdict(p) for p in problems],
             "identity": identity,
+            "run_id": run_id,
             "result": memo.to_json(result),
         }
 
-    def from_json(kept: object) -> tuple[tuple[Problem, ...], str | None, T]:
+    def from_json(kept: object) -> Outcome[T]:
         listed = kept["problems"]  # type: ignore[index]  # KeyError / TypeError: a miss
         identity = kept["identity"]  # type: ignore[index]
-        return tuple(Problem(**p) for p in listed), identity, memo.from_json(kept["result"])  # type: ignore[index]
+        run_id = kept["run_id"]  # type: ignore[index]
+        problems = tuple(Problem(**p) for p in listed)
+        return problems, identity, run_id, memo.from_json(kept["result"])  # type: ignore[index]
 
-    # the kept key is the run's fingerprint (a kept SHA-256 identity, as before, is a miss)
+    # the kept key is the run's fingerprint (a kept SHA-256 identity, as before, is a miss),
+    # and a result kept without its run_id is a miss
     return ResultMemo(
-        key=f"{memo.key} +problems +fingerprint", to_json=to_json, from_json=from_json
+        key=f"{memo.key} +problems +fingerprint +run_id", to_json=to_json, from_json=from_json
     )
 
 
@@ -323,7 +354,7 @@ def _kept_outcomes(
     for source in sources:
         try:
             kept = cache.kept_result(
-                source.path, options, source.overrides, origin=source.origin, memo=keeping
+                source.path, options, source.read_overrides, origin=source.origin, memo=keeping
             )
         except Exception:  # noqa: BLE001 - a lookup that fails is a miss: the worker will say why
             kept = MISSING

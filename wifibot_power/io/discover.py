@@ -1,13 +1,16 @@
-"""Find the logs under the paths a command is given, with their manifest metadata."""
+"""Find the logs under the paths a command is given, with their manifest metadata, and the
+run_id of each log whose run_id would otherwise be a file name another log of the batch has
+(log-format.md, "Bad input")."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from wifibot_power.errors import LogError
 from wifibot_power.io.manifest import MANIFEST_NAME, is_manifest, read_manifest
-from wifibot_power.io.options import is_log_name
+from wifibot_power.io.metadata import DEFAULT_RUN_ID
+from wifibot_power.io.options import LOG_SUFFIXES, is_log_name
 
 
 @dataclass(frozen=True)
@@ -18,6 +21,17 @@ class LogSource:
     overrides: dict[str, str] = field(default_factory=dict)
     #: where the overrides come from ("runs.csv line 4"), for messages that name the row
     origin: str | None = None
+    #: the run_id when neither the log's metadata nor the manifest gives one, if not its file
+    #: name: another log of the batch has that file name (`find_logs`)
+    default_run_id: str | None = None
+
+    @property
+    def read_overrides(self) -> dict[str, str]:
+        """What the reader takes as `overrides`: the manifest's values, and the default
+        run_id if there is one (under a key no metadata line or manifest column can set)."""
+        if self.default_run_id is None:
+            return self.overrides
+        return {**self.overrides, DEFAULT_RUN_ID: self.default_run_id}
 
 
 @dataclass(frozen=True)
@@ -58,8 +72,15 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
     A manifest applies to the files it names; files it does not name are still read with
     their own metadata; a manifest named on the command line brings the files it lists; a
     row naming a missing file becomes a `Skipped` entry that names the row.
+
+    Logs whose run_id defaults to their file name (no run_id in the manifest) and that share
+    that name get a `default_run_id` from their paths (`_path_run_ids`): decided here, before
+    any is read, so it is the same whatever order workers finish in.
     """
     files: list[Path] = []
+    #: a file found in a folder given, or listed by a manifest named: that folder, for its
+    #: run_id from its path (`_path_run_ids`)
+    roots: dict[Path, Path] = {}
     manifests: list[Path] = []
     named_manifests: set[Path] = set()
     skipped: list[Skipped] = []
@@ -68,6 +89,7 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
             for found in sorted(path.rglob("*")):
                 if found.is_file():
                     (manifests if is_manifest(found) else files).append(found)
+                    roots.setdefault(found, path)
         elif is_manifest(path) and path.is_file():
             manifests.append(path)
             named_manifests.add(path)
@@ -92,6 +114,7 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
             if manifest in named_manifests and row.file not in wanted:
                 files.append(row.file)
                 wanted.add(row.file)
+                roots.setdefault(row.file, manifest.parent.resolve())
             if row.file.is_file():
                 overrides[row.file] = (row.values, f"{manifest} line {row.line}")
             elif manifest in named_manifests or not only_files or row.file in wanted:
@@ -112,7 +135,66 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
         if not file.exists() or is_log_name(file) or real in overrides:
             values, origin = overrides.get(real, ({}, None))
             sources.append(LogSource(file, values, origin))
-    return sources, skipped
+    return _path_run_ids(sources, roots, resolved), skipped
+
+
+def log_stem(path: Path) -> str:
+    """A log's file name without its log suffix (`run1.csv.gz` -> `run1`): its run_id when
+    neither its metadata nor the manifest gives one (as the reader makes it)."""
+    name = path.name
+    for suffix in LOG_SUFFIXES:
+        if name.lower().endswith(suffix):
+            return name[: -len(suffix)]
+    return path.stem
+
+
+def _path_run_ids(
+    sources: list[LogSource], roots: dict[Path, Path], resolved: dict[Path, Path]
+) -> list[LogSource]:
+    """`sources`, each log whose default run_id (its file name, `log_stem`) another log of the
+    batch shares given a `default_run_id` from its path: relative to the folder given it
+    was found in (`day1/run1`; a file named on its own: its path as given), without the log
+    suffix. Where those still collide (two folders given that hold `day1/run1.csv` each, or
+    `run1.csv` beside a different `run1.csv.gz`), the first of these that tells the group's
+    logs apart: the relative path with the suffix, the path as given without it and with
+    it, the full path. A file reached twice (named twice, or named and in a folder given)
+    is one log, not a collision: the duplicate check says so. Logs the manifest gives a
+    run_id are left alone; a log whose own metadata names its run_id keeps it (its
+    `default_run_id` is then not used)."""
+    by_stem: dict[str, dict[Path, list[int]]] = {}
+    for k, source in enumerate(sources):
+        if source.overrides.get("run_id"):
+            continue
+        real = resolved.get(source.path) or source.path.resolve()
+        by_stem.setdefault(log_stem(source.path), {}).setdefault(real, []).append(k)
+
+    def relative(path: Path) -> Path:
+        root = roots.get(path)
+        if root is not None and path.is_relative_to(root):  # a manifest row may name ../x.csv
+            return path.relative_to(root)
+        return path
+
+    namings = (
+        lambda path: relative(path).with_name(log_stem(path)),
+        relative,
+        lambda path: path.with_name(log_stem(path)),
+        lambda path: path,
+    )
+    named = list(sources)
+    for files in by_stem.values():
+        if len(files) < 2:
+            continue
+        firsts = [sources[places[0]].path for places in files.values()]
+        for naming in namings:
+            run_ids = [naming(path).as_posix() for path in firsts]
+            if len(set(run_ids)) == len(run_ids):
+                break
+        else:  # distinct files: their full paths differ
+            run_ids = [real.as_posix() for real in files]
+        for places, run_id in zip(files.values(), run_ids, strict=True):
+            for k in places:
+                named[k] = replace(sources[k], default_run_id=run_id)
+    return named
 
 
 def single_source(path: Path) -> LogSource:

@@ -19,6 +19,11 @@ KNOWN_KEYS = (
     "sample_period_s",
 )
 
+#: The key of `build_meta`'s values that holds the run_id to use when none is given (instead
+#: of the file name): set by a batch for logs whose file names collide (`discover.find_logs`).
+#: Not a name a metadata line or a manifest column can have: the readers lower-case those.
+DEFAULT_RUN_ID = "Default run_id"
+
 
 def _number(values: dict[str, str], key: str, file: str, where: str) -> float | None:
     """The value of `key` as a float (a lone decimal comma is accepted), or None if unset."""
@@ -125,9 +130,9 @@ def build_meta(
                 where=at("started_at"),
                 fix="write e.g. 2015-06-01T10:00:00Z",
             ) from None
-    extra = {k: v for k, v in values.items() if k not in KNOWN_KEYS}
+    extra = {k: v for k, v in values.items() if k not in KNOWN_KEYS and k != DEFAULT_RUN_ID}
     return RunMeta(
-        run_id=values.get("run_id") or stem,
+        run_id=values.get("run_id") or values.get(DEFAULT_RUN_ID) or stem,
         mode=mode,
         speed_mps=speed,
         distance_m=distance,
