@@ -8,11 +8,12 @@ pyarrow's CSV reader into numpy columns, line numbers for messages, and a cut la
 found. Every line is split by one pattern, `LINE_END` (the line ends pyarrow knows: \\r\\n,
 \\r, \\n); `scan_lines` is its vectorised twin for counting, checked against it.
 
-Parsing goes through pyarrow's CSV reader, reading the file itself in 1 MiB blocks parsed in
-parallel: the file's bytes are never held whole, only the numeric columns used are kept, and
-they are copied to numpy a column at a time, so memory follows the columns kept, not the
-file (docs/log-format.md, "Memory"). Line numbers for messages are worked out only when a
-message needs one, by reading the file again.
+Parsing goes through pyarrow's CSV reader, reading the file itself in 1 MiB blocks parsed one
+after the other (its serial reader: the threaded one can silently drop a table's last
+blocks, `_csv_options`): the file's bytes are never held whole, only the numeric columns
+used are kept, and they are copied to numpy a column at a time, so memory follows the
+columns kept, not the file (docs/log-format.md, "Memory"). Line numbers for messages are
+worked out only when a message needs one, by reading the file again.
 """
 
 from __future__ import annotations
@@ -36,8 +37,8 @@ from wifibot_power.io.options import codec_of
 
 HEAD_BYTES = 1 << 16
 
-#: pyarrow parses blocks of this size in parallel and holds a few at once, whatever the file's
-#: size. 1 MiB: fastest on the corpus's 41 MB logs and the smallest parse buffers (16 MiB
+#: pyarrow parses blocks of this size one after the other and holds a few at once, whatever
+#: the file's size. 1 MiB: fastest on the corpus's 41 MB logs and the smallest parse buffers (16 MiB
 #: blocks hold ~70 MB of buffers; docs/log-format.md, "Memory").
 _BLOCK_BYTES = 1 << 20
 
@@ -496,13 +497,24 @@ class Columns:
 def _csv_options(pre: TextLayout, include_columns: list[str], skip: bool = True) -> dict:
     """pyarrow's options for the data lines: the header's names, the included columns as
     float64 (no type inference, nothing else converted); `skip` the lines up to the header
-    (the first piece of a stream, or the whole file); the parse's allocator (`_POOL`)."""
+    (the first piece of a stream, or the whole file); the parse's allocator (`_POOL`).
+
+    Never pyarrow's threaded reader (`use_threads=False`): it can return a table that lacks
+    its last block(s), with no error. Its task group (C++ `ThreadedTaskGroup`) can mark
+    itself finished on a count of tasks left read before another thread added the last
+    block's parse task, and the table is then assembled from the blocks reserved so far. A
+    2-block log then ends where its first 1 MiB block ends, mid-run: that was the
+    intermittent "ends moving" skip of `fit` (docs/benchmarks.md, "An intermittent
+    truncated run?"). A run cut during its final idle would not even be doubted. The serial
+    reader still reads the next block on pyarrow's I/O thread while this one is parsed, and
+    a `fit` worker had one pyarrow CPU thread anyway (`parallel.py`)."""
     return {
         "memory_pool": _POOL,
         "read_options": pacsv.ReadOptions(
             skip_rows=pre.header_line + 1 if skip else 0,
             column_names=pre.header,
             block_size=_BLOCK_BYTES,
+            use_threads=False,
         ),
         "parse_options": pacsv.ParseOptions(delimiter=pre.delimiter),
         "convert_options": pacsv.ConvertOptions(
@@ -520,7 +532,7 @@ def read_columns(
 ) -> Columns:
     """Parse the data lines into numpy arrays of the included columns.
 
-    pyarrow reads the file itself, in blocks of `_BLOCK_BYTES` parsed in parallel, so neither
+    pyarrow reads the file itself, in blocks of `_BLOCK_BYTES` parsed in turn, so neither
     the file's bytes nor more than a few blocks' parse buffers are held at once; its table
     (the included columns only) is turned into numpy arrays a column at a time, each column
     dropped from the table once copied, so at most one column is held twice.
