@@ -493,7 +493,11 @@ def _load_run(entry: Path, content_sha256: str) -> Run | None:
     import pyarrow.parquet as pq  # only for a parse that is read back: a warm fit needs none
 
     try:
-        table = pq.read_table(entry)
+        # one thread, as every CSV parse (transport._csv_options): pyarrow's threaded CSV
+        # reader can drop a table's last block silently; this reader is other code, not
+        # known to, but a cached run read short would be as quietly wrong, and the entries
+        # are small
+        table = pq.read_table(entry, use_threads=False)
         stored = json.loads((table.schema.metadata or {})[_METADATA_KEY])
         if stored["content_sha256"] != content_sha256:
             return None  # a pair torn by concurrent writers: parse again
