@@ -835,7 +835,11 @@ def fit_gathered(
     """The fit of the per-run rows and phase rows the workers gathered (`fit_logs`, and
     `report`, which gathers more per run in the same pass), and every input left out: the
     unreadable ones, then the runs the fit cannot use (with their reason). None when no run
-    can be used. Runs in doubt are made usable with `keep_doubtful`."""
+    can be used. Runs in doubt are made usable with `keep_doubtful`, and then named in the
+    fit's `warnings` (`runtable.kept_in_doubt`)."""
+    from wifibot_power.runtable import kept_in_doubt
+
+    in_doubt = kept_in_doubt(rows) if keep_doubtful else None
     rows = _admitted(rows, keep_doubtful)
     unusable = [
         Skipped(str(row["file"]), f"{row['file']}: {row['skip_reason']}")
@@ -845,7 +849,10 @@ def fit_gathered(
     skipped = tuple(read_skipped) + tuple(unusable)
     if not any(row["usable"] for row in rows):
         return None, skipped
-    return fit_rows(rows, lambda: _tables(rows, phase_rows), skipped), skipped
+    fit = fit_rows(rows, lambda: _tables(rows, phase_rows), skipped)
+    if in_doubt:  # the doubted runs it used are said, never passed off as sound (cli.md)
+        fit = replace(fit, warnings=(in_doubt, *fit.warnings))
+    return fit, skipped
 
 
 def _import_work_modules() -> None:

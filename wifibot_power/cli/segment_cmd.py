@@ -100,8 +100,12 @@ def segment_command(
         for p in segmentation.phases
     ]
     title = f"{segmentation.run_id} ({run.meta.mode}): {len(segmentation.phases)} phase(s)"
+    caption = None
+    if segmentation.doubts:  # cli.md: never presented as sound, on stdout alone either
+        title += ", in doubt: see warnings"
+        caption = f"segmentation in doubt: {'; '.join(segmentation.doubts)}"
     columns = _PHASE_COLUMNS + ((Col("speed m/s"),) if with_speed else ())
-    print_table(stdout, title, columns, cells)
+    print_table(stdout, title, columns, cells, caption=caption)
     if segmentation.spikes:
         spikes = [
             [
