@@ -1,14 +1,16 @@
 """Writing results: every file is written atomically (temp file in the same folder, then rename),
-so a crash or kill mid-write leaves the previous output intact."""
+so a crash or kill mid-write leaves the previous output intact; the files of one `-o DIR`
+are written as a set (`write_set`): all new, or, stopped before the end, all as they were."""
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import math
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from datetime import date, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -89,17 +91,126 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
+def json_file(data: object) -> Callable[[Path], None]:
+    """What writes `data` as indented JSON (NaN -> null) to a path (`write_atomic`,
+    `write_set`); the document is made now, so a value JSON cannot hold fails here."""
+    text = json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n"
+    return lambda path: path.write_text(text, encoding="utf-8")
+
+
+def parquet_file(frame: pd.DataFrame) -> Callable[[Path], None]:
+    """What writes `frame` as Parquet (no index) to a path (`write_atomic`, `write_set`)."""
+    return lambda path: frame.to_parquet(path, index=False)
+
+
 def write_json(path: Path, data: object) -> Path:
     """`data` as indented JSON (NaN -> null), written atomically."""
-    text = json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n"
-    return write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    return write_atomic(path, json_file(data))
 
 
 def write_parquet(path: Path, frame: pd.DataFrame) -> Path:
     """`frame` as Parquet (no index), written atomically."""
-    return write_atomic(path, lambda tmp: frame.to_parquet(tmp, index=False))
+    return write_atomic(path, parquet_file(frame))
 
 
 def write_text(path: Path, text: str) -> Path:
     """UTF-8 text, written atomically."""
     return write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+
+
+def write_set(
+    out_dir: Path,
+    files: Mapping[str, Callable[[Path], None]],
+    *,
+    remove: Iterable[str] = (),
+) -> list[Path]:
+    """Write the files of one command's `-o DIR` as a set: `files[name](tmp_path)` writes
+    each to a temporary file beside its target first; only once all are written (and
+    flushed to disk) are they renamed over their targets, and the names in `remove` (what
+    an earlier run left there that this one does not make, e.g. fit's `model.json`) deleted,
+    with Ctrl-C held off for those renames (`hold_ctrl_c`).
+
+    A failure or Ctrl-C while writing leaves DIR as it was (the temporary files removed,
+    folders this call created removed again), so a command writes nothing partial (cli.md);
+    only a SIGKILL or power loss during the renames themselves can leave some new, some old.
+    Returns the files written, in the order of `files`.
+    """
+    out_dir = Path(out_dir)
+    made = make_dirs(out_dir)
+    staged: list[tuple[Path, Path]] = []
+    try:
+        for name, write in files.items():
+            target = out_dir / name
+            staged.append((_staged(target, write), target))
+    except BaseException:
+        for tmp, _ in staged:
+            tmp.unlink(missing_ok=True)
+        remove_made_dirs(made)
+        raise
+    with hold_ctrl_c():
+        for tmp, target in staged:
+            os.replace(tmp, target)
+        for name in remove:
+            (out_dir / name).unlink(missing_ok=True)
+    _fsync_dir(out_dir)
+    return [target for _, target in staged]
+
+
+def _staged(path: Path, write: Callable[[Path], None]) -> Path:
+    """`write(tmp)` into a temporary file beside `path` (as `write_atomic` makes it), flushed
+    to disk and with the permissions a plain open() gives; removed if `write` fails."""
+    import tempfile
+
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        write(tmp)
+        os.chmod(tmp, 0o666 & ~_umask())
+        with open(tmp, "rb") as handle:
+            os.fsync(handle.fileno())
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return tmp
+
+
+def make_dirs(folder: Path) -> list[Path]:
+    """Create `folder` and its missing parents; return those created, outermost first (for
+    `remove_made_dirs` to undo)."""
+    folder = Path(folder).absolute()
+    missing = [p for p in (folder, *folder.parents) if not p.exists()]
+    missing.reverse()
+    for path in missing:
+        path.mkdir(exist_ok=True)
+    return missing
+
+
+def remove_made_dirs(made: list[Path]) -> None:
+    """Remove the folders `make_dirs` created, innermost first, where they are empty."""
+    for path in reversed(made):
+        try:
+            path.rmdir()
+        except OSError:
+            return
+
+
+@contextlib.contextmanager
+def hold_ctrl_c() -> Iterator[None]:
+    """Hold a Ctrl-C (SIGINT) back until the block ends, then act on it: for a few renames
+    that must happen all or not at all. Outside the main thread (where Python cannot set a
+    handler) the block just runs."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if caught:  # delivered again, now to the usual handler (KeyboardInterrupt)
+            signal.raise_signal(signal.SIGINT)
