@@ -31,8 +31,8 @@ pytestmark = pytest.mark.skipif(
 #: workers start at which the test interrupts it: with 13 MB (speeds 0.3-0.9 m/s, 2 repeats)
 #: the work was done in about 0.4 s on an idle machine, and the SIGINT sometimes landed
 #: while `fit -o` wrote its outputs (1 run in 4 failed "wrote outputs of an interrupted
-#: fit"). Writing the -o set is not atomic as a set (docs/errors.md, "Outputs are never
-#: left half-written").
+#: fit"). (The -o set was not then written as a set; it is now, `outputs.write_set`:
+#: docs/errors.md, "Outputs are never left half-written".)
 CORPUS = SimConfig(
     speeds_mps=(0.1, 0.15, 0.2, 0.3),
     trips=((10.0, 1),),

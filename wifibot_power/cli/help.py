@@ -33,7 +33,7 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
         ("sample_logs/", "the paper's table from a folder of logs"),
         ("logs/ -o results/", "also runs.parquet, phases.parquet, model.json"),
         ("logs/ --cache .wbcache -j 4", "a second run skips parsing; 4 workers"),
-        ("logs/ --json", "for CI (exit 1 if the model is incomplete)"),
+        ("logs/ --json", "for CI (model_complete: false if a slope is not fitted)"),
     ],
     "energy": [
         ("--speed 0.8 --dist 10 --steps 10", "10 m in 10 steps at 0.8 m/s"),
