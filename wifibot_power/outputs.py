@@ -136,12 +136,16 @@ def write_set(
     Returns the files written, in the order of `files`.
     """
     out_dir = Path(out_dir)
-    made = make_dirs(out_dir)
+    made: list[Path] = []
     staged: list[tuple[Path, Path]] = []
     try:
+        with hold_ctrl_c():
+            made = make_dirs(out_dir)
         for name, write in files.items():
             target = out_dir / name
-            staged.append((_staged(target, write), target))
+            with hold_ctrl_c():  # a Ctrl-C comes once the file is known, to be removed
+                staged.append((_temporary(target), target))
+            _write_flushed(staged[-1][0], write)
     except BaseException:
         for tmp, _ in staged:
             tmp.unlink(missing_ok=True)
@@ -156,23 +160,21 @@ def write_set(
     return [target for _, target in staged]
 
 
-def _staged(path: Path, write: Callable[[Path], None]) -> Path:
-    """`write(tmp)` into a temporary file beside `path` (as `write_atomic` makes it), flushed
-    to disk and with the permissions a plain open() gives; removed if `write` fails."""
+def _temporary(path: Path) -> Path:
+    """A new empty temporary file beside `path` (`.NAME.*.tmp`, as `write_atomic` makes)."""
     import tempfile
 
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
-    tmp = Path(tmp_name)
-    try:
-        write(tmp)
-        os.chmod(tmp, 0o666 & ~_umask())
-        with open(tmp, "rb") as handle:
-            os.fsync(handle.fileno())
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return tmp
+    return Path(tmp_name)
+
+
+def _write_flushed(tmp: Path, write: Callable[[Path], None]) -> None:
+    """`write(tmp)`, with the permissions a plain open() gives, flushed to disk."""
+    write(tmp)
+    os.chmod(tmp, 0o666 & ~_umask())
+    with open(tmp, "rb") as handle:
+        os.fsync(handle.fileno())
 
 
 def make_dirs(folder: Path) -> list[Path]:
@@ -214,3 +216,76 @@ def hold_ctrl_c() -> Iterator[None]:
         signal.signal(signal.SIGINT, previous)
         if caught:  # delivered again, now to the usual handler (KeyboardInterrupt)
             signal.raise_signal(signal.SIGINT)
+
+
+@contextlib.contextmanager
+def staged_folder(out_dir: Path) -> Iterator[Path]:
+    """A temporary folder to build the new contents of `out_dir` in (e.g. `report -o DIR`:
+    report.html and figures/), put in place only when the block ends normally: each entry
+    of it then replaces the entry of the same name in `out_dir` whole, a folder included
+    (none of the old folder's files stays mixed in with the new), with Ctrl-C held off for
+    those renames (`hold_ctrl_c`); entries it does not make are left alone. Stopped before
+    (an error, Ctrl-C), the temporary folder is removed and `out_dir` is as it was, or not
+    there if it was not (cli.md: "writes nothing partial").
+
+    The temporary folder is next to `out_dir` (`.NAME.*.tmp`, on the same file system, so
+    every move is a rename), or inside it (`.staged.*.tmp`) where its parent cannot be
+    written or is on another file system.
+    """
+    import shutil
+    import tempfile
+
+    out_dir = Path(out_dir).absolute()
+    if out_dir.exists():
+        out_dir = out_dir.resolve()  # a link's folder: the stage goes beside the folder
+    made: list[Path] = []
+    stage: Path | None = None
+    try:
+        with hold_ctrl_c():  # a Ctrl-C here comes once both are known, to be removed
+            made = make_dirs(out_dir.parent)
+            # beside it: where its parent can be written and is on its file system
+            beside = not out_dir.exists() or (
+                os.access(out_dir.parent, os.W_OK | os.X_OK)
+                and os.stat(out_dir.parent).st_dev == os.stat(out_dir).st_dev
+            )
+            stage = Path(
+                tempfile.mkdtemp(
+                    prefix=f".{out_dir.name}." if beside else ".staged.",
+                    suffix=".tmp",
+                    dir=out_dir.parent if beside else out_dir,
+                )
+            )
+        yield stage
+        _fsync_dir(stage)
+        with hold_ctrl_c():
+            if not out_dir.exists():
+                os.rename(stage, out_dir)  # one rename: the whole new folder at once
+            else:
+                _swap_entries(stage, out_dir)
+    except BaseException:
+        if stage is not None:  # (after the renames: what is left of it, the old entries)
+            shutil.rmtree(stage, ignore_errors=True)
+        remove_made_dirs(made)
+        raise
+    shutil.rmtree(stage, ignore_errors=True)  # what is left: the old entries replaced
+    _fsync_dir(out_dir)
+
+
+def _swap_entries(stage: Path, out_dir: Path) -> None:
+    """Each entry of `stage` in place of the one of the same name in `out_dir`; a replaced
+    folder (or what a new folder replaces) moves into `stage`, removed with it. Should a
+    rename fail part way, what was moved away goes back where nothing new took its place."""
+    old = stage / ".replaced"
+    old.mkdir()
+    try:
+        for entry in sorted(p for p in stage.iterdir() if p != old):
+            target = out_dir / entry.name
+            there = target.exists() or target.is_symlink()
+            if there and ((target.is_dir() and not target.is_symlink()) or entry.is_dir()):
+                os.rename(target, old / entry.name)
+            os.replace(entry, target)
+    except BaseException:
+        for moved in old.iterdir():
+            if not (out_dir / moved.name).exists():
+                os.rename(moved, out_dir / moved.name)
+        raise
