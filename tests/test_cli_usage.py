@@ -59,6 +59,8 @@ def test_fit_into_an_existing_file_is_refused_before_the_fit(wbpower, tmp_path, 
         ["lifetime", "--rate", "54"],
         ["diagnose", str(SAMPLE_LOGS)],
         ["simulate"],
+        ["inspect", str(SAMPLE_LOGS)],
+        ["segment", str(SAMPLE_LOGS / "idle_r1.csv.gz")],
     ],
 )
 def test_every_out_option_refuses_a_file(wbpower, tmp_path, args):
