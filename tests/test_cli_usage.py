@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -58,6 +59,8 @@ def test_fit_into_an_existing_file_is_refused_before_the_fit(wbpower, tmp_path, 
         ["lifetime", "--rate", "54"],
         ["diagnose", str(SAMPLE_LOGS)],
         ["simulate"],
+        ["inspect", str(SAMPLE_LOGS)],
+        ["segment", str(SAMPLE_LOGS / "idle_r1.csv.gz")],
     ],
 )
 def test_every_out_option_refuses_a_file(wbpower, tmp_path, args):
@@ -69,6 +72,74 @@ def test_every_out_option_refuses_a_file(wbpower, tmp_path, args):
 
 def test_segment_of_a_folder_says_it_takes_one_file(wbpower):
     _one_line_usage_error(wbpower("segment", SAMPLE_LOGS), "segment takes one file")
+
+
+#: every command (cli/__init__.py COMMANDS), and an argument list it would otherwise accept
+_COMMAND_ARGS = {
+    "inspect": [str(SAMPLE_LOGS)],
+    "segment": [str(SAMPLE_LOGS / "idle_r1.csv.gz")],
+    "fit": [str(SAMPLE_LOGS)],
+    "energy": ["--speed", "0.5", "--dist", "2"],
+    "lifetime": ["--rate", "54"],
+    "diagnose": [str(SAMPLE_LOGS)],
+    "simulate": ["-o", "unused"],
+    "report": [str(SAMPLE_LOGS), "-o", "unused"],
+}
+
+
+def _click_usage_error(result, command: str, *words: str) -> None:
+    """One line (not click's Usage / Try / blank / Error block) that names the command's help."""
+    _one_line_usage_error(result, *words, f"see 'wbpower {command} --help')")
+    assert "Usage:" not in result.stderr and "Try '" not in result.stderr
+
+
+def test_usage_error_covers_every_command():
+    from wifibot_power.cli import COMMANDS
+
+    assert set(_COMMAND_ARGS) == set(COMMANDS)
+
+
+@pytest.mark.parametrize("command", sorted(_COMMAND_ARGS))
+def test_unknown_option_is_one_line_for_every_command(wbpower, command):
+    result = wbpower(command, *_COMMAND_ARGS[command], "--bogus")
+    _click_usage_error(result, command, "no such option: --bogus")
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["energy", "--speed", "abc", "--dist", "2"], ["'abc' is not a valid float", "--speed"]),
+        (["fit", str(SAMPLE_LOGS), "--jobs", "many"], ["'many' is not a valid", "--jobs"]),
+        (["inspect", str(SAMPLE_LOGS), "--time-unit", "h"], ["--time-unit", "'h'"]),
+        (["fit"], ["missing argument"]),
+        (["segment"], ["missing argument"]),
+        (["energy", "--speed"], ["option '--speed' requires an argument"]),
+        (["segment", "a.csv", "b.csv"], ["unexpected extra argument"]),
+        (["fit", str(SAMPLE_LOGS), "--jsn"], ["no such option: --jsn", "--json"]),
+    ],
+)
+def test_bad_values_and_missing_arguments_are_one_line(wbpower, args, words):
+    _click_usage_error(wbpower(*args), args[0], *words)
+
+
+def test_unknown_command_is_one_line(wbpower):
+    result = wbpower("fitt", "x")
+    _one_line_usage_error(result, "no such command 'fitt'", "(see 'wbpower --help')")
+
+
+def test_help_is_unchanged_and_the_installed_script_says_one_line(wbpower):
+    assert wbpower("fit", "--help").stdout.startswith("Usage: wbpower fit [OPTIONS]")
+    assert wbpower("fit", "--help").exit_code == 0
+    # the command as a user runs it (python -m: its prog name), through `cli.main`
+    result = subprocess.run(
+        [sys.executable, "-m", "wifibot_power", "lifetime", "--rate", "54", "--zzz"],
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode == 2 and result.stdout == ""
+    (line,) = result.stderr.splitlines()
+    assert line.startswith("wbpower: error: no such option: --zzz (see '")
+    assert line.endswith(" lifetime --help')")
 
 
 def test_simulate_writes_zstd_logs_that_read_back(wbpower, tmp_path):

@@ -155,3 +155,70 @@ def test_parquet_and_json_round_trip(tmp_path):
 
 def test_json_safe_nested_nan_becomes_null():
     assert json_safe({"a": [np.nan, {"b": np.float32(1.5)}]}) == {"a": [None, {"b": 1.5}]}
+
+
+# -- write_set: the files of one `-o DIR`, all new or all as they were ---------------------
+
+
+def _old_set(folder: Path) -> dict[str, str]:
+    folder.mkdir()
+    old = {"a.json": "old a", "b.json": "old b", "model.json": "old model"}
+    for name, text in old.items():
+        (folder / name).write_text(text)
+    return old
+
+
+def _contents(folder: Path) -> dict[str, str]:
+    return {p.name: p.read_text() for p in sorted(folder.iterdir())}
+
+
+@pytest.mark.parametrize("stop", [OSError(28, "No space left on device"), KeyboardInterrupt()])
+def test_write_set_stopped_part_way_leaves_the_old_set(tmp_path, stop):
+    from wifibot_power.outputs import json_file, write_set
+
+    folder = tmp_path / "out"
+    old = _old_set(folder)
+
+    def fails(path: Path) -> None:
+        path.write_text("half")
+        raise stop
+
+    with pytest.raises(type(stop)):
+        write_set(folder, {"a.json": json_file("new a"), "b.json": fails}, remove=["model.json"])
+    # nothing replaced, nothing removed (model.json included), no temporary file left
+    assert _contents(folder) == old
+
+
+def test_write_set_replaces_and_removes_together(tmp_path):
+    from wifibot_power.outputs import json_file, write_set
+
+    folder = tmp_path / "out"
+    _old_set(folder)
+    written = write_set(
+        folder, {"a.json": json_file("new a"), "c.json": json_file([1])}, remove=["model.json"]
+    )
+    assert written == [folder / "a.json", folder / "c.json"]
+    assert _contents(folder) == {"a.json": '"new a"\n', "b.json": "old b", "c.json": "[\n  1\n]\n"}
+
+
+def test_write_set_into_a_new_folder_stopped_leaves_no_folder(tmp_path):
+    from wifibot_power.outputs import write_set
+
+    def fails(path: Path) -> None:
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        write_set(tmp_path / "new" / "out", {"a.json": fails})
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_ctrl_c_during_the_renames_comes_after_them(tmp_path):
+    from wifibot_power.outputs import hold_ctrl_c
+
+    done = []
+    with pytest.raises(KeyboardInterrupt):
+        with hold_ctrl_c():
+            signal.raise_signal(signal.SIGINT)  # as a Ctrl-C between two renames
+            done.append("the rest of the renames")
+    assert done == ["the rest of the renames"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

@@ -44,6 +44,70 @@ def test_report_html_embeds_every_figure_of_cli_md(report, written) -> None:  # 
     assert "Stop-and-go overhead" in page and "cruise_ripple" in page
 
 
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {
+        str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()
+    }
+
+
+@pytest.fixture
+def old_report(written, tmp_path: Path) -> Path:
+    """A copy of the subset's report (16 traces and the model figures), as a report an
+    earlier `report -o DIR` left in DIR, beside a file of the user's."""
+    folder = tmp_path / "out"
+    shutil.copytree(written[0], folder)
+    (folder / "notes.txt").write_text("the user's, not the report's")
+    return folder
+
+
+def test_report_interrupted_while_writing_leaves_the_old_report(
+    old_report: Path, real_n6705: Path, monkeypatch
+) -> None:
+    """cli.md: "Interrupted (Ctrl-C), a command ... writes nothing partial": a Ctrl-C after
+    the new report's figure is written, as its page is: the old report.html and figures/ are
+    untouched, none of the new mixed in, nothing left beside DIR."""
+    import wifibot_power.outputs
+    from wifibot_power.io import ReadOptions
+
+    before = _snapshot(old_report)
+    built = build_report([real_n6705], ReadOptions(supply_voltage_V=12.6))
+    real_write = wifibot_power.outputs.write_atomic
+    calls = []
+
+    def ctrl_c_at_the_second_file(path, write):
+        calls.append(path)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real_write(path, write)
+
+    monkeypatch.setattr(wifibot_power.outputs, "write_atomic", ctrl_c_at_the_second_file)
+    with pytest.raises(KeyboardInterrupt):
+        write_report(built, old_report)
+    assert len(calls) == 2  # the figure, then the page
+    assert _snapshot(old_report) == before
+    assert sorted(p.name for p in old_report.parent.iterdir()) == ["out"]
+
+
+def test_report_replaces_the_old_figures_whole(old_report: Path, real_n6705: Path) -> None:
+    """A new report into a folder holding an older one: figures/ holds the new report's
+    figures only (none of the 16 old traces left mixed in); other files stay."""
+    from wifibot_power.io import ReadOptions
+
+    built = build_report([real_n6705], ReadOptions(supply_voltage_V=12.6))
+    written = write_report(built, old_report)
+    assert written == [
+        old_report / "figures" / "trace_n6705c_dlog1.png",
+        old_report / "report.html",
+    ]
+    assert sorted(_snapshot(old_report)) == [
+        "figures/trace_n6705c_dlog1.png",
+        "notes.txt",
+        "report.html",
+    ]
+    assert len(IMG.findall((old_report / "report.html").read_text(encoding="utf-8"))) == 1
+    assert sorted(p.name for p in old_report.parent.iterdir()) == ["out"]
+
+
 def test_report_of_a_log_without_motion_metadata_draws_its_trace(
     real_n6705: Path, tmp_path: Path
 ) -> None:

@@ -269,6 +269,68 @@ def test_fit_leaves_doubtful_runs_out_unless_kept(sim_dir, tmp_path, wbpower) ->
     assert not any("ends_moving" in s["file"] for s in kept["skipped"])
 
 
+def test_segment_table_itself_says_it_is_in_doubt(tmp_path, wbpower) -> None:
+    # cli.md: "wbpower never presents a segmentation it doubts as if it were sound": the
+    # stdout table alone (stderr not seen, e.g. redirected) says so, and why
+    run, _ = realistic_run(Scenario(brake="none", idle_W=5.0))
+    path = tmp_path / "ends.csv"
+    _write(replace(run, speed_mps=None), path)
+    result = wbpower("segment", path)
+    assert result.exit_code == 0
+    title = result.stdout.splitlines()[0]
+    assert "phase(s), in doubt: see warnings" in title
+    assert "segmentation in doubt: the run ends moving" in " ".join(result.stdout.split())
+    sound = tmp_path / "sound.csv"
+    _write(replace(realistic_run(Scenario(idle_W=5.0, brake="drive"))[0], speed_mps=None), sound)
+    assert "in doubt" not in wbpower("segment", sound).stdout
+
+
+@pytest.fixture(scope="module")
+def doubted_dir(tmp_path_factory):
+    """Enough sound runs to fit and diagnose (3 speeds, 2 repeats), and 4 runs that end
+    moving (a doubt each)."""
+    folder = tmp_path_factory.mktemp("doubted")
+    config = SimConfig(
+        speeds_mps=(0.2, 0.5, 0.8),
+        trips=((2.0, 1),),
+        repeats=2,
+        modes=(),
+        seed=7,
+        sample_period_s=1.024e-3,
+    )
+    write_simulation(config, folder)
+    for k in range(4):
+        run, _ = realistic_run(Scenario(brake="none", idle_W=23.3, run_id=f"ends{k}", seed=k))
+        _write(replace(run, speed_mps=None), folder / f"ends{k}.csv")
+    return folder
+
+
+def _says_kept_in_doubt(text: str) -> None:
+    assert "4 run(s) used with their segmentation in doubt (--keep-doubtful)" in text
+    # the first three by run_id and file, with their doubt; the fourth counted
+    assert "ends0 (ends0.csv: the run ends moving" in text and "ends2 (ends2.csv:" in text
+    assert "ends3" not in text and "and 1 more" in text
+
+
+@pytest.mark.parametrize("command", ["fit", "diagnose"])
+def test_keep_doubtful_says_which_doubted_runs_it_used(doubted_dir, wbpower, command) -> None:
+    kept = wbpower(command, doubted_dir, "--json", "--jobs", "1", "--keep-doubtful")
+    assert kept.exit_code == 0, kept.stderr
+    doc = json.loads(kept.stdout)
+    # fit: in `warnings` (cli.md); diagnose: the first of its `notes`
+    said = doc["warnings"] if command == "fit" else doc["notes"]
+    (line,) = [w for w in said if "in doubt" in w]
+    _says_kept_in_doubt(line)
+    (warning,) = [w for w in kept.stderr.splitlines() if "in doubt" in w]
+    assert warning.startswith("wbpower: warning: ")
+    _says_kept_in_doubt(warning)
+    # without --keep-doubtful the runs are left out (skipped), not used: nothing to say
+    left_out = wbpower(command, doubted_dir, "--json", "--jobs", "1")
+    doc = json.loads(left_out.stdout)
+    assert not [w for w in doc.get("warnings", []) + doc["notes"] if "used with" in w]
+    assert "used with their segmentation in doubt" not in left_out.stderr
+
+
 def test_run_table_takes_the_measured_speed_and_refuses_two_levels() -> None:
     from wifibot_power.runtable import run_row
 

@@ -59,6 +59,7 @@ from wifibot_power.runtable import (
     DOUBT_REASON,
     WindowEnergy,
     admit_doubtful,
+    kept_in_doubt,
     run_row,
     runs_frame,
 )
@@ -730,7 +731,8 @@ def diagnose_summaries(
     """The diagnosis of summarised runs (module docstring).
 
     Runs whose segmentation is in doubt are left out (listed in `skipped` with the doubt)
-    unless `keep_doubtful` (`runtable.admit_doubtful`).
+    unless `keep_doubtful` (`runtable.admit_doubtful`), which the first of `notes` then
+    says (`runtable.kept_in_doubt`).
 
     With a `reference` model (`diagnose --model`: e.g. the robot's stored model.json, or
     the paper's), the baseline is that model as given, predicting every run; it is not
@@ -771,6 +773,7 @@ def _diagnose(
     skipped = list(skipped)
     if not summaries:
         raise LogError("no readable logs", fix="see 'wbpower inspect' for what each log holds")
+    in_doubt = kept_in_doubt([s.row for s in summaries]) if keep_doubtful else None
     if keep_doubtful:
         summaries = [RunSummary(admit_doubtful(s.row), s.trace, s.cause_columns) for s in summaries]
     runs = summary_table(summaries)
@@ -799,7 +802,7 @@ def _diagnose(
             fix=f"diagnose needs at least {MIN_MOTION_RUNS} motion runs at {MIN_SPEEDS} or "
             "more speeds" + (" (--keep-doubtful uses the doubted runs)" if doubted_runs else ""),
         )
-    notes: list[str] = []
+    notes: list[str] = [in_doubt] if in_doubt else []  # said first (cli.md: never as sound)
     baseline_model = fit_model(runs)
     _check_estimable(baseline_model, motion)
     folds = heldout_folds(motion)

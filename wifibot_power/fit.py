@@ -35,7 +35,7 @@ from wifibot_power.io import LogSource, ReadOptions, Skipped
 from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.io.discover import reasons_in_brief
 from wifibot_power.model import LinearFit, PowerModel, paper_model
-from wifibot_power.outputs import json_safe, write_json, write_parquet
+from wifibot_power.outputs import json_file, json_safe, parquet_file, write_set
 from wifibot_power.overhead import StopAndGo, stop_and_go_overheads
 from wifibot_power.run import MODES, Run
 
@@ -428,8 +428,31 @@ def fit_rows(
         skipped=tuple(skipped),
         notes=fitted.notes,
         stop_and_go=stop_and_go_overheads(fitted.used, fitted.model),
-        warnings=fitted.model.fit_warnings,
+        warnings=(*incomplete_warning(fitted.model, fitted.notes), *fitted.model.fit_warnings),
     )
+
+
+def incomplete_warning(model: PowerModel, notes: Sequence[str] = ()) -> list[str]:
+    """What a model lacks for `energy`/`lifetime` (`FitResult.model_complete`), as a warning:
+    which coefficients are not fitted and why (the fit's notes). A fit that read every
+    input still exits 0 (cli.md's exit codes); this says the model is not all there."""
+    missing = [
+        name
+        for name, values in (
+            ("P_acc", (model.accel.intercept, model.accel.slope)),
+            ("P_v", (model.cruise.intercept, model.cruise.slope)),
+            ("t_acc", (model.t_acc.intercept, model.t_acc.slope)),
+            ("idle power", (model.idle_W,)),
+        )
+        if not all(math.isfinite(v) for v in values)
+    ]
+    if not missing:
+        return []
+    why = "".join(f"; {note}" for note in notes)
+    return [
+        f"the model is incomplete (not fitted: {', '.join(missing)}{why}): energy, lifetime "
+        "and --model cannot use it, and fit -o writes no model.json"
+    ]
 
 
 @dataclass(frozen=True)
@@ -839,7 +862,11 @@ def fit_gathered(
     """The fit of the per-run rows and phase rows the workers gathered (`fit_logs`, and
     `report`, which gathers more per run in the same pass), and every input left out: the
     unreadable ones, then the runs the fit cannot use (with their reason). None when no run
-    can be used. Runs in doubt are made usable with `keep_doubtful`."""
+    can be used. Runs in doubt are made usable with `keep_doubtful`, and then named in the
+    fit's `warnings` (`runtable.kept_in_doubt`)."""
+    from wifibot_power.runtable import kept_in_doubt
+
+    in_doubt = kept_in_doubt(rows) if keep_doubtful else None
     rows = _admitted(rows, keep_doubtful)
     unusable = [
         Skipped(str(row["file"]), f"{row['file']}: {row['skip_reason']}")
@@ -849,7 +876,10 @@ def fit_gathered(
     skipped = tuple(read_skipped) + tuple(unusable)
     if not any(row["usable"] for row in rows):
         return None, skipped
-    return fit_rows(rows, lambda: _tables(rows, phase_rows), skipped), skipped
+    fit = fit_rows(rows, lambda: _tables(rows, phase_rows), skipped)
+    if in_doubt:  # the doubted runs it used are said, never passed off as sound (cli.md)
+        fit = replace(fit, warnings=(in_doubt, *fit.warnings))
+    return fit, skipped
 
 
 def _import_work_modules() -> None:
@@ -883,21 +913,23 @@ def _tables(
 
 
 def write_fit(result: FitResult, out_dir: Path) -> list[Path]:
-    """`fit -o DIR`: runs.parquet, phases.parquet, stop_and_go.parquet, model.json (atomic
-    writes).
+    """`fit -o DIR`: runs.parquet, phases.parquet, stop_and_go.parquet, model.json, written
+    as one set (`outputs.write_set`: all new, or all as they were).
 
     model.json is written only when the model is complete (`FitResult.model_complete`):
-    a model with unfitted coefficients would only fail later, in `energy --model`.
+    a model with unfitted coefficients would only fail later, in `energy --model`. Then a
+    model.json an earlier fit left in DIR is removed with the same set: beside this fit's
+    tables it would be read by `energy --model DIR/model.json` as this fit's model.
     """
-    out_dir = Path(out_dir)
-    written = [
-        write_parquet(out_dir / "runs.parquet", result.runs),
-        write_parquet(out_dir / "phases.parquet", result.phases),
-        write_parquet(out_dir / "stop_and_go.parquet", stop_and_go_frame(result)),
-    ]
+    files = {
+        "runs.parquet": parquet_file(result.runs),
+        "phases.parquet": parquet_file(result.phases),
+        "stop_and_go.parquet": parquet_file(stop_and_go_frame(result)),
+    }
     if result.model_complete:
-        written.append(write_json(out_dir / "model.json", result.model.to_json()))
-    return written
+        files["model.json"] = json_file(result.model.to_json())
+    stale = () if result.model_complete else ("model.json",)
+    return write_set(Path(out_dir), files, remove=stale)
 
 
 def stop_and_go_frame(result: FitResult) -> pd.DataFrame:

@@ -1,14 +1,16 @@
 """Writing results: every file is written atomically (temp file in the same folder, then rename),
-so a crash or kill mid-write leaves the previous output intact."""
+so a crash or kill mid-write leaves the previous output intact; the files of one `-o DIR`
+are written as a set (`write_set`): all new, or, stopped before the end, all as they were."""
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import math
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from datetime import date, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -89,17 +91,201 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
+def json_file(data: object) -> Callable[[Path], None]:
+    """What writes `data` as indented JSON (NaN -> null) to a path (`write_atomic`,
+    `write_set`); the document is made now, so a value JSON cannot hold fails here."""
+    text = json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n"
+    return lambda path: path.write_text(text, encoding="utf-8")
+
+
+def parquet_file(frame: pd.DataFrame) -> Callable[[Path], None]:
+    """What writes `frame` as Parquet (no index) to a path (`write_atomic`, `write_set`)."""
+    return lambda path: frame.to_parquet(path, index=False)
+
+
 def write_json(path: Path, data: object) -> Path:
     """`data` as indented JSON (NaN -> null), written atomically."""
-    text = json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n"
-    return write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    return write_atomic(path, json_file(data))
 
 
 def write_parquet(path: Path, frame: pd.DataFrame) -> Path:
     """`frame` as Parquet (no index), written atomically."""
-    return write_atomic(path, lambda tmp: frame.to_parquet(tmp, index=False))
+    return write_atomic(path, parquet_file(frame))
 
 
 def write_text(path: Path, text: str) -> Path:
     """UTF-8 text, written atomically."""
     return write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+
+
+def write_set(
+    out_dir: Path,
+    files: Mapping[str, Callable[[Path], None]],
+    *,
+    remove: Iterable[str] = (),
+) -> list[Path]:
+    """Write the files of one command's `-o DIR` as a set: `files[name](tmp_path)` writes
+    each to a temporary file beside its target first; only once all are written (and
+    flushed to disk) are they renamed over their targets, and the names in `remove` (what
+    an earlier run left there that this one does not make, e.g. fit's `model.json`) deleted,
+    with Ctrl-C held off for those renames (`hold_ctrl_c`).
+
+    A failure or Ctrl-C while writing leaves DIR as it was (the temporary files removed,
+    folders this call created removed again), so a command writes nothing partial (cli.md);
+    only a SIGKILL or power loss during the renames themselves can leave some new, some old.
+    Returns the files written, in the order of `files`.
+    """
+    out_dir = Path(out_dir)
+    made: list[Path] = []
+    staged: list[tuple[Path, Path]] = []
+    try:
+        with hold_ctrl_c():
+            made = make_dirs(out_dir)
+        for name, write in files.items():
+            target = out_dir / name
+            with hold_ctrl_c():  # a Ctrl-C comes once the file is known, to be removed
+                staged.append((_temporary(target), target))
+            _write_flushed(staged[-1][0], write)
+    except BaseException:
+        for tmp, _ in staged:
+            tmp.unlink(missing_ok=True)
+        remove_made_dirs(made)
+        raise
+    with hold_ctrl_c():
+        for tmp, target in staged:
+            os.replace(tmp, target)
+        for name in remove:
+            (out_dir / name).unlink(missing_ok=True)
+    _fsync_dir(out_dir)
+    return [target for _, target in staged]
+
+
+def _temporary(path: Path) -> Path:
+    """A new empty temporary file beside `path` (`.NAME.*.tmp`, as `write_atomic` makes)."""
+    import tempfile
+
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    return Path(tmp_name)
+
+
+def _write_flushed(tmp: Path, write: Callable[[Path], None]) -> None:
+    """`write(tmp)`, with the permissions a plain open() gives, flushed to disk."""
+    write(tmp)
+    os.chmod(tmp, 0o666 & ~_umask())
+    with open(tmp, "rb") as handle:
+        os.fsync(handle.fileno())
+
+
+def make_dirs(folder: Path) -> list[Path]:
+    """Create `folder` and its missing parents; return those created, outermost first (for
+    `remove_made_dirs` to undo)."""
+    folder = Path(folder).absolute()
+    missing = [p for p in (folder, *folder.parents) if not p.exists()]
+    missing.reverse()
+    for path in missing:
+        path.mkdir(exist_ok=True)
+    return missing
+
+
+def remove_made_dirs(made: list[Path]) -> None:
+    """Remove the folders `make_dirs` created, innermost first, where they are empty."""
+    for path in reversed(made):
+        try:
+            path.rmdir()
+        except OSError:
+            return
+
+
+@contextlib.contextmanager
+def hold_ctrl_c() -> Iterator[None]:
+    """Hold a Ctrl-C (SIGINT) back until the block ends, then act on it: for a few renames
+    that must happen all or not at all. Outside the main thread (where Python cannot set a
+    handler) the block just runs."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if caught:  # delivered again, now to the usual handler (KeyboardInterrupt)
+            signal.raise_signal(signal.SIGINT)
+
+
+@contextlib.contextmanager
+def staged_folder(out_dir: Path) -> Iterator[Path]:
+    """A temporary folder to build the new contents of `out_dir` in (e.g. `report -o DIR`:
+    report.html and figures/), put in place only when the block ends normally: each entry
+    of it then replaces the entry of the same name in `out_dir` whole, a folder included
+    (none of the old folder's files stays mixed in with the new), with Ctrl-C held off for
+    those renames (`hold_ctrl_c`); entries it does not make are left alone. Stopped before
+    (an error, Ctrl-C), the temporary folder is removed and `out_dir` is as it was, or not
+    there if it was not (cli.md: "writes nothing partial").
+
+    The temporary folder is next to `out_dir` (`.NAME.*.tmp`, on the same file system, so
+    every move is a rename), or inside it (`.staged.*.tmp`) where its parent cannot be
+    written or is on another file system.
+    """
+    import shutil
+    import tempfile
+
+    out_dir = Path(out_dir).absolute()
+    if out_dir.exists():
+        out_dir = out_dir.resolve()  # a link's folder: the stage goes beside the folder
+    made: list[Path] = []
+    stage: Path | None = None
+    try:
+        with hold_ctrl_c():  # a Ctrl-C here comes once both are known, to be removed
+            made = make_dirs(out_dir.parent)
+            # beside it: where its parent can be written and is on its file system
+            beside = not out_dir.exists() or (
+                os.access(out_dir.parent, os.W_OK | os.X_OK)
+                and os.stat(out_dir.parent).st_dev == os.stat(out_dir).st_dev
+            )
+            stage = Path(
+                tempfile.mkdtemp(
+                    prefix=f".{out_dir.name}." if beside else ".staged.",
+                    suffix=".tmp",
+                    dir=out_dir.parent if beside else out_dir,
+                )
+            )
+        yield stage
+        _fsync_dir(stage)
+        with hold_ctrl_c():
+            if not out_dir.exists():
+                os.rename(stage, out_dir)  # one rename: the whole new folder at once
+            else:
+                _swap_entries(stage, out_dir)
+    except BaseException:
+        if stage is not None:  # (after the renames: what is left of it, the old entries)
+            shutil.rmtree(stage, ignore_errors=True)
+        remove_made_dirs(made)
+        raise
+    shutil.rmtree(stage, ignore_errors=True)  # what is left: the old entries replaced
+    _fsync_dir(out_dir)
+
+
+def _swap_entries(stage: Path, out_dir: Path) -> None:
+    """Each entry of `stage` in place of the one of the same name in `out_dir`; a replaced
+    folder (or what a new folder replaces) moves into `stage`, removed with it. Should a
+    rename fail part way, what was moved away goes back where nothing new took its place."""
+    old = stage / ".replaced"
+    old.mkdir()
+    try:
+        for entry in sorted(p for p in stage.iterdir() if p != old):
+            target = out_dir / entry.name
+            there = target.exists() or target.is_symlink()
+            if there and ((target.is_dir() and not target.is_symlink()) or entry.is_dir()):
+                os.rename(target, old / entry.name)
+            os.replace(entry, target)
+    except BaseException:
+        for moved in old.iterdir():
+            if not (out_dir / moved.name).exists():
+                os.rename(moved, out_dir / moved.name)
+        raise

@@ -225,40 +225,50 @@ def _safe(name: str) -> str:
 
 def write_report(report: Report, out_dir: str | Path, *, jobs: int | None = 1) -> list[Path]:
     """`DIR/figures/*.png` and `DIR/report.html` (every image embedded as base64 PNG, so the
-    one file opens offline), written atomically. `jobs` worker processes draw the figures
-    (None or 0: all cores). Returns the files written."""
+    one file opens offline). `jobs` worker processes draw the figures (None or 0: all
+    cores). Returns the files written.
+
+    The report is built in a temporary folder next to DIR and put in place whole once it is
+    complete (`outputs.staged_folder`): until then the old report and figures are untouched,
+    and after, `figures/` holds this report's figures only, none of an older one's. A Ctrl-C
+    or an error part way writes nothing (cli.md: "writes nothing partial")."""
     from wifibot_power.figures import FIGURES
-    from wifibot_power.outputs import write_text
+    from wifibot_power.outputs import staged_folder, write_atomic
     from wifibot_power.parallel import map_ordered
 
     out_dir = Path(out_dir)
-    figures_dir = out_dir / "figures"
     items = list(report_figures(report))
 
     def draw_one(item: tuple[str, str, Callable[[], Figure] | None, str]) -> bytes | None:
-        from wifibot_power.figures.style import save_figure
+        from wifibot_power.figures.style import png_bytes
 
         name, _, draw, _ = item
         if draw is None:
             return None
         figure = draw()
-        path = save_figure(figure, figures_dir / f"{name}.png")
+        data = png_bytes(figure)
         figure.clear()  # one figure in memory at a time per worker
-        return path.read_bytes()
+        return data
 
     import matplotlib.figure  # noqa: F401 - once, before workers are forked
 
     images = map_ordered(items, draw_one, jobs=jobs)
     written: list[Path] = []
     drawn: list[tuple[Drawn, bytes | None]] = []
-    for (name, title, _, note), data in zip(items, images, strict=True):
-        spec = FIGURES.get("trace" if name.startswith("trace_") else name)
-        how = spec.how_to_read if spec else ""
-        file = f"{name}.png" if data is not None else None
-        if file:
-            written.append(figures_dir / file)
-        drawn.append((Drawn(name, title, file, note, how), data))
-    written.append(write_text(out_dir / "report.html", render_html(report, drawn)))
+    with staged_folder(out_dir) as stage:
+        for (name, title, _, note), data in zip(items, images, strict=True):
+            spec = FIGURES.get("trace" if name.startswith("trace_") else name)
+            how = spec.how_to_read if spec else ""
+            file = f"{name}.png" if data is not None else None
+            if file:
+                write_atomic(stage / "figures" / file, lambda tmp, data=data: tmp.write_bytes(data))
+                written.append(out_dir / "figures" / file)
+            drawn.append((Drawn(name, title, file, note, how), data))
+        if not written:  # no figure drawn: still a figures/ folder, and no old one left
+            (stage / "figures").mkdir()
+        page = render_html(report, drawn)
+        write_atomic(stage / "report.html", lambda tmp: tmp.write_text(page, encoding="utf-8"))
+    written.append(out_dir / "report.html")
     return written
 
 

@@ -36,6 +36,7 @@ Column meanings (units in the names):
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -309,6 +310,31 @@ def admit_doubtful(row: dict[str, object]) -> dict[str, object]:
     if row["usable"] or not str(row["skip_reason"]).startswith(DOUBT_REASON):
         return row
     return {**row, "usable": True, "skip_reason": ""}
+
+
+#: How the warning of `fit`/`diagnose --keep-doubtful` about the doubted runs they used
+#: starts (`kept_in_doubt`): fit's `warnings`, diagnose's `notes`, a warning on stderr.
+KEPT_IN_DOUBT = "used with their segmentation in doubt (--keep-doubtful): "
+
+
+def kept_in_doubt(rows: Sequence[dict[str, object]], shown: int = 3) -> str | None:
+    """What `admit_doubtful` lets into a fit, said (cli.md: "wbpower never presents a
+    segmentation it doubts as if it were sound"): how many runs, and the first `shown` by
+    run_id and file with their doubts. `rows` as before admission; None when it admits none.
+    """
+    doubted = [
+        row
+        for row in rows
+        if not row["usable"] and str(row["skip_reason"]).startswith(DOUBT_REASON)
+    ]
+    if not doubted:
+        return None
+    named = [f"{row['run_id']} ({Path(str(row['file'])).name}: {row['doubts']})" for row in doubted]
+    more = f"; and {len(doubted) - shown} more" if len(doubted) > shown else ""
+    return (
+        f"{len(doubted)} run(s) {KEPT_IN_DOUBT}{'; '.join(named[:shown])}{more}. Their phases "
+        "may not describe them, nor the result they enter (check each with 'wbpower segment')"
+    )
 
 
 def runs_frame(rows: Sequence[dict[str, object]]) -> pd.DataFrame:

@@ -21,6 +21,7 @@ from wifibot_power.cli.common import (
     progress,
     report_skipped,
     stdout,
+    warn,
     warn_problems,
     with_reading_options,
 )
@@ -178,6 +179,7 @@ def diagnose_command(
     # imported here: scipy.stats alone costs a second, which no other command should pay
     from wifibot_power.diagnose import diagnose_logs, write_diagnosis
     from wifibot_power.model import load_model
+    from wifibot_power.runtable import KEPT_IN_DOUBT
 
     reference = load_model(model) if model is not None else None
     check_plot(plot)
@@ -192,6 +194,9 @@ def diagnose_command(
         keep_doubtful=keep_doubtful,
     )
     plot_to(plot, "heldout_error", result)
+    for note in result.notes:  # the doubted runs it used: a warning too (cli.md)
+        if KEPT_IN_DOUBT in note:
+            warn(note)
     if out is not None:
         write_diagnosis(result, out)
     if json_out:

@@ -24,16 +24,18 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
         ("sample_logs/", "every log in a folder"),
         ("log.csv --supply-voltage 12.6", "a log of current only, at 12.6 V"),
         ("sample_logs/ --json", "one JSON list, for scripts"),
+        ("sample_logs/ -o out/", "also out/logs.parquet, a row per log"),
     ],
     "segment": [
         ("sample_logs/v0.50_d10_s10_r1.csv.gz", "the phases of one run"),
         ("run.csv --json", "the same as JSON, with the doubts"),
+        ("run.csv -o out/", "also out/phases.parquet (with run_id, doubts)"),
     ],
     "fit": [
         ("sample_logs/", "the paper's table from a folder of logs"),
         ("logs/ -o results/", "also runs.parquet, phases.parquet, model.json"),
         ("logs/ --cache .wbcache -j 4", "a second run skips parsing; 4 workers"),
-        ("logs/ --json", "for CI (exit 1 if the model is incomplete)"),
+        ("logs/ --json", "for CI (model_complete: false if a slope is not fitted)"),
     ],
     "energy": [
         ("--speed 0.8 --dist 10 --steps 10", "10 m in 10 steps at 0.8 m/s"),

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -9,6 +11,8 @@ import typer
 
 from wifibot_power.cli.common import (
     JsonFlag,
+    OutDir,
+    check_out_dir,
     handles_errors,
     print_json,
     progress,
@@ -46,11 +50,16 @@ def inspect_command(
     paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
     options: ReadOptions,
     json_out: JsonFlag = False,
+    out: OutDir = None,
 ) -> None:
     """What is in each log: format, samples, period, duration, mean power, energy, metadata."""
+    check_out_dir(out)  # before any work (cli.md)
     rows, skipped = inspect_logs(
         paths, options, wrap=lambda s: progress(s, "reading"), on_problems=warn_problems
     )
+    if out is not None:
+        for written in write_inspection(rows, out):
+            print(f"wbpower: wrote {written}", file=sys.stderr)
     if json_out:
         # the JSON document stays the list of cli.md; skipped inputs go to stderr (and exit 1)
         print_json(rows)
@@ -86,3 +95,54 @@ def _problems_cell(problems: list[str], shown: int = 2) -> str:
         return "-"
     more = f"; and {len(problems) - shown} more (see stderr)" if len(problems) > shown else ""
     return "; ".join(problems[:shown]) + more
+
+
+#: logs.parquet's columns: the keys of `inspect --json`, in its order (cli.md)
+LOG_COLUMNS = (
+    "file",
+    "format",
+    "run_id",
+    "samples",
+    "sample_period_s",
+    "duration_s",
+    "mean_power_W",
+    "energy_J",
+    "meta",
+    "channels",
+    "speed_column",
+    "problems",
+    "problem_details",
+)
+#: the keys whose values nest (a dict or a list): JSON text in their column
+_NESTED = ("meta", "channels", "problems", "problem_details")
+
+
+def write_inspection(rows: list[dict[str, object]], out: Path) -> list[Path]:
+    """`inspect -o DIR`: `logs.parquet`, a row per log read, the `--json` keys as columns;
+    `meta`, `channels`, `problems` and `problem_details` as JSON text (a log's metadata
+    holds whatever keys its file gives), written with `outputs.write_set`."""
+    import pandas as pd
+
+    from wifibot_power.outputs import json_safe, parquet_file, write_set
+
+    table = [
+        {
+            key: json.dumps(json_safe(row.get(key)), allow_nan=False)
+            if key in _NESTED
+            else row.get(key)
+            for key in LOG_COLUMNS
+        }
+        for row in rows
+    ]
+    frame = pd.DataFrame(table, columns=list(LOG_COLUMNS))
+    frame = frame.astype(
+        {
+            "samples": "int64",
+            "sample_period_s": "float64",
+            "duration_s": "float64",
+            "mean_power_W": "float64",
+            "energy_J": "float64",
+            "speed_column": "bool",
+        }
+    )
+    return write_set(out, {"logs.parquet": parquet_file(frame)})

@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
+import sys
 from dataclasses import asdict
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from wifibot_power.cli.common import (
     JsonFlag,
+    OutDir,
+    check_out_dir,
     handles_errors,
     print_json,
     stdout,
@@ -23,6 +26,9 @@ from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.errors import UsageError
 from wifibot_power.io import ReadOptions
+
+if TYPE_CHECKING:
+    from wifibot_power.phases import Segmentation
 
 _PHASE_COLUMNS = (
     Col("step", key=True),
@@ -49,10 +55,12 @@ def segment_command(
     path: Annotated[Path, typer.Argument(help="One log file.")],
     options: ReadOptions,
     json_out: JsonFlag = False,
+    out: OutDir = None,
     plot: PlotFile = None,
 ) -> None:
     """Split one log into phases: idle/accel/cruise/decel per step for a motion run, steady
     levels otherwise. Short start-up spikes stay in the phase they start and are listed."""
+    check_out_dir(out)  # before any work (cli.md)
     if path.is_dir():
         raise UsageError(
             f"{path}: is a folder; segment takes one file",
@@ -73,6 +81,9 @@ def segment_command(
     warn_problems(run.file, run.problems)
     for doubt in segmentation.doubts:  # cli.md: a doubt is also a warning on stderr
         warn(f"{run.file}: segmentation in doubt: {doubt}")
+    if out is not None:
+        for written in write_segmentation(segmentation, out):
+            print(f"wbpower: wrote {written}", file=sys.stderr)
     if json_out:
         print_json(
             {
@@ -100,8 +111,12 @@ def segment_command(
         for p in segmentation.phases
     ]
     title = f"{segmentation.run_id} ({run.meta.mode}): {len(segmentation.phases)} phase(s)"
+    caption = None
+    if segmentation.doubts:  # cli.md: never presented as sound, on stdout alone either
+        title += ", in doubt: see warnings"
+        caption = f"segmentation in doubt: {'; '.join(segmentation.doubts)}"
     columns = _PHASE_COLUMNS + ((Col("speed m/s"),) if with_speed else ())
-    print_table(stdout, title, columns, cells)
+    print_table(stdout, title, columns, cells, caption=caption)
     if segmentation.spikes:
         spikes = [
             [
@@ -114,3 +129,27 @@ def segment_command(
         ]
         title = f"{len(segmentation.spikes)} start-up spike(s)"
         print_table(stdout, title, _SPIKE_COLUMNS, spikes)
+
+
+def write_segmentation(segmentation: Segmentation, out: Path) -> list[Path]:
+    """`segment -o DIR`, written as one set (`outputs.write_set`): `phases.parquet`, a row
+    per phase, the `segment` columns plus `run_id` (as fit's phases.parquet) and `doubts`
+    (the segmentation's doubts joined by "; ", on every row; empty when it fits), and
+    `spikes.parquet`, a row per start-up spike with its `run_id`."""
+    import pandas as pd
+
+    from wifibot_power.outputs import parquet_file, write_set
+    from wifibot_power.phases import Spike
+
+    phases = segmentation.frame()
+    phases["speed_mps"] = phases["speed_mps"].astype("float64")  # None -> NaN, never object
+    phases["doubts"] = pd.Series(["; ".join(segmentation.doubts)] * len(phases), dtype=object)
+    spike_columns = list(Spike.__dataclass_fields__)
+    spikes = pd.DataFrame(
+        [{"run_id": segmentation.run_id, **asdict(s)} for s in segmentation.spikes],
+        columns=["run_id", *spike_columns],
+    )
+    spikes[spike_columns] = spikes[spike_columns].astype("float64")
+    return write_set(
+        out, {"phases.parquet": parquet_file(phases), "spikes.parquet": parquet_file(spikes)}
+    )

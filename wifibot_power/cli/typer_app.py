@@ -1,13 +1,87 @@
 """The Typer app every command module registers on."""
 
-from typing import Annotated
+from __future__ import annotations
+
+import sys
+from typing import Annotated, Any
 
 import typer
+import typer.core
 
 from wifibot_power import __version__
 
+#: click's UsageError and NoArgsIsHelpError (typer >= 0.22 vendors click as typer._click,
+#: older typers import it; NoArgsIsHelpError is click >= 8.2's)
+_USAGE_ERROR: type[Exception] = next(
+    c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError"
+)
+_NO_ARGS_IS_HELP: tuple[type[Exception], ...] = tuple(
+    getattr(sys.modules[_USAGE_ERROR.__module__], name)
+    for name in ("NoArgsIsHelpError",)
+    if hasattr(sys.modules[_USAGE_ERROR.__module__], name)
+)
+EXIT_USAGE = 2
+
+
+def usage_line(exc: Exception, command: str) -> str:
+    """click's usage error as wbpower's one line (cli.md: "A usage error is a usage error
+    (exit 2, one line)"): `wbpower: error: no such option: --bogus (see 'wbpower fit
+    --help')`, instead of click's Usage / Try / blank / Error block."""
+    possibilities = sorted(getattr(exc, "possibilities", None) or ())  # of NoSuchOption
+    text = exc.message if possibilities else exc.format_message()  # type: ignore[attr-defined]
+    message = " ".join(text.split()).rstrip(".")
+    if message[:1].isupper() and message[1:2].islower():  # "No such option", not "P_v ..."
+        message = message[0].lower() + message[1:]
+    hint = f"see '{command} --help'"
+    if possibilities:
+        hint = f"possible options: {', '.join(possibilities)}; {hint}"
+    return f"wbpower: error: {message} ({hint})"
+
+
+class OneLineUsageGroup(typer.core.TyperGroup):
+    """The root command: every usage error of every command (an unknown option, a bad value,
+    a missing argument, an unknown command) is one line on stderr and exit 2. The one place
+    they are caught: the root's own parse (`make_context`) and its subcommand's
+    (`invoke`). `--help`, and `wbpower` alone (the command list), are unchanged."""
+
+    def make_context(self, info_name: str | None, args: list[str], **extra: Any) -> Any:
+        try:
+            return super().make_context(info_name, args, **extra)
+        except _NO_ARGS_IS_HELP:
+            raise
+        except _USAGE_ERROR as exc:
+            self._fail(exc, info_name or "wbpower")
+
+    def resolve_command(self, ctx: Any, args: list[str]) -> Any:
+        # remembered for an error raised without a context ("Option '--speed' requires an
+        # argument"): the hint still names the subcommand
+        ctx.meta["wbpower.command"] = f"{ctx.command_path} {args[0]}" if args else None
+        return super().resolve_command(ctx, args)
+
+    def invoke(self, ctx: Any) -> Any:
+        try:
+            return super().invoke(ctx)
+        except _NO_ARGS_IS_HELP:
+            raise
+        except _USAGE_ERROR as exc:
+            command = ctx.command_path
+            resolved = ctx.meta.get("wbpower.command")
+            failing = getattr(exc, "ctx", None)
+            if failing is not None:
+                command = failing.command_path
+            elif resolved and self.get_command(ctx, resolved.rsplit(" ", 1)[-1]) is not None:
+                command = resolved
+            self._fail(exc, command)
+
+    @staticmethod
+    def _fail(exc: Exception, command: str) -> None:
+        print(usage_line(exc, command), file=sys.stderr)
+        raise typer.Exit(EXIT_USAGE)
+
+
 app = typer.Typer(
     name="wbpower",
+    cls=OneLineUsageGroup,
     help="Energy models of a mobile robot from power-analyser logs, and where they go wrong.",
     no_args_is_help=True,
     add_completion=False,
