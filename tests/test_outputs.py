@@ -222,3 +222,41 @@ def test_ctrl_c_during_the_renames_comes_after_them(tmp_path):
             done.append("the rest of the renames")
     assert done == ["the rest of the renames"]
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_diagnose_out_is_written_as_one_set(tmp_path, monkeypatch):
+    # diagnose -o wrote its three files one at a time: stopped at the third, the first two
+    # were the new run's beside the old model.json (cli.md: "writes nothing partial")
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    from wifibot_power.diagnose import write_diagnosis
+
+    folder = tmp_path / "out"
+    folder.mkdir()
+    old = {"discrepancy.parquet": "old", "findings.json": "old", "model.json": "old"}
+    for name, text in old.items():
+        (folder / name).write_text(text)
+    result = SimpleNamespace(
+        runs=pd.DataFrame({"run_id": ["a"], "measured_energy_J": [1.0]}),
+        summary=lambda: {"findings": []},
+        extended_model=SimpleNamespace(to_json=lambda: {"model": "new"}),
+    )
+    real_write_text = Path.write_text
+
+    def write_text(path: Path, *args, **kwargs):
+        if "model.json" in path.name:  # Ctrl-C while model.json (or its temporary) is written
+            raise KeyboardInterrupt
+        return real_write_text(path, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "write_text", write_text)
+    with pytest.raises(KeyboardInterrupt):
+        write_diagnosis(result, folder)
+    monkeypatch.undo()
+    assert {p.name: p.read_bytes() for p in sorted(folder.iterdir())} == {
+        name: text.encode() for name, text in old.items()
+    }
+    written = write_diagnosis(result, folder)
+    assert [p.name for p in written] == list(old)
+    assert json.loads((folder / "model.json").read_text()) == {"model": "new"}

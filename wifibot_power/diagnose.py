@@ -51,7 +51,7 @@ from wifibot_power.io import LogSource, ReadOptions, Skipped
 from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.io.discover import reasons_in_brief
 from wifibot_power.model import PowerModel
-from wifibot_power.outputs import write_json, write_parquet
+from wifibot_power.outputs import json_file, parquet_file, write_set
 from wifibot_power.phases import Segmentation
 from wifibot_power.residuals import residual_table, structure_reasons
 from wifibot_power.run import Run
@@ -1010,10 +1010,11 @@ def replication_table(table: pd.DataFrame, predicted: str) -> pd.DataFrame:
 
 
 def write_diagnosis(result: Diagnosis, out_dir: Path) -> list[Path]:
-    """`diagnose -o DIR`: discrepancy.parquet, findings.json, model.json (atomic writes)."""
-    out_dir = Path(out_dir)
-    return [
-        write_parquet(out_dir / "discrepancy.parquet", result.runs),
-        write_json(out_dir / "findings.json", result.summary()),
-        write_json(out_dir / "model.json", result.extended_model.to_json()),
-    ]
+    """`diagnose -o DIR`: discrepancy.parquet, findings.json, model.json, written as one set
+    (`outputs.write_set`: all new, or all as they were; cli.md: "writes nothing partial")."""
+    files = {
+        "discrepancy.parquet": parquet_file(result.runs),
+        "findings.json": json_file(result.summary()),
+        "model.json": json_file(result.extended_model.to_json()),
+    }
+    return write_set(Path(out_dir), files)
