@@ -10,7 +10,7 @@ from pathlib import Path
 from wifibot_power.errors import LogError
 from wifibot_power.io.manifest import MANIFEST_NAME, is_manifest, read_manifest
 from wifibot_power.io.metadata import DEFAULT_RUN_ID
-from wifibot_power.io.options import LOG_SUFFIXES, is_log_name
+from wifibot_power.io.options import is_log_name, log_stem
 
 
 @dataclass(frozen=True)
@@ -136,16 +136,6 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
             values, origin = overrides.get(real, ({}, None))
             sources.append(LogSource(file, values, origin))
     return _path_run_ids(sources, roots, resolved), skipped
-
-
-def log_stem(path: Path) -> str:
-    """A log's file name without its log suffix (`run1.csv.gz` -> `run1`): its run_id when
-    neither its metadata nor the manifest gives one (as the reader makes it)."""
-    name = path.name
-    for suffix in LOG_SUFFIXES:
-        if name.lower().endswith(suffix):
-            return name[: -len(suffix)]
-    return path.stem
 
 
 def _path_run_ids(

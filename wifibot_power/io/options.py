@@ -73,5 +73,16 @@ class ReadOptions:
             )
 
 
+def log_stem(path: Path) -> str:
+    """A log's file name without its log suffix (`run1.csv.gz` -> `run1`): its run_id when
+    neither its metadata nor the manifest gives one (the reader), and what `find_logs` tells
+    logs named alike by."""
+    name = path.name
+    for suffix in LOG_SUFFIXES:
+        if name.lower().endswith(suffix):
+            return name[: -len(suffix)]
+    return path.stem
+
+
 def is_log_name(path: Path) -> bool:
     return path.name.lower().endswith(LOG_SUFFIXES)

@@ -22,7 +22,7 @@ from wifibot_power.io.columns import PowerSource, find_column, time_unit_of, uni
 from wifibot_power.io.formats import LogFormat, Preamble, TimeSource, format_of
 from wifibot_power.io.formats.base import SNIFF_LINES
 from wifibot_power.io.metadata import build_meta
-from wifibot_power.io.options import LOG_SUFFIXES, TIME_UNITS, ReadOptions
+from wifibot_power.io.options import TIME_UNITS, ReadOptions, log_stem
 from wifibot_power.io.transport import (
     Columns,
     Content,
@@ -89,7 +89,7 @@ def read_log(
         values["sample_period_s"] = repr(options.sample_period_s)
         where["sample_period_s"] = "--sample-period"
     log_format.check_metadata(path, values)
-    meta = build_meta(values, file=str(path), stem=_stem(path), where="metadata", origins=where)
+    meta = build_meta(values, file=str(path), stem=log_stem(path), where="metadata", origins=where)
     power_W, channels_W, measured = _power(path, columns, sources, options.flip_current)
     time_s = _time(path, columns, time_source, meta.sample_period_s)
     speed_mps = _column(path, columns, (speed_column, 1.0)) if speed_column else None
@@ -108,7 +108,9 @@ def read_log(
         check_speed(str(path), speed_column, speed_mps, line_of=columns.lines.line_of)
     if time_s is not None and period_s != meta.sample_period_s:
         values["sample_period_s"] = repr(period_s)
-        meta = build_meta(values, file=str(path), stem=_stem(path), where="metadata", origins=where)
+        meta = build_meta(
+            values, file=str(path), stem=log_stem(path), where="metadata", origins=where
+        )
     return Run(
         file=str(path),
         format=pre.format,
@@ -119,14 +121,6 @@ def read_log(
         speed_mps=speed_mps,
         channels_W=channels_W,
     )
-
-
-def _stem(path: Path) -> str:
-    name = path.name
-    for suffix in LOG_SUFFIXES:
-        if name.lower().endswith(suffix):
-            return name[: -len(suffix)]
-    return path.stem
 
 
 # -- the column options: the same for every format -------------------------------------------
