@@ -395,6 +395,36 @@ def test_a_clip_through_most_of_the_log_is_an_error(tmp_path, wbpower, clipped_s
     )
 
 
+def test_a_supply_flat_at_its_set_point_while_idle_is_not_called_clipping(tmp_path, wbpower):
+    # a 2-decimal voltage logger on a regulated supply: 12.80 V flat while the robot idles
+    # (60% of the log), sagging to 12.65 +- 0.03 V under load; the current noisy throughout.
+    # Its flat top is the set point, not a clip (the review found the median-free rule
+    # refused it); a current stuck at its top in the same log is still an error
+    rng = np.random.default_rng(5)
+    n = 3000
+    voltage_V = np.full(n, 12.80)
+    voltage_V[1200:] = np.round(12.65 + 0.03 * rng.standard_normal(n - 1200), 2)
+    current_A = 1.8 + 0.01 * rng.standard_normal(n)
+    current_A[1200:] += 1.2
+
+    def write(current: np.ndarray) -> Path:
+        body = "".join(
+            f"{k * PERIOD_S:.7f},{v:.2f},{c:.4f}\n"
+            for k, (v, c) in enumerate(zip(voltage_V, current, strict=True))
+        )
+        path = tmp_path / "supply.csv"
+        path.write_text(log(body, header="time_s,voltage_V,current_A"))
+        return path
+
+    result = wbpower("inspect", "--json", write(current_A))
+    assert result.exit_code == 0, result.stderr
+    clipped = current_A.copy()
+    clipped[2000:2100] = clipped.max() + 0.1
+    assert_one_line_error(
+        wbpower("inspect", write(clipped)), tmp_path / "supply.csv", "'current_A' clipped"
+    )
+
+
 def test_a_steady_noise_free_log_is_not_called_clipping(tmp_path, wbpower):
     # one value throughout, or but for fewer samples than show their noise: a steady load
     for power_W in (np.full(200, 23.3), np.r_[np.full(195, 23.3), 23.1, 23.2, 23.0, 23.2, 23.1]):

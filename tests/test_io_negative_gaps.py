@@ -107,6 +107,20 @@ def test_power_negative_most_of_the_time_by_time_is_refused(tmp_path, negative_s
         assert problem.kind == "negative"
 
 
+def test_a_motor_log_idling_at_a_small_negative_offset_is_not_called_reversed(tmp_path):
+    # a current sensor's offset: -1.3 W at rest for 70% of the log, 40 W while driving: most
+    # samples are below -1 W but the mean is positive; --flip-current would make it wrong
+    # (the review found the rule by samples alone refused it)
+    rng = np.random.default_rng(6)
+    power_W = -1.3 + 0.05 * rng.standard_normal(3000)
+    power_W[2100:] = 40.0 + 0.5 * rng.standard_normal(900)
+    lines = [f"{k / 1000:.3f},{p:.3f}" for k, p in enumerate(power_W)]
+    path = tmp_path / "offset.csv"
+    path.write_text("time_s,power_W\n" + "\n".join(lines) + "\n")
+    (problem,) = read_log(path).problems
+    assert problem.kind == "negative"
+
+
 def test_zero_mean_noise_of_a_motor_log_at_rest_is_neither_reversed_nor_reported(tmp_path):
     rng = np.random.default_rng(3)
     noise = np.round(rng.normal(0.0, 0.2, 5000), 3)  # within +-1 W: an offset, not negative

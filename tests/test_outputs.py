@@ -260,3 +260,36 @@ def test_diagnose_out_is_written_as_one_set(tmp_path, monkeypatch):
     written = write_diagnosis(result, folder)
     assert [p.name for p in written] == list(old)
     assert json.loads((folder / "model.json").read_text()) == {"model": "new"}
+
+
+def test_a_staged_folder_put_in_place_has_the_modes_mkdir_gives(tmp_path):
+    # mkdtemp's 0700 came along with the rename: `report -o NEW` was readable by no one else
+    from wifibot_power.outputs import staged_folder
+
+    umask = os.umask(0o022)
+    try:
+        with staged_folder(tmp_path / "report") as stage:
+            (stage / "report.html").write_text("<html></html>")
+        (tmp_path / "plain").mkdir()
+    finally:
+        os.umask(umask)
+    mode = (tmp_path / "report").stat().st_mode & 0o777
+    assert mode == (tmp_path / "plain").stat().st_mode & 0o777 == 0o755
+
+
+def test_write_set_with_a_folder_in_a_target_s_place_replaces_nothing(tmp_path):
+    # the rename onto a folder failed after the files before it were replaced, and the
+    # temporary files were left behind
+    from wifibot_power.outputs import json_file, write_set
+
+    folder = tmp_path / "out"
+    old = _old_set(folder)
+    (folder / "b.json").unlink()
+    del old["b.json"]
+    (folder / "b.json").mkdir()
+    (folder / "b.json" / "x").write_text("x")
+    with pytest.raises(IsADirectoryError) as error:
+        write_set(folder, {"a.json": json_file("new a"), "b.json": json_file("new b")})
+    assert error.value.filename == str(folder / "b.json")
+    assert {p.name for p in folder.iterdir()} == {*old, "b.json"}  # no temporary file left
+    assert {n: (folder / n).read_text() for n in old} == old

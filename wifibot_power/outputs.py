@@ -152,8 +152,18 @@ def write_set(
         remove_made_dirs(made)
         raise
     with hold_ctrl_c():
-        for tmp, target in staged:
-            os.replace(tmp, target)
+        try:
+            # a target that is a folder would fail its rename after the ones before it
+            # were done: refused first, nothing replaced
+            for _, target in staged:
+                if target.is_dir() and not target.is_symlink():
+                    raise IsADirectoryError(21, "a folder is in the way", str(target))
+            for tmp, target in staged:
+                os.replace(tmp, target)
+        except BaseException:
+            for tmp, _ in staged:
+                tmp.unlink(missing_ok=True)
+            raise
         for name in remove:
             (out_dir / name).unlink(missing_ok=True)
     _fsync_dir(out_dir)
@@ -257,6 +267,11 @@ def staged_folder(out_dir: Path) -> Iterator[Path]:
             )
         yield stage
         _fsync_dir(stage)
+        # mkdtemp makes its folder 0700: as a folder mkdir makes it, then (the umask's mode),
+        # or the report renamed into place could be read by no one else (a web server)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(stage, 0o777 & ~umask)
         with hold_ctrl_c():
             if not out_dir.exists():
                 os.rename(stage, out_dir)  # one rename: the whole new folder at once

@@ -30,9 +30,12 @@ NEGATIVE_POWER_W = -1.0
 #: energy is twice the positive: a zero-mean noise trace (a motor log idling at 0 W) sits
 #: near 1/2, a log with brief regeneration far below.
 REVERSED_ENERGY_SHARE = 2.0 / 3.0
-#: ... and so do samples below `NEGATIVE_POWER_W` in more than this share of the log: the
-#: spec's "negative most of the time", read literally. Below -1 W, not below 0 W, so that
-#: the zero-mean noise of a motor log idling at 0 W (half its samples below 0) is not judged.
+#: ... and so do samples below `NEGATIVE_POWER_W` in more than this share of the log when
+#: the mean power is negative too: the spec's "negative most of the time". Below -1 W, not
+#: below 0 W, so that the zero-mean noise of a motor log idling at 0 W (half its samples
+#: below 0) is not judged; with a negative mean, so that a motor log idling at -1.3 W (a
+#: current sensor's offset) and driving at 40 W is not called reversed (flipping it would
+#: make it wrong).
 REVERSED_TIME_SHARE = 0.5
 #: A single dropped-sample gap longer than this stops the analysis [s] ...
 MAX_GAP_S = 0.05
@@ -56,6 +59,11 @@ SATURATION_SAMPLES = 10
 #: A trace with more repeated consecutive values than this share is quantised or noise-free:
 #: a flat top there is a level, not clipping, and is not reported.
 QUANTISED_SHARE = 0.5
+#: A voltage column's flat top is clipping only when it stands this far above the column's
+#: median: a regulated supply sits flat at its set point while the robot idles (a 2-decimal
+#: logger reads 12.80 V for seconds) and sags under load, so its top is a level as a rule.
+#: Power and current have no such level at their top (the robot's load is noisy there).
+SATURATION_ABOVE_MEDIAN = 1.05
 
 
 def check_samples(
@@ -67,11 +75,13 @@ def check_samples(
     first_data_line: int = 2,
     default_period_s: float = PAPER_SAMPLE_PERIOD_S,
     measured: dict[str, np.ndarray] | None = None,
+    voltages: frozenset[str] = frozenset(),
 ) -> tuple[float, list[Problem]]:
     """Validate samples; return the sample period [s] and the problems that did not stop reading.
 
     `line_of(i)` is the file line of sample i (for messages); `measured` holds the columns the
-    power was computed from (clipping shows in a current column, not always in the product).
+    power was computed from (clipping shows in a current column, not always in the product),
+    `voltages` the names of those that are voltages (`SATURATION_ABOVE_MEDIAN`).
     """
     if line_of is None:
         line_of = lambda index: first_data_line + index  # noqa: E731
@@ -87,7 +97,7 @@ def check_samples(
     for name, values in (measured or {"power": power_W}).items():
         # the power's maximum is known already: one pass over the samples fewer
         peak = high_W if values is power_W else None
-        _check_saturation(file, name, values, time_s, period_s, line_of, peak)
+        _check_saturation(file, name, values, time_s, period_s, line_of, peak, name in voltages)
     return period_s, problems
 
 
@@ -289,8 +299,8 @@ def _check_sign(file: str, power_W: np.ndarray, what: str, fix: str) -> None:
         why = f"negative samples hold {100 * negative_J / total_J:.0f}% of its energy"
     else:
         below_share = np.count_nonzero(power_W < NEGATIVE_POWER_W) / power_W.size
-        if below_share <= REVERSED_TIME_SHARE:
-            return
+        if below_share <= REVERSED_TIME_SHARE or negative_J <= total_J - negative_J:
+            return  # mostly above -1 W, or a positive mean: not reversed
         why = f"{100 * below_share:.0f}% of its samples below {NEGATIVE_POWER_W:g} W"
     raise LogError(
         f"{what} is negative most of the time (mean {power_W.mean():.4g} W; {why})",
@@ -359,10 +369,12 @@ def _check_saturation(
     period_s: float,
     line_of: Callable[[int], int],
     peak: float | None = None,
+    supply: bool = False,
 ) -> None:
     """Flat stretches at the column's maximum: the analyser range clipped there, so the energy
     there is unknown. log-format.md lists clipped readings as bad input: an error, however
-    short."""
+    short. `supply`: a voltage column, whose flat top is its set point unless it stands
+    `SATURATION_ABOVE_MEDIAN` above the median."""
     if values.size < SATURATION_SAMPLES:
         return
     peak = values.max() if peak is None else peak
@@ -371,6 +383,8 @@ def _check_saturation(
         return
     if not peak > 0:
         return  # a column negative throughout (a reversed sensor, checked elsewhere)
+    if supply and not peak > SATURATION_ABOVE_MEDIAN * np.median(values):
+        return  # the supply's set point (at idle), not a clip
     stop = np.zeros(1, dtype=np.int8)  # int8 throughout: a list [0] would make it int64
     edges = np.diff(np.concatenate((stop, at_peak.view(np.int8), stop)))
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
