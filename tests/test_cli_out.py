@@ -64,9 +64,10 @@ def test_segment_out_writes_phases_with_run_id_and_doubts(wbpower, tmp_path):
     doc = json.loads(result.stdout)
     phases = pd.read_parquet(out / "phases.parquet")
     assert sorted(p.name for p in out.iterdir()) == ["phases.parquet", "spikes.parquet"]
-    # fit's phases.parquet columns (the segment columns plus run_id), then the doubts
+    # fit's phases.parquet columns (the segment columns after run_id and file), then the doubts
     assert list(phases.columns) == [
         "run_id",
+        "file",
         "step",
         "phase",
         "t_start_s",
@@ -78,6 +79,7 @@ def test_segment_out_writes_phases_with_run_id_and_doubts(wbpower, tmp_path):
         "doubts",
     ]
     assert len(phases) == len(doc["phases"]) > 0
+    assert set(phases["file"]) == {str(tmp_path / "ends.csv")}
     assert set(phases["run_id"]) == {doc["run_id"]}
     for phase, record in zip(doc["phases"], phases.to_dict("records"), strict=True):
         assert record["phase"] == phase["phase"] and record["step"] == phase["step"]

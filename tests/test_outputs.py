@@ -266,15 +266,11 @@ def test_a_staged_folder_put_in_place_has_the_modes_mkdir_gives(tmp_path):
     # mkdtemp's 0700 came along with the rename: `report -o NEW` was readable by no one else
     from wifibot_power.outputs import staged_folder
 
-    umask = os.umask(0o022)
-    try:
-        with staged_folder(tmp_path / "report") as stage:
-            (stage / "report.html").write_text("<html></html>")
-        (tmp_path / "plain").mkdir()
-    finally:
-        os.umask(umask)
+    with staged_folder(tmp_path / "report") as stage:
+        (stage / "report.html").write_text("<html></html>")
+    (tmp_path / "plain").mkdir()
     mode = (tmp_path / "report").stat().st_mode & 0o777
-    assert mode == (tmp_path / "plain").stat().st_mode & 0o777 == 0o755
+    assert mode == (tmp_path / "plain").stat().st_mode & 0o777
 
 
 def test_write_set_with_a_folder_in_a_target_s_place_replaces_nothing(tmp_path):

@@ -302,3 +302,14 @@ def test_a_report_of_logs_none_of_which_can_be_read_says_so(tmp_path: Path) -> N
     assert built.fit_problem.startswith("no log could be read: ")
     assert "bad.csv" in built.fit_problem
     assert "metadata" not in built.fit_problem
+
+
+def test_the_reports_fit_names_each_phases_log(report, subset_dir: Path) -> None:  # noqa: F811
+    # report's workers made the phase rows without the log's file, which fit's phases table
+    # has since run_ids may repeat across folders: the column came out empty
+    from wifibot_power.phases import PHASE_COLUMNS
+
+    phases = report.fit.phases
+    assert list(phases.columns) == list(PHASE_COLUMNS)
+    assert len(phases) and phases["file"].notna().all()
+    assert {Path(f).parent for f in phases["file"]} == {subset_dir}

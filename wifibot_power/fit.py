@@ -192,19 +192,7 @@ class FitResult:
     @property
     def model_complete(self) -> bool:
         """Whether every coefficient `energy`/`lifetime` need was fitted (model.json loads)."""
-        model = self.model
-        return all(
-            math.isfinite(v)
-            for v in (
-                model.accel.intercept,
-                model.accel.slope,
-                model.cruise.intercept,
-                model.cruise.slope,
-                model.t_acc.intercept,
-                model.t_acc.slope,
-                model.idle_W,
-            )
-        )
+        return not unfitted(self.model)
 
     def summary(self) -> dict[str, object]:
         """The `fit --json` document (cli.md), JSON-safe (NaN -> null)."""
@@ -432,11 +420,10 @@ def fit_rows(
     )
 
 
-def incomplete_warning(model: PowerModel, notes: Sequence[str] = ()) -> list[str]:
-    """What a model lacks for `energy`/`lifetime` (`FitResult.model_complete`), as a warning:
-    which coefficients are not fitted and why (the fit's notes). A fit that read every
-    input still exits 0 (cli.md's exit codes); this says the model is not all there."""
-    missing = [
+def unfitted(model: PowerModel) -> list[str]:
+    """The parts of `model` that `energy`/`lifetime` need and the fit could not give (a
+    coefficient that is not a finite number): none for a complete model."""
+    return [
         name
         for name, values in (
             ("P_acc", (model.accel.intercept, model.accel.slope)),
@@ -446,6 +433,13 @@ def incomplete_warning(model: PowerModel, notes: Sequence[str] = ()) -> list[str
         )
         if not all(math.isfinite(v) for v in values)
     ]
+
+
+def incomplete_warning(model: PowerModel, notes: Sequence[str] = ()) -> list[str]:
+    """What a model lacks (`unfitted`), as a warning, with why (the fit's notes). A fit
+    that read every input still exits 0 (cli.md's exit codes); this says the model is not
+    all there."""
+    missing = unfitted(model)
     if not missing:
         return []
     why = "".join(f"; {note}" for note in notes)
@@ -711,19 +705,15 @@ def fit_logs(
     paths = [paths] if isinstance(paths, str | Path) else list(paths)
 
     def work(run: Run) -> tuple[dict[str, object], list[dict[str, object]]]:
-        # a row per phase, as Segmentation.frame() makes it: plain values, small to send back
-        # and to keep, and the phases table is built once from all of them
+        # a row per phase (`Segmentation.rows`): plain values, small to send back and to
+        # keep, and the phases table is built once from all of them
         from wifibot_power.phases import Segmentation
         from wifibot_power.runtable import run_row
 
         if run.meta.mode == "unknown":  # nothing to fit it to: not worth segmenting
             return run_row(run, Segmentation(run.meta.run_id, ())), []
         segmentation = segment_checked(run, segmenter)
-        phases = [
-            {"run_id": segmentation.run_id, "file": run.file, **p.as_dict()}
-            for p in segmentation.phases
-        ]
-        return run_row(run, segmentation), phases
+        return run_row(run, segmentation), segmentation.rows(run.file)
 
     # with the default segmenter, what a run gives is a function of its content and of this
     # code: a cache keeps it (a custom segmenter's is not kept: its code is not known here)
@@ -901,15 +891,10 @@ def _tables(
     rows: list[dict[str, object]], phase_rows: list[dict[str, object]]
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The runs and phases tables of `fit_logs` (pandas is imported here, when asked for)."""
-    import pandas as pd
-
-    from wifibot_power.phases import Segmentation
+    from wifibot_power.phases import phase_frame
     from wifibot_power.runtable import runs_frame
 
-    # the log of each phase beside its run_id (cli.md: "More keys may be added")
-    first, *rest = Segmentation("", ()).frame().columns
-    phases = pd.DataFrame(phase_rows, columns=[first, "file", *rest])
-    return runs_frame(rows), phases
+    return runs_frame(rows), phase_frame(phase_rows)
 
 
 def write_fit(result: FitResult, out_dir: Path) -> list[Path]:

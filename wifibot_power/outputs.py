@@ -48,19 +48,11 @@ def write_atomic(path: Path, write: Callable[[Path], None]) -> Path:
     see the old file or the new one, never a mixture; a SIGKILL at any moment leaves at worst
     a stray `.NAME.*.tmp` beside it.
     """
-    import tempfile  # here: a command that writes nothing (`fit --json`) does not load it
-
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    tmp = Path(tmp_name)
+    tmp = _temporary(path)
     try:
-        write(tmp)
-        # mkstemp makes the file 0600; give it what a plain open() would have
-        os.chmod(tmp, 0o666 & ~_umask())
-        with open(tmp, "rb") as handle:
-            os.fsync(handle.fileno())
+        _write_flushed(tmp, write)
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
@@ -171,8 +163,9 @@ def write_set(
 
 
 def _temporary(path: Path) -> Path:
-    """A new empty temporary file beside `path` (`.NAME.*.tmp`, as `write_atomic` makes)."""
-    import tempfile
+    """A new empty temporary file beside `path` (`.NAME.*.tmp`): in the same folder, since a
+    rename across file systems is not atomic."""
+    import tempfile  # here: a command that writes nothing (`fit --json`) does not load it
 
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
@@ -180,7 +173,8 @@ def _temporary(path: Path) -> Path:
 
 
 def _write_flushed(tmp: Path, write: Callable[[Path], None]) -> None:
-    """`write(tmp)`, with the permissions a plain open() gives, flushed to disk."""
+    """`write(tmp)`, with the permissions a plain open() gives (mkstemp makes it 0600),
+    flushed to disk."""
     write(tmp)
     os.chmod(tmp, 0o666 & ~_umask())
     with open(tmp, "rb") as handle:
@@ -269,9 +263,7 @@ def staged_folder(out_dir: Path) -> Iterator[Path]:
         _fsync_dir(stage)
         # mkdtemp makes its folder 0700: as a folder mkdir makes it, then (the umask's mode),
         # or the report renamed into place could be read by no one else (a web server)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(stage, 0o777 & ~umask)
+        os.chmod(stage, 0o777 & ~_umask())
         with hold_ctrl_c():
             if not out_dir.exists():
                 os.rename(stage, out_dir)  # one rename: the whole new folder at once

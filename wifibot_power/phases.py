@@ -72,22 +72,34 @@ class Segmentation:
     def of(self, name: str) -> list[Phase]:
         return [p for p in self.phases if p.phase == name]
 
-    def frame(self) -> pd.DataFrame:
-        """A row per phase: the `segment` columns plus `run_id` (phases.parquet)."""
-        import pandas as pd
+    def rows(self, file: str) -> list[dict[str, object]]:
+        """A row per phase as plain values (small to send back from a worker): `PHASE_COLUMNS`,
+        the `segment` columns after the run's `run_id` and its log's `file`."""
+        return [{"run_id": self.run_id, "file": file, **p.as_dict()} for p in self.phases]
 
-        rows = [{"run_id": self.run_id, **p.as_dict()} for p in self.phases]
-        return pd.DataFrame(
-            rows,
-            columns=[
-                "run_id",
-                "step",
-                "phase",
-                "t_start_s",
-                "t_end_s",
-                "duration_s",
-                "mean_power_W",
-                "energy_J",
-                "speed_mps",
-            ],
-        )
+    def frame(self, file: str) -> pd.DataFrame:
+        """A row per phase (phases.parquet of `fit -o` and `segment -o`): `rows`."""
+        return phase_frame(self.rows(file))
+
+
+#: phases.parquet's columns: the `segment` columns after the run's `run_id` and its log's
+#: `file` (cli.md: "the segment columns plus run_id"; more keys may be added)
+PHASE_COLUMNS = (
+    "run_id",
+    "file",
+    "step",
+    "phase",
+    "t_start_s",
+    "t_end_s",
+    "duration_s",
+    "mean_power_W",
+    "energy_J",
+    "speed_mps",
+)
+
+
+def phase_frame(rows: list[dict[str, object]]) -> pd.DataFrame:
+    """The phases table from `Segmentation.rows` of any number of runs."""
+    import pandas as pd
+
+    return pd.DataFrame(rows, columns=list(PHASE_COLUMNS))

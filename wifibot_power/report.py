@@ -68,7 +68,7 @@ def _work(run: Run) -> tuple[dict, list[dict], RunSummary, TraceView]:
     if run.meta.mode == "unknown":  # as fit: nothing to fit it to
         row = run_row(run, empty)
         return row, [], RunSummary(row, EMPTY), trace_view(run, segmentation)
-    phases = [{"run_id": segmentation.run_id, **p.as_dict()} for p in segmentation.phases]
+    phases = segmentation.rows(run.file)
     if run.meta.mode == "motion":  # its summary with the cause columns, as diagnose's
         summary = summarize_segmented(run, segmentation)
         return summary.row, phases, summary, trace_view(run, segmentation)

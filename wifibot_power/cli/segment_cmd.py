@@ -82,7 +82,7 @@ def segment_command(
     for doubt in segmentation.doubts:  # cli.md: a doubt is also a warning on stderr
         warn(f"{run.file}: segmentation in doubt: {doubt}")
     if out is not None:
-        for written in write_segmentation(segmentation, out):
+        for written in write_segmentation(segmentation, run.file, out):
             print(f"wbpower: wrote {written}", file=sys.stderr)
     if json_out:
         print_json(
@@ -131,9 +131,9 @@ def segment_command(
         print_table(stdout, title, _SPIKE_COLUMNS, spikes)
 
 
-def write_segmentation(segmentation: Segmentation, out: Path) -> list[Path]:
+def write_segmentation(segmentation: Segmentation, file: str, out: Path) -> list[Path]:
     """`segment -o DIR`, written as one set (`outputs.write_set`): `phases.parquet`, a row
-    per phase, the `segment` columns plus `run_id` (as fit's phases.parquet) and `doubts`
+    per phase, fit's phases.parquet columns (`phases.PHASE_COLUMNS`) and `doubts`
     (the segmentation's doubts joined by "; ", on every row; empty when it fits), and
     `spikes.parquet`, a row per start-up spike with its `run_id`."""
     import pandas as pd
@@ -141,7 +141,7 @@ def write_segmentation(segmentation: Segmentation, out: Path) -> list[Path]:
     from wifibot_power.outputs import parquet_file, write_set
     from wifibot_power.phases import Spike
 
-    phases = segmentation.frame()
+    phases = segmentation.frame(file)
     phases["speed_mps"] = phases["speed_mps"].astype("float64")  # None -> NaN, never object
     phases["doubts"] = pd.Series(["; ".join(segmentation.doubts)] * len(phases), dtype=object)
     spike_columns = list(Spike.__dataclass_fields__)

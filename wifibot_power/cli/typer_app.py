@@ -20,13 +20,13 @@ _NO_ARGS_IS_HELP: tuple[type[Exception], ...] = tuple(
     for name in ("NoArgsIsHelpError",)
     if hasattr(sys.modules[_USAGE_ERROR.__module__], name)
 )
-EXIT_USAGE = 2
 
 
 def usage_line(exc: Exception, command: str) -> str:
     """click's usage error as wbpower's one line (cli.md: "A usage error is a usage error
-    (exit 2, one line)"): `wbpower: error: no such option: --bogus (see 'wbpower fit
-    --help')`, instead of click's Usage / Try / blank / Error block."""
+    (exit 2, one line)"), the message `common.fail` prints after `wbpower: error: `:
+    `no such option: --bogus (see 'wbpower fit --help')`, instead of click's Usage / Try /
+    blank / Error block."""
     possibilities = sorted(getattr(exc, "possibilities", None) or ())  # of NoSuchOption
     text = exc.message if possibilities else exc.format_message()  # type: ignore[attr-defined]
     message = " ".join(text.split()).rstrip(".")
@@ -35,7 +35,7 @@ def usage_line(exc: Exception, command: str) -> str:
     hint = f"see '{command} --help'"
     if possibilities:
         hint = f"possible options: {', '.join(possibilities)}; {hint}"
-    return f"wbpower: error: {message} ({hint})"
+    return f"{message} ({hint})"
 
 
 class OneLineUsageGroup(typer.core.TyperGroup):
@@ -75,8 +75,9 @@ class OneLineUsageGroup(typer.core.TyperGroup):
 
     @staticmethod
     def _fail(exc: Exception, command: str) -> None:
-        print(usage_line(exc, command), file=sys.stderr)
-        raise typer.Exit(EXIT_USAGE)
+        from wifibot_power.cli.common import fail  # every command loads it: no start-up cost
+
+        fail(usage_line(exc, command))
 
 
 app = typer.Typer(
