@@ -22,7 +22,7 @@ from wifibot_power.io import ReadOptions
 from wifibot_power.io.batch import map_runs
 from wifibot_power.io.discover import find_logs
 from wifibot_power.run import Run
-from wifibot_power.simulate import EFFECTS, SimConfig, simulate_runs, write_simulation
+from wifibot_power.simulate import SimConfig, simulate_runs, write_simulation
 
 
 def write_idle_log(path: Path, seed: int, run_id: str | None = None) -> Path:
@@ -106,19 +106,10 @@ def _ripple_folder(root: Path, run_ids: tuple[str | None, str | None]) -> Path:
     """A simulated session with a cruise ripple (no runs.csv: run_ids from the logs), two of
     whose motion runs are moved to a/x.csv and b/x.csv with `run_ids` in their metadata
     (None: no run_id line, so the file name `x` is the default of both)."""
+    from test_diagnose import GRID, _size  # the grid and sizes every diagnose test uses
+
     seed = 31
-    low, high = EFFECTS["cruise_ripple"][2]
-    size = float(np.random.default_rng([seed, 99]).uniform(low, high))
-    config = SimConfig(
-        speeds_mps=(0.2, 0.4, 0.6, 0.8, 0.9),
-        trips=((2.0, 1), (5.0, 1), (4.0, 4)),
-        repeats=2,
-        mode_repeats=1,
-        mode_duration_s=2.0,
-        sample_period_s=0.001024,
-        effects={"cruise_ripple": size},
-        seed=seed,
-    )
+    config = SimConfig(**GRID, effects={"cruise_ripple": _size("cruise_ripple", seed)}, seed=seed)
     logs = root / "logs"
     write_simulation(config, logs)
     (logs / "runs.csv").unlink()

@@ -101,9 +101,7 @@ def read_log(
         line_of=columns.lines.line_of,
         default_period_s=meta.sample_period_s,
         measured=measured,
-        voltages=frozenset(
-            source.voltage[0] for source in sources if source.voltage and not source.power
-        ),
+        voltages=frozenset(source.voltage[0] for source in sources if source.voltage),
     )
     del measured
     check_channels(str(path), channels_W)

@@ -294,13 +294,14 @@ def _check_sign(file: str, power_W: np.ndarray, what: str, fix: str) -> None:
     """Power negative most of the time (`REVERSED_ENERGY_SHARE` of the energy, or
     `REVERSED_TIME_SHARE` of the samples below `NEGATIVE_POWER_W`): a reversed current sign."""
     negative_J = -float(np.sum(power_W, where=power_W < 0))
-    total_J = negative_J + float(np.sum(power_W, where=power_W > 0))
+    positive_J = float(np.sum(power_W, where=power_W > 0))
+    total_J = negative_J + positive_J
     if negative_J > REVERSED_ENERGY_SHARE * total_J:
         why = f"negative samples hold {100 * negative_J / total_J:.0f}% of its energy"
     else:
         below_share = np.count_nonzero(power_W < NEGATIVE_POWER_W) / power_W.size
-        if below_share <= REVERSED_TIME_SHARE or negative_J <= total_J - negative_J:
-            return  # mostly above -1 W, or a positive mean: not reversed
+        if below_share <= REVERSED_TIME_SHARE or positive_J >= negative_J:
+            return  # mostly above -1 W, or a mean power >= 0: not reversed
         why = f"{100 * below_share:.0f}% of its samples below {NEGATIVE_POWER_W:g} W"
     raise LogError(
         f"{what} is negative most of the time (mean {power_W.mean():.4g} W; {why})",
