@@ -114,8 +114,9 @@ class RosBag(FileFormat):
             motion = series[speed_topic]
             speed, speed_problem = on_time_base(motion.time_ns, motion.values["speed"], time_ns)
             yaw, _ = on_time_base(motion.time_ns, motion.values["yaw"], time_ns)
-            if speed_problem:
-                problems.append(_stale_problem(speed_topic, speed_problem, time_ns))
+            if speed_problem is not None:
+                limit_ns = stale_limit_ns(motion.time_ns)
+                problems.append(_stale_problem(speed_topic, speed_problem, time_ns, limit_ns))
             if motion.type in TWISTS:
                 problems.append(
                     Problem(
@@ -168,7 +169,7 @@ def on_time_base(
     out = np.full(base_ns.shape, np.nan)
     if not time_ns.size:
         return out, np.ones(base_ns.shape, dtype=bool) if base_ns.size else None
-    spacing_ns = float(np.median(np.diff(time_ns))) if time_ns.size > 1 else 0.0
+    spacing_ns = stale_limit_ns(time_ns) / STALE_PERIODS
     previous = np.searchsorted(time_ns, base_ns, side="right") - 1
     found = previous >= 0
     age_ns = base_ns - time_ns[np.maximum(previous, 0)]
@@ -176,6 +177,12 @@ def on_time_base(
     out[fresh] = values[previous[fresh]]
     missing = ~fresh
     return out, missing if missing.any() else None
+
+
+def stale_limit_ns(time_ns: np.ndarray) -> float:
+    """How old a topic's message may be and still be used [ns]: `STALE_PERIODS` x the median
+    spacing of its messages (0 for a single message: used only at its own stamp)."""
+    return STALE_PERIODS * float(np.median(np.diff(time_ns))) if time_ns.size > 1 else 0.0
 
 
 # -- reading ---------------------------------------------------------------------------------
@@ -390,8 +397,8 @@ def _power(
             voltage_V, missing = on_time_base(other.time_ns, other.values["value"], base.time_ns)
             if missing is not None:
                 raise LogError(
-                    f"voltage topic {other.topic} has no message within "
-                    f"{STALE_PERIODS:g} of its spacings before "
+                    f"voltage topic {other.topic} has no message up to "
+                    f"{1e-6 * stale_limit_ns(other.time_ns):.4g} ms before "
                     f"{int(missing.sum())} of the current samples (first at t = "
                     f"{(base.time_ns[np.argmax(missing)] - base.time_ns[0]) * 1e-9:.6g} s)",
                     file=path,
@@ -435,7 +442,9 @@ def _clock_problem(series: dict[str, _Series], power: list[str], speed: str | No
     return Problem("time_base", f"time from {'; '.join(parts)}{why}")
 
 
-def _stale_problem(topic: str, missing: np.ndarray, time_ns: np.ndarray) -> Problem:
+def _stale_problem(
+    topic: str, missing: np.ndarray, time_ns: np.ndarray, limit_ns: float
+) -> Problem:
     """Power samples left without a speed: how many, and the longest stretch."""
     edges = np.diff(np.concatenate(([0], missing.view(np.int8), [0])))
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
@@ -445,7 +454,8 @@ def _stale_problem(topic: str, missing: np.ndarray, time_ns: np.ndarray) -> Prob
     return Problem(
         "no_speed",
         f"{int(missing.sum())} power sample(s) in {starts.size} stretch(es) have no message "
-        f"of {topic} within {STALE_PERIODS:g} of its spacings before them, the longest from "
+        f"of {topic} up to {1e-6 * limit_ns:.4g} ms ({STALE_PERIODS:g} x its median spacing) "
+        "before them, the longest from "
         f"t = {t_s[starts[longest]]:.6g} s to {t_s[ends[longest] - 1]:.6g} s: speed and yaw "
         "rate unknown (NaN) there, not carried across the gap",
         float(t_s[starts[longest]]),
