@@ -30,7 +30,8 @@ $(VENV)/.installed: pyproject.toml $(if $(VENV_OK),,venv-stale)
 	fi
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV_FLAGS) $(VENV)
 	$(PIP_INSTALL) --upgrade pip
-	$(PIP_INSTALL) -e '.[dev]'
+	@# ros, jls: the optional readers of bags and Joulescope recordings, tested by `make test`
+	$(PIP_INSTALL) -e '.[dev,ros,jls]'
 	@# an editable install compiles no bytecode, and where PYTHONDONTWRITEBYTECODE is set
 	@# every start would compile wifibot_power again (~80 ms): compiled here, as pip does
 	@# for a regular install (a module edited since is compiled from its source, as ever)

@@ -43,6 +43,8 @@ class Samples:
     yaw_rate_radps: np.ndarray | None = None
     #: the sample a message index names in errors ("message 12 on /battery")
     where_of: str = "sample"
+    #: the format reports gaps itself (in full-rate samples): not again from the time stamps
+    gaps_reported: bool = False
 
 
 class FileFormat(ABC):
@@ -117,7 +119,10 @@ def samples_to_run(
         meta=meta,
         stamps_s=samples.time_s,
         power_W=power_W,
-        problems=(*samples.problems, *problems),
+        problems=(
+            *samples.problems,
+            *(p for p in problems if not (samples.gaps_reported and p.kind == "gap")),
+        ),
         speed_mps=samples.speed_mps,
         yaw_rate_radps=samples.yaw_rate_radps,
     )

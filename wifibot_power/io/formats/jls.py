@@ -19,7 +19,8 @@ left out and reported with their energy. The summary levels the file also holds
 approximate, so their energy would not be the full-rate sum.
 
 Missing samples (the instrument dropped them: pyjls reads NaN) are a gap: each block's mean
-is over the samples it has, and the gap is reported; a gap longer than
+is over the samples it has, a block without any is left out (the run's time then shows the
+gap, whose energy is not counted), and the gap is reported; a gap longer than
 `validate.MAX_GAP_S`, or gaps over `validate.MAX_GAP_PCT` of the recording, stop the
 analysis, as for any log.
 """
@@ -170,9 +171,13 @@ def _read(path: Path, reader: Any, options: ReadOptions) -> Samples:
         sums[first_block : first_block + n // block] = np.nansum(per_block, axis=1)
         counts[first_block : first_block + n // block] = finite.reshape(-1, block).sum(axis=1)
         del per_block
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean_W = sums / counts  # a block without samples: NaN, refused by check_samples
     period_s = block / rate_Hz
+    time_s = None
+    if counts.min() == 0:  # whole blocks missing: left out, so that time shows the gap
+        kept = counts > 0
+        time_s = np.flatnonzero(kept) * period_s
+        sums, counts = sums[kept], counts[kept]
+    mean_W = sums / counts
     problems = []
     if block > 1:
         problems.append(
@@ -205,7 +210,13 @@ def _read(path: Path, reader: Any, options: ReadOptions) -> Samples:
                 f"its own rate ({rate_Hz:g} Hz)",
             )
         )
-    return Samples(power_W=mean_W, time_s=None, metadata=metadata, problems=problems)
+    return Samples(
+        power_W=mean_W,
+        time_s=time_s,
+        metadata=metadata,
+        problems=problems,
+        gaps_reported=True,
+    )
 
 
 def _power_chunk(
