@@ -4,7 +4,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 WBPOWER := $(VENV)/bin/wbpower
 
-.PHONY: demo test lint bench sample-logs docs-figures clean
+.PHONY: demo test lint bench bench-jls sample-logs docs-figures clean
 
 # The oldest Python wbpower runs on (pyproject.toml: requires-python).
 MIN_PYTHON ?= 3.11
@@ -61,6 +61,12 @@ lint: $(VENV)/.installed
 BENCH_ARGS ?=
 bench: $(VENV)/.installed
 	$(PY) benchmarks/run.py $(BENCH_ARGS)
+	$(MAKE) bench-jls
+
+# a 100 M-sample Joulescope recording (828 MB, written once into the corpus folder) inspected
+# and segmented: throughput, peak memory, energy against the full-rate sum (~1 min)
+bench-jls: $(VENV)/.installed
+	$(PY) benchmarks/jls_long.py
 
 # Regenerates sample_logs/ exactly as committed (see sample_logs/README.md).
 sample-logs: $(VENV)/.installed
