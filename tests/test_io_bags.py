@@ -378,3 +378,26 @@ def test_folder_yields_each_bag_once(bags):
     # a ROS 2 bag folder named alone is one log
     (single,), _ = find_logs([bags["sqlite3"]])
     assert single.path == bags["sqlite3"]
+
+
+def test_segment_and_the_parse_cache_take_a_bag_folder(bags, tmp_path, wbpower):
+    """A ROS 2 bag is a folder: `segment` takes it as one log, and `--cache` (which hashes a
+    file's bytes) reads it without caching it."""
+    from wifibot_power.cache import ParseCache
+
+    result = wbpower("segment", bags["sqlite3"], "--json")
+    assert result.exit_code == 0, result.stderr
+    assert json.loads(result.stdout)["phases"]
+    cached = ParseCache(tmp_path / "cache").read_log(bags["sqlite3"])
+    assert cached.energy_J == read_log(bags["sqlite3"]).energy_J
+    assert cached.yaw_rate_radps is not None
+
+
+def test_inspect_out_keeps_the_topics(bags, tmp_path, wbpower):
+    import pandas as pd
+
+    result = wbpower("inspect", bags["mcap"], "-o", tmp_path / "out")
+    assert result.exit_code == 0, result.stderr
+    table = pd.read_parquet(tmp_path / "out" / "logs.parquet")
+    topics = json.loads(table["topics"].iloc[0])
+    assert {t["topic"] for t in topics} == {"/battery", "/odom"}

@@ -37,6 +37,13 @@ def is_bag(path: Path) -> bool:
     return path.name.lower().endswith(BAG_SUFFIXES) or is_bag_folder(path)
 
 
+def is_read_whole(path: Path) -> bool:
+    """A log its own library reads whole (a bag, a Joulescope recording), not as text: the
+    parse cache, which hashes a file's bytes, leaves it alone (a bag may be a folder, a
+    recording gigabytes)."""
+    return path.name.lower().endswith(JLS_SUFFIX) or is_bag(path)
+
+
 def codec_of(path: Path) -> str | None:
     """The compression of a file, from its name ("gzip", "zstd"), or None."""
     name = path.name.lower()
