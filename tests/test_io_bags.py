@@ -401,3 +401,47 @@ def test_inspect_out_keeps_the_topics(bags, tmp_path, wbpower):
     table = pd.read_parquet(tmp_path / "out" / "logs.parquet")
     topics = json.loads(table["topics"].iloc[0])
     assert {t["topic"] for t in topics} == {"/battery", "/odom"}
+
+
+def test_current_and_voltage_topics(tmp_path, drive):
+    """`--current-topic` (A, a draw positive) x `--voltage-topic` (V) on the current's stamps:
+    the voltage is the latest reading at or before each current sample."""
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    Float32 = store.types["std_msgs/msg/Float32"]
+    path = tmp_path / "iv"
+    current_ns = drive.battery_ns
+    voltage_ns = drive.battery_ns[::5] + 1_000_000  # 10 Hz, 1 ms after a current sample
+    with Writer2(path, version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        c = writer.add_connection("/current", Float32.__msgtype__, typestore=store)
+        v = writer.add_connection("/voltage", Float32.__msgtype__, typestore=store)
+        rows = [(int(t), c, float(-i)) for t, i in zip(current_ns, drive.current_A, strict=True)]
+        rows += [(int(t), v, 12.5) for t in voltage_ns]
+        for stamp, connection, value in sorted(rows, key=lambda r: r[0]):
+            writer.write(
+                connection, stamp, store.serialize_cdr(Float32(data=value), "std_msgs/msg/Float32")
+            )
+    with pytest.raises(LogError, match="no power topic"):
+        read_log(path)
+    options = ReadOptions(current_topic="/current", voltage_topic="/voltage")
+    run = read_log(path, options)
+    # the first current sample precedes every voltage reading: left out, and said
+    (cut,) = [p for p in run.problems if p.kind == "cut"]
+    assert "first 1 sample(s) of /current" in cut.message
+    assert run.samples == drive.current_A.size - 1
+    np.testing.assert_array_equal(run.power_W, -drive.current_A[1:].astype(np.float64) * 12.5)
+    # a voltage gap in the middle: an error, not a voltage carried across it
+    gappy = tmp_path / "gappy"
+    with Writer2(gappy, version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        c = writer.add_connection("/current", Float32.__msgtype__, typestore=store)
+        v = writer.add_connection("/voltage", Float32.__msgtype__, typestore=store)
+        rows = [(int(t), c, 1.0) for t in current_ns]
+        rows += [(int(t), v, 12.5) for t in voltage_ns if not 5e9 < t - T0_NS < 6e9]
+        for stamp, connection, value in sorted(rows, key=lambda r: r[0]):
+            data = store.serialize_cdr(Float32(data=value), "std_msgs/msg/Float32")
+            writer.write(connection, stamp, data)
+    with pytest.raises(LogError, match="voltage topic /voltage has no message up to 150 ms"):
+        read_log(gappy, options)
+    supplied = read_log(path, ReadOptions(current_topic="/current", supply_voltage_V=12.5))
+    np.testing.assert_array_equal(supplied.power_W, -drive.current_A.astype(np.float64) * 12.5)
+    (clock,) = [p for p in supplied.problems if p.kind == "time_base"]
+    assert "/current: receive times" in clock.message  # Float32 has no header

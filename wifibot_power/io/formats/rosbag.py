@@ -395,6 +395,27 @@ def _power(
         if len(plan) > 1:
             other = series[plan[1][0]]
             voltage_V, missing = on_time_base(other.time_ns, other.values["value"], base.time_ns)
+            head = int(np.argmin(missing)) if missing is not None else 0
+            if missing is not None and head and not missing[head:].any():
+                # current logged before the first voltage reading: those samples left out
+                problems.append(
+                    Problem(
+                        "cut",
+                        f"the first {head} sample(s) of {topic} precede the first reading of "
+                        f"{other.topic}: left out",
+                        0.0,
+                        float(base.time_ns[head] - base.time_ns[0]) * 1e-9,
+                    )
+                )
+                base = _Series(
+                    base.topic,
+                    base.type,
+                    base.time_ns[head:],
+                    {k: values[head:] for k, values in base.values.items()},
+                    base.clock,
+                    base.reordered,
+                )
+                current_A, voltage_V, missing = current_A[head:], voltage_V[head:], None
             if missing is not None:
                 raise LogError(
                     f"voltage topic {other.topic} has no message up to "
