@@ -99,6 +99,29 @@ SamplePeriod = Annotated[
     float | None,
     typer.Option("--sample-period", min=0.0, help="Sample spacing [s] for logs without time."),
 ]
+PowerTopic = Annotated[
+    str | None,
+    typer.Option(
+        "--power-topic",
+        help="A bag's power topic: BatteryState (P = V x -I), or Float32/64 in W "
+        "(default: the one BatteryState topic).",
+    ),
+]
+CurrentTopic = Annotated[
+    str | None,
+    typer.Option("--current-topic", help="A bag's current topic (Float32/64 in A, draw > 0)."),
+]
+VoltageTopic = Annotated[
+    str | None, typer.Option("--voltage-topic", help="A bag's voltage topic (Float32/64 in V).")
+]
+SpeedTopic = Annotated[
+    str | None,
+    typer.Option(
+        "--speed-topic",
+        help="A bag's speed and yaw-rate topic: Odometry, or a Twist such as cmd_vel (read as "
+        "commanded) (default: the one Odometry topic).",
+    ),
+]
 JsonFlag = Annotated[bool, typer.Option("--json", help="Print one JSON document on stdout.")]
 OutDir = Annotated[
     Path | None, typer.Option("-o", "--out", help="Write the tables (Parquet, JSON) into DIR.")
@@ -120,6 +143,10 @@ READING_OPTIONS = (
     ("speed_column", SpeedColumn, None),
     ("sample_period", SamplePeriod, None),
     ("flip_current", FlipCurrent, False),
+    ("power_topic", PowerTopic, None),
+    ("current_topic", CurrentTopic, None),
+    ("voltage_topic", VoltageTopic, None),
+    ("speed_topic", SpeedTopic, None),
 )
 
 
@@ -133,6 +160,10 @@ def read_options(
     speed_column: str | None = None,
     sample_period: float | None = None,
     flip_current: bool = False,
+    power_topic: str | None = None,
+    current_topic: str | None = None,
+    voltage_topic: str | None = None,
+    speed_topic: str | None = None,
 ) -> ReadOptions:
     return ReadOptions(
         supply_voltage_V=supply_voltage,
@@ -144,6 +175,10 @@ def read_options(
         time_column=time_column,
         time_unit=TimeUnit(time_unit).value if time_unit is not None else None,
         flip_current=bool(flip_current),
+        power_topic=power_topic,
+        current_topic=current_topic,
+        voltage_topic=voltage_topic,
+        speed_topic=speed_topic,
     )
 
 

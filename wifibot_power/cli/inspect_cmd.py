@@ -87,7 +87,27 @@ def inspect_command(
                 )
                 name = Path(str(row["file"])).name
                 stdout.print(f"{name}: power is the sum of channels {summed}", highlight=False)
+        for row in rows:
+            if row.get("topics"):
+                _print_topics(Path(str(row["file"])).name, row["topics"])
     raise typer.Exit(report_skipped(skipped))
+
+
+#: a bag's topics (log-format.md section 3)
+TOPIC_COLUMNS = (Col("topic", "text", key=True), Col("type", "text"), Col("messages"), Col("Hz"))
+
+
+def _print_topics(name: str, topics: list[dict[str, object]]) -> None:
+    cells = [
+        [
+            str(t["topic"]),
+            str(t["type"]),
+            f"{t['messages']:,}",
+            "-" if t["rate_Hz"] is None else f"{t['rate_Hz']:.4g}",
+        ]
+        for t in topics
+    ]
+    print_table(stdout, f"{name}: {len(topics)} topic(s)", TOPIC_COLUMNS, cells)
 
 
 def _problems_cell(problems: list[str], shown: int = 2) -> str:
@@ -112,9 +132,10 @@ LOG_COLUMNS = (
     "speed_column",
     "problems",
     "problem_details",
+    "topics",
 )
 #: the keys whose values nest (a dict or a list): JSON text in their column
-_NESTED = ("meta", "channels", "problems", "problem_details")
+_NESTED = ("meta", "channels", "problems", "problem_details", "topics")
 
 
 def write_inspection(rows: list[dict[str, object]], out: Path) -> list[Path]:

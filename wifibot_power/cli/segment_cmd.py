@@ -61,7 +61,9 @@ def segment_command(
     """Split one log into phases: idle/accel/cruise/decel per step for a motion run, steady
     levels otherwise. Short start-up spikes stay in the phase they start and are listed."""
     check_out_dir(out)  # before any work (cli.md)
-    if path.is_dir():
+    from wifibot_power.io.options import is_bag_folder
+
+    if path.is_dir() and not is_bag_folder(path):  # a ROS 2 bag is a folder, and one log
         raise UsageError(
             f"{path}: is a folder; segment takes one file",
             fix="name one log in it, or give the folder to inspect or fit",

@@ -12,10 +12,36 @@ from pathlib import Path
 
 FORMAT_CANONICAL = "wbpower-csv"
 FORMAT_N6705 = "n6705"
+FORMAT_ROSBAG = "rosbag"
+FORMAT_JLS = "jls"
 #: The compressions read, by file-name suffix, as pyarrow names the codec: the one place
 #: compression is told (the reader, the parse cache and finding logs all ask `codec_of`).
 COMPRESSIONS = {".gz": "gzip", ".zst": "zstd"}
-LOG_SUFFIXES = (".csv", *(f".csv{suffix}" for suffix in COMPRESSIONS))
+#: Logs that are not text (log-format.md, section 3): a ROS 1 bag, a bare MCAP file (a ROS 2
+#: bag folder, with its `metadata.yaml`, is told by `is_bag_folder`), a Joulescope recording.
+BAG_SUFFIXES = (".bag", ".mcap")
+JLS_SUFFIX = ".jls"
+LOG_SUFFIXES = (".csv", *(f".csv{suffix}" for suffix in COMPRESSIONS), *BAG_SUFFIXES, JLS_SUFFIX)
+#: The file that makes a folder a ROS 2 bag (with its .db3 or .mcap files beside it).
+BAG_METADATA = "metadata.yaml"
+
+
+def is_bag_folder(path: Path) -> bool:
+    """A ROS 2 bag: a folder holding `metadata.yaml` (its .db3/.mcap files are not logs of
+    their own)."""
+    return path.is_dir() and (path / BAG_METADATA).is_file()
+
+
+def is_bag(path: Path) -> bool:
+    """A ROS 1 bag, a bare MCAP file or a ROS 2 bag folder."""
+    return path.name.lower().endswith(BAG_SUFFIXES) or is_bag_folder(path)
+
+
+def is_read_whole(path: Path) -> bool:
+    """A log its own library reads whole (a bag, a Joulescope recording), not as text: the
+    parse cache, which hashes a file's bytes, leaves it alone (a bag may be a folder, a
+    recording gigabytes)."""
+    return path.name.lower().endswith(JLS_SUFFIX) or is_bag(path)
 
 
 def codec_of(path: Path) -> str | None:
@@ -46,6 +72,12 @@ class ReadOptions:
     time_unit: str | None = None
     #: negate the current (and so the power): a sensor wired the other way (`--flip-current`)
     flip_current: bool = False
+    #: bags (log-format.md, section 3): the topics power, voltage, current and speed come
+    #: from (default: the one `sensor_msgs/BatteryState` topic, the one `nav_msgs/Odometry`)
+    power_topic: str | None = None
+    voltage_topic: str | None = None
+    current_topic: str | None = None
+    speed_topic: str | None = None
 
     def __post_init__(self) -> None:
         for option, value, unit in (
@@ -71,6 +103,13 @@ class ReadOptions:
                 "--power-column with --current-column/--voltage-column",
                 fix="name either the power columns or the current and voltage columns",
             )
+        if self.power_topic and (self.current_topic or self.voltage_topic):
+            from wifibot_power.errors import UsageError
+
+            raise UsageError(
+                "--power-topic with --current-topic/--voltage-topic",
+                fix="name either the power topic or the current and voltage topics",
+            )
 
 
 def log_stem(path: Path) -> str:
@@ -81,7 +120,7 @@ def log_stem(path: Path) -> str:
     for suffix in LOG_SUFFIXES:
         if name.lower().endswith(suffix):
             return name[: -len(suffix)]
-    return path.stem
+    return name if is_bag_folder(path) else path.stem
 
 
 def is_log_name(path: Path) -> bool:

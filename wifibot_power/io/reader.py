@@ -19,8 +19,9 @@ import numpy as np
 
 from wifibot_power.errors import LogError
 from wifibot_power.io.columns import PowerSource, find_column, time_unit_of, unit_scale
-from wifibot_power.io.formats import LogFormat, Preamble, TimeSource, format_of
+from wifibot_power.io.formats import LogFormat, Preamble, TimeSource, file_format_of, format_of
 from wifibot_power.io.formats.base import SNIFF_LINES
+from wifibot_power.io.formats.files import samples_to_run
 from wifibot_power.io.metadata import build_meta
 from wifibot_power.io.options import TIME_UNITS, ReadOptions, log_stem
 from wifibot_power.io.transport import (
@@ -59,6 +60,10 @@ def read_log(
     """
     options = options or ReadOptions()
     path = Path(path)
+    file_format = file_format_of(path)
+    if file_format is not None:  # a bag or a recording: read whole by its own library
+        samples = file_format.read_samples(path, options)
+        return samples_to_run(path, file_format, samples, options, overrides, origin)
     named = tuple(
         c
         for c in (
