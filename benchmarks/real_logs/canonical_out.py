@@ -7,6 +7,7 @@ on `sys.path` to import it (as `study_f1tenth.py` imports the converter)."""
 from __future__ import annotations
 
 import gzip
+import os
 import subprocess
 from collections.abc import Sequence
 from pathlib import Path
@@ -38,3 +39,14 @@ def write_gzip(target: Path, text: str) -> None:
     churn where the files are kept)."""
     with open(target, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as gz:
         gz.write(text.encode())
+
+
+#: where the converted free-driving logs live (issue 25, step 7): outside the repository
+REAL_DRIVE_VAR = "WBPOWER_REAL_DRIVE"
+DEFAULT_REAL_DRIVE = Path("/work/real_drive")
+
+
+def real_drive_root() -> Path:
+    """The folder of the converted free-driving sets: `$WBPOWER_REAL_DRIVE`, else
+    `DEFAULT_REAL_DRIVE` (docs/real-logs.md, "Free driving")."""
+    return Path(os.environ.get(REAL_DRIVE_VAR) or DEFAULT_REAL_DRIVE)
