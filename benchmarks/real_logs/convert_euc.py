@@ -24,7 +24,8 @@ or a time stamp not after the one before are dropped, their number in the metada
 (`rows_dropped`). The apps log in bursts (rows 20-40 ms apart, then up to seconds of
 nothing): the stamps are kept as they are, never evened out.
 
-Metadata: `run_id` (`<source>/<wheel>/<trip>`), `mode: motion`, `vehicle` (the wheel),
+Metadata: `run_id` (`<source>/<wheel>/<trip>`), `mode: motion`, `speed_mps` (the largest
+|speed| of the ride: the reader refuses a motion run without one), `vehicle` (the wheel),
 `mass_kg` (the wheel's net weight from its data sheet, where there is one),
 `payload_kg` (the rider's weight from meta.csv), `app`, the ride's conditions as logged
 (`tyre_pressure_bar`, `temperature_C`, `wind`, `rain`), and the provenance keys. No
@@ -174,6 +175,12 @@ def _net_weight_kg(mirror: Path, commit: str, wheel: str) -> float | None:
     return None
 
 
+def _top(cols: dict[str, np.ndarray]) -> dict[str, str]:
+    """`speed_mps` metadata: the largest |speed| of the ride (the reader refuses a motion run
+    without one; free driving has no commanded speed)."""
+    return {"speed_mps": f"{np.max(np.abs(cols['speed_mps'])):.2f}"}
+
+
 def _provenance(src: Source, paths: str) -> dict[str, str]:
     return {
         "source_repo": f"https://github.com/{src.repo}",
@@ -216,7 +223,8 @@ def convert(name: str, mirror: Path, out: Path) -> tuple[list[Path], list[str]]:
                 git(mirror, "show", f"{src.commit}:{Path(path).parent}/meta.csv").decode()
             )
             mass = _net_weight_kg(mirror, src.commit, wheel)
-            meta = {"run_id": f"{name}/{wheel}/{trip}", "mode": "motion", "vehicle": wheel}
+            meta = {"run_id": f"{name}/{wheel}/{trip}", "mode": "motion", **_top(cols)}
+            meta["vehicle"] = wheel
             if mass is not None:
                 meta["mass_kg"] = f"{mass:g}"
             meta |= {
@@ -241,6 +249,7 @@ def convert(name: str, mirror: Path, out: Path) -> tuple[list[Path], list[str]]:
             meta = {
                 "run_id": f"{name}/{stem}",
                 "mode": "motion",
+                **_top(cols),
                 "vehicle": "storvild_wheel",
                 "app": "wheel_log",
                 "rows_dropped": f"{dropped}",
