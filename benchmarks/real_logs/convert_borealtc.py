@@ -175,8 +175,11 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("mirror", type=Path, help="git directory of the fetched repository")
     parser.add_argument(
-        "--out", type=Path, default=None, help="folder for the .csv.gz files (default: "
-        "$WBPOWER_REAL_DRIVE/borealtc, else /work/real_drive/borealtc)"
+        "--out",
+        type=Path,
+        default=None,
+        help="folder for the .csv.gz files (default: "
+        "$WBPOWER_REAL_DRIVE/borealtc, else /work/real_drive/borealtc)",
     )
     args = parser.parse_args(argv)
     out = args.out or real_drive_root() / SET_NAME

@@ -121,7 +121,9 @@ def parse_ride(text: str, source: str) -> tuple[dict[str, np.ndarray], int]:
         return [r[k] if len(r) > k else "" for r in body]
 
     if "datetime" in header:  # EUC World: ISO 8601 with the offset
-        stamps = [datetime.fromisoformat(s).timestamp() if s else np.nan for s in column("datetime")]
+        stamps = [
+            datetime.fromisoformat(s).timestamp() if s else np.nan for s in column("datetime")
+        ]
     elif "date" in header and "time" in header:  # WheelLog: local date and time
         stamps = [
             datetime.fromisoformat(f"{d}T{t}").timestamp() if d and t else np.nan
@@ -206,9 +208,7 @@ def convert(name: str, mirror: Path, out: Path) -> tuple[list[Path], list[str]]:
     """Convert every ride of source `name`; returns (written, paths the mirror lacks)."""
     src = SOURCES[name]
     listing = git(mirror, "ls-tree", "-r", "--name-only", src.commit, src.folder).decode()
-    logs = sorted(
-        p for p in listing.split() if p.endswith(".csv") and Path(p).name != "meta.csv"
-    )
+    logs = sorted(p for p in listing.split() if p.endswith(".csv") and Path(p).name != "meta.csv")
     written, lacking = [], []
     for path in logs:
         try:
@@ -276,7 +276,9 @@ def main(argv: list[str] | None = None) -> int:
     out = args.out or real_drive_root() / args.source
     written, lacking = convert(args.source, args.mirror, out)
     for path in lacking:
-        print(f"{path}: not in the mirror (over the snapshot's size limit), skipped", file=sys.stderr)
+        print(
+            f"{path}: not in the mirror (over the snapshot's size limit), skipped", file=sys.stderr
+        )
     print(f"{len(written)} log(s) written to {out}", file=sys.stderr)
     return 0
 
