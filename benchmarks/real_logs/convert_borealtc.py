@@ -26,9 +26,11 @@ Each file becomes one `.csv.gz`, every row kept: `time_s`, the two channels,
 `speed_mps` = (velL + velR) / 2, `speed_left_mps`, `speed_right_mps` (log-format.md
 "Turning": with `track_m` the yaw rate is their difference over the track), and for
 MIXED a per-sample `surface` column (lower case; empty where unlabelled). Metadata:
-`run_id` (`borealtc/<surface>/pro_NN`), `mode: motion`, `speed_mps` = the largest
+`run_id` (`borealtc/<surface>/pro_NN`), `mode: motion` and `speed_mps` = the largest
 |speed_mps| of the log (free driving has no commanded speed, but the reader refuses a
-motion run without one: docs/real-logs.md), `surface` (lower case folder name;
+motion run without one: docs/real-logs.md); neither for the 20 runs that only spin in
+place (their linear speed is 0 throughout, and `speed_mps: 0` in a motion run is metadata
+that contradicts itself, log-format.md "Bad input"), `surface` (lower case folder name;
 not for MIXED), `track_m` = 0.5708 (husky_description's `track`), `mass_kg` = 50 (the
 A200's own mass, Clearpath's data sheet; the sensors it carried are not stated),
 `voltage_assumed_V` = 24, and the provenance keys (`source_repo`, `source_commit`,
@@ -145,12 +147,10 @@ def convert(mirror: Path, out: Path) -> list[Path]:
         surface_dir, stem = Path(path).parent.name, Path(path).stem
         cols = parse(git(mirror, "show", f"{COMMIT}:{path}").decode(), f"{REPO}:{path}")
         top = np.max(np.abs(cols["velL"] + cols["velR"]) / 2)
-        meta = {
-            "run_id": f"{SET_NAME}/{surface_dir.lower()}/{stem}",
-            "mode": "motion",
+        meta = {"run_id": f"{SET_NAME}/{surface_dir.lower()}/{stem}"}
+        if top >= 0.005:  # a run that only spins has no speed to give (see the docstring)
             # today's reader refuses `mode: motion` without a speed (docs/real-logs.md)
-            "speed_mps": f"{top:.2f}",
-        }
+            meta |= {"mode": "motion", "speed_mps": f"{top:.2f}"}
         if "terrain" not in cols:
             meta["surface"] = surface_dir.lower()
         meta |= {
