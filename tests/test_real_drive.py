@@ -170,3 +170,42 @@ def test_every_log_carries_its_provenance() -> None:
         for key in ("source_repo", "source_commit", "source_path", "source_licence", "robot"):
             assert meta.get(key), (f, key)
         assert len(meta["source_commit"]) == 40, f
+
+
+#: Husky logs that spin in place between and after their straight stretches (measured:
+#: asphalt/pro_05 spins at 0.46 rad/s and 372 W for its last 30 s; ice/pro_11 at 0.5-0.7
+#: rad/s and 140-190 W for 1-9 s)
+SPINNING = ("borealtc/asphalt/pro_05.csv.gz", "borealtc/ice/pro_11.csv.gz")
+#: a phase whose mean |yaw rate| exceeds this [rad/s] turns (the validation's stop rule is
+#: 0.05 rad/s; 0.2 rad/s is four times that and far below these logs' 0.46-0.7 rad/s)
+TURNING_RADPS = 0.2
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="issue 26, 'A standstill at motion power' (issue 25: 'a spinning robot is never "
+    "idle'): the Husky spinning in place at 0.46 rad/s and 372 W is labelled idle, no doubt",
+)
+@pytest.mark.parametrize("name", SPINNING)
+def test_a_spinning_husky_is_never_idle(name: str, wbpower) -> None:
+    log = DRIVE / name
+    if not log.is_file():
+        pytest.skip(UNAVAILABLE)
+    meta = _meta(log)
+    with gzip.open(log, "rt") as fh:
+        rows = list(csv.DictReader(line for line in fh if not line.startswith("#")))
+    t = np.array([float(r["time_s"]) for r in rows])
+    yaw = np.array(
+        [(float(r["speed_right_mps"]) - float(r["speed_left_mps"])) for r in rows]
+    ) / float(meta["track_m"])
+    result = wbpower("segment", "--json", log)
+    assert result.exit_code == 0, result.stderr
+    (run,) = json.loads(result.stdout)
+    spinning_idles = [
+        ph
+        for ph in run["phases"]
+        if ph["phase"] == "idle"
+        and np.mean(np.abs(yaw[(t >= ph["t_start_s"] - 1e-9) & (t < ph["t_end_s"] - 1e-9)]))
+        > TURNING_RADPS
+    ]
+    assert not spinning_idles, spinning_idles
