@@ -18,10 +18,12 @@ The second kind of vehicle of docs/real-logs.md ("Free driving"): electric unicy
 Each ride becomes one `.csv.gz`: `time_s` from its first row (to the ms), `voltage_V`,
 `current_A` as logged (wbpower's power is their product; the app's own `power` column
 equals it to the app's rounding and is not copied), `speed_mps` = speed / 3.6 (the wheel's
-own speed: its motor's, not GPS), and, not read by wbpower, `gps_speed_mps` where the app
-logged one. Rows with an empty voltage, current or speed (an app's last, half-written row)
-or a time stamp not after the one before are dropped, their number in the metadata
-(`rows_dropped`). The apps log in bursts (rows 20-40 ms apart, then up to seconds of
+own speed: its motor's, not GPS), and, not read by wbpower, `gps_speed_mps` and
+`gps_altitude_m` (the phone's GPS; EUC World only, empty where it had no fix): a ride's
+climbs and descents are a large share of its energy (m g dh), which neither the speed nor
+the power column shows. Rows with an empty voltage, current or speed (an app's last,
+half-written row) or a time stamp not after the one before are dropped, their number in
+the metadata (`rows_dropped`). The apps log in bursts (rows 20-40 ms apart, then up to seconds of
 nothing): the stamps are kept as they are, never evened out.
 
 Metadata: `run_id` (`<source>/<wheel>/<trip>`), `mode: motion`, `speed_mps` (the largest
@@ -98,6 +100,7 @@ COLUMNS = (
     ("current_A", "%.2f"),
     ("speed_mps", "%.4f"),
     ("gps_speed_mps", "%.4f"),
+    ("gps_altitude_m", "%.1f"),
 )
 
 
@@ -135,10 +138,9 @@ def parse_ride(text: str, source: str) -> tuple[dict[str, np.ndarray], int]:
     v = np.array([_number(x) for x in column("voltage")])
     i = np.array([_number(x) for x in column("current")])
     kmh = np.array([_number(x) for x in column("speed")])
-    gps = (
-        np.array([_number(x) for x in column("gps_speed")])
-        if "gps_speed" in header
-        else np.full(t.size, np.nan)
+    gps, alt = (
+        np.array([_number(x) for x in column(name)]) if name in header else np.full(t.size, np.nan)
+        for name in ("gps_speed", "gps_alt")
     )
     keep = np.isfinite(t) & np.isfinite(v) & np.isfinite(i) & np.isfinite(kmh)
     # a stamp not after the last kept one: drop (vectorised: the running maximum before it)
@@ -152,6 +154,7 @@ def parse_ride(text: str, source: str) -> tuple[dict[str, np.ndarray], int]:
         "current_A": i[keep],
         "speed_mps": kmh[keep] / KMH_PER_MPS + 0.0,
         "gps_speed_mps": gps[keep] / KMH_PER_MPS + 0.0,
+        "gps_altitude_m": alt[keep],
     }
     if np.any(np.diff(cols["time_s"]) <= 0):
         raise SystemExit(f"{source}: time stamps not increasing after rounding to the ms")
@@ -195,11 +198,12 @@ def _provenance(src: Source, paths: str) -> dict[str, str]:
 def write(cols: dict[str, np.ndarray], meta: dict[str, str], target: Path) -> Path:
     table = np.column_stack([cols[name] for name, _ in COLUMNS])
     names, formats = [n for n, _ in COLUMNS], [f for _, f in COLUMNS]
-    if np.all(np.isnan(cols["gps_speed_mps"])):  # no GPS column in this app's log
-        table, names, formats = table[:, :-1], names[:-1], formats[:-1]
+    if np.all(np.isnan(cols["gps_speed_mps"])):  # no GPS columns in this app's log
+        table, names, formats = table[:, :-2], names[:-2], formats[:-2]
     target.parent.mkdir(parents=True, exist_ok=True)
-    # gps_speed_mps, the last column, is empty where the app had no fix
-    text = canonical_text(meta, names, formats, table).replace(",nan\n", ",\n")
+    # the GPS columns, the last two, are empty where the app had no fix
+    text = canonical_text(meta, names, formats, table)
+    text = text.replace(",nan,", ",,").replace(",nan\n", ",\n").replace(",nan,", ",,")
     write_gzip(target, text)
     return target
 
