@@ -96,12 +96,23 @@ def raw_samples(converted: Path) -> tuple[np.ndarray, np.ndarray]:
     return np.array(times) - times[0], np.array(watts)
 
 
-def raw_energy_J(converted: Path) -> float:
-    """sum P_i (t_(i+1) - t_i) + P_last x (the median step): the last sample held one period,
-    as a reader that counts samples x period does for an even log."""
-    t, p = raw_samples(converted)
+#: a step between stamps longer than this [s] is time the log does not cover (an app
+#: paused for minutes), not power held: the phone apps write at least every 4 s otherwise
+MISSING_S = 5.0
+
+
+def stamps_energy_J(t: np.ndarray, p: np.ndarray) -> float:
+    """sum P_i (t_(i+1) - t_i) over the steps up to MISSING_S, + P_last x (the median step):
+    each sample held until the next stamp, the last one for one period (as a reader that
+    counts samples x period does for an even log)."""
     step = np.diff(t)
-    return float(np.sum(p[:-1] * step) + p[-1] * np.median(step))
+    covered = step <= MISSING_S
+    return float(np.sum(p[:-1][covered] * step[covered]) + p[-1] * np.median(step))
+
+
+def raw_energy_J(converted: Path) -> float:
+    """The energy of the raw source file over the time it covers (`stamps_energy_J`)."""
+    return stamps_energy_J(*raw_samples(converted))
 
 
 def _raw_max_W(converted: Path) -> float | None:
@@ -157,9 +168,7 @@ def test_the_converted_log_holds_the_raw_files_energy(log: Path) -> None:
         np.array([float(r[f"voltage{k}_V"]) * float(r[f"current{k}_A"]) for r in rows])
         for k in pairs
     )
-    step = np.diff(t)
-    mine = float(np.sum(p[:-1] * step) + p[-1] * np.median(step))
-    assert mine == pytest.approx(raw_energy_J(log), rel=1e-3)
+    assert stamps_energy_J(t, p) == pytest.approx(raw_energy_J(log), rel=1e-3)
 
 
 def test_every_log_carries_its_provenance() -> None:
@@ -210,3 +219,68 @@ def test_a_spinning_husky_is_never_idle(name: str, wbpower) -> None:
         > TURNING_RADPS
     ]
     assert not spinning_idles, spinning_idles
+
+
+#: the phone-app logs' current is scaled by this to stay under the 1 kW ceiling, so that
+#: their time stamps are met on their own
+UNDER_CEILING = 0.1
+
+
+def _app_cases() -> list:
+    """The phone apps' logs, each a strict xfail where its raw stamps are uneven in the way
+    issue 26 ("Bursty loggers refused") describes: a step longer than 3 short steps (the
+    25th percentile: rows in pairs 20-40 ms apart put the median between the pair's step
+    and the pause) and 0.05 s, which today's reader counts as dropped samples."""
+    cases = []
+    for f in FILES:
+        if "voltage_V" not in _header(f) or _git_dir(_meta(f)["source_repo"]) is None:
+            continue
+        t, p = raw_samples(f)
+        step = np.diff(t)
+        short = float(np.percentile(step, 25))
+        long = step > max(3 * short, 0.05)
+        points = []
+        if long.any():
+            points.append(
+                f"issue 26, 'Bursty loggers refused': steps {short * 1000:.0f} ms (25th pct.), "
+                f"median {np.median(step) * 1000:.0f} ms, mean {np.mean(step) * 1000:.0f} ms, "
+                f"{np.count_nonzero(long)} over 3 short steps, longest {step.max():.1f} s"
+            )
+        over = UNDER_CEILING * p.max() > CEILING_W
+        if over:
+            points.append(f"{CEILING} ({p.max() / 1000:.1f} kW: over it even scaled by 0.1)")
+        reason = "; ".join(points)
+        marks = [pytest.mark.xfail(strict=True, raises=AssertionError, reason=reason)]
+        cases.append(
+            pytest.param(f, marks=marks if long.any() or over else [], id=str(f.relative_to(DRIVE)))
+        )
+    return cases or [pytest.param(None, marks=pytest.mark.skip(reason=UNAVAILABLE))]
+
+
+def _header(path: Path) -> list[str]:
+    with gzip.open(path, "rt") as fh:
+        return next(line for line in fh if not line.startswith("#")).strip().split(",")
+
+
+@pytest.mark.parametrize("log", _app_cases())
+def test_a_phone_apps_log_under_the_ceiling_is_read_over_its_stamps(
+    log: Path, wbpower, tmp_path: Path
+) -> None:
+    """The app's log with its current scaled by UNDER_CEILING (so the 1 kW ceiling is not
+    what is met): read, its energy that of the raw stamps (scaled) within 1%."""
+    with gzip.open(log, "rt") as fh:
+        lines = fh.readlines()
+    k = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    names = lines[k].strip().split(",")
+    c = names.index("current_A")
+    body = []
+    for line in lines[k + 1 :]:
+        fields = line.rstrip("\n").split(",")
+        fields[c] = f"{float(fields[c]) * UNDER_CEILING:.4f}"
+        body.append(",".join(fields) + "\n")
+    scaled = tmp_path / log.name.replace(".gz", "")
+    scaled.write_text("".join(lines[: k + 1] + body))
+    result = wbpower("inspect", "--json", scaled)
+    assert result.exit_code == 0, result.stderr
+    (entry,) = json.loads(result.stdout)
+    assert entry["energy_J"] == pytest.approx(UNDER_CEILING * raw_energy_J(log), rel=0.01)
