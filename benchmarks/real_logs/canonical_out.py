@@ -6,6 +6,7 @@ on `sys.path` to import it (as `study_f1tenth.py` imports the converter)."""
 
 from __future__ import annotations
 
+import argparse
 import gzip
 import os
 import subprocess
@@ -50,3 +51,14 @@ def real_drive_root() -> Path:
     """The folder of the converted free-driving sets: `$WBPOWER_REAL_DRIVE`, else
     `DEFAULT_REAL_DRIVE` (docs/real-logs.md, "Free driving")."""
     return Path(os.environ.get(REAL_DRIVE_VAR) or DEFAULT_REAL_DRIVE)
+
+
+def add_out_argument(parser: argparse.ArgumentParser, where: str) -> None:
+    """`--out DIR` of a free-driving converter: default `real_drive_root() / where`."""
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help=f"folder for the .csv.gz files (default: ${REAL_DRIVE_VAR}/{where}, "
+        f"else {DEFAULT_REAL_DRIVE}/{where})",
+    )

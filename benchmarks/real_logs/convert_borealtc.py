@@ -55,12 +55,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from canonical_out import (  # noqa: E402  (a module beside this one)
-    canonical_text,
-    git,
-    real_drive_root,
-    write_gzip,
-)
+import canonical_out as co  # noqa: E402  (a module beside this one)
+from canonical_out import canonical_text, git, write_gzip  # noqa: E402
 
 SET_NAME = "borealtc"
 REPO = "norlab-ulaval/BorealTC"
@@ -174,17 +170,11 @@ def convert(mirror: Path, out: Path) -> list[Path]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("mirror", type=Path, help="git directory of the fetched repository")
-    parser.add_argument(
-        "--out",
-        type=Path,
-        default=None,
-        help="folder for the .csv.gz files (default: "
-        "$WBPOWER_REAL_DRIVE/borealtc, else /work/real_drive/borealtc)",
-    )
+    co.add_out_argument(parser, "borealtc")
     args = parser.parse_args(argv)
-    out = args.out or real_drive_root() / SET_NAME
-    written = convert(args.mirror, out)
-    print(f"{len(written)} log(s) written to {out}", file=sys.stderr)
+    folder = args.out or co.real_drive_root() / SET_NAME
+    written = convert(args.mirror, folder)
+    print(f"{len(written)} log(s) written to {folder}", file=sys.stderr)
     return 0
 
 

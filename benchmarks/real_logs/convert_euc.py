@@ -59,12 +59,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from canonical_out import (  # noqa: E402  (a module beside this one)
-    canonical_text,
-    git,
-    real_drive_root,
-    write_gzip,
-)
+import canonical_out as co  # noqa: E402  (a module beside this one)
+from canonical_out import canonical_text, git, write_gzip  # noqa: E402
 
 KMH_PER_MPS = 3.6
 
@@ -269,21 +265,15 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("source", choices=sorted(SOURCES))
     parser.add_argument("mirror", type=Path, help="git directory of the fetched repository")
-    parser.add_argument(
-        "--out",
-        type=Path,
-        default=None,
-        help="folder for the .csv.gz files (default: $WBPOWER_REAL_DRIVE/SOURCE, "
-        "else /work/real_drive/SOURCE)",
-    )
+    co.add_out_argument(parser, "SOURCE")
     args = parser.parse_args(argv)
-    out = args.out or real_drive_root() / args.source
-    written, lacking = convert(args.source, args.mirror, out)
+    folder = args.out or co.real_drive_root() / args.source
+    written, lacking = convert(args.source, args.mirror, folder)
     for path in lacking:
         print(
             f"{path}: not in the mirror (over the snapshot's size limit), skipped", file=sys.stderr
         )
-    print(f"{len(written)} log(s) written to {out}", file=sys.stderr)
+    print(f"{len(written)} log(s) written to {folder}", file=sys.stderr)
     return 0
 
 
