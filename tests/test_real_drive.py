@@ -284,3 +284,45 @@ def test_a_phone_apps_log_under_the_ceiling_is_read_over_its_stamps(
     assert result.exit_code == 0, result.stderr
     (entry,) = json.loads(result.stdout)
     assert entry["energy_J"] == pytest.approx(UNDER_CEILING * raw_energy_J(log), rel=0.01)
+
+
+# --- the validation script's own parts, on made-up data (no logs needed) ---------------
+
+validate = load_script("validate_drive_real", ROOT / "benchmarks" / "validate_drive_real.py")
+
+
+def _trip(t: np.ndarray, v: np.ndarray, coef: tuple[float, ...], group: str = "g"):
+    """A Trip whose power is exactly the baseline's terms with `coef`."""
+    a = (np.interp(t + 0.5, t, v) - np.interp(t - 0.5, t, v)) / 1.0
+    p = coef[0] + coef[1] * np.abs(v) + coef[2] * v * v + coef[3] * np.maximum(a * v, 0)
+    return validate.Trip(f"{group}#{t[0]:.0f}", group, t, p, v, None)
+
+
+def test_the_baseline_predicts_a_held_out_trip_whose_power_is_its_terms() -> None:
+    rng = np.random.default_rng(3)
+    coef = (28.0, 120.0, 40.0, 55.0)  # W, W/(m/s), W/(m/s)^2, kg-like W/(m^2/s^3)
+    trips = []
+    for k in range(8):
+        t = np.arange(0, 60, 0.2)
+        v = np.clip(np.cumsum(rng.normal(0, 0.05, t.size)) + 0.5 + 0.1 * k, 0, None)
+        trips.append(_trip(t, v, coef))
+    pred = validate.heldout_ls(trips, with_yaw=False)
+    measured = np.array([tr.energy_J for tr in trips])
+    assert np.max(np.abs(pred - measured) / measured) < 1e-6
+    # and a trip of another robot (twice the rolling power) is missed by the same fit
+    other = _trip(trips[0].time_s, trips[0].speed_mps, (28.0, 240.0, 40.0, 55.0))
+    coef_fit = validate.fit_ls(trips, with_yaw=False)
+    assert validate.predict_ls(coef_fit, other, False) < 0.9 * other.energy_J
+
+
+def test_trips_are_cut_at_long_stops_and_at_gaps_not_at_short_stops() -> None:
+    t = np.concatenate([np.arange(0, 100, 0.5), np.arange(110, 140, 0.5)])  # a 10 s gap
+    v = np.full(t.size, 1.0)
+    v[(t >= 20) & (t < 21)] = 0.0  # a 1 s stop: not a cut
+    v[(t >= 50) & (t < 55)] = 0.0  # a 5 s stop: a cut
+    stretches = validate.moving_stretches(t, v, None)
+    spans = [(t[a], t[b - 1]) for a, b in stretches]
+    assert spans == [(0.0, 49.5), (55.0, 99.5), (110.0, 139.5)]
+    # a robot spinning in place (yaw rate) during the 5 s "stop" is not stopped
+    yaw = np.where((t >= 50) & (t < 55), 0.5, 0.0)
+    assert len(validate.moving_stretches(t, v, yaw)) == 2
