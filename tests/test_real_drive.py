@@ -22,6 +22,7 @@ import json
 import os
 import subprocess
 from datetime import datetime
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -71,6 +72,7 @@ def _raw_text(meta: dict[str, str], path: str) -> str:
     ).stdout.decode()
 
 
+@cache  # each raw file is read once per session (collection and tests)
 def raw_samples(converted: Path) -> tuple[np.ndarray, np.ndarray]:
     """(time [s], power [W]) of the log's raw source file, read here from scratch."""
     meta = _meta(converted)
