@@ -386,7 +386,8 @@ def report() -> str:
     out.append(
         f"Trips: cut at stops (|speed| < {STOP_SPEED_MPS} m/s and |yaw| < {STOP_YAW_RADPS} "
         f"rad/s) of >= {STOP_S:g} s, kept when >= {MIN_TRIP_S:g} s; "
-        f"K = {FOLDS}-fold by trip (seed {SEED}); errors of held-out trip energies [%].\n"
+        f"K = {FOLDS}-fold by trip (seed {SEED}); errors of held-out trip energies [%]. In "
+        f"`all`, the per-group columns cover the groups of >= {MIN_TRIPS} trips.\n"
     )
     for name, files in found.items():
         trips, seen, copies = [], set(), 0

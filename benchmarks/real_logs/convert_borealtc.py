@@ -58,24 +58,35 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import canonical_out as co  # noqa: E402  (a module beside this one)
 from canonical_out import canonical_text, git, write_gzip  # noqa: E402
 
-SET_NAME = "borealtc"
 REPO = "norlab-ulaval/BorealTC"
 #: the newest commit of the default branch when fetched (2025-01-01); the data files were
 #: last changed in 2e64df4 (2024-03-22, "Move all datasets in a common dir")
 COMMIT = "fe64e386694528899db299e78a859dcab82f6b01"
-FOLDER = "data/borealtc"
-LICENCE = (
-    "CC0 1.0 (data/borealtc/README.md, 'This dataset is licensed under a CC0 1.0 Universal "
-    "license'); the repository's code is MIT (LICENSE, Copyright (c) 2024 the BorealTC authors)"
-)
-ROBOT = "Clearpath Husky A200, skid-steer, 4 wheels (BorealTC, LaRocque et al. 2024)"
+#: each set: its folder in the repository, its licence, its robot
+SETS = {
+    "borealtc": (
+        "data/borealtc",
+        "CC0 1.0 (data/borealtc/README.md, 'This dataset is licensed under a CC0 1.0 Universal "
+        "license'); the repository's code is MIT (LICENSE, Copyright (c) 2024 the BorealTC "
+        "authors)",
+        "Clearpath Husky A200, skid-steer, 4 wheels (BorealTC, LaRocque et al. 2024)",
+    ),
+    "vulpi": (
+        "data/vulpi",
+        "no licence stated for the data: converted to CSV by BorealTC (whose code is MIT and "
+        "whose CC0 covers its own data) from Ph0bi0/T_DEEP's .mat files (README.md)",
+        "skid-steer UGV of Vulpi et al. 2021 (Politecnico di Bari), taken to be a Clearpath "
+        "Husky as BorealTC's code does (HuskyConstants, Reina 2016; its standstill current, "
+        "0.6 A a motor, is the A200's)",
+    ),
+}
 #: the Husky A200's battery voltage [V] (24 V sealed lead-acid, Clearpath): not in the logs
 NOMINAL_V = 24.0
 #: husky_description's `track` [m]: the left and right wheels' contact lines
 TRACK_M = 0.5708
 #: Clearpath's data sheet mass of the A200 [kg]
 MASS_KG = 50.0
-HEADER = ("time", "curL", "curR", "velL", "velR")
+HEADER = ("time", "curL", "curR", "velL", "velR")  # by name: vulpi orders them otherwise
 
 COLUMNS = (
     ("time_s", "%.6f"),
@@ -93,10 +104,13 @@ def parse(text: str, source: str) -> dict[str, np.ndarray]:
     """The columns of one `pro_NN.csv` (and `terrain` as strings where the file has it)."""
     header, _, body = text.partition("\n")
     fields = header.strip().split(",")
-    if tuple(fields[:5]) != HEADER:
-        raise SystemExit(f"{source}: header {fields}, expected {list(HEADER)} first")
+    missing = [n for n in HEADER if n not in fields]
+    if missing:
+        raise SystemExit(f"{source}: no column {', '.join(missing)} in the header {fields}")
+    at = [fields.index(n) for n in HEADER]
     rows = [line.split(",") for line in body.splitlines() if line.strip()]
-    numbers = np.loadtxt(io.StringIO("\n".join(",".join(r[:5]) for r in rows)), delimiter=",")
+    text = "\n".join(",".join(r[k] for k in at) for r in rows)
+    numbers = np.loadtxt(io.StringIO(text), delimiter=",", ndmin=2)
     cols = {name: numbers[:, k] for k, name in enumerate(HEADER)}
     if "terrain" in fields:
         k = fields.index("terrain")
@@ -131,19 +145,20 @@ def to_canonical(cols: dict[str, np.ndarray], meta: dict[str, str]) -> str:
     return canonical_text(meta, names, formats, table)
 
 
-def experiments(mirror: Path) -> list[str]:
-    """Paths of every `pro_NN.csv` of BorealTC at COMMIT, sorted."""
-    listing = git(mirror, "ls-tree", "-r", "--name-only", COMMIT, FOLDER).decode().split()
+def experiments(mirror: Path, folder: str) -> list[str]:
+    """Paths of every `pro_NN.csv` under `folder` at COMMIT, sorted."""
+    listing = git(mirror, "ls-tree", "-r", "--name-only", COMMIT, folder).decode().split()
     return sorted(p for p in listing if Path(p).name.startswith("pro_") and p.endswith(".csv"))
 
 
-def convert(mirror: Path, out: Path) -> list[Path]:
+def convert(mirror: Path, out: Path, set_name: str = "borealtc") -> list[Path]:
+    folder, licence, robot = SETS[set_name]
     written = []
-    for path in experiments(mirror):
+    for path in experiments(mirror, folder):
         surface_dir, stem = Path(path).parent.name, Path(path).stem
         cols = parse(git(mirror, "show", f"{COMMIT}:{path}").decode(), f"{REPO}:{path}")
         top = np.max(np.abs(cols["velL"] + cols["velR"]) / 2)
-        meta = {"run_id": f"{SET_NAME}/{surface_dir.lower()}/{stem}"}
+        meta = {"run_id": f"{set_name}/{surface_dir.lower()}/{stem}"}
         if top >= 0.005:  # a run that only spins has no speed to give (see the docstring)
             # today's reader refuses `mode: motion` without a speed (docs/real-logs.md)
             meta |= {"mode": "motion", "speed_mps": f"{top:.2f}"}
@@ -157,8 +172,8 @@ def convert(mirror: Path, out: Path) -> list[Path]:
             "source_repo": f"https://github.com/{REPO}",
             "source_commit": COMMIT,
             "source_path": path,
-            "source_licence": LICENCE,
-            "robot": ROBOT,
+            "source_licence": licence,
+            "robot": robot,
         }
         target = out / surface_dir.lower() / f"{stem}.csv.gz"
         target.parent.mkdir(parents=True, exist_ok=True)
@@ -170,10 +185,11 @@ def convert(mirror: Path, out: Path) -> list[Path]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("mirror", type=Path, help="git directory of the fetched repository")
-    co.add_out_argument(parser, "borealtc")
+    parser.add_argument("--set", choices=sorted(SETS), default="borealtc", dest="set_name")
+    co.add_out_argument(parser, "SET")
     args = parser.parse_args(argv)
-    folder = args.out or co.real_drive_root() / SET_NAME
-    written = convert(args.mirror, folder)
+    folder = args.out or co.real_drive_root() / args.set_name
+    written = convert(args.mirror, folder, args.set_name)
     print(f"{len(written)} log(s) written to {folder}", file=sys.stderr)
     return 0
 
