@@ -404,7 +404,7 @@ def report() -> str:
         pooled_yaw = heldout_ls(trips, True) if has_yaw and len(trips) >= MIN_TRIPS else None
         hours = sum(tr.time_s[-1] - tr.time_s[0] for tr in trips) / 3600
         out.append(
-            f"### {name}\n\n{len(files)} logs, {len(trips)} trips, {hours:.2f} h of trips, "
+            f"#### {name}\n\n{len(files)} logs, {len(trips)} trips, {hours:.2f} h of trips, "
             f"{measured_all.sum() / 3.6e6:.3f} kWh"
             + (f"; {copies} trip(s) repeated in another log dropped" if copies else "")
             + ".\n"
