@@ -38,8 +38,9 @@ with numpy (not with wbpower's reader, which refuses some of them today: docs), 
 - **Folds**: K = min(5, trips) folds of a group's trips, dealt by a seeded permutation
   (seed 0): the same folds for every model.
 
-Columns: trips (`n`), of which `E<=0` have a net energy <= 0 (downhill on regeneration:
-left out of the percentages, still in the fits), MAPE and median of |predicted - measured|
+Columns: trips (`n`), of which `E<=0` have a net energy <= 0 (unicycles walked or pushed
+at ~0.5 m/s, reading 0 W or a small negative power: left out of the percentages, still in
+the fits), MAPE and median of |predicted - measured|
 / measured over the held-out trips [%], wAPE = sum |predicted - measured| / sum measured
 [%] (the error on the total energy, weighted as a battery sees it), and the 90% interval
 coverage [%] where the model gives intervals ("-": the baseline gives none). numpy only;
@@ -265,8 +266,8 @@ def heldout_ls(trips: list[Trip], with_yaw: bool) -> np.ndarray:
 
 def scores(measured: np.ndarray, predicted: np.ndarray) -> tuple[float, float, float]:
     """MAPE, median APE and the energy-weighted error sum|P - M| / sum M [%] over the trips
-    whose measured energy is positive (a relative error of a net energy <= 0, a trip downhill
-    on regeneration, means nothing; those trips are counted apart)."""
+    whose measured energy is positive (a relative error of a net energy <= 0 means nothing;
+    those trips are counted apart)."""
     ok = measured > 0
     if not ok.any():
         return (np.nan, np.nan, np.nan)

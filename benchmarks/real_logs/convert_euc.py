@@ -19,9 +19,9 @@ Each ride becomes one `.csv.gz`: `time_s` from its first row (to the ms), `volta
 `current_A` as logged (wbpower's power is their product; the app's own `power` column
 equals it to the app's rounding and is not copied), `speed_mps` = speed / 3.6 (the wheel's
 own speed: its motor's, not GPS), and, not read by wbpower, `gps_speed_mps` and
-`gps_altitude_m` (the phone's GPS; EUC World only, empty where it had no fix): a ride's
-climbs and descents are a large share of its energy (m g dh), which neither the speed nor
-the power column shows. Rows with an empty voltage, current or speed (an app's last,
+`gps_altitude_m` (the phone's GPS; EUC World only, empty where it had no fix): climbs and
+descents (m g dh) are a share of a ride's energy that neither the speed nor the power
+column shows (docs/real-logs.md). Rows with an empty voltage, current or speed (an app's last,
 half-written row) or a time stamp not after the one before are dropped, their number in
 the metadata (`rows_dropped`). The apps log in bursts (rows 20-40 ms apart, then up to seconds of
 nothing): the stamps are kept as they are, never evened out.
