@@ -320,3 +320,36 @@ def test_trips_are_cut_at_long_stops_and_at_gaps_not_at_short_stops() -> None:
     # a robot spinning in place (yaw rate) during the 5 s "stop" is not stopped
     yaw = np.where((t >= 50) & (t < 55), 0.5, 0.0)
     assert len(validate.moving_stretches(t, v, yaw)) == 2
+
+
+def test_the_converters_write_the_logs_found_byte_for_byte(tmp_path: Path) -> None:
+    """The converted logs in WBPOWER_REAL_DRIVE are what the committed converters write from
+    the fetched mirrors (gzip without a time stamp: the same input, the same bytes)."""
+    bt = load_script("convert_borealtc", ROOT / "benchmarks" / "real_logs" / "convert_borealtc.py")
+    euc = load_script("convert_euc", ROOT / "benchmarks" / "real_logs" / "convert_euc.py")
+    jobs = {
+        "borealtc": (f"https://github.com/{bt.REPO}", lambda m, o: bt.convert(m, o, "borealtc")),
+        "vulpi": (f"https://github.com/{bt.REPO}", lambda m, o: bt.convert(m, o, "vulpi")),
+        **{
+            name: (
+                f"https://github.com/{src.repo}",
+                lambda m, o, name=name: euc.convert(name, m, o)[0],
+            )
+            for name, src in euc.SOURCES.items()
+        },
+    }
+    compared = 0
+    for name, (repo, convert) in jobs.items():
+        found = DRIVE / name
+        mirror = _git_dir(repo)
+        if not found.is_dir() or mirror is None:
+            continue
+        written = convert(mirror, tmp_path / name)
+        assert sorted(p.relative_to(tmp_path / name) for p in written) == sorted(
+            p.relative_to(found) for p in found.rglob("*.csv.gz")
+        ), name
+        for p in written:
+            assert p.read_bytes() == (found / p.relative_to(tmp_path / name)).read_bytes(), p
+        compared += 1
+    if not compared:
+        pytest.skip(f"{UNAVAILABLE}; or no fetched mirror under {MIRRORS}")
