@@ -97,10 +97,34 @@ ERRORS: list[tuple[str, str | bytes, tuple[str, ...]]] = [
         log("0.0000000,-23.3\n0.0001024,-5.0\n0.0002048,1.0\n"),
         ("negative most of the time", "--flip-current"),
     ),
+    # absurd power is judged against the log's own robot, never a fixed ceiling (log-format.md)
     (
-        "absurd_power",
-        log("0.0000000,23.3\n0.0001024,2000\n"),
-        ("line 6", "absurd power", "mA vs A"),
+        "over_max_power",
+        HEAD + "# max_power_W: 500\ntime_s,power_W\n0.0000000,23.3\n0.0001024,2000\n",
+        ("line 7", "over the robot's max_power_W 500 W", "metadata line 4", "raise max_power_W"),
+    ),
+    (
+        "power_mW_in_a_column_named_W",
+        log(
+            "0.0000000,12.0,2.0,24000\n0.0001024,12.0,2.1,25200\n",
+            "time_s,voltage_V,current_A,power_W",
+        ),
+        ("column 'power_W'", "1e+03 times the voltage x current", "mW in a column named W"),
+    ),
+    (
+        "current_mA_in_a_column_named_A",
+        log("0.0000000,12.0,1800\n0.0001024,12.0,1900\n", "time_s,voltage_V,current_A"),
+        ("column 'current_A'", "median 1850 A", "mA in a column named A"),
+    ),
+    (
+        "voltage_mV_in_a_column_named_V",
+        log("0.0000000,12000,1.8\n0.0001024,12000,1.9\n", "time_s,voltage_V,current_A"),
+        ("column 'voltage_V'", "not volts", "mV in a column named V"),
+    ),
+    (
+        "power_mW_beside_its_voltage",
+        log("0.0000000,12.0,24000\n0.0001024,12.0,25000\n", "time_s,voltage_V,power_W"),
+        ("column 'power_W'", "A at the 12 V logged beside it", "mW in a column named W"),
     ),
     (
         "decimal_comma_with_comma_separator",

@@ -9,14 +9,30 @@ docs/log-format.md ("What wbpower checks").
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
 from wifibot_power.errors import LogError
+from wifibot_power.io.options import MAX_SUPPLY_VOLTAGE_V, SAMPLE_PERIOD_RANGE_S
 from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem
 
-#: Above this the robot cannot be drawing power: a unit or column mistake.
-ABSURD_POWER_W = 1000.0
+#: A median current above this is not in amperes (mA read as A) [A]: a battery vehicle's
+#: continuous draw stays in the hundreds (a 3 kW unicycle at 84 V: 36 A; a car's starter
+#: motor peaks at 200-400 A). Judged on the median, so a 1-3 kW vehicle's peaks never count.
+MAX_MEDIAN_CURRENT_A = 500.0
+#: A power column whose median stands further than this factor from the median of the voltage
+#: x current logged beside it is in another unit: a slip of 1000 (mW read as W) is nearer, on
+#: a log scale, to 1000 than to 1 beyond sqrt(1000) ~ 32; real losses between two measuring
+#: points (a battery and a motor) stay within a few times.
+UNIT_MISTAKE_FACTOR = 30.0
+#: A power-only log (no voltage, current or `max_power_W` to judge it by) whose peak is above
+#: this is read, with a warning that it could not be judged (a column in mW would read 1000x
+#: too high) [W]: the size of the small robots wbpower was built for, not a ceiling.
+UNJUDGED_POWER_W = 1000.0
+#: Medians for these judgements are taken on at most about this many samples (a strided
+#: subsample): a unit mistake holds through a whole column.
+_MEDIAN_SAMPLES = 4096
 #: A mostly negative channel whose mean power is under this share of another channel's mean
 #: absolute power reads almost nothing: a dead sensor with an offset, not a reversed one.
 DEAD_CHANNEL_SHARE = 0.05
@@ -76,28 +92,37 @@ def check_samples(
     default_period_s: float = PAPER_SAMPLE_PERIOD_S,
     measured: dict[str, np.ndarray] | None = None,
     voltages: frozenset[str] = frozenset(),
+    scale: PowerScale | None = None,
 ) -> tuple[float, list[Problem]]:
     """Validate samples; return the sample period [s] and the problems that did not stop reading.
 
     `line_of(i)` is the file line of sample i (for messages); `measured` holds the columns the
     power was computed from (clipping shows in a current column, not always in the product),
-    `voltages` the names of those that are voltages (`SATURATION_ABOVE_MEDIAN`).
+    `voltages` the names of those that are voltages (`SATURATION_ABOVE_MEDIAN`); `scale` what
+    the log says of its robot, to judge absurd power by (`check_power_scale`).
     """
     if line_of is None:
         line_of = lambda index: first_data_line + index  # noqa: E731
     low_W, high_W = _check_power(file, power_W, line_of)
+    scale = scale or PowerScale(voltages=voltages)
+    unjudged = check_power_scale(
+        file, power_W, high_W, measured or {"power": power_W}, scale, line_of
+    )
     if time_s is None:
         period_s = default_period_s
         problems: list[Problem] = []
     else:
         period_s, problems = _check_time(file, time_s, line_of, default_period_s)
+        _check_period(file, period_s)
     negative = _negative_samples(power_W, time_s, period_s, low_W)
     if negative is not None:
         problems.insert(0, negative)
+    if unjudged is not None:
+        problems.insert(0, unjudged)
     for name, values in (measured or {"power": power_W}).items():
         # the power's maximum is known already: one pass over the samples fewer
         peak = high_W if values is power_W else None
-        _check_saturation(file, name, values, time_s, period_s, line_of, peak, name in voltages)
+        _check_saturation(file, name, values, time_s, period_s, line_of, peak, name in scale.voltages)
     return period_s, problems
 
 
@@ -208,6 +233,19 @@ def _check_time(
     return period_s, uneven + problems
 
 
+def _check_period(file: str, period_s: float) -> None:
+    """A sample period from the time stamps outside the plausible range: the time column is
+    in another unit than read (`time_us` holding seconds, `--time-unit` wrong)."""
+    low_s, high_s = SAMPLE_PERIOD_RANGE_S
+    if not low_s <= period_s <= high_s:
+        raise LogError(
+            f"the time stamps give a sample period of {period_s:.4g} s, outside the plausible "
+            f"{low_s:g}-{high_s:g} s",
+            file=file,
+            fix="the time column is in another unit than read: check its name and --time-unit",
+        )
+
+
 def _time_error(
     file: str, time_s: np.ndarray, step_s: np.ndarray, line_of: Callable[[int], int]
 ) -> None:
@@ -279,15 +317,115 @@ def _check_power(
             "the current sign looks reversed: give --flip-current (or drop it if given), or "
             "check the columns used",
         )
-    if high_W > ABSURD_POWER_W:
-        index = int(np.argmax(power_W > ABSURD_POWER_W))
-        raise LogError(
-            f"absurd power ({power_W[index]:.4g} W, over {ABSURD_POWER_W:g} W)",
-            file=file,
-            where=f"line {line_of(index)}",
-            fix="check the units (mA vs A, mW vs W) and the columns used",
-        )
     return low_W, high_W
+
+
+@dataclass(frozen=True)
+class PowerScale:
+    """What a log says of its robot, to judge its power by (log-format.md, "Bad input": never a
+    fixed ceiling). `max_power_W` and where it was set (`--max-power`, "metadata line 3");
+    the names of the measured columns that are voltages and currents; and, from the head of
+    the file, a power column's median beside the median voltage x current (or voltage alone)
+    logged next to it (`head`: power column name, median power [W], median V x I [W] or None,
+    median V [V] or None)."""
+
+    max_power_W: float | None = None
+    max_power_where: str = ""
+    voltages: frozenset[str] = frozenset()
+    currents: frozenset[str] = frozenset()
+    head: tuple[str, float, float | None, float | None] | None = None
+
+
+def check_power_scale(
+    file: str,
+    power_W: np.ndarray,
+    high_W: float | None,
+    measured: dict[str, np.ndarray],
+    scale: PowerScale,
+    line_of: Callable[[int], int],
+) -> Problem | None:
+    """Absurd power, judged against the log's own robot: over its `max_power_W` (or
+    `--max-power`); a voltage or current column whose median is not in V or A; a power column
+    orders of magnitude off the voltage x current (or the voltage) logged beside it. A
+    power-only log with none of these to judge it by is read; above `UNJUDGED_POWER_W` with a
+    warning (returned) that says so. Errors otherwise; None when nothing is to be said."""
+    if high_W is None:
+        return None
+    if scale.max_power_W is not None:
+        if high_W > scale.max_power_W:
+            index = int(np.argmax(power_W > scale.max_power_W))
+            raise LogError(
+                f"power {power_W[index]:.4g} W is over the robot's max_power_W "
+                f"{scale.max_power_W:g} W ({scale.max_power_where})",
+                file=file,
+                where=f"line {line_of(index)}",
+                fix="a unit mistake (mW read as W, mA as A) or the wrong columns; if this robot "
+                "draws more, raise max_power_W (metadata or runs.csv) or --max-power",
+            )
+    for name, values in measured.items():
+        median = _median_abs(values)
+        if name in scale.voltages and median > MAX_SUPPLY_VOLTAGE_V:
+            raise LogError(
+                f"voltage column '{name}' reads a median {median:.4g} V, over "
+                f"{MAX_SUPPLY_VOLTAGE_V:g} V: not volts",
+                file=file,
+                where=f"column '{name}'",
+                fix="a unit mistake: mV in a column named V? name it *_mV, or convert it",
+            )
+        if name in scale.currents and median > MAX_MEDIAN_CURRENT_A:
+            raise LogError(
+                f"current column '{name}' reads a median {median:.4g} A, over "
+                f"{MAX_MEDIAN_CURRENT_A:g} A: not amperes",
+                file=file,
+                where=f"column '{name}'",
+                fix="a unit mistake: mA in a column named A? name it *_mA, or convert it",
+            )
+    if scale.head is not None:
+        name, power_median_W, vi_median_W, volts_median_V = scale.head
+        if vi_median_W is not None and vi_median_W > 0 and power_median_W > 0:
+            ratio = power_median_W / vi_median_W
+            if not 1 / UNIT_MISTAKE_FACTOR <= ratio <= UNIT_MISTAKE_FACTOR:
+                raise LogError(
+                    f"power column '{name}' is {ratio:.3g} times the voltage x current logged "
+                    f"beside it (medians {power_median_W:.4g} W and {vi_median_W:.4g} W over "
+                    "the first lines)",
+                    file=file,
+                    where=f"column '{name}'",
+                    fix="a unit mistake: mW in a column named W (or mA, mV as A, V)? fix the "
+                    "column's name, or read the power from --current-column and "
+                    "--voltage-column",
+                )
+        elif vi_median_W is None and volts_median_V:
+            amps = power_median_W / volts_median_V
+            if amps > MAX_MEDIAN_CURRENT_A:
+                raise LogError(
+                    f"power column '{name}' (median {power_median_W:.4g} W over the first "
+                    f"lines) would be {amps:.4g} A at the {volts_median_V:.4g} V logged beside "
+                    f"it, over {MAX_MEDIAN_CURRENT_A:g} A",
+                    file=file,
+                    where=f"column '{name}'",
+                    fix="a unit mistake: mW in a column named W? name it *_mW, or convert it",
+                )
+        return None
+    judged = scale.max_power_W is not None or any(
+        name in scale.voltages or name in scale.currents for name in measured
+    )
+    if judged or high_W <= UNJUDGED_POWER_W:
+        return None
+    return Problem(
+        "unjudged_power",
+        f"peak power {high_W:.4g} W with no max_power_W, voltage or current to judge it by: "
+        "read as W (a column holding mW would read 1000 times too high); give max_power_W "
+        "(metadata or runs.csv) or --max-power to have it checked",
+    )
+
+
+def _median_abs(values: np.ndarray) -> float:
+    """The median magnitude of a column, from a strided subsample of ~`_MEDIAN_SAMPLES`."""
+    if not values.size:
+        return 0.0
+    stride = max(1, values.size // _MEDIAN_SAMPLES)
+    return float(np.median(np.abs(values[::stride])))
 
 
 def _check_sign(file: str, power_W: np.ndarray, what: str, fix: str) -> None:

@@ -105,7 +105,14 @@ class N6705(LogFormat):
                     fix="name the one to use with --current-column",
                 )
         for candidates, build in (
-            (with_power, lambda k: PowerSource(power=(outputs[k]["power"], 1.0))),
+            (
+                with_power,
+                lambda k: PowerSource(
+                    power=(outputs[k]["power"], 1.0),
+                    logged_current=_logged(outputs[k], "current"),
+                    logged_voltage=_logged(outputs[k], "voltage"),
+                ),
+            ),
             (
                 with_both,
                 lambda k: PowerSource(
@@ -150,6 +157,11 @@ class N6705(LogFormat):
                 file=path,
                 fix="give the sample spacing with --sample-period S, or re-export the datalog",
             )
+
+
+def _logged(output: dict[str, str], quantity: str) -> tuple[str, float] | None:
+    """An output's current or voltage column logged beside its power (judges its unit)."""
+    return (output[quantity], 1.0) if quantity in output else None
 
 
 def _several_outputs_fix(outputs: list[dict[str, str]]) -> str:
