@@ -95,6 +95,15 @@ FlipCurrent = Annotated[
     bool,
     typer.Option("--flip-current", help="Negate the current (and power): a reversed sensor."),
 ]
+MaxPower = Annotated[
+    float | None,
+    typer.Option(
+        "--max-power",
+        min=0.0,
+        help="The most the robot can draw [W]: above it a reading is an error (a unit "
+        "mistake); wins over the logs' max_power_W metadata.",
+    ),
+]
 SamplePeriod = Annotated[
     float | None,
     typer.Option("--sample-period", min=0.0, help="Sample spacing [s] for logs without time."),
@@ -120,6 +129,7 @@ READING_OPTIONS = (
     ("speed_column", SpeedColumn, None),
     ("sample_period", SamplePeriod, None),
     ("flip_current", FlipCurrent, False),
+    ("max_power", MaxPower, None),
 )
 
 
@@ -133,9 +143,11 @@ def read_options(
     speed_column: str | None = None,
     sample_period: float | None = None,
     flip_current: bool = False,
+    max_power: float | None = None,
 ) -> ReadOptions:
     return ReadOptions(
         supply_voltage_V=supply_voltage,
+        max_power_W=max_power,
         current_column=current_column,
         voltage_column=voltage_column,
         sample_period_s=sample_period,

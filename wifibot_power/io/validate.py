@@ -65,6 +65,15 @@ MAX_GAP_PERIODS = 3
 MAX_GAP_PCT = 1.0
 #: A step between time stamps above this many sample periods is a gap (jitter stays below).
 GAP_FACTOR = 1.5
+#: A logger writes in bursts (`_is_bursty`) when over this share of its steps are long (over
+#: `GAP_FACTOR` median steps) ...
+BURSTY_STEP_SHARE = 0.1
+#: ... and over this share of its time passes in them: waiting is what it mostly does (a
+#: logger dropping samples is read only with under `MAX_GAP_PCT` of its time dropped).
+BURSTY_TIME_SHARE = 0.5
+#: A bursty logger's longest regular wait: this quantile of its waits (a tenth of its waits
+#: may be longer: those over `GAP_FACTOR` times it are gaps).
+BURST_WAIT_QUANTILE = 0.9
 #: Time stamps whose mean step (between gaps) is further than this from their median [%]
 #: are uneven (a logger stamping on arrival, e.g. ROS): the period is then their mean, so
 #: that durations and energies follow the stamps (the bar is MAX_GAP_PCT's: as much time
@@ -122,7 +131,8 @@ def check_samples(
     for name, values in (measured or {"power": power_W}).items():
         # the power's maximum is known already: one pass over the samples fewer
         peak = high_W if values is power_W else None
-        _check_saturation(file, name, values, time_s, period_s, line_of, peak, name in scale.voltages)
+        voltage = name in scale.voltages
+        _check_saturation(file, name, values, time_s, period_s, line_of, peak, voltage)
     return period_s, problems
 
 
@@ -172,6 +182,8 @@ def _check_time(
             step_s = np.diff(time_s)
             reordered = False
         gaps = np.flatnonzero(step_s > GAP_FACTOR * spacing_s)
+        if _is_bursty(time_s, step_s, gaps):
+            return _bursty(file, time_s, step_s, gaps, line_of)
     uneven: list[Problem] = []
     # the steps between gaps: their mean is within high - low of their median, so a log
     # spaced evenly to 1% (every analyser's) is not looked at again; their sum is the span
@@ -193,44 +205,116 @@ def _check_time(
                     f"{1e3 * longest_s:.3g} ms between gaps): the sample period is their "
                     f"mean, {1e3 * mean_s:.4g} ms, so that durations and energies follow the "
                     f"stamps (their median, {1e3 * spacing_s:.4g} ms, would count "
-                    f"{100 * (spacing_s / mean_s - 1):+.2g}% of both)",
+                    f"{100 * (spacing_s / mean_s - 1) if mean_s else float('inf'):+.2g}% of "
+                    "both)",
                 )
             )
     del step_s
     if not gaps.size:
         return period_s, uneven
+    return period_s, uneven + _gap_problems(file, time_s, gaps, period_s, period_s, line_of)
+
+
+def _gap_problems(
+    file: str,
+    time_s: np.ndarray,
+    gaps: np.ndarray,
+    period_s: float,
+    spacing_s: float,
+    line_of: Callable[[int], int],
+    pattern: str = "",
+) -> list[Problem]:
+    """The problems of the gaps after the samples `gaps` (each sample holds `period_s`; the
+    rest of its step is missing), or the error when they are too long for the log's own
+    `spacing_s`: its sample period, or a bursty logger's longest regular wait (`pattern`
+    names it in the messages)."""
     missing_s = (time_s[gaps + 1] - time_s[gaps]) - period_s
     longest = int(np.argmax(missing_s))
     span_s = float(time_s[-1] - time_s[0]) + period_s
     missing_pct = 100.0 * float(missing_s.sum()) / (span_s if span_s > 0 else 1.0)
     summary = (
-        f"{gaps.size} gap(s) of dropped samples, {missing_s.sum():.4g} s in all "
+        f"{gaps.size} gap(s) of dropped samples{pattern}, {missing_s.sum():.4g} s in all "
         f"({missing_pct:.2g}% of the log), longest {missing_s[longest]:.4g} s after "
         f"t = {time_s[gaps[longest]]:.6g} s"
     )
-    limit_s = max(MAX_GAP_S, MAX_GAP_PERIODS * period_s)
-    too_much = missing_pct > MAX_GAP_PCT and float(missing_s.sum()) > MAX_GAP_PERIODS * period_s
+    spacings = "sample periods" if not pattern else "of its waits"
+    limit_s = max(MAX_GAP_S, MAX_GAP_PERIODS * spacing_s)
+    too_much = missing_pct > MAX_GAP_PCT and float(missing_s.sum()) > MAX_GAP_PERIODS * spacing_s
     if missing_s[longest] > limit_s or too_much:
         raise LogError(
             summary,
             file=file,
             where=f"line {line_of(int(gaps[longest]) + 1)}",
             fix=f"a gap over {limit_s:.4g} s (the longer of {MAX_GAP_S:g} s and "
-            f"{MAX_GAP_PERIODS} sample periods), or gaps adding up to over {MAX_GAP_PCT:g}% of "
-            f"the log and over {MAX_GAP_PERIODS} sample periods, make energies wrong; "
+            f"{MAX_GAP_PERIODS} {spacings}), or gaps adding up to over {MAX_GAP_PCT:g}% of "
+            f"the log and over {MAX_GAP_PERIODS} {spacings}, make energies wrong; "
             "re-record, or cut the log at the gap",
         )
-    problems = [
+    return [
         Problem(
             "gap",
             f"line {line_of(int(index) + 1)}: {missing * 1e3:.4g} ms of samples dropped after "
-            f"t = {time_s[index]:.6g} s",
+            f"t = {time_s[index]:.6g} s{pattern}",
             float(time_s[index]) + period_s,
             float(missing),
         )
         for index, missing in zip(gaps, missing_s, strict=True)
     ]
-    return period_s, uneven + problems
+
+
+def _is_bursty(time_s: np.ndarray, step_s: np.ndarray, gaps: np.ndarray) -> bool:
+    """A logger that writes in bursts (rows a few ms apart, then seconds of nothing: phone
+    apps, ROS bridges): its long steps are its habit, not dropped samples. Told by both
+    `BURSTY_STEP_SHARE` of the steps being long and `BURSTY_TIME_SHARE` of the time passing
+    in them; a logger that drops samples now and then (under `MAX_GAP_PCT` of its time:
+    what is read at all) is never taken for one."""
+    if gaps.size <= BURSTY_STEP_SHARE * step_s.size:
+        return False
+    span_s = float(time_s[-1] - time_s[0])
+    return float(np.sum(step_s[gaps])) > BURSTY_TIME_SHARE * span_s
+
+
+def _bursty(
+    file: str,
+    time_s: np.ndarray,
+    step_s: np.ndarray,
+    waits: np.ndarray,
+    line_of: Callable[[int], int],
+) -> tuple[float, list[Problem]]:
+    """A bursty log judged by its own pattern (log-format.md, "Bad input"): its waits (the
+    steps `waits`, long against the median step) are its spacing; a step over `GAP_FACTOR`
+    times its longest regular wait (the `BURST_WAIT_QUANTILE` of its waits) is a gap, and
+    its time beyond one sample is reported missing, never counted as zero power nor as
+    covered. Each sample holds the mean step over the time covered (the gaps' excess left
+    out), so the run's energy (samples x that period, additive over phases) is its mean
+    power over the time the log covers."""
+    waits_s = step_s[waits]
+    wait_s = float(np.quantile(waits_s, BURST_WAIT_QUANTILE))
+    gaps = np.flatnonzero(step_s > GAP_FACTOR * wait_s)
+    regular = step_s.size - gaps.size
+    gap_steps_s = float(np.sum(step_s[gaps]))
+    period_s = float(f"{(float(time_s[-1] - time_s[0]) - gap_steps_s) / regular:.10g}")
+    in_burst_s = np.delete(step_s, waits)
+    covered_s = period_s * time_s.size
+    missing_s = gap_steps_s - gaps.size * period_s
+    burst_ms = (
+        f"{1e3 * float(in_burst_s.min()):.3g}-{1e3 * float(in_burst_s.max()):.3g} ms"
+        if in_burst_s.size
+        else "none"
+    )
+    note = Problem(
+        "bursty",
+        f"bursty time stamps: rows in bursts (steps of {burst_ms}) with waits of "
+        f"{float(waits_s.min()):.3g}-{float(waits_s.max()):.3g} s between them ({waits.size} of "
+        f"{step_s.size} steps): judged by this pattern, not the median step; energy over the "
+        f"{covered_s:.6g} s the log covers, each sample holding the mean step, "
+        f"{1e3 * period_s:.4g} ms; {gaps.size} gap(s) beyond waits of {GAP_FACTOR:g} x "
+        f"{wait_s:.3g} s, {missing_s:.4g} s missing (not counted)",
+    )
+    if not gaps.size:
+        return period_s, [note]
+    pattern = f" (beyond this bursty logger's waits of up to {wait_s:.3g} s; not counted)"
+    return period_s, [note, *_gap_problems(file, time_s, gaps, period_s, wait_s, line_of, pattern)]
 
 
 def _check_period(file: str, period_s: float) -> None:
