@@ -61,7 +61,7 @@ def test_reproduction_brief_negative_samples_are_data(tmp_path, wbpower):
     result = wbpower("inspect", "--json", path)
     assert result.exit_code == 0, result.stderr
     assert "warning" in result.stderr and "negative power" in result.stderr
-    (row,) = json.loads(result.stdout)
+    (row,) = json.loads(result.stdout)["logs"]
     assert_allclose(row["energy_J"], power_W.sum() * 1e-3, rtol=1e-12)
 
 
