@@ -315,3 +315,32 @@ def test_time_stamps_in_another_unit_than_named_are_an_error(tmp_path):
     path.write_text("time_us,power_W\n0,23\n0.001,23\n0.002,23\n")
     with pytest.raises(LogError, match="sample period of 1e-09 s, outside"):
         read_log(path)
+
+
+# -- 5. inspect shows what fit would refuse -----------------------------------------------------
+
+
+def test_inspect_lists_every_file_fit_would_refuse_with_its_own_reason(tmp_path, wbpower):
+    """Five files refused at read time for five reasons: `inspect --json` lists each in
+    `skipped` with its reason (the document of cli.md), beside the good log it read."""
+    (tmp_path / "good.csv").write_text("time_s,power_W\n0,23.3\n0.001,23.4\n0.002,23.5\n")
+    bad = {
+        "unit.csv": ("# max_power_W: 100\ntime_s,power_W\n0,23\n0.001,2300\n", "max_power_W 100"),
+        "columns.csv": ("Time,Power\n0,23\n", "columns found: 'Time', 'Power'"),
+        "period.csv": ("# sample_period_s: 1e300\npower_W\n23\n", "outside the plausible"),
+        "nan.csv": ("time_s,power_W\n0,23\n0.001,nan\n", "NaN"),
+        "reversed.csv": ("time_s,power_W\n0,-23\n0.001,-24\n0.002,-23\n", "--flip-current"),
+    }
+    for name, (text, _) in bad.items():
+        (tmp_path / name).write_text(text)
+    result = wbpower("inspect", "--json", tmp_path)
+    assert result.exit_code == 1
+    document = json.loads(result.stdout)
+    assert set(document) == {"logs", "skipped", "warnings", "error"}
+    assert document["error"] is None
+    assert [Path(row["file"]).name for row in document["logs"]] == ["good.csv"]
+    reasons = {Path(item["file"]).name: item["reason"] for item in document["skipped"]}
+    assert set(reasons) == set(bad)
+    for name, (_, needle) in bad.items():
+        assert needle in reasons[name], (name, reasons[name])
+        assert reasons[name] in result.stderr  # and on stderr, as every command says it
