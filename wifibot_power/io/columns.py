@@ -98,7 +98,7 @@ def unit_scale(name: str) -> float:
 
 
 #: What a column's name suggests it holds, for the hint of a column error: the name, lower
-#: case, matched as a word (`Power`, `P [W]`, `Watts`, `I_A`, `U_V`, `Volt avg 4`).
+#: case, matched as a word (`Power`, `P [W]`, `Watts`, `I_A`, `U_V`).
 _GUESSES = (
     ("power", re.compile(r"(^|[^a-z])(p|power|pwr|watts?|w)([^a-z]|$)|power|watt")),
     ("current", re.compile(r"(^|[^a-z])(i|current|curr|amps?|ma)([^a-z]|$)|current|ampere")),

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import ClassVar
 
 from wifibot_power.errors import LogError
-from wifibot_power.io.columns import PowerSource, find_column
+from wifibot_power.io.columns import PowerSource, column_hint, find_column
 from wifibot_power.io.formats.base import (
     LogFormat,
     Preamble,
@@ -140,7 +140,8 @@ class N6705(LogFormat):
             "no 'Curr avg K' or 'Power avg K' column",
             file=path,
             where=f"line {pre.header_line + 1}",
-            fix="export the datalog with current logged",
+            fix=f"export the datalog with current logged, or name the columns: "
+            f"{column_hint(pre.header)}",
         )
 
     def time_source(
