@@ -106,11 +106,12 @@ _GUESSES = (
 )
 
 
-def column_hint(header: list[str]) -> str:
+def column_hint(header: list[str], *, with_time: bool = True) -> str:
     """The columns a log holds and the reading options that would map them (log-format.md:
     every column error lists the columns found and the option that maps them): e.g.
     "columns found: 'Time', 'Power'; try --power-column 'Power' --time-column 'Time'
-    --time-unit s|ms|us"."""
+    --time-unit s|ms|us"; `with_time=False` leaves time out, for a format that has its own
+    (an N6705 export's sample index)."""
     names = [n for n in header if n.strip()]
     found = ", ".join(f"'{n}'" for n in names) or "none"
     guesses: dict[str, str] = {}
@@ -137,7 +138,9 @@ def column_hint(header: list[str]) -> str:
         )
     else:
         options.append("--power-column NAME (or --current-column NAME with --voltage-column)")
-    if time_column is not None:
+    if not with_time:
+        pass
+    elif time_column is not None:
         named, scale_s = time_column
         unit = " --time-unit s|ms|us" if scale_s is None else ""
         options.append(f"--time-column '{named}'{unit}")

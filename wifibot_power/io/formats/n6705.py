@@ -141,7 +141,7 @@ class N6705(LogFormat):
             file=path,
             where=f"line {pre.header_line + 1}",
             fix=f"export the datalog with current logged, or name the columns: "
-            f"{column_hint(pre.header)}",
+            f"{column_hint(pre.header, with_time=False)}",
         )
 
     def time_source(
