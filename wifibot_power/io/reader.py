@@ -320,7 +320,7 @@ def _preamble(
 
 #: Data lines of the head whose medians judge a power column against the voltage x current
 #: logged beside it (a unit mistake holds through the whole column).
-HEAD_ROWS = 200
+HEAD_ROWS = SNIFF_LINES
 #: The largest sample index a float64 holds exactly: beyond it `Sample` x interval cannot be
 #: a time stamp (neighbouring indices round to one value).
 MAX_SAMPLE_INDEX = 2**53
