@@ -344,3 +344,14 @@ def test_inspect_lists_every_file_fit_would_refuse_with_its_own_reason(tmp_path,
     for name, (_, needle) in bad.items():
         assert needle in reasons[name], (name, reasons[name])
         assert reasons[name] in result.stderr  # and on stderr, as every command says it
+
+
+def test_max_power_from_the_manifest_names_its_row(tmp_path, wbpower):
+    (tmp_path / "a.csv").write_text("time_s,power_W\n0,23\n0.001,2300\n0.002,24\n")
+    (tmp_path / "runs.csv").write_text("file,max_power_W\na.csv,100\n")
+    result = wbpower("inspect", tmp_path / "a.csv")
+    assert result.exit_code == 2
+    assert "over the robot's max_power_W 100 W (" in result.stderr
+    assert "runs.csv line 2)" in result.stderr
+    # --max-power wins over the manifest too
+    assert wbpower("inspect", "--max-power", "5000", tmp_path / "a.csv").exit_code == 0

@@ -121,6 +121,7 @@ ModelSpec = Annotated[
 #: every command
 READING_OPTIONS = (
     ("supply_voltage", SupplyVoltage, None),
+    ("max_power", MaxPower, None),
     ("current_column", CurrentColumn, None),
     ("voltage_column", VoltageColumn, None),
     ("power_column", PowerColumn, None),
@@ -129,12 +130,12 @@ READING_OPTIONS = (
     ("speed_column", SpeedColumn, None),
     ("sample_period", SamplePeriod, None),
     ("flip_current", FlipCurrent, False),
-    ("max_power", MaxPower, None),
 )
 
 
 def read_options(
     supply_voltage: float | None = None,
+    max_power: float | None = None,
     current_column: str | None = None,
     voltage_column: str | None = None,
     power_column: list[str] | None = None,
@@ -143,7 +144,6 @@ def read_options(
     speed_column: str | None = None,
     sample_period: float | None = None,
     flip_current: bool = False,
-    max_power: float | None = None,
 ) -> ReadOptions:
     return ReadOptions(
         supply_voltage_V=supply_voltage,
