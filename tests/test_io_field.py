@@ -355,3 +355,24 @@ def test_max_power_from_the_manifest_names_its_row(tmp_path, wbpower):
     assert "runs.csv line 2)" in result.stderr
     # --max-power wins over the manifest too
     assert wbpower("inspect", "--max-power", "5000", tmp_path / "a.csv").exit_code == 0
+
+
+def test_a_short_log_with_one_long_pause_is_a_gap_not_a_pattern(tmp_path):
+    """Six samples 1 s apart with one 10 s pause: most of its time in one long step, but one
+    wait is no pattern (bursty needs 10 waits): refused as a gap, as before."""
+    (tmp_path / "pause.csv").write_text("time_s,power_W\n0,23\n1,23\n2,23\n12,23\n13,23\n14,23\n")
+    with pytest.raises(LogError, match="1 gap\\(s\\) of dropped samples, 9 s in all"):
+        read_log(tmp_path / "pause.csv")
+
+
+def test_bursts_of_five_rows_are_a_pattern_too(tmp_path):
+    """Rows in fives 20 ms apart, then 0.5-3.6 s: a fifth of the steps long, 97% of the
+    time in them."""
+    rng = np.random.default_rng(8)
+    steps_s = np.tile([0.02, 0.02, 0.02, 0.02, 0.0], 300)[:-1]
+    steps_s[4::5] = rng.uniform(0.5, 3.6, steps_s[4::5].size)
+    time_s = np.round(np.concatenate(([0.0], np.cumsum(steps_s))), 4)
+    write_bursty(tmp_path / "fives.csv", time_s)
+    run = read_log(tmp_path / "fives.csv")
+    assert [p.kind for p in run.problems] == ["bursty"]
+    assert_allclose(run.duration_s, (time_s[-1] - time_s[0]) * time_s.size / (time_s.size - 1))
