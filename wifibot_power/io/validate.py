@@ -74,6 +74,9 @@ BURSTY_TIME_SHARE = 0.5
 #: A bursty logger's longest regular wait: this quantile of its waits (a tenth of its waits
 #: may be longer: those over `GAP_FACTOR` times it are gaps).
 BURST_WAIT_QUANTILE = 0.9
+#: ... which needs at least this many waits (1 / (1 - `BURST_WAIT_QUANTILE`)) to stand below
+#: the longest: fewer long steps are no pattern (a short log with one long pause is a gap).
+BURSTY_MIN_WAITS = 10
 #: Time stamps whose mean step (between gaps) is further than this from their median [%]
 #: are uneven (a logger stamping on arrival, e.g. ROS): the period is then their mean, so
 #: that durations and energies follow the stamps (the bar is MAX_GAP_PCT's: as much time
@@ -265,10 +268,10 @@ def _gap_problems(
 def _is_bursty(time_s: np.ndarray, step_s: np.ndarray, gaps: np.ndarray) -> bool:
     """A logger that writes in bursts (rows a few ms apart, then seconds of nothing: phone
     apps, ROS bridges): its long steps are its habit, not dropped samples. Told by both
-    `BURSTY_STEP_SHARE` of the steps being long and `BURSTY_TIME_SHARE` of the time passing
-    in them; a logger that drops samples now and then (under `MAX_GAP_PCT` of its time:
-    what is read at all) is never taken for one."""
-    if gaps.size <= BURSTY_STEP_SHARE * step_s.size:
+    `BURSTY_STEP_SHARE` of the steps being long (at least `BURSTY_MIN_WAITS` of them) and
+    `BURSTY_TIME_SHARE` of the time passing in them; a logger that drops samples now and
+    then (under `MAX_GAP_PCT` of its time: what is read at all) is never taken for one."""
+    if gaps.size <= BURSTY_STEP_SHARE * step_s.size or gaps.size < BURSTY_MIN_WAITS:
         return False
     span_s = float(time_s[-1] - time_s[0])
     return float(np.sum(step_s[gaps])) > BURSTY_TIME_SHARE * span_s
@@ -447,23 +450,19 @@ def check_power_scale(
                 "draws more, raise max_power_W (metadata or runs.csv) or --max-power",
             )
     for name, values in measured.items():
-        median = _median_abs(values)
-        if name in scale.voltages and median > MAX_SUPPLY_VOLTAGE_V:
-            raise LogError(
-                f"voltage column '{name}' reads a median {median:.4g} V, over "
-                f"{MAX_SUPPLY_VOLTAGE_V:g} V: not volts",
-                file=file,
-                where=f"column '{name}'",
-                fix="a unit mistake: mV in a column named V? name it *_mV, or convert it",
-            )
-        if name in scale.currents and median > MAX_MEDIAN_CURRENT_A:
-            raise LogError(
-                f"current column '{name}' reads a median {median:.4g} A, over "
-                f"{MAX_MEDIAN_CURRENT_A:g} A: not amperes",
-                file=file,
-                where=f"column '{name}'",
-                fix="a unit mistake: mA in a column named A? name it *_mA, or convert it",
-            )
+        for names, limit, quantity, unit, units in (
+            (scale.voltages, MAX_SUPPLY_VOLTAGE_V, "voltage", "V", "volts"),
+            (scale.currents, MAX_MEDIAN_CURRENT_A, "current", "A", "amperes"),
+        ):
+            if name in names and (median := _median_abs(values)) > limit:
+                raise LogError(
+                    f"{quantity} column '{name}' reads a median {median:.4g} {unit}, over "
+                    f"{limit:g} {unit}: not {units}",
+                    file=file,
+                    where=f"column '{name}'",
+                    fix=f"a unit mistake: m{unit} in a column named {unit}? name it *_m{unit}, "
+                    "or convert it",
+                )
     if scale.head is not None:
         name, power_median_W, vi_median_W, volts_median_V = scale.head
         if vi_median_W is not None and vi_median_W > 0 and power_median_W > 0:
