@@ -376,3 +376,11 @@ def test_bursts_of_five_rows_are_a_pattern_too(tmp_path):
     run = read_log(tmp_path / "fives.csv")
     assert [p.kind for p in run.problems] == ["bursty"]
     assert_allclose(run.duration_s, (time_s[-1] - time_s[0]) * time_s.size / (time_s.size - 1))
+
+
+def test_a_single_time_stamp_gives_no_spacing_and_says_so(tmp_path):
+    path = tmp_path / "one.csv"
+    path.write_text("time_s,power_W\n0,23.3\n")
+    run = read_log(path)
+    assert [p.kind for p in run.problems] == ["assumed_period"]
+    assert run.sample_period_s == pytest.approx(0.1024e-3)

@@ -132,7 +132,11 @@ def read_log(
         meta=meta,
         stamps_s=time_s,  # None without a time column: `Run.time_s` makes the axis if asked
         power_W=power_W,
-        problems=(*_assumptions(sources, time_source, options, values), *time_problems, *problems),
+        problems=(
+            *_assumptions(sources, time_source, options, values, power_W.size),
+            *time_problems,
+            *problems,
+        ),
         speed_mps=speed_mps,
         channels_W=channels_W,
     )
@@ -416,15 +420,18 @@ def _assumptions(
     time_source: TimeSource | None,
     options: ReadOptions,
     values: dict[str, str],
+    samples: int,
 ) -> list[Problem]:
     """What the reading assumed, and options that had no effect on this log: each said
-    (log-format.md: every assumption is said; cli.md: warnings on stderr and in --json)."""
+    (log-format.md: every assumption is said; cli.md: warnings on stderr and in --json).
+    A time column with a single stamp gives no spacing either."""
     said: list[Problem] = []
-    if time_source is None and "sample_period_s" not in values:
+    unspaced = time_source is None or (samples == 1 and not time_source.index)
+    if unspaced and "sample_period_s" not in values:
         said.append(
             Problem(
                 "assumed_period",
-                f"no time column and no sample_period_s: samples assumed "
+                f"no time column (or a single stamp) and no sample_period_s: samples assumed "
                 f"{PAPER_SAMPLE_PERIOD_S * 1e3:g} ms apart (the reference analyser's "
                 f"{1 / PAPER_SAMPLE_PERIOD_S:g} Hz); give --sample-period S or sample_period_s "
                 "metadata (a 1 kHz logger read so gives energies ten times too small)",
