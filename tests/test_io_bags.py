@@ -348,7 +348,7 @@ def test_no_power_topic_names_the_topics_and_the_option(tmp_path, drive, wbpower
 def test_inspect_lists_topics(bags, wbpower):
     result = wbpower("inspect", bags["sqlite3"], "--json")
     assert result.exit_code == 0, result.stderr
-    (row,) = json.loads(result.stdout)
+    (row,) = json.loads(result.stdout)["logs"]
     topics = {t["topic"]: t for t in row["topics"]}
     assert topics["/battery"]["type"] == "sensor_msgs/msg/BatteryState"
     assert topics["/battery"]["messages"] == int(DURATION_S * 1e9 / BATTERY_PERIOD_NS)

@@ -75,7 +75,9 @@ def test_reproduction_fit_counts_a_run_given_three_times_once(folder: Path, wbpo
 def test_inspect_lists_a_duplicate_once(folder: Path, wbpower) -> None:
     cli = wbpower("inspect", "--json", folder / "v0.60_d2_s1_r1.csv", folder / "copy of run.csv")
     assert cli.exit_code == 0, cli.stderr
-    assert [Path(row["file"]).name for row in json.loads(cli.stdout)] == ["v0.60_d2_s1_r1.csv"]
+    assert [Path(row["file"]).name for row in json.loads(cli.stdout)["logs"]] == [
+        "v0.60_d2_s1_r1.csv"
+    ]
     assert "warning" in cli.stderr and "copy of run.csv" in cli.stderr
 
 
@@ -89,7 +91,7 @@ def test_a_file_named_twice_is_read_once_with_a_warning(folder: Path, wbpower, c
     assert cli.exit_code == 0, cli.stderr
     assert f"{log}: given twice in this batch: analysed once" in cli.stderr
     if command == "inspect":
-        assert len(json.loads(cli.stdout)) == 1
+        assert len(json.loads(cli.stdout)["logs"]) == 1
     else:
         assert json.loads(cli.stdout)["cruise"]["n_runs"] == 6
 
@@ -263,8 +265,9 @@ def test_single_file_commands_read_the_manifest_beside_it(tmp_path: Path, wbpowe
     assert result.exit_code == 0, result.stderr
     found = json.loads(result.stdout)
     if command == "inspect":
-        assert without[0]["meta"]["mode"] == "unknown"
-        assert found[0]["run_id"] == "from_manifest" and found[0]["meta"]["speed_mps"] == 0.6
+        (without,), (found,) = without["logs"], found["logs"]
+        assert without["meta"]["mode"] == "unknown"
+        assert found["run_id"] == "from_manifest" and found["meta"]["speed_mps"] == 0.6
     else:
         assert {p["phase"] for p in without["phases"]} == {"level"}
         assert found["run_id"] == "from_manifest"

@@ -150,7 +150,7 @@ def test_inspect_and_discovery(recording, wbpower):
     assert source.path == path
     result = wbpower("inspect", path, "--json")
     assert result.exit_code == 0, result.stderr
-    (row,) = json.loads(result.stdout)
+    (row,) = json.loads(result.stdout)["logs"]
     assert row["format"] == "jls" and row["meta"]["instrument"] == "Jetperch JS220 000415"
 
 

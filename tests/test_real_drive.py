@@ -132,8 +132,6 @@ def refusals(converted: Path, scale: float = 1.0) -> list[str]:
     short = float(np.percentile(step, 25))
     long = step > max(3 * short, 0.05)
     points = []
-    if scale * p.max() > CEILING_W:
-        points.append(f"{CEILING} ({scale * p.max():.0f} W)")
     if long.any():
         points.append(
             f"issue 26, 'Bursty loggers refused': steps {short * 1000:.0f} ms (25th pct.), "
@@ -152,8 +150,12 @@ def _cases(select=lambda f: True, scale: float = 1.0) -> list:
             points = []  # the test itself skips, saying which mirror it needs
         else:
             points = refusals(f, scale)
+        # not strict: the bursty-logger reader (issue 26) now reads the logs whose pauses are
+        # all within the logger's own waits; those with pauses beyond them adding up to over
+        # 1% of the log are still refused as gaps (docs/real-logs.md), and the raw-data rule
+        # here does not tell the two apart
         marks = (
-            [pytest.mark.xfail(strict=True, raises=AssertionError, reason="; ".join(points))]
+            [pytest.mark.xfail(strict=False, raises=AssertionError, reason="; ".join(points))]
             if points
             else []
         )
@@ -169,8 +171,12 @@ def test_inspect_reads_the_log_and_its_energy_is_the_raw_files(log: Path, wbpowe
     expected = raw_energy_J(log)  # skips without the mirror
     result = wbpower("inspect", "--json", log)
     assert result.exit_code == 0, result.stderr
-    (entry,) = json.loads(result.stdout)
-    assert entry["energy_J"] == pytest.approx(expected, rel=0.005), (expected, entry)
+    (entry,) = json.loads(result.stdout)["logs"]
+    # a bursty logger's samples each hold the mean step over the covered time (the reader's
+    # model, docs/log-format.md), not their own step: up to ~1% off the hold integral here
+    # (euc_core/mten4/0: 0.65%); evenly spaced logs agree to their rounding
+    rel = 0.01 if refusals(log) else 0.005
+    assert entry["energy_J"] == pytest.approx(expected, rel=rel), (expected, entry)
 
 
 @pytest.mark.parametrize(
@@ -276,7 +282,7 @@ def test_a_phone_apps_log_under_the_ceiling_is_read_over_its_stamps(
     scaled.write_text("".join(lines[: k + 1] + body))
     result = wbpower("inspect", "--json", scaled)
     assert result.exit_code == 0, result.stderr
-    (entry,) = json.loads(result.stdout)
+    (entry,) = json.loads(result.stdout)["logs"]
     assert entry["energy_J"] == pytest.approx(expected, rel=0.01)
 
 

@@ -95,6 +95,15 @@ FlipCurrent = Annotated[
     bool,
     typer.Option("--flip-current", help="Negate the current (and power): a reversed sensor."),
 ]
+MaxPower = Annotated[
+    float | None,
+    typer.Option(
+        "--max-power",
+        min=0.0,
+        help="The most the robot can draw [W]: above it a reading is an error (a unit "
+        "mistake); wins over the logs' max_power_W metadata.",
+    ),
+]
 SamplePeriod = Annotated[
     float | None,
     typer.Option("--sample-period", min=0.0, help="Sample spacing [s] for logs without time."),
@@ -135,6 +144,7 @@ ModelSpec = Annotated[
 #: every command
 READING_OPTIONS = (
     ("supply_voltage", SupplyVoltage, None),
+    ("max_power", MaxPower, None),
     ("current_column", CurrentColumn, None),
     ("voltage_column", VoltageColumn, None),
     ("power_column", PowerColumn, None),
@@ -152,6 +162,7 @@ READING_OPTIONS = (
 
 def read_options(
     supply_voltage: float | None = None,
+    max_power: float | None = None,
     current_column: str | None = None,
     voltage_column: str | None = None,
     power_column: list[str] | None = None,
@@ -167,6 +178,7 @@ def read_options(
 ) -> ReadOptions:
     return ReadOptions(
         supply_voltage_V=supply_voltage,
+        max_power_W=max_power,
         current_column=current_column,
         voltage_column=voltage_column,
         sample_period_s=sample_period,

@@ -60,6 +60,9 @@ class ReadOptions:
     says what each does)."""
 
     supply_voltage_V: float | None = None
+    #: the most the robot can draw [W] (`--max-power`): above it a reading is an error (a unit
+    #: mistake); wins over the logs' `max_power_W` metadata (log-format.md, "Bad input")
+    max_power_W: float | None = None
     current_column: str | None = None
     voltage_column: str | None = None
     sample_period_s: float | None = None
@@ -83,6 +86,7 @@ class ReadOptions:
         for option, value, unit in (
             ("--supply-voltage", self.supply_voltage_V, "V"),
             ("--sample-period", self.sample_period_s, "s"),
+            ("--max-power", self.max_power_W, "W"),
         ):
             # 0 V would read every log as 0 W and 0 J, NaN as a NaN in the file's first
             # line: a usage error, named as such, before any file is read
@@ -90,6 +94,7 @@ class ReadOptions:
                 from wifibot_power.errors import UsageError
 
                 raise UsageError(f"{option} {value:g}", fix=f"give a number > 0 [{unit}]")
+        _check_plausible_options(self)
         if self.time_unit is not None and self.time_unit not in TIME_UNITS:
             from wifibot_power.errors import UsageError
 
@@ -110,6 +115,34 @@ class ReadOptions:
                 "--power-topic with --current-topic/--voltage-topic",
                 fix="name either the power topic or the current and voltage topics",
             )
+
+
+#: Above this a supply voltage is not in volts (mV by mistake): the largest battery vehicles
+#: run on 800-V packs [V] (log-format.md, "Bad input"; `validate.MAX_SUPPLY_VOLTAGE_V`).
+MAX_SUPPLY_VOLTAGE_V = 1000.0
+#: The plausible range of a sample period [s]: from a 100 MHz sampler's 10 ns to a day (a
+#: logger writing once a day is not a power log); outside it the number is a unit or typing
+#: mistake (an N6705 "Sample interval: 1e300", `--sample-period 1e300`).
+SAMPLE_PERIOD_RANGE_S = (1e-8, 86400.0)
+
+
+def _check_plausible_options(options: ReadOptions) -> None:
+    """Option values no log can mean: a usage error before any file is read."""
+    from wifibot_power.errors import UsageError
+
+    volts = options.supply_voltage_V
+    if volts is not None and volts > MAX_SUPPLY_VOLTAGE_V:
+        raise UsageError(
+            f"--supply-voltage {volts:g}: over {MAX_SUPPLY_VOLTAGE_V:g} V",
+            fix="give the supply voltage in volts (12.6, not 12600 mV)",
+        )
+    period = options.sample_period_s
+    low, high = SAMPLE_PERIOD_RANGE_S
+    if period is not None and not low <= period <= high:
+        raise UsageError(
+            f"--sample-period {period:g}: outside {low:g}-{high:g} s",
+            fix="give the sample spacing in seconds (0.001 for 1 kHz)",
+        )
 
 
 def log_stem(path: Path) -> str:
