@@ -137,64 +137,28 @@ class Drawn:
 
 
 def report_figures(report: Report) -> Iterator[tuple[str, str, Callable[[], Figure] | None, str]]:
-    """(name, title, draw() or None, note) of every figure of the report, in its order:
-    the model figures first, then one trace per run."""
-    from wifibot_power.figures import (
-        figure5,
-        figure7,
-        findings_figure,
-        heldout_error_figure,
-        power_speed_figure,
-        trace_figure,
-    )
+    """(name, title, draw() or None, note) of every figure of the report, in the order of the
+    figure registry (`figures.FIGURES`): each figure drawn from the report
+    (`FigureSpec.from_report`), then each per-run figure once per run (`trace_<run_id>`)."""
+    from wifibot_power.figures import FIGURES
 
-    fit, diagnosis = report.fit, report.diagnosis
-    if fit is None:
-        for name, title in (
-            ("power_speed", "P_acc(v) and P_v(v)"),
-            ("figure5", "Paper Figure 5"),
-            ("figure7", "Paper Figure 7"),
-        ):
-            yield name, title, None, f"not drawn: {report.fit_problem}"
-    else:
-        yield "power_speed", "P_acc(v) and P_v(v)", lambda: power_speed_figure(fit), ""
-        complete = fit.model_complete
-        why = f"not drawn: the model is incomplete ({'; '.join(fit.notes) or 'see fit'})"
-        yield (
-            "figure5",
-            "Paper Figure 5: stop-and-go energy against speed",
-            (lambda: figure5(fit.model, fit.stop_and_go)) if complete else None,
-            "" if complete else why,
-        )
-        yield (
-            "figure7",
-            "Paper Figure 7: relay lifetime gain",
-            (lambda: figure7(fit.model)) if complete else None,
-            "" if complete else why,
-        )
-    if diagnosis is None:
-        why = f"not drawn: {report.diagnosis_problem}"
-        yield "heldout_error", "Held-out error (diagnose)", None, why
-        yield "findings", "Findings (diagnose)", None, why
-    else:
-        yield (
-            "heldout_error",
-            "Held-out error against speed, steps, distance, session order",
-            lambda: heldout_error_figure(diagnosis),
-            "",
-        )
-        yield (
-            "findings",
-            "Each finding's evidence",
-            lambda: findings_figure(diagnosis, report.cruise_blocks),
-            "",
-        )
-    for view in report.traces:
-        yield f"trace_{_safe(view.run_id)}", f"Trace: {view.run_id}", _bind(trace_figure, view), ""
+    for spec in FIGURES.values():
+        if spec.per_run or spec.from_report is None:
+            continue
+        args = spec.from_report(report)
+        if isinstance(args, str):
+            yield spec.name, spec.title, None, f"not drawn: {args}"
+        else:
+            yield spec.name, spec.title, _bind(spec.draw, *args), ""
+    for spec in FIGURES.values():
+        if spec.per_run:
+            for view in report.traces:
+                name = f"{spec.name}_{_safe(view.run_id)}"
+                yield name, f"Trace: {view.run_id}", _bind(spec.draw, view), ""
 
 
-def _bind(function: Callable[..., Figure], value: object) -> Callable[[], Figure]:
-    return lambda: function(value)
+def _bind(function: Callable[..., Figure], *args: object) -> Callable[[], Figure]:
+    return lambda: function(*args)
 
 
 def _safe(name: str) -> str:
@@ -235,7 +199,9 @@ def write_report(report: Report, out_dir: str | Path, *, jobs: int | None = 1) -
     drawn: list[tuple[Drawn, bytes | None]] = []
     with staged_folder(out_dir) as stage:
         for (name, title, _, note), data in zip(items, images, strict=True):
-            spec = FIGURES.get("trace" if name.startswith("trace_") else name)
+            spec = FIGURES.get(name) or next(
+                (f for f in FIGURES.values() if f.per_run and name.startswith(f"{f.name}_")), None
+            )
             how = spec.how_to_read if spec else ""
             file = f"{name}.png" if data is not None else None
             if file:
