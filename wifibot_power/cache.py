@@ -212,7 +212,7 @@ class ParseCache:
             raise UsageError(
                 f"cannot create the cache folder ({exc.strerror or exc})",
                 file=directory,
-                fix="give a writable folder with --cache",
+                fix="give a writable folder",
             ) from None
         self.sweep()
 
