@@ -212,7 +212,7 @@ class ParseCache:
             raise UsageError(
                 f"cannot create the cache folder ({exc.strerror or exc})",
                 file=directory,
-                fix="give a writable folder",
+                fix="give a writable folder with --cache",
             ) from None
         self.sweep()
 

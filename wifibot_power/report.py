@@ -286,7 +286,7 @@ def render_html(report: Report, drawn: list[tuple[Drawn, bytes | None]]) -> str:
 
 
 def _summary_html(report: Report) -> list[str]:
-    from wifibot_power.fit import format_number as num
+    from wifibot_power.models.paper_table import format_number as num
 
     e = html.escape
     out: list[str] = []

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import wifibot_power.pipeline.preload as preload
 from wifibot_power.io.discover import Skipped
 from wifibot_power.io.options import ReadOptions
-from wifibot_power.pipeline import preload
 from wifibot_power.pipeline.batch import Wrap, map_runs
 from wifibot_power.pipeline.duplicates import ProblemHook
 from wifibot_power.pipeline.record import (
