@@ -200,18 +200,22 @@ def record_from_json(stored: object) -> RunRecord:
     return RunRecord(row=row, phases=tuple(stored["phases"]), models=models)  # type: ignore[index]
 
 
-@functools.lru_cache(maxsize=4)
 def record_memo(plan: RunPlan) -> ResultMemo[RunRecord]:
-    """How a cache keeps each run's record under `plan` (valid for this code only; the
-    families registered are part of the key). Made at first use: its key hashes all of
-    wifibot_power's source (`code_digest`, ~11 ms), which a batch without a cache never
-    needs."""
-    from wifibot_power.cache import ResultMemo, code_digest
+    """How a cache keeps each run's record under `plan`, valid for this code and the model
+    families registered now (their statistics are in the record)."""
     from wifibot_power.models import FAMILIES
 
-    families = ",".join(FAMILIES)
+    return _record_memo(plan, tuple(FAMILIES))
+
+
+@functools.lru_cache(maxsize=8)
+def _record_memo(plan: RunPlan, families: tuple[str, ...]) -> ResultMemo[RunRecord]:
+    """Made at first use: its key hashes all of wifibot_power's source (`code_digest`,
+    ~11 ms), which a batch without a cache never needs."""
+    from wifibot_power.cache import ResultMemo, code_digest
+
     return ResultMemo(
-        key=f"pipeline.run_record {plan!r} families {families} {code_digest()}",
+        key=f"pipeline.run_record {plan!r} families {','.join(families)} {code_digest()}",
         to_json=record_to_json,
         from_json=record_from_json,
     )
