@@ -123,3 +123,19 @@ def test_diagnose_and_report_take_cache(logs, wbpower, tmp_path, monkeypatch, co
 
     monkeypatch.setattr(reader, "read_log", lambda *a, **k: pytest.fail("parsed"))
     assert answer("--cache", cache) == plain
+
+
+def test_no_module_imports_another_modules_private_name() -> None:
+    """What one module needs of another is public (issue 24: `fit._import_work_modules` was
+    imported by diagnose and report); checked over every import, function-level included."""
+    import ast
+
+    package = Path(__file__).resolve().parents[1] / "wifibot_power"
+    found = []
+    for source in sorted(package.rglob("*.py")):
+        for node in ast.walk(ast.parse(source.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("wifibot_"):
+                names = [a.name for a in node.names]
+                private = [n for n in names if n.startswith("_") and not n.endswith("__")]
+                found += [f"{source.relative_to(package)}: {node.module}.{n}" for n in private]
+    assert found == []
