@@ -21,14 +21,14 @@ FIT_STAGES = {
     "  sample checks (check_samples)": ("validate.py", "check_samples"),
     "segmentation (segment_run)": ("segment.py", "segment_run"),
     "run_row": ("runtable.py", "run_row"),
-    "fit of the run rows (fit_gathered)": ("fit.py", "fit_gathered"),
+    "fit of the run records (fit_records)": ("fit.py", "fit_records"),
 }
 DIAGNOSE_STAGES = {
     "diagnose_logs (whole, 1 job)": ("diagnose.py", "diagnose_logs"),
     "read_log": ("reader.py", "read_log"),
     "  CSV parse to numpy (read_columns)": ("transport.py", "read_columns"),
     "  sample checks (check_samples)": ("validate.py", "check_samples"),
-    "per run (summarize_run)": ("diagnose.py", "summarize_run"),
+    "per run (run_record)": ("record.py", "run_record"),
     "  segmentation (segment_run)": ("segment.py", "segment_run"),
     "  trace statistics (trace_stats)": ("traces.py", "trace_stats"),
     "  causes' run statistics (run_columns)": ("", "run_columns"),

@@ -7,7 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from wifibot_power.fit import fit_rows, speed_levels
+from wifibot_power.fit import speed_levels
+from wifibot_power.models.paper import fit_rows
 
 
 def _rows(speeds, accel_W, cruise_W, idle_runs: int = 2) -> list[dict[str, object]]:
@@ -32,7 +33,7 @@ def _rows(speeds, accel_W, cruise_W, idle_runs: int = 2) -> list[dict[str, objec
 
 
 def _fit(rows):
-    return fit_rows(rows, lambda: (None, None))
+    return fit_rows(rows)
 
 
 SPEEDS = [0.2, 0.2, 0.5, 0.5, 0.8, 0.8]

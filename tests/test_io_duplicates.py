@@ -14,9 +14,11 @@ import pytest
 
 from wifibot_power.cache import ParseCache
 from wifibot_power.fit import fit_logs
-from wifibot_power.io import ReadOptions, batch, read_log
-from wifibot_power.io.batch import _duplicate_keys, map_runs, run_fingerprint, run_identity
+from wifibot_power.io import ReadOptions, read_log
 from wifibot_power.io.discover import LogSource
+from wifibot_power.pipeline import duplicates
+from wifibot_power.pipeline.batch import map_runs
+from wifibot_power.pipeline.duplicates import duplicate_keys, run_fingerprint, run_identity
 from wifibot_power.run import Run, RunMeta
 
 SAMPLE_LOGS = Path(__file__).resolve().parents[1] / "sample_logs"
@@ -164,8 +166,8 @@ def test_only_logs_sharing_a_fingerprint_are_digested(
         digested.append(run.samples)
         return original_identity(run)
 
-    original_identity = batch.run_identity
-    monkeypatch.setattr(batch, "run_identity", counting)
+    original_identity = duplicates.run_identity
+    monkeypatch.setattr(duplicates, "run_identity", counting)
     distinct = [folder / f"{name}.csv" for name in RUNS]
     found, _ = map_runs(distinct, ReadOptions(), lambda run: run.file)
     assert len(found) == len(RUNS) and digested == []
@@ -184,7 +186,7 @@ def test_logs_changed_or_gone_before_their_comparison_are_not_duplicates(folder:
 
     def keys(analysed_as: str) -> list[str | None]:
         outcomes = [(True, ((), analysed_as, None))] * 2
-        return _duplicate_keys(sources, outcomes, ReadOptions(), 1, None)
+        return duplicate_keys(sources, outcomes, ReadOptions(), 1, None)
 
     same = keys(fingerprint)
     assert same[0] == same[1] and same[0].startswith("identity ")

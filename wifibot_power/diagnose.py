@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Iterator
 from contextvars import ContextVar
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -46,13 +46,14 @@ from wifibot_power.causes.extended import (
 from wifibot_power.causes.extended import fit_model as _fit_model
 from wifibot_power.causes.registry import ordered
 from wifibot_power.errors import LogError
-from wifibot_power.fit import TableColumns, _import_work_modules, segment_checked
+from wifibot_power.fit import TableColumns, segment_checked
 from wifibot_power.io import LogSource, ReadOptions, Skipped
-from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.io.discover import reasons_in_brief
 from wifibot_power.model import PowerModel
 from wifibot_power.outputs import json_file, parquet_file, write_set
 from wifibot_power.phases import Segmentation
+from wifibot_power.pipeline import DIAGNOSE_PLAN, gather
+from wifibot_power.pipeline.duplicates import ProblemHook
 from wifibot_power.residuals import residual_table, structure_reasons
 from wifibot_power.run import Run
 from wifibot_power.runtable import (
@@ -68,6 +69,8 @@ from wifibot_power.traces import EMPTY, TraceStats, trace_stats
 
 if TYPE_CHECKING:  # pandas (~0.3 s to import) loads where the tables are made, while
     import pandas as pd  # the workers read the logs (`diagnose_logs`)
+
+    from wifibot_power.cache import ParseCache
 
 #: Smallest held-out gain that makes a significant cause a finding [%].
 MIN_GAIN_PCT = {"run_energy": 5.0, "power_trace": 10.0}
@@ -266,34 +269,35 @@ def diagnose_logs(
     wrap: Callable[[list[LogSource]], Iterator[LogSource]] | None = None,
     segmenter: Segmenter | None = None,
     jobs: int | None = 1,
+    cache: ParseCache | None = None,
     on_problems: ProblemHook | None = None,
     reference: PowerModel | None = None,
     keep_doubtful: bool = False,
 ) -> Diagnosis:
-    """Read, segment and summarise every log under `paths` (`jobs` files at a time, one file
-    in memory per worker), then diagnose them (module docstring). `reference`,
-    `keep_doubtful`: see `diagnose_summaries`."""
-    summaries, skipped = map_runs(
-        [Path(p) for p in paths],
-        options or ReadOptions(),
-        lambda run: summarize_run(run, segmenter),
+    """Read, segment and summarise every log under `paths` (`pipeline.gather`, `jobs` files
+    at a time, one file in memory per worker; `cache` skips parsing files parsed before),
+    then diagnose them (module docstring). `reference`, `keep_doubtful`: see
+    `diagnose_summaries`."""
+    plan = DIAGNOSE_PLAN if segmenter is None else replace(DIAGNOSE_PLAN, segmenter=segmenter)
+    gathered = gather(
+        paths,
+        options,
+        plan,
         wrap=wrap,
         jobs=jobs,
+        cache=cache,
         on_problems=on_problems,
-        prepare=_import_work_modules,
-        # the tables' library loads while the workers read: the diagnosis after them needs it
-        beside=_import_pandas,
+        tables_after=True,  # the diagnosis after the workers makes tables
     )
+    summaries = [
+        RunSummary(r.row, EMPTY if r.trace is None else r.trace, r.causes) for r in gathered.records
+    ]
     try:
         return diagnose_summaries(
-            summaries, skipped, reference=reference, keep_doubtful=keep_doubtful
+            summaries, gathered.skipped, reference=reference, keep_doubtful=keep_doubtful
         )
     except LogError as exc:  # about the batch: named by what the user gave
         raise exc.with_file(", ".join(map(str, paths))) from None
-
-
-def _import_pandas() -> None:
-    import pandas  # noqa: F401
 
 
 def diagnose_runs(

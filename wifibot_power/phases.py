@@ -77,8 +77,9 @@ class Segmentation:
         the `segment` columns after the run's `run_id` and its log's `file`."""
         return [{"run_id": self.run_id, "file": file, **p.as_dict()} for p in self.phases]
 
-    def frame(self, file: str) -> pd.DataFrame:
-        """A row per phase (phases.parquet of `fit -o` and `segment -o`): `rows`."""
+    def frame(self, file: str = "") -> pd.DataFrame:
+        """A row per phase (phases.parquet of `fit -o` and `segment -o`): `rows`; `file`:
+        the run's log, for its column (empty by default)."""
         return phase_frame(self.rows(file))
 
 
