@@ -37,6 +37,7 @@ def _phases(run: Run, pieces: list[Piece]) -> list[Phase]:
         end_s = float(stamps[-1]) + period
     else:
         end_s = float((samples - 1) * period) + period
+    yaw_sum, yaw_count = _yaw_prefix(run)
     phases = []
     for step, name, i_start, i_end, speed_mps in pieces:
         total_W = np.add.reduce(power[i_start:i_end], dtype=np.float64)
@@ -57,9 +58,28 @@ def _phases(run: Run, pieces: list[Piece]) -> list[Phase]:
                 mean_power_W=float(total_W / (i_end - i_start)),
                 energy_J=float(total_W * period),
                 speed_mps=speed_mps,
+                yaw_rate_radps=_mean_of(yaw_sum, yaw_count, i_start, i_end),
             )
         )
     return phases
+
+
+def _yaw_prefix(run: Run) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Prefix sums of |yaw rate| over the finite samples and of their count (None, None
+    without a turning column): each phase's mean |yaw rate| from two differences."""
+    if run.yaw_rate_radps is None:
+        return None, None
+    magnitude = np.abs(np.asarray(run.yaw_rate_radps, dtype=np.float64))
+    finite = np.isfinite(magnitude)
+    total = np.concatenate(([0.0], np.cumsum(np.where(finite, magnitude, 0.0))))
+    return total, np.concatenate(([0], np.cumsum(finite)))
+
+
+def _mean_of(total: np.ndarray | None, count: np.ndarray | None, i: int, j: int) -> float | None:
+    """The mean over samples [i, j) from prefix sums (`_yaw_prefix`); None where none."""
+    if total is None or count is None or count[j] == count[i]:
+        return None
+    return float((total[j] - total[i]) / (count[j] - count[i]))
 
 
 def _wavy(y: np.ndarray, sigma_b: float, t1: int, t3: int, group: int) -> bool:
@@ -136,3 +156,30 @@ def _phase_name(name: str, step: int) -> str:
 
 #: a phase of a motion run's doubts: (first 10 ms mean, end, phase name, step)
 Span = tuple[int, int, str, int]
+
+
+def _centred_mean(values: np.ndarray, half: int) -> np.ndarray:
+    """Mean over the centred window of 2 half + 1 values at every index (shorter, still
+    centred where the window meets an end), by prefix sums."""
+    n = values.size
+    if half <= 0 or n == 0:
+        return values.astype(np.float64, copy=True)
+    prefix = np.concatenate(([0.0], np.cumsum(values, dtype=np.float64)))
+    idx = np.arange(n)
+    reach = np.minimum(np.minimum(idx, n - 1 - idx), half)
+    return (prefix[idx + reach + 1] - prefix[idx - reach]) / (2 * reach + 1)
+
+
+def _merge_stretches(mask: np.ndarray, min_len: int) -> list[tuple[int, int]]:
+    """Stretches [a, b) where `mask` holds, after closing gaps shorter than `min_len` and
+    dropping stretches shorter than `min_len`."""
+    padded = np.concatenate(([False], mask, [False]))
+    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
+    stretches = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    merged: list[tuple[int, int]] = []
+    for a, b in stretches:
+        if merged and a - merged[-1][1] < min_len:
+            merged[-1] = (merged[-1][0], b)
+        else:
+            merged.append((a, b))
+    return [(a, b) for a, b in merged if b - a >= min_len]

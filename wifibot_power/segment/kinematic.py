@@ -5,7 +5,7 @@ levels per run allowed, each boundary that power marks refined on the power trac
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -13,8 +13,9 @@ from wifibot_power.changepoint import best_split, block_means, median, percentil
 from wifibot_power.errors import LogError
 from wifibot_power.phases import Segmentation
 from wifibot_power.run import Run
-from wifibot_power.segment.common import Piece, _phases
+from wifibot_power.segment.common import Piece, _centred_mean, _merge_stretches, _phases
 from wifibot_power.segment.params import SpeedParams
+from wifibot_power.segment.turning import standstill_doubts, track_m, turning_blocks, with_turns
 
 #: power refinement of a kinematic boundary, by (phase before, phase after): polynomial
 #: degrees of the pieces either side and the sign of the power jump the physics gives (the
@@ -82,21 +83,35 @@ def _speed_trace(run: Run, params: SpeedParams) -> _SpeedTrace:
 def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     """Phases from the speed column: standing (`idle`), speeding up (`accel`), holding a
     level (`cruise`), slowing (`decel`), each boundary refined on the power trace where
-    power marks it. None when the speed never shows motion and the run is not a motion run
+    power marks it, and, with a turning column, turning while standing (`turn`). None when
+    neither the speed nor the turning column shows motion and the run is not a motion run
     (its levels are then segmented as any log's)."""
     trace = _speed_trace(run, params)
     n = trace.y.size
-    if n < 3 or trace.top <= trace.threshold or not trace.moving.any():
+    turning = None
+    if run.yaw_rate_radps is not None:
+        turning = turning_blocks(
+            run.yaw_rate_radps, trace.block, trace.half, ~trace.moving, params.moving_fraction,
+            params.moving_z, max(trace.threshold, params.moving_fraction * trace.top),
+            track_m(run),
+        )  # fmt: skip
+    moves = n >= 3 and trace.top > trace.threshold and bool(trace.moving.any())
+    if not moves and (turning is None or not turning.any()):
         if run.meta.mode != "motion":
             return None
         raise LogError(
-            "no motion found: the speed column never rises clearly above standstill",
+            "no motion found: the speed column never rises clearly above standstill"
+            + (" and the turning column shows no turn" if turning is not None else ""),
             file=run.file,
             fix="check the speed column (--speed-column) and its unit (m/s)",
         )
+    if not moves:  # turns only: standing throughout, but for the turns
+        trace = replace(trace, moving=np.zeros(n, dtype=bool))
     motions, floor = _motions(trace, params)
     cuts = _phase_cuts(trace, motions, params)
     starts = _refined_starts(trace, cuts, params)
+    if turning is not None:
+        cuts, starts = with_turns(cuts, starts, turning, trace.blocks(params.min_stretch_s))
     pieces: list[Piece] = []
     # the magnitude of each phase's mean signed speed (a standing robot's speed noise
     # averages to ~0; the mean of |v| would give it a speed of ~0.8 sigma)
@@ -120,6 +135,7 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     moving_floor = max(floor, params.moving_fraction * trace.top)
     edge_ms = 1000.0 * ends * trace.block_dt
     doubts = _kinematic_doubts(run, end_speeds, edge_ms, moving_floor, motions)
+    doubts += standstill_doubts(run, phases, has_turning=turning is not None)
     return Segmentation(run.meta.run_id, tuple(phases), (), tuple(doubts))
 
 
@@ -282,33 +298,6 @@ def _held(mask: np.ndarray, hold: int) -> int | None:
     starts, ends = edges[::2], edges[1::2]
     ok = ((ends - starts) >= hold) | (ends == mask.size)
     return int(starts[ok][0]) if ok.any() else None
-
-
-def _centred_mean(values: np.ndarray, half: int) -> np.ndarray:
-    """Mean over the centred window of 2 half + 1 values at every index (shorter, still
-    centred where the window meets an end), by prefix sums."""
-    n = values.size
-    if half <= 0 or n == 0:
-        return values.astype(np.float64, copy=True)
-    prefix = np.concatenate(([0.0], np.cumsum(values, dtype=np.float64)))
-    idx = np.arange(n)
-    reach = np.minimum(np.minimum(idx, n - 1 - idx), half)
-    return (prefix[idx + reach + 1] - prefix[idx - reach]) / (2 * reach + 1)
-
-
-def _merge_stretches(mask: np.ndarray, min_len: int) -> list[tuple[int, int]]:
-    """Stretches [a, b) where `mask` holds, after closing gaps shorter than `min_len` and
-    dropping stretches shorter than `min_len`."""
-    padded = np.concatenate(([False], mask, [False]))
-    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
-    stretches = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
-    merged: list[tuple[int, int]] = []
-    for a, b in stretches:
-        if merged and a - merged[-1][1] < min_len:
-            merged[-1] = (merged[-1][0], b)
-        else:
-            merged.append((a, b))
-    return [(a, b) for a, b in merged if b - a >= min_len]
 
 
 def _merge_runs(labels: np.ndarray, min_len: int) -> list[tuple[int, int]]:
