@@ -53,9 +53,19 @@ def turning_blocks(
     sqrt(2 half + 1) for the smoothing), and, where the track width is known, the rate
     at which each wheel of a robot spinning in place, at omega * track / 2, moves as fast
     as the speed column's moving threshold `wheel_threshold_mps`. All False when the top
-    rate does not clear that bar (a run that never turns). NaN samples read as 0.
+    rate does not clear that bar (a run that never turns). Drop-outs (NaN samples) are
+    bridged by linear interpolation between the readings around them (read as 0, a spin
+    with every other reading missing was cut into one-sample turns); without any reading,
+    no turn.
     """
-    yaw = block_means(np.nan_to_num(yaw_rate_radps, nan=0.0), block)
+    values = np.asarray(yaw_rate_radps, dtype=np.float64)
+    finite = np.isfinite(values)
+    if not finite.all():
+        if not finite.any():
+            return np.zeros(values.size // block, dtype=bool)
+        at = np.flatnonzero(finite)
+        values = np.interp(np.arange(values.size), at, values[at])
+    yaw = block_means(values, block)
     n = yaw.size
     if n < 3:
         return np.zeros(n, dtype=bool)
