@@ -291,3 +291,29 @@ def test_a_burst_within_a_boundarys_tolerance_or_of_one_sample_is_no_standstill(
     assert len(_burst(1e-3, 0.1)) == 1
     assert _burst(1 / 6.5, 1 / 6.5) == []
     assert len(_burst(1 / 6.5, 2 / 6.5)) == 1
+
+
+def test_segment_shows_turn_phases_and_their_turn_rate(wbpower, tmp_path, monkeypatch) -> None:
+    """`wbpower segment` of a run with a turning column: `turn` in the table with a
+    "|yaw rate| rad/s" column, and `yaw_rate_radps` on every phase of `--json` (cli.md); the
+    run comes from the reader (the drive lane's reads the column; here it is handed over)."""
+    import json
+
+    import wifibot_power.io
+
+    run = skid_steer()
+    path = tmp_path / "skid.csv"
+    path.write_text("time_s,power_W\n0,28\n")
+    monkeypatch.setattr(wifibot_power.io, "read_log", lambda *args, **kwargs: run)
+    table = wbpower("segment", path)
+    assert table.exit_code == 0, table.stderr
+    assert "|yaw rate| rad/s" in table.stdout and " turn " in table.stdout
+    doc = json.loads(wbpower("segment", path, "--json").stdout)
+    (turn,) = [p for p in doc["phases"] if p["phase"] == "turn"]
+    assert turn["yaw_rate_radps"] == pytest.approx(1.0, abs=0.05)
+    assert all(isinstance(p["yaw_rate_radps"], float) for p in doc["phases"])
+    # without the column: null, and no yaw column in the table
+    monkeypatch.setattr(wifibot_power.io, "read_log", lambda *a, **k: skid_steer(yaw=False))
+    doc = json.loads(wbpower("segment", path, "--json").stdout)
+    assert all(p["yaw_rate_radps"] is None for p in doc["phases"])
+    assert "yaw" not in wbpower("segment", path).stdout
