@@ -135,7 +135,7 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     moving_floor = max(floor, params.moving_fraction * trace.top)
     edge_ms = 1000.0 * ends * trace.block_dt
     doubts = _kinematic_doubts(run, end_speeds, edge_ms, moving_floor, motions)
-    doubts += standstill_doubts(run, phases, has_turning=turning is not None)
+    doubts += standstill_doubts(run, phases, turning is not None, trace.y, trace.block)
     return Segmentation(run.meta.run_id, tuple(phases), (), tuple(doubts))
 
 

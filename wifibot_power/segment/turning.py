@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from wifibot_power.changepoint import block_means, percentile, robust_sigma_W
+from wifibot_power.changepoint import block_means, median, percentile, robust_sigma_W
 from wifibot_power.phases import Phase
 from wifibot_power.run import Run
 from wifibot_power.segment.common import _centred_mean, _merge_stretches, _phase_name
@@ -111,9 +111,13 @@ def with_turns(
     return out_cuts, [*out_starts, starts[-1]]
 
 
-def standstill_doubts(run: Run, phases: list[Phase], has_turning: bool) -> list[str]:
+def standstill_doubts(
+    run: Run, phases: list[Phase], has_turning: bool, y: np.ndarray, block: int
+) -> list[str]:
     """Idle phases drawing motion power: a standstill by the speed column at which the robot
     pushes (against an obstacle, at its current limit), or turns unseen (no turning column).
+    On the run's power in blocks of `block` samples (`y`, 1 ms block means, or samples
+    where a sample is longer, as all of the kinematic segmentation).
 
     Judged against the log's own powers: standstill power P_s, the lowest median power of
     its idle phases of two samples or more (an idle holding motion is higher), and motion
@@ -132,28 +136,31 @@ def standstill_doubts(run: Run, phases: list[Phase], has_turning: bool) -> list[
       head of a start, read as standing by a speed that lags the power.
 
     and, either way, its power stands clear of P_s by more than 5 sd of its median (the
-    log's noise, `robust_sigma_W` of its samples, over sqrt(samples)). Nothing is judged
-    without motion above standstill (P_m > P_s) or without a second idle to read P_s from.
+    blocks' noise, `robust_sigma_W`, over sqrt(blocks)). Nothing is judged without motion
+    above standstill (P_m > P_s) or without a second idle to read P_s from.
     """
     idles = [p for p in phases if p.phase == "idle" and p.i_end - p.i_start >= 2]
     moving = [p for p in phases if p.phase in ("accel", "cruise", "decel")]
     if len(idles) < 2 or not moving:
         return []
-    medians_W = [float(np.median(run.power_W[p.i_start : p.i_end])) for p in idles]
+    # each idle's blocks (the last phase's partial block is not one: `block_means`)
+    spans = [(p.i_start // block, min(-(-p.i_end // block), y.size)) for p in idles]
+    medians_W = [float(median(y[a:b])) if b > a else math.nan for a, b in spans]
     standing_W = min(medians_W)
     motion_W = sum(p.energy_J for p in moving) / sum(p.duration_s for p in moving)
     if not motion_W > standing_W:
         return []
-    noise_W = robust_sigma_W(run.power_W)
+    noise_W = None  # only where some idle stands at motion power (a full pass: rare)
     doubts = []
-    for phase, median_W in zip(idles, medians_W, strict=True):
-        if phase.duration_s <= 0.05:
+    for phase, (a, b), median_W in zip(idles, spans, medians_W, strict=True):
+        if phase.duration_s <= 0.05 or b <= a:
             continue
-        found = _at_motion_power(run, phase, median_W, motion_W)
+        found = _at_motion_power(run, y[a:b], a * block, block, median_W, motion_W)
         if found is None:
             continue
-        seen_W, start_s, duration_s, samples = found
-        if seen_W - standing_W <= 5.0 * noise_W / np.sqrt(samples):
+        seen_W, start_s, duration_s, blocks = found
+        noise_W = robust_sigma_W(y) if noise_W is None else noise_W
+        if seen_W - standing_W <= 5.0 * noise_W / np.sqrt(blocks):
             continue
         turning = "the log has no turning column"
         if has_turning and phase.yaw_rate_radps is not None:
@@ -170,18 +177,19 @@ def standstill_doubts(run: Run, phases: list[Phase], has_turning: bool) -> list[
 
 
 def _at_motion_power(
-    run: Run, phase: Phase, median_W: float, motion_W: float
+    run: Run, values: np.ndarray, first: int, block: int, median_W: float, motion_W: float
 ) -> tuple[float, float | None, float | None, int] | None:
-    """What of an idle phase stands at motion power (`standstill_doubts`): (its median power
-    [W], None, None, samples) for the whole idle, or (the stretch's median power, its start
-    [s], its duration [s], its samples) for the longest stretch inside it; None."""
-    samples = phase.i_end - phase.i_start
+    """What of an idle phase, its blocks `values` of `block` samples from sample `first`,
+    stands at motion power (`standstill_doubts`): (its median power [W], None, None, its
+    blocks) for the whole idle, or (the stretch's median power, its start [s], its
+    duration [s], its blocks) for the longest stretch inside it; None."""
     if median_W >= motion_W:
-        return median_W, None, None, samples
+        return median_W, None, None, values.size
+    if not values.max() >= motion_W:  # as a rule: nothing to look for
+        return None
     dt = run.sample_period_s
-    block = max(1, round(0.01 / dt))
-    power = run.power_W[phase.i_start : phase.i_end]
-    means = block_means(power, block)
+    group = max(1, round(0.01 / (block * dt)))
+    means = block_means(values, group)
     padded = np.concatenate(([False], means >= motion_W, [False]))
     edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
     starts, ends = edges[::2], edges[1::2]
@@ -190,9 +198,9 @@ def _at_motion_power(
         return None
     lengths = np.where(inside, ends - starts, 0)
     k = int(np.argmax(lengths))
-    count = int(lengths[k]) * block
-    if count < 2 or count * dt <= 0.05:
+    count = int(lengths[k]) * group  # blocks
+    if count * block < 2 or count * block * dt <= 0.05:
         return None
-    first = phase.i_start + int(starts[k]) * block
-    seen_W = float(np.median(run.power_W[first : first + count]))
-    return seen_W, run.time_at(first), count * dt, count
+    at = int(starts[k]) * group
+    seen_W = float(median(values[at : at + count]))
+    return seen_W, run.time_at(first + at * block), count * block * dt, count
