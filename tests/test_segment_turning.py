@@ -317,3 +317,15 @@ def test_segment_shows_turn_phases_and_their_turn_rate(wbpower, tmp_path, monkey
     doc = json.loads(wbpower("segment", path, "--json").stdout)
     assert all(p["yaw_rate_radps"] is None for p in doc["phases"])
     assert "yaw" not in wbpower("segment", path).stdout
+
+
+def test_a_run_that_only_spins_without_a_turning_column_is_refused_with_what_was_seen() -> None:
+    """Issue 26: "no motion found ... check the speed column and its unit", advice about
+    units for a run drawing 530 W. The refusal now gives the power seen and names the
+    turning column."""
+    plan = [(4, 0, 0, 0, 28), (6, 0, 0, -0.8, 530), (4, 0, 0, 0, 28)]
+    with pytest.raises(LogError) as caught:
+        segment_run(skid_steer(plan, yaw=False))
+    message = caught.value.one_line()
+    assert re.search(r"\(power 2\d\.?\d*-5\d\d W, 5th-95th percentile\)", message), message
+    assert "--yaw-rate-column" in message and "--track-width" in message

@@ -92,18 +92,21 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     if run.yaw_rate_radps is not None:
         turning = turning_blocks(
             run.yaw_rate_radps, trace.block, trace.half, ~trace.moving, params.moving_fraction,
-            params.moving_z, max(trace.threshold, params.moving_fraction * trace.top),
-            track_m(run),
+            params.moving_z, trace.threshold, track_m(run),
         )  # fmt: skip
     moves = n >= 3 and trace.top > trace.threshold and bool(trace.moving.any())
     if not moves and (turning is None or not turning.any()):
         if run.meta.mode != "motion":
             return None
+        low_W, high_W = (percentile(trace.y, q) for q in (5, 95)) if n else (0.0, 0.0)
         raise LogError(
             "no motion found: the speed column never rises clearly above standstill"
-            + (" and the turning column shows no turn" if turning is not None else ""),
+            + (" and the turning column shows no turn" if turning is not None else "")
+            + f" (power {low_W:.3g}-{high_W:.3g} W, 5th-95th percentile)",
             file=run.file,
-            fix="check the speed column (--speed-column) and its unit (m/s)",
+            fix="check the speed column (--speed-column) and its unit (m/s); a robot that "
+            "only turns in place is seen turning through a turning column (--yaw-rate-column, "
+            "or the two wheel speeds with --track-width)",
         )
     if not moves:  # turns only: standing throughout, but for the turns
         trace = replace(trace, moving=np.zeros(n, dtype=bool))
