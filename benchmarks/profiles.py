@@ -19,7 +19,7 @@ FIT_STAGES = {
     "read_log": ("reader.py", "read_log"),
     "  CSV parse to numpy (read_columns)": ("transport.py", "read_columns"),
     "  sample checks (check_samples)": ("validate.py", "check_samples"),
-    "segmentation (segment_run)": ("segment.py", "segment_run"),
+    "segmentation (segment_run)": ("segment/__init__.py", "segment_run"),
     "run_row": ("runtable.py", "run_row"),
     "fit of the run records (fit_records)": ("fit.py", "fit_records"),
 }
@@ -29,7 +29,7 @@ DIAGNOSE_STAGES = {
     "  CSV parse to numpy (read_columns)": ("transport.py", "read_columns"),
     "  sample checks (check_samples)": ("validate.py", "check_samples"),
     "per run (run_record)": ("record.py", "run_record"),
-    "  segmentation (segment_run)": ("segment.py", "segment_run"),
+    "  segmentation (segment_run)": ("segment/__init__.py", "segment_run"),
     "  trace statistics (trace_stats)": ("traces.py", "trace_stats"),
     "  causes' run statistics (run_columns)": ("", "run_columns"),
     "  run_row": ("runtable.py", "run_row"),
@@ -73,7 +73,7 @@ _MODULES = {
     "reader.py": "wifibot_power.io.reader",
     "transport.py": "wifibot_power.io.transport",
     "validate.py": "wifibot_power.io.validate",
-    "segment.py": "wifibot_power.segment",
+    "segment/__init__.py": "wifibot_power.segment",
     "runtable.py": "wifibot_power.runtable",
 }
 #: stage label -> (module, function) timed by `timed_shares`, CPU time, no profiler: the

@@ -76,6 +76,7 @@ def test_segment_out_writes_phases_with_run_id_and_doubts(wbpower, tmp_path):
         "mean_power_W",
         "energy_J",
         "speed_mps",
+        "yaw_rate_radps",
         "doubts",
     ]
     assert len(phases) == len(doc["phases"]) > 0
