@@ -16,6 +16,7 @@ SHORT_HELP = {
     "simulate": "Write synthetic logs of a simulated robot, with truth.",
     # for branch `report` (its command registers with **command_help("report"))
     "report": "Figures and one report.html: traces, fits, diagnosis.",
+    "export": "The drive model as Open-RMF or Gazebo power parameters.",
 }
 
 #: command -> (example arguments after `wbpower COMMAND`, what it does)
@@ -60,6 +61,14 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
     "report": [
         ("sample_logs/ -o out/report", "out/report/report.html, opens offline"),
         ("logs/ -o out/ --jobs 2", "figures drawn by 2 workers"),
+    ],
+    "export": [
+        ("--model out/model.json --to rmf --turn-rate 0.6", "the fleet config's YAML"),
+        (
+            "--model out/model.json --to gazebo --battery-voltage 24 --battery-capacity 20",
+            "the battery <plugin>",
+        ),
+        ("--model out/model.json --to rmf --mass 20 --moment-of-inertia 10 --json", "for CI"),
     ],
 }
 

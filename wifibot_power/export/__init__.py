@@ -46,7 +46,7 @@ def export_model(model: str | Path | dict, to: str, options: ExportOptions | Non
     unused = [OPTION_FLAGS[k] for k in options.given() if k not in target.options]
     if unused:
         raise UsageError(
-            f"{', '.join(unused)} do(es) not apply to --to {to}",
+            f"{', '.join(unused)}: not an option of --to {to}",
             fix=f"leave out {', '.join(unused)}",
         )
     if isinstance(model, dict):

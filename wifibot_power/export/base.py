@@ -177,7 +177,8 @@ def read_drive_section(path: str | Path) -> dict:
     drive = data.get(DRIVE_SECTION)
     if drive is None:
         raise UsageError(
-            "the model has no drive model (no log of the fit had a speed column)",
+            "the model has no drive model (no log of the fit had a speed column, or the "
+            "model was written before wbpower fitted one)",
             file=path,
             fix=_FIX_MODEL,
         )
