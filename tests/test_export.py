@@ -256,7 +256,7 @@ def test_rmf_undetermined_braking_is_a_warning_and_a_stated_assumption(tmp_path)
         (lambda d: d["terms"]["braking_mass_kg"].update(value=70.0), {}, "mass > 0"),
         (lambda d: None, {"surface": "grass"}, "no turning on surface 'grass'"),
         (lambda d: None, {"surface": "ice"}, "the model has surfaces asphalt, grass"),
-        (lambda d: None, {"battery_voltage_V": 24.0}, "give also --battery-capacity"),
+        (lambda d: None, {"battery_voltage_V": 24.0}, "give also --capacity"),
         (lambda d: None, {"speed_mps": 1.0}, "--speed: not an option of --to rmf"),
         (lambda d: None, {"moment_of_inertia_kgm2": 3.0}, "give one of them"),
     ],
@@ -357,7 +357,7 @@ def test_gazebo_load_at_a_steady_speed_by_hand(model_file):
 
 
 def test_gazebo_needs_the_battery(model_file):
-    with pytest.raises(UsageError, match="give --battery-voltage V and --battery-capacity AH"):
+    with pytest.raises(UsageError, match="give --voltage V and --capacity AH"):
         export_model(model_file, "gazebo")
 
 
@@ -397,7 +397,7 @@ def test_cli_export_end_to_end(wbpower, model_file, tmp_path):
     assert "wbpower: warning: not expressible in RMF: quadratic_W_per_mps2" in result.stderr
 
     out = tmp_path / "battery.sdf"
-    args = ("--battery-voltage", "24", "--battery-capacity", "10", "--speed", "0.5")
+    args = ("--voltage", "24", "--capacity", "10", "--speed", "0.5")
     result = wbpower("export", "--model", model_file, "--to", "gazebo", *args, "-o", out)
     assert result.exit_code == 0 and result.stdout == ""
     assert check_gazebo_schema(out.read_text())["power_load"] == pytest.approx(36.25)

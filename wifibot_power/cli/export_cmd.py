@@ -47,8 +47,8 @@ def _number(flag: str, help_text: str) -> object:
     return Annotated[float | None, typer.Option(flag, help=help_text)]
 
 
-BatteryVoltage = _number("--battery-voltage", "The battery's nominal voltage [V] (rmf, gazebo).")
-BatteryCapacity = _number("--battery-capacity", "The battery's capacity [Ah] (rmf, gazebo).")
+BatteryVoltage = _number("--voltage", "The battery's nominal voltage [V] (rmf, gazebo).")
+BatteryCapacity = _number("--capacity", "The battery's capacity [Ah] (rmf, gazebo).")
 ChargingCurrent = _number("--charging-current", "The battery's charging current [A] (rmf).")
 Mass = _number("--mass", "rmf: the mass [kg] when the fit has no inertial term, or instead of it.")
 MomentOfInertia = _number(

@@ -64,11 +64,8 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
     ],
     "export": [
         ("--model out/model.json --to rmf --turn-rate 0.6", "the fleet config's YAML"),
-        (
-            "--model out/model.json --to gazebo --battery-voltage 24 --battery-capacity 20",
-            "the battery <plugin>",
-        ),
-        ("--model out/model.json --to rmf --mass 20 --moment-of-inertia 10 --json", "for CI"),
+        ("--model m.json --to gazebo --voltage 24 --capacity 20", "the battery <plugin>"),
+        ("--model m.json --to rmf --moment-of-inertia 9 --json", "JSON, for CI"),
     ],
 }
 

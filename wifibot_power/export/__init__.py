@@ -25,8 +25,8 @@ TARGETS: dict[str, Target] = {t.name: t for t in (rmf.TARGET, gazebo.TARGET)}
 
 #: the command-line flag of each `ExportOptions` field (for "--X does not apply" messages)
 OPTION_FLAGS = {
-    "battery_voltage_V": "--battery-voltage",
-    "battery_capacity_Ah": "--battery-capacity",
+    "battery_voltage_V": "--voltage",
+    "battery_capacity_Ah": "--capacity",
     "charging_current_A": "--charging-current",
     "mass_kg": "--mass",
     "moment_of_inertia_kgm2": "--moment-of-inertia",

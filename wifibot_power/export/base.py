@@ -80,7 +80,7 @@ class Parameter:
     value: float | str | bool
     unit: str
     #: the fitted term(s) it comes from ("idle_W", "rolling_W_per_mps[grass]"), or, when
-    #: `fitted` is False, where else it comes from ("given (--battery-voltage)")
+    #: `fitted` is False, where else it comes from ("given (--voltage)")
     source: str
     #: how: the formula with its numbers, or why
     how: str = ""

@@ -91,26 +91,25 @@ def _battery(options: ExportOptions) -> tuple[Parameter, ...]:
         raise UsageError(
             "gz-sim's LinearBatteryPlugin does not load without the battery's <voltage> and "
             "<capacity> (not in power logs)",
-            fix="give --battery-voltage V and --battery-capacity AH",
+            fix="give --voltage V and --capacity AH",
         )
     if not (voltage > 0 and capacity > 0):
         raise UsageError(
-            "--battery-voltage and --battery-capacity must be > 0 (the plugin refuses a "
-            "capacity <= 0)",
+            "--voltage and --capacity must be > 0 (the plugin refuses a capacity <= 0)",
             fix="give positive values",
         )
     return (
         Parameter("battery_name", BATTERY_NAME, "", "fixed", "a name", fitted=False),
-        Parameter("voltage", float(voltage), "V", "given (--battery-voltage)", fitted=False),
+        Parameter("voltage", float(voltage), "V", "given (--voltage)", fitted=False),
         Parameter(
             "open_circuit_voltage_constant_coef",
             float(voltage),
             "V",
-            "given (--battery-voltage)",
+            "given (--voltage)",
             "an ideal battery: constant voltage (else e0 = 0 V stops it at once)",
             fitted=False,
         ),
-        Parameter("capacity", float(capacity), "Ah", "given (--battery-capacity)", fitted=False),
+        Parameter("capacity", float(capacity), "Ah", "given (--capacity)", fitted=False),
         Parameter(
             "fix_issue_225", True, "", "fixed", "else the charge falls 100x too fast", fitted=False
         ),

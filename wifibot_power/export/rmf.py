@@ -162,8 +162,8 @@ def _required(drive: DriveTerms, name: str, what: str):
 
 def _battery(options: ExportOptions, warnings: list[str]) -> list[Parameter]:
     given = {
-        "voltage": (options.battery_voltage_V, "V", "--battery-voltage"),
-        "capacity": (options.battery_capacity_Ah, "Ah", "--battery-capacity"),
+        "voltage": (options.battery_voltage_V, "V", "--voltage"),
+        "capacity": (options.battery_capacity_Ah, "Ah", "--capacity"),
         "charging_current": (options.charging_current_A, "A", "--charging-current"),
     }
     present = [key for key, (value, _, _) in given.items() if value is not None]
@@ -171,7 +171,7 @@ def _battery(options: ExportOptions, warnings: list[str]) -> list[Parameter]:
         warnings.append(
             "battery_system is not written: a battery's nominal voltage, capacity and charging "
             "current are not in power logs (keep your fleet config's, or give "
-            "--battery-voltage, --battery-capacity and --charging-current)"
+            "--voltage, --capacity and --charging-current)"
         )
         return []
     if len(present) < len(given):
