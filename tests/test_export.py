@@ -20,6 +20,7 @@ from wifibot_power.export import TARGETS, ExportOptions, export_model
 
 # -- the drive model, by hand -----------------------------------------------------------
 IDLE_W = 20.0
+DRIVE_ON_W = 3.0  # on while moving
 QUADRATIC_W_PER_MPS2 = 5.0
 EFFECTIVE_MASS_KG = 60.0
 BRAKING_MASS_KG = 20.0  # a regenerative drive returns a third of the kinetic energy
@@ -37,6 +38,7 @@ def drive_section() -> dict:
     return {
         "terms": {
             "idle_W": _term(IDLE_W, "W"),
+            "drive_on_W": _term(DRIVE_ON_W, "W"),
             "quadratic_W_per_mps2": _term(QUADRATIC_W_PER_MPS2, "W/(m/s)^2"),
             "effective_mass_kg": _term(EFFECTIVE_MASS_KG, "kg"),
             "braking_mass_kg": _term(BRAKING_MASS_KG, "kg"),
@@ -226,6 +228,7 @@ def test_rmf_each_value_says_its_term_and_what_rmf_cannot_express(model_file):
     for said in (
         "surfaces asphalt, grass: the terms of 'asphalt'",  # the default surface, said
         "quadratic_W_per_mps2 = 5",
+        "drive_on_W = 3 W",
         "braking",
         "lag_s = 0.2",
         "surface 'grass' would be friction_coefficient",
@@ -346,14 +349,36 @@ def test_gazebo_load_at_a_steady_speed_by_hand(model_file):
         model_file, "gazebo", ExportOptions(speed_mps=0.5, surface="grass", **BATTERY)
     )
     values = check_gazebo_schema(result.text)
-    assert values["power_load"] == pytest.approx(20.0 + 45.0 * 0.5 + 5.0 * 0.25, rel=1e-12)
+    # idle + drive on + rolling on grass at 0.5 m/s + quadratic at 0.5 m/s
+    assert values["power_load"] == pytest.approx(20.0 + 3.0 + 22.5 + 1.25, rel=1e-12)
     summary = result.summary()["parameters"]["power_load"]
-    assert summary["from"] == "idle_W, rolling_W_per_mps[grass], quadratic_W_per_mps2"
+    assert summary["from"] == "idle_W, drive_on_W, rolling_W_per_mps[grass], quadratic_W_per_mps2"
     # every element has its origin in a comment just before it
     lines = result.text.splitlines()
     for i, line in enumerate(lines):
         if line.strip().startswith("<") and not line.strip().startswith(("<!--", "<plugin", "</")):
             assert lines[i - 1].strip().startswith("<!--"), line
+
+
+def test_a_term_no_target_knows_is_said_not_dropped(tmp_path):
+    drive = drive_section()
+    drive["terms"]["tyre_pressure_W_per_bar"] = _term(2.0, "W/bar")
+    path = write_model(tmp_path, drive)
+    for target, options in (("rmf", {"turn_rate_radps": 0.5}), ("gazebo", BATTERY)):
+        result = export_model(path, target, ExportOptions(**options))
+        assert any("tyre_pressure_W_per_bar = 2 W/bar" in w for w in result.warnings), target
+
+
+def test_gazebo_steady_load_without_the_optional_terms(tmp_path):
+    drive = drive_section()
+    del drive["terms"]["drive_on_W"]  # a model without the term: nothing to say
+    del drive["terms"]["quadratic_W_per_mps2"]  # not determined: said
+    drive["not_determined"].append("quadratic_W_per_mps2 cannot be told apart from idle_W")
+    options = ExportOptions(speed_mps=-0.5, surface="asphalt", **BATTERY)  # reversing
+    result = export_model(write_model(tmp_path, drive), "gazebo", options)
+    assert check_gazebo_schema(result.text)["power_load"] == pytest.approx(20.0 + 15.0)
+    assert any("left out of <power_load>: quadratic_W_per_mps2" in w for w in result.warnings)
+    assert not any("drive_on_W" in w for w in result.warnings)
 
 
 def test_gazebo_needs_the_battery(model_file):
@@ -400,11 +425,11 @@ def test_cli_export_end_to_end(wbpower, model_file, tmp_path):
     args = ("--voltage", "24", "--capacity", "10", "--speed", "0.5")
     result = wbpower("export", "--model", model_file, "--to", "gazebo", *args, "-o", out)
     assert result.exit_code == 0 and result.stdout == ""
-    assert check_gazebo_schema(out.read_text())["power_load"] == pytest.approx(36.25)
+    assert check_gazebo_schema(out.read_text())["power_load"] == pytest.approx(39.25)
 
     result = wbpower("export", "--model", model_file, "--to", "gazebo", *args, "--json")
     doc = json.loads(result.stdout)
-    assert doc["error"] is None and doc["parameters"]["power_load"]["value"] == pytest.approx(36.25)
+    assert doc["error"] is None and doc["parameters"]["power_load"]["value"] == pytest.approx(39.25)
     assert doc["warnings"] and doc["text"] == out.read_text()
 
 

@@ -62,13 +62,16 @@ class DriveTerms:
         """The term `name`, or None when the fit did not determine it."""
         return self.terms.get(name)
 
+    def reason(self, name: str) -> str | None:
+        """The fit's reason for not determining `name` (None: it gave none)."""
+        keys = (f"{name}[{self.surface}]", name) if self.surface else (name,)
+        return next((r for r in self.not_determined if r.startswith(keys)), None)
+
     def why_not(self, name: str) -> str:
         """Why `name` is not determined, in the fit's words when it gave them."""
-        keys = (f"{name}[{self.surface}]", name) if self.surface else (name,)
-        for reason in self.not_determined:
-            if reason.startswith(keys):
-                return reason
-        return f"{name}: not determined by the fit ({self.file} holds no value for it)"
+        return self.reason(name) or (
+            f"{name}: not determined by the fit ({self.file} holds no value for it)"
+        )
 
 
 @dataclass(frozen=True)
@@ -254,6 +257,19 @@ def _default_surface(drive: dict, names: tuple[str, ...]) -> str:
     runs = ((drive.get("heldout") or {}).get("runs")) or []
     counts = {name: sum(1 for r in runs if r.get("surface") == name) for name in names}
     return max(names, key=lambda name: (counts[name], -names.index(name)))
+
+
+def unexpressed(
+    drive: DriveTerms, accounted: set[str], target: str, why: dict[str, str]
+) -> list[str]:
+    """A warning for each fitted term the target's file does not hold and nothing else has
+    spoken for (`accounted`): never dropped silently, a term the drive model gains later
+    included (`why` explains the known ones)."""
+    return [
+        f"not expressible in {target}: {interval(term)} ({why.get(name, 'no counterpart')})"
+        for name, term in drive.terms.items()
+        if name not in accounted
+    ]
 
 
 def fmt(value: float) -> str:

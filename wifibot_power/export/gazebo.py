@@ -43,23 +43,31 @@ from wifibot_power.export.base import (
     Target,
     fmt,
     interval,
+    unexpressed,
 )
 
 PLUGIN_FILENAME = "gz-sim-linearbatteryplugin-system"
 PLUGIN_NAME = "gz::sim::systems::LinearBatteryPlugin"
 BATTERY_NAME = "linear_battery"
-#: the terms a constant load never expresses (it has no acceleration or rate of turn)
-_MOTION_ONLY = ("effective_mass_kg", "braking_mass_kg", "turning_Nm")
 
 
 def steady_power_W(
-    idle_W: float, rolling_W_per_mps: float, quadratic_W_per_mps2: float, speed_mps: float
+    idle_W: float,
+    drive_on_W: float,
+    rolling_W_per_mps: float,
+    quadratic_W_per_mps2: float,
+    speed_mps: float,
 ) -> float:
     """The drive model's power [W] driving straight at a steady speed (no acceleration, no
-    turning): P = idle_W + rolling_W_per_mps |v| + quadratic_W_per_mps2 v^2 (cli.md, "The
-    drive model"; the terms of wifibot_power/drive/terms.py)."""
+    turning): P = idle_W + drive_on_W [v != 0] + rolling_W_per_mps |v| + quadratic_W_per_mps2
+    v^2 (cli.md, "The drive model"; the terms of wifibot_power/drive/terms.py)."""
     v = abs(speed_mps)
-    return idle_W + rolling_W_per_mps * v + quadratic_W_per_mps2 * v * v
+    return (
+        idle_W
+        + (drive_on_W if v > 0 else 0.0)
+        + rolling_W_per_mps * v
+        + quadratic_W_per_mps2 * v * v
+    )
 
 
 class GazeboTarget(Target):
@@ -142,47 +150,50 @@ def _power_load(drive: DriveTerms, speed_mps: float | None, warnings: list[str])
             file=drive.file,
             fix="leave out --speed (the load is then idle_W)",
         )
-    quadratic = drive.get("quadratic_W_per_mps2")
-    if quadratic is None:
-        warnings.append(
-            "quadratic_W_per_mps2 is not determined: left out of <power_load> "
-            f"({drive.why_not('quadratic_W_per_mps2')})"
-        )
-    q = 0.0 if quadratic is None else quadratic.value
-    value = steady_power_W(idle.value, rolling.value, q, speed_mps)
-    used = ["idle_W", drive.source("rolling_W_per_mps")]
-    used += ["quadratic_W_per_mps2"] if quadratic is not None else []
+    optional = {}  # the steady terms a model may lack: 0 when it does, said when not determined
+    for name in ("drive_on_W", "quadratic_W_per_mps2"):
+        term = drive.get(name)
+        if term is None and drive.reason(name):
+            warnings.append(f"left out of <power_load>: {drive.reason(name)}")
+        optional[name] = 0.0 if term is None else term.value
+    value = steady_power_W(
+        idle.value,
+        optional["drive_on_W"],
+        rolling.value,
+        optional["quadratic_W_per_mps2"],
+        speed_mps,
+    )
+    used = ["idle_W", "drive_on_W", drive.source("rolling_W_per_mps"), "quadratic_W_per_mps2"]
+    used = [n for n in used if n not in optional or drive.get(n) is not None]
+    v = fmt(abs(speed_mps))
     return Parameter(
         "power_load",
         value,
         "W",
         ", ".join(used),
-        "idle_W + rolling_W_per_mps |v| + quadratic_W_per_mps2 v^2 at v = "
-        f"{fmt(speed_mps)} m/s: {fmt(idle.value)} + {fmt(rolling.value)} * {fmt(abs(speed_mps))}"
-        f" + {fmt(q)} * {fmt(speed_mps)}^2 (driving steadily)",
+        "idle_W + drive_on_W + rolling_W_per_mps |v| + quadratic_W_per_mps2 v^2 at v = "
+        f"{v} m/s: {fmt(idle.value)} + {fmt(optional['drive_on_W'])} + {fmt(rolling.value)} * "
+        f"{v} + {fmt(optional['quadratic_W_per_mps2'])} * {v}^2 (driving steadily)",
     )
 
 
 def _not_expressible(drive: DriveTerms, speed_mps: float | None) -> list[str]:
     out = []
     constant = "gz-sim's battery drains a constant <power_load>"
+    steady = ("drive_on_W", "rolling_W_per_mps", "quadratic_W_per_mps2")
     if speed_mps is None:
-        lost = [
-            interval(t)
-            for n in ("rolling_W_per_mps", "quadratic_W_per_mps2")
-            if (t := drive.get(n)) is not None
-        ]
+        lost = [interval(t) for n in steady if (t := drive.get(n)) is not None]
         if lost:
             out.append(
                 f"<power_load> is idle_W, the robot standing: {constant}; not expressed: "
                 f"{'; '.join(lost)} (give --speed V for the load of steady driving at V)"
             )
-    lost = [interval(t) for n in _MOTION_ONLY if (t := drive.get(n)) is not None]
-    if lost:
-        out.append(
-            f"not expressible in Gazebo ({constant}, no acceleration or turning): "
-            + "; ".join(lost)
-        )
+    why = {
+        "effective_mass_kg": f"{constant}: no acceleration",
+        "braking_mass_kg": f"{constant}: no braking",
+        "turning_Nm": f"{constant}: no turning",
+    }
+    out += unexpressed(drive, {"idle_W", *steady}, "Gazebo", why)
     if drive.lag_s:
         out.append(
             f"not expressible in Gazebo: the lag of power behind speed, lag_s = "

@@ -40,6 +40,7 @@ from wifibot_power.export.base import (
     Target,
     fmt,
     interval,
+    unexpressed,
 )
 
 #: the gravitational acceleration RMF's friction energy uses [m/s^2] ([1],
@@ -340,14 +341,23 @@ def _moment_of_inertia(drive: DriveTerms, options: ExportOptions, warnings: list
 
 def _not_expressible(drive: DriveTerms, mass_kg: float) -> list[str]:
     """What RMF's sinks cannot express, with its size."""
-    out = []
+    why = {"drive_on_W": "no power drawn only while moving: RMF leaves it out of every move"}
     quadratic = drive.get("quadratic_W_per_mps2")
-    if quadratic is not None and quadratic.value != 0:
-        out.append(
-            f"not expressible in RMF: {interval(quadratic)} (no v^2 term in "
-            f"SimpleMotionPowerSink): RMF will be off by {fmt(quadratic.value)} W at 1 m/s, "
-            f"{fmt(quadratic.value * 0.25)} W at 0.5 m/s"
+    if quadratic is not None:
+        why["quadratic_W_per_mps2"] = (
+            f"no v^2 term in SimpleMotionPowerSink: RMF leaves out {fmt(quadratic.value)} W at "
+            f"1 m/s, {fmt(quadratic.value * 0.25)} W at 0.5 m/s"
         )
+    # idle, rolling, the inertial terms and turning are exported (or a given value replaced
+    # them, which _mass and _moment_of_inertia said)
+    accounted = {
+        "idle_W",
+        "rolling_W_per_mps",
+        "effective_mass_kg",
+        "braking_mass_kg",
+        "turning_Nm",
+    }
+    out = unexpressed(drive, accounted, "RMF", why)
     if drive.get("braking_mass_kg") is not None:
         out.append(
             "not expressible in RMF: braking apart from speeding up (RMF charges m|a||v| on "
