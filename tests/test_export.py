@@ -412,6 +412,17 @@ def test_a_model_without_surfaces_exports_its_terms(tmp_path):
     assert result.summary()["parameters"]["mechanical_system.friction_coefficient"]["from"] == (
         "rolling_W_per_mps"
     )
+    with pytest.raises(UsageError, match="the model has no surfaces"):
+        export_model(write_model(tmp_path, drive), "rmf", ExportOptions(surface="grass"))
+
+
+def test_sdf_comments_stay_comments_whatever_the_file_name(tmp_path, model_file):
+    odd = tmp_path / "a--b-"
+    odd.mkdir()
+    path = odd / "model.json-"
+    path.write_text(model_file.read_text())
+    result = export_model(path, "gazebo", ExportOptions(**BATTERY))
+    check_gazebo_schema(result.text)  # parses: no "--" inside a comment
 
 
 # -- the command line -------------------------------------------------------------------------

@@ -236,7 +236,7 @@ def _comment(text: str) -> str:
     text = re.sub(r"--([a-z][\w-]*)", r"option '\1'", " ".join(str(text).split()))
     while "--" in text:
         text = text.replace("--", "- -")
-    return text
+    return text + " " if text.endswith("-") else text  # "--->" would end it early
 
 
 TARGET = GazeboTarget()
