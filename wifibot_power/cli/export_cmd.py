@@ -15,12 +15,10 @@ from wifibot_power.cli.common import JsonFlag, handles_errors, print_json, warn
 from wifibot_power.cli.help import command_help
 from wifibot_power.cli.typer_app import app
 from wifibot_power.errors import UsageError, WbpowerError
-from wifibot_power.export import ExportOptions, export_model
+from wifibot_power.export import TARGETS, ExportOptions, export_model
 
-
-class To(StrEnum):
-    rmf = "rmf"
-    gazebo = "gazebo"
+#: the `--to` choices: the registry's targets (no list of them here)
+To = StrEnum("To", {name: name for name in TARGETS})
 
 
 ModelFile = Annotated[
@@ -30,8 +28,7 @@ ToOption = Annotated[
     To,
     typer.Option(
         "--to",
-        help="rmf: the Open-RMF fleet config's battery/mechanical/ambient/tool systems (YAML); "
-        "gazebo: gz-sim's LinearBatteryPlugin <plugin> element (SDF).",
+        help="; ".join(f"{t.name}: {t.file_format}" for t in TARGETS.values()) + ".",
     ),
 ]
 Surface = Annotated[
