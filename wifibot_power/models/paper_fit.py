@@ -185,6 +185,7 @@ FIT_VALUES = (
     "t_acc_s",
     "mean_power_W",
     "idle_mean_power_W",
+    "sample_period_s",
 )
 
 
@@ -279,6 +280,9 @@ def _fitted(mode: np.ndarray, values: dict[str, np.ndarray]) -> Fitted:
             continue
         components[name] = net_of_idle(MeanEstimate.of(column(mode_runs, "mean_power_W")), idle)
     warnings = fit_warnings(accel, cruise, speed, idle_source, idle.value_W)
+    t_acc = _resolution_floor(
+        t_acc, speed, column(motion, "t_acc_s"), column(motion, "sample_period_s"), warnings
+    )
     model = PowerModel(
         accel=accel,
         cruise=cruise,
@@ -290,6 +294,31 @@ def _fitted(mode: np.ndarray, values: dict[str, np.ndarray]) -> Fitted:
         fit_warnings=tuple(warnings),
     )
     return Fitted(model, idle, idle_source, components, tuple(notes))
+
+
+def _resolution_floor(
+    t_acc: LinearFit,
+    speed_mps: np.ndarray,
+    t_acc_s: np.ndarray,
+    sample_period_s: np.ndarray,
+    warnings: list[str],
+) -> LinearFit:
+    """`t_acc` with intervals no narrower than the sample period where the runs' accelerations
+    are a sample or two long (a 6.5 Hz log: every t_acc 0.154 s, CI [0.154, 0.154] before),
+    and a warning in `warnings` that says so (`segment.resolution`; issue 26)."""
+    from dataclasses import replace
+
+    from wifibot_power.segment.resolution import quantized_durations
+
+    coarse = quantized_durations(t_acc_s, sample_period_s)
+    if coarse is None:
+        return t_acc
+    warnings.append(coarse.warning("t_acc"))
+    return replace(
+        t_acc,
+        intercept_ci95=coarse.floor_ci95(t_acc.intercept, t_acc.intercept_ci95),
+        slope_ci95=coarse.floor_slope_ci95(t_acc.slope, t_acc.slope_ci95, speed_mps),
+    )
 
 
 def _speed_range(speed_mps: np.ndarray) -> tuple[float, float] | None:
