@@ -76,6 +76,21 @@ PowerColumn = Annotated[
         "--power-column", help="Name of a power column; repeat it to sum several (two motors)."
     ),
 ]
+YawRateColumn = Annotated[
+    str | None,
+    typer.Option(
+        "--yaw-rate-column",
+        help="Name of the rate-of-turn column [rad/s] (default: yaw_rate_radps, if any).",
+    ),
+]
+TrackWidth = Annotated[
+    float | None,
+    typer.Option(
+        "--track-width",
+        min=0.0,
+        help="Track width [m] turning speed_left_mps/speed_right_mps into a rate of turn.",
+    ),
+]
 TimeColumn = Annotated[
     str | None, typer.Option("--time-column", help="Name of the time column (see --time-unit).")
 ]
@@ -118,6 +133,8 @@ READING_OPTIONS = (
     ("time_column", TimeColumn, None),
     ("time_unit", TimeUnitOption, None),
     ("speed_column", SpeedColumn, None),
+    ("yaw_rate_column", YawRateColumn, None),
+    ("track_width", TrackWidth, None),
     ("sample_period", SamplePeriod, None),
     ("flip_current", FlipCurrent, False),
 )
@@ -131,6 +148,8 @@ def read_options(
     time_column: str | None = None,
     time_unit: TimeUnit | str | None = None,
     speed_column: str | None = None,
+    yaw_rate_column: str | None = None,
+    track_width: float | None = None,
     sample_period: float | None = None,
     flip_current: bool = False,
 ) -> ReadOptions:
@@ -144,6 +163,8 @@ def read_options(
         time_column=time_column,
         time_unit=TimeUnit(time_unit).value if time_unit is not None else None,
         flip_current=bool(flip_current),
+        yaw_rate_column=yaw_rate_column,
+        track_width_m=track_width,
     )
 
 

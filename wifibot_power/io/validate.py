@@ -22,6 +22,9 @@ ABSURD_POWER_W = 1000.0
 DEAD_CHANNEL_SHARE = 0.05
 #: Above this a speed column is not in m/s (a small robot; mm/s or rpm by mistake) [m/s].
 ABSURD_SPEED_MPS = 50.0
+#: Above this a rate of turn is not in rad/s (deg/s by mistake: 60 deg/s, a slow spin, would
+#: read 60 rad/s, ten turns a second) [rad/s].
+ABSURD_YAW_RATE_RADPS = 30.0
 #: Below this a reading is negative, not an offset around zero: such samples are data
 #: (regenerative braking, current lagging a voltage reversal by a sample), read and reported.
 NEGATIVE_POWER_W = -1.0
@@ -117,6 +120,26 @@ def check_speed(
             file=file,
             where=f"line {line_of(index)}, column '{name}'",
             fix="the speed column must be in m/s (mm/s or rpm need converting)",
+        )
+
+
+def check_yaw_rate(
+    file: str, name: str, yaw_rate_radps: np.ndarray, *, line_of: Callable[[int], int]
+) -> None:
+    """A rate-of-turn column must hold a finite number in every sample, in rad/s."""
+    if not yaw_rate_radps.size:
+        return
+    _require_finite(yaw_rate_radps, "yaw rate", file, line_of, f", column '{name}'")
+    high = float(np.max(np.abs(yaw_rate_radps)))
+    if high > ABSURD_YAW_RATE_RADPS:
+        index = int(np.argmax(np.abs(yaw_rate_radps) > ABSURD_YAW_RATE_RADPS))
+        raise LogError(
+            f"absurd yaw rate ({yaw_rate_radps[index]:.4g} rad/s, over "
+            f"{ABSURD_YAW_RATE_RADPS:g} rad/s)",
+            file=file,
+            where=f"line {line_of(index)}, column '{name}'",
+            fix="the rate of turn must be in rad/s (deg/s needs converting; a wheel-speed "
+            "pair needs the track width in m)",
         )
 
 
