@@ -48,11 +48,11 @@ FREE_REALISM: dict[str, dict[str, float]] = {
         "gain_spread": 0.0,
     },
     "field": {
-        "sample_period_s": 1 / 6.5,
+        "sample_period_s": 0.05,
         "power_noise_W": 2.0,
         "speed_noise_mps": 0.01,
         "speed_step_mps": 0.02,
-        "yaw_noise_radps": 0.03,
+        "yaw_noise_radps": 0.005,
         "dropouts_per_min": 1.0,
         "gain_spread": 0.01,
     },
@@ -210,12 +210,14 @@ def _one_run(
     delayed_W = np.concatenate((np.full(lag, true_W[0]), true_W[: n - lag]))
     period = level["sample_period_s"]
     per = max(int(round(period / INTERNAL_S)), 1)
-    if per > 1:  # each logged power sample is the mean over its period; speed an instant
+    if per > 1:  # each logged sample is the mean over its period (log-format.md), power as an
+        # analyser's, speed as an encoder's count over the period, rate of turn as a gyro's
         count = n // per
-        power_W = delayed_W[: count * per].reshape(count, per).mean(axis=1)
+        power_W, speed_s, yaw_s = (
+            values[: count * per].reshape(count, per).mean(axis=1)
+            for values in (delayed_W, speed, yaw)
+        )
         time_s = np.arange(count) * per * INTERNAL_S
-        idx = np.arange(count) * per
-        speed_s, yaw_s = speed[idx], yaw[idx]
     else:  # a logger faster than the internal clock: interpolate (power varies slowly)
         time_s = np.arange(int(config.run_s / period)) * period
         power_W = np.interp(time_s, t, delayed_W)

@@ -53,6 +53,8 @@ class Windows:
 
     #: the regressors, by column name (`columns`): what each term multiplies
     design: np.ndarray
+    #: their rate of change from window to window [1/s]: how the fit moves with the lag
+    design_rate: np.ndarray
     columns: tuple[str, ...]
     power_W: np.ndarray
     #: per window: its run's index (into `run_ids`), its trip's global number, its surface
@@ -70,6 +72,7 @@ class Windows:
     def take(self, keep: np.ndarray) -> Windows:
         return Windows(
             self.design[keep],
+            self.design_rate[keep],
             self.columns,
             self.power_W[keep],
             self.run[keep],
@@ -101,8 +104,18 @@ class RunWindows:
     def count(self) -> int:
         return int(self.ok.size)
 
-    def power_at(self, lag_bins: int) -> tuple[np.ndarray, np.ndarray]:
-        """Each window's mean power `lag_bins` bins later [W], and whether it is defined."""
+    def power_at(self, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
+        """Each window's mean power `lag_bins` bins later [W] (a fraction of a bin: linear
+        between the two whole bins), and whether it is defined."""
+        whole = int(np.floor(lag_bins))
+        part = lag_bins - whole
+        if part <= 1e-9:
+            return self._power_at(whole)
+        low, low_ok = self._power_at(whole)
+        high, high_ok = self._power_at(whole + 1)
+        return (1 - part) * low + part * high, low_ok & high_ok
+
+    def _power_at(self, lag_bins: int) -> tuple[np.ndarray, np.ndarray]:
         power = self.stats.power_W
         start = np.arange(self.count) * self.n + lag_bins
         inside = start + self.n <= power.size
@@ -131,9 +144,7 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     speed_noise = stats.speed_noise_mps / np.sqrt(samples)
     yaw_noise = stats.yaw_noise_radps / np.sqrt(samples)
     abs_speed = _window_abs(speed[:used].reshape(shape), mean_speed, speed_noise, samples)
-    abs_yaw = _window_abs(
-        stats.yaw_rate_radps[:used].reshape(shape), mean_yaw, yaw_noise, samples
-    )
+    abs_yaw = _window_abs(stats.yaw_rate_radps[:used].reshape(shape), mean_yaw, yaw_noise, samples)
     speed2 = np.square(speed[:used]).reshape(shape).mean(axis=1)
     edges = np.arange(count + 1) * n
     edge_bins = max(EDGE_BINS, int(np.ceil(EDGE_SAMPLES / stats.samples_per_bin)))
@@ -154,9 +165,7 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     return RunWindows(stats, n, abs_speed, speed2, av_up, av_down, abs_yaw, ok, trip, standing)
 
 
-def _window_abs(
-    bins: np.ndarray, mean: np.ndarray, noise: float, samples: float
-) -> np.ndarray:
+def _window_abs(bins: np.ndarray, mean: np.ndarray, noise: float, samples: float) -> np.ndarray:
     """A window's mean |x| from its bins (a row each): |mean| denoised (`_denoised_abs`), except
     in a window where x changes sign (reversing, a spin turned the other way: its bins reach
     beyond 3 bin-noise deviations on both sides of 0), where |mean| would cancel the two
@@ -236,7 +245,7 @@ def design_columns(surfaces: tuple[str, ...]) -> tuple[str, ...]:
 
 def assemble(
     runs: list[RunWindows],
-    lag_bins: int,
+    lag_bins: float,
     surfaces: tuple[str, ...] | None = None,
     only: list[np.ndarray] | None = None,
 ) -> Windows:
@@ -258,6 +267,16 @@ def assemble(
         local = rw.stats.surface_index[first_bin]
         mapping = np.array([position[s] for s in rw.stats.surfaces], dtype=np.intp)
         surface = mapping[local]
+        rates = [
+            np.gradient(values, rw.n * rw.stats.bin_s) if values.size > 1 else 0 * values
+            for values in (
+                rw.abs_speed_mps,
+                rw.speed2_mps2,
+                rw.av_up_m2ps3,
+                rw.av_down_m2ps3,
+                rw.abs_yaw_radps,
+            )
+        ]
         parts.append(
             (
                 rw.abs_speed_mps[keep],
@@ -269,11 +288,12 @@ def assemble(
                 power[keep],
                 np.full(int(keep.sum()), number),
                 rw.trip[keep] + trip_base,
+                *(rate[keep] for rate in rates),
             )
         )
         trip_base += int(rw.trip[-1]) + 1 if rw.count else 0
-    abs_v, v2, av_up, av_down, abs_yaw, surface, power, run, trip = (
-        np.concatenate([p[k] for p in parts]) if parts else np.zeros(0) for k in range(9)
+    (abs_v, v2, av_up, av_down, abs_yaw, surface, power, run, trip, *rates) = (
+        np.concatenate([p[k] for p in parts]) if parts else np.zeros(0) for k in range(14)
     )
     surface = surface.astype(np.intp)
     one_hot = surface[:, None] == np.arange(len(surfaces))[None, :]
@@ -286,8 +306,18 @@ def assemble(
         "turning_Nm": one_hot * abs_yaw[:, None],
     }
     design = np.hstack([blocks[term.name] for term in TERMS])
+    d_abs_v, d_v2, d_up, d_down, d_yaw = (np.nan_to_num(rate) for rate in rates)
+    rate_blocks = {
+        "idle_W": np.zeros((power.size, 1)),
+        "rolling_W_per_mps": one_hot * d_abs_v[:, None],
+        "quadratic_W_per_mps2": d_v2[:, None],
+        "effective_mass_kg": d_up[:, None],
+        "braking_mass_kg": d_down[:, None],
+        "turning_Nm": one_hot * d_yaw[:, None],
+    }
     return Windows(
         design=design,
+        design_rate=np.hstack([rate_blocks[term.name] for term in TERMS]),
         columns=columns,
         power_W=power,
         run=run.astype(np.intp),
