@@ -166,9 +166,7 @@ def test_reversing_regressors_give_the_energy():
 def test_fast_and_slow_logger_give_the_same_terms():
     base = FreeDriveConfig(runs_per_surface=3, run_s=60.0, seed=7, surfaces=("asphalt",))
     fast = FreeDriveConfig(**{**base.__dict__, "realism_overrides": {"sample_period_s": 1e-4}})
-    slow = FreeDriveConfig(
-        **{**base.__dict__, "realism_overrides": {"sample_period_s": 1 / 6.5}}
-    )
+    slow = FreeDriveConfig(**{**base.__dict__, "realism_overrides": {"sample_period_s": 1 / 6.5}})
     fast_model, slow_model = _fit(fast), _fit(slow)
     names = [t.name for t in TERMS]
     for name in names:
