@@ -60,6 +60,8 @@ class DriveModel:
     cov: tuple[tuple[float, ...], ...] = ()
     window_s: float = WINDOW_S
     surface_names: tuple[str, ...] = field(default=())
+    #: degrees of freedom of the intervals (clusters - 1)
+    dof: int = 0
 
     def summary(self) -> dict[str, object]:
         """cli.md's `drive` object (JSON-safe)."""
@@ -94,6 +96,7 @@ class DriveModel:
             "cov": [list(row) for row in self.cov],
             "window_s": self.window_s,
             "surface_names": list(self.surface_names),
+            "dof": self.dof,
             "relative_rms": heldout.relative_rms if heldout else None,
             "relative_dof": heldout.dof if heldout else None,
         }
@@ -139,6 +142,7 @@ class DriveModel:
             cov=tuple(tuple(float(v) for v in row) for row in data["cov"]),
             window_s=float(data["window_s"]),
             surface_names=tuple(data["surface_names"]),
+            dof=int(data["dof"]),
         )
 
 
@@ -218,6 +222,7 @@ def fit_drive_stats(
         cov=tuple(tuple(float(v) for v in row) for row in fitted.cov) if k.size else (),
         window_s=windows.window_s,
         surface_names=surfaces,
+        dof=fitted.dof,
     )
 
 

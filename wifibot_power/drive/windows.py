@@ -30,12 +30,14 @@ from wifibot_power.drive.terms import TERMS
 #: speeding up and braking, and long enough that a 6.5 Hz logger puts 3 samples in it (their
 #: noise averages before |v| and |yaw rate| are taken).
 WINDOW_S = 0.5
-#: The speed at a window's edge is the mean of the bins within this many bins of it (0.05 s
-#: at `BIN_S` = 0.05 s), or of at least `EDGE_SAMPLES` samples on each side for a slow logger
-#: (a 6.5 Hz log: 3 bins, 0.15 s): one sample's noise on each edge would be the speeding-up
-#: and braking regressors' noise, split by its sign between the two.
+#: The speed at a window's edge is the mean of the bins within `EDGE_BINS` of it, or over
+#: at least `EDGE_SAMPLES` samples on each side for a slower logger (20 Hz: 2 bins a side,
+#: 6.5 Hz: 7): one sample's noise on each edge is the noise of the speeding-up and braking
+#: regressors, which biases their coefficients towards 0 (errors in variables: 3% on the
+#: simulator's braking term at 20 Hz with one sample, 1% with two); wider, corners of the
+#: speed profile are smeared (the effective mass 2-3% high at 6.5 Hz).
 EDGE_BINS = 1
-EDGE_SAMPLES = 1.0
+EDGE_SAMPLES = 2.0
 #: Standing: slower than this [m/s] and turning slower than `STANDING_RADPS`.
 STANDING_MPS = 0.02
 STANDING_RADPS = 0.05
