@@ -148,7 +148,8 @@ def _term(column: str) -> str:
 def _determined(windows: Windows, clusters: np.ndarray) -> tuple[np.ndarray, list]:
     """Which columns the data determine, and why each other one is not (module docstring).
     Columns are tried in order of how much power they usually carry: idle, rolling, turning,
-    speeding up, braking, then v^2, so collinearity drops the weaker term."""
+    speeding up, braking, then the step on moving and v^2, so collinearity drops the weaker
+    term (one speed only: |v|, the step and v^2 are one regressor, and |v| is kept)."""
     X = windows.design
     columns = windows.columns
     order = sorted(
@@ -159,6 +160,7 @@ def _determined(windows: Windows, clusters: np.ndarray) -> tuple[np.ndarray, lis
             "turning_Nm",
             "effective_mass_kg",
             "braking_mass_kg",
+            "drive_on_W",
             "quadratic_W_per_mps2",
         ].index(_term(columns[j])),
     )
@@ -199,6 +201,7 @@ def _seen(windows: Windows, j: int) -> np.ndarray:
     value = np.abs(windows.design[:, j])
     threshold = {
         "idle_W": 0.5,
+        "drive_on_W": 0.5,
         "rolling_W_per_mps": MOVING_MPS,
         "quadratic_W_per_mps2": MOVING_MPS**2,
         "effective_mass_kg": ACCELERATING_M2PS3,
@@ -212,6 +215,7 @@ def _unseen_reason(column: str, n_clusters: int) -> str:
     term = _term(column)
     what = {
         "idle_W": "no window",
+        "drive_on_W": "no motion",
         "rolling_W_per_mps": "no motion",
         "quadratic_W_per_mps2": "no motion",
         "effective_mass_kg": "no speeding up",

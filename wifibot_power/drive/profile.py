@@ -129,8 +129,14 @@ def step_phase_powers(
     surface = surface or next(iter(model.surface_names), UNKNOWN_SURFACE)
     v = float(speed_mps)
     means = {
-        "accel": {"1": 1.0, "|v|": v / 2, "v^2": v * v / 3, "(a v)+": v * v / (2 * t_acc_s)},
-        "cruise": {"1": 1.0, "|v|": v, "v^2": v * v},
+        "accel": {
+            "1": 1.0,
+            "moving": 1.0,
+            "|v|": v / 2,
+            "v^2": v * v / 3,
+            "(a v)+": v * v / (2 * t_acc_s),
+        },
+        "cruise": {"1": 1.0, "moving": 1.0, "|v|": v, "v^2": v * v},
     }
     coef = np.array(model.coef)
     kept = np.isfinite(coef)

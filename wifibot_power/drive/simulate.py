@@ -72,6 +72,7 @@ class FreeDriveConfig:
     seed: int = 0
     lag_s: float = 0.2
     idle_W: float = 12.0
+    drive_on_W: float = 3.0
     quadratic_W_per_mps2: float = 8.0
     effective_mass_kg: float = 30.0
     braking_mass_kg: float = 10.0
@@ -102,6 +103,7 @@ class FreeDriveConfig:
         """The true coefficients on `surface` (terms.power_W's keys)."""
         return {
             "idle_W": self.idle_W,
+            "drive_on_W": self.drive_on_W,
             "rolling_W_per_mps": self.rolling_W_per_mps[surface],
             "quadratic_W_per_mps2": self.quadratic_W_per_mps2,
             "effective_mass_kg": self.effective_mass_kg,
@@ -114,6 +116,7 @@ class FreeDriveConfig:
         return {
             "terms": {
                 "idle_W": self.idle_W,
+                "drive_on_W": self.drive_on_W,
                 "quadratic_W_per_mps2": self.quadratic_W_per_mps2,
                 "effective_mass_kg": self.effective_mass_kg,
                 "braking_mass_kg": self.braking_mass_kg,

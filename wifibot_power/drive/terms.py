@@ -2,6 +2,7 @@
 named terms (cli.md, "The drive model"), one function each, pvlib-style.
 
     P = idle_W
+        + drive_on_W                          (while moving or turning)
         + rolling_W_per_mps[surface] * |v|
         + quadratic_W_per_mps2 * v^2
         + effective_mass_kg * (a v)+          (speeding up: a v > 0)
@@ -37,6 +38,16 @@ def idle_power_W(speed_mps: np.ndarray, idle_W: float) -> np.ndarray:
     electronics and the motor drivers' quiescent draw, present whether the robot moves or not
     (the constant term of [2], Eq. 1)."""
     return np.full(np.shape(speed_mps), float(idle_W))
+
+
+def drive_on_power_W(moving: np.ndarray, drive_on_W: float) -> np.ndarray:
+    """Power drawn only while the robot moves or turns, whatever its speed [W]: the motor
+    drivers switching (an H-bridge's losses with current flowing), brakes released, a motor
+    controller's speed loop active. A step between standing and moving that the paper's
+    phase model carries as its cruise line's intercept above idle (paper Eq. 3-4: P_v(0+) >
+    idle), and wbpower's own robot model as `drive_on_W` (simulate.py). `moving` is 1 while
+    moving, 0 standing (or the share of a window spent moving)."""
+    return drive_on_W * np.asarray(moving, dtype=np.float64)
 
 
 def rolling_power_W(speed_mps: np.ndarray, rolling_W_per_mps: float) -> np.ndarray:
@@ -104,6 +115,7 @@ class Term:
 #: The drive model's terms, in the order of the design (per-surface terms repeat per surface).
 TERMS: tuple[Term, ...] = (
     Term("idle_W", "W", False, True, "1"),
+    Term("drive_on_W", "W", False, True, "moving"),
     Term("rolling_W_per_mps", "W/(m/s)", True, True, "|v|"),
     Term("quadratic_W_per_mps2", "W/(m/s)^2", False, True, "v^2"),
     Term("effective_mass_kg", "kg", False, True, "(a v)+"),
@@ -121,8 +133,10 @@ def power_W(
 ) -> np.ndarray:
     """The drive model's power [W]: the sum of the terms above, each with its coefficient
     (one surface: `coefficients` holds a value for every name of `TERMS`)."""
+    moving = (speed_mps != 0) | (yaw_rate_radps != 0)
     return (
         idle_power_W(speed_mps, coefficients["idle_W"])
+        + drive_on_power_W(moving, coefficients["drive_on_W"])
         + rolling_power_W(speed_mps, coefficients["rolling_W_per_mps"])
         + quadratic_power_W(speed_mps, coefficients["quadratic_W_per_mps2"])
         + inertial_power_W(speed_mps, accel_mps2, coefficients["effective_mass_kg"])

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wifibot_power.drive.stats import DriveStats
-from wifibot_power.drive.terms import TERMS
+from wifibot_power.drive.terms import TERM_BY_NAME, TERMS
 
 #: The window the model is fitted on [s]. The inertial terms are exact window means whatever
 #: its length (d(v^2/2)/dt), so it need only be short enough that a window seldom holds both
@@ -47,6 +47,18 @@ NOISE_FLOOR_MPS = 1e-3
 NOISE_FLOOR_RADPS = 1e-3
 #: A stop at least this long [s] cuts a run into trips.
 STOP_S = 3.0
+
+
+#: Each term's regressor (`RunWindows.regressors`; None: the constant 1).
+REGRESSOR_OF = {
+    "idle_W": None,
+    "drive_on_W": "moving",
+    "rolling_W_per_mps": "abs_speed",
+    "quadratic_W_per_mps2": "speed2",
+    "effective_mass_kg": "av_up",
+    "braking_mass_kg": "av_down",
+    "turning_Nm": "abs_yaw",
+}
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,6 +110,7 @@ class RunWindows:
     av_up_m2ps3: np.ndarray  # window mean of (a v)+, speeding up [m^2/s^3]
     av_down_m2ps3: np.ndarray  # window mean of (a v)-, braking [m^2/s^3]
     abs_yaw_radps: np.ndarray
+    moving: np.ndarray  # share of the window's bins spent moving or turning
     ok: np.ndarray  # the regressors are defined (no drop-out in their bins)
     trip: np.ndarray  # trip number within the run
     standing: np.ndarray
@@ -105,6 +118,17 @@ class RunWindows:
     @property
     def count(self) -> int:
         return int(self.ok.size)
+
+    def regressors(self) -> dict[str, np.ndarray]:
+        """Each window's regressors, by the names `REGRESSOR_OF` gives the terms."""
+        return {
+            "abs_speed": self.abs_speed_mps,
+            "speed2": self.speed2_mps2,
+            "av_up": self.av_up_m2ps3,
+            "av_down": self.av_down_m2ps3,
+            "abs_yaw": self.abs_yaw_radps,
+            "moving": self.moving,
+        }
 
     def power_at(self, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
         """Each window's mean power `lag_bins` bins later [W] (a fraction of a bin: linear
@@ -161,10 +185,21 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
         & (np.abs(mean_speed) < 3.0 * max(speed_noise, NOISE_FLOOR_MPS))
         & (np.abs(mean_yaw) < 3.0 * max(yaw_noise, NOISE_FLOOR_RADPS))
     )
-    for regressor in (abs_speed, speed2, abs_yaw, av_up, av_down):
+    # moving: a bin faster than standing, beyond its own noise, or turning so
+    bin_samples = max(stats.samples_per_bin, 1.0)
+    moving_bins = (
+        np.abs(speed[:used]) > max(STANDING_MPS, 3.0 * stats.speed_noise_mps / np.sqrt(bin_samples))
+    ) | (
+        np.abs(stats.yaw_rate_radps[:used])
+        > max(STANDING_RADPS, 3.0 * stats.yaw_noise_radps / np.sqrt(bin_samples))
+    )
+    moving = moving_bins.reshape(shape).mean(axis=1)
+    for regressor in (abs_speed, speed2, abs_yaw, av_up, av_down, moving):
         regressor[still] = 0.0
     trip = _trips(standing, max(int(round(STOP_S / (n * stats.bin_s))), 1))
-    return RunWindows(stats, n, abs_speed, speed2, av_up, av_down, abs_yaw, ok, trip, standing)
+    return RunWindows(
+        stats, n, abs_speed, speed2, av_up, av_down, abs_yaw, moving, ok, trip, standing
+    )
 
 
 def _window_abs(bins: np.ndarray, mean: np.ndarray, noise: float, samples: float) -> np.ndarray:
@@ -269,61 +304,43 @@ def assemble(
         local = rw.stats.surface_index[first_bin]
         mapping = np.array([position[s] for s in rw.stats.surfaces], dtype=np.intp)
         surface = mapping[local]
-        rates = [
-            np.gradient(values, rw.n * rw.stats.bin_s) if values.size > 1 else 0 * values
-            for values in (
-                rw.abs_speed_mps,
-                rw.speed2_mps2,
-                rw.av_up_m2ps3,
-                rw.av_down_m2ps3,
-                rw.abs_yaw_radps,
-            )
-        ]
+        regressors = rw.regressors()
+        rates = {
+            name: np.gradient(values, rw.n * rw.stats.bin_s) if values.size > 1 else 0 * values
+            for name, values in regressors.items()
+        }
         parts.append(
-            (
-                rw.abs_speed_mps[keep],
-                rw.speed2_mps2[keep],
-                rw.av_up_m2ps3[keep],
-                rw.av_down_m2ps3[keep],
-                rw.abs_yaw_radps[keep],
-                surface[keep],
-                power[keep],
-                np.full(int(keep.sum()), number),
-                rw.trip[keep] + trip_base,
-                *(rate[keep] for rate in rates),
-            )
+            {
+                **{name: values[keep] for name, values in regressors.items()},
+                **{f"rate:{name}": values[keep] for name, values in rates.items()},
+                "surface": surface[keep],
+                "power": power[keep],
+                "run": np.full(int(keep.sum()), number),
+                "trip": rw.trip[keep] + trip_base,
+            }
         )
         trip_base += int(rw.trip[-1]) + 1 if rw.count else 0
-    (abs_v, v2, av_up, av_down, abs_yaw, surface, power, run, trip, *rates) = (
-        np.concatenate([p[k] for p in parts]) if parts else np.zeros(0) for k in range(14)
-    )
-    surface = surface.astype(np.intp)
+    keys = parts[0].keys() if parts else ()
+    joined = {key: np.concatenate([part[key] for part in parts]) for key in keys}
+    power = joined.get("power", np.zeros(0))
+    surface = joined.get("surface", np.zeros(0)).astype(np.intp)
     one_hot = surface[:, None] == np.arange(len(surfaces))[None, :]
-    blocks = {
-        "idle_W": np.ones((power.size, 1)),
-        "rolling_W_per_mps": one_hot * abs_v[:, None],
-        "quadratic_W_per_mps2": v2[:, None],
-        "effective_mass_kg": av_up[:, None],
-        "braking_mass_kg": av_down[:, None],
-        "turning_Nm": one_hot * abs_yaw[:, None],
-    }
-    design = np.hstack([blocks[term.name] for term in TERMS])
-    d_abs_v, d_v2, d_up, d_down, d_yaw = (np.nan_to_num(rate) for rate in rates)
-    rate_blocks = {
-        "idle_W": np.zeros((power.size, 1)),
-        "rolling_W_per_mps": one_hot * d_abs_v[:, None],
-        "quadratic_W_per_mps2": d_v2[:, None],
-        "effective_mass_kg": d_up[:, None],
-        "braking_mass_kg": d_down[:, None],
-        "turning_Nm": one_hot * d_yaw[:, None],
-    }
+
+    def block(term_name: str, prefix: str) -> np.ndarray:
+        regressor = REGRESSOR_OF[term_name]
+        if regressor is None:
+            return np.ones((power.size, 1)) if not prefix else np.zeros((power.size, 1))
+        values = np.nan_to_num(joined[prefix + regressor])[:, None]
+        return one_hot * values if TERM_BY_NAME[term_name].per_surface else values
+
+    design = np.hstack([block(term.name, "") for term in TERMS])
     return Windows(
         design=design,
-        design_rate=np.hstack([rate_blocks[term.name] for term in TERMS]),
+        design_rate=np.hstack([block(term.name, "rate:") for term in TERMS]),
         columns=columns,
         power_W=power,
-        run=run.astype(np.intp),
-        trip=trip.astype(np.intp),
+        run=joined.get("run", np.zeros(0)).astype(np.intp),
+        trip=joined.get("trip", np.zeros(0)).astype(np.intp),
         surface=surface,
         run_ids=tuple(rw.stats.run_id for rw in runs),
         surfaces=surfaces,
