@@ -194,7 +194,9 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
         > max(STANDING_RADPS, 3.0 * stats.yaw_noise_radps / np.sqrt(bin_samples))
     )
     moving = moving_bins.reshape(shape).mean(axis=1)
-    for regressor in (abs_speed, speed2, abs_yaw, av_up, av_down, moving):
+    # (not the speeding-up and braking terms: a window standing still may end where a step
+    # in speed begins, and its edge speeds say so; at a true standstill they are ~0 anyway)
+    for regressor in (abs_speed, speed2, abs_yaw, moving):
         regressor[still] = 0.0
     trip = _trips(standing, max(int(round(STOP_S / (n * stats.bin_s))), 1))
     return RunWindows(
