@@ -189,3 +189,16 @@ def test_stats_are_small_and_fit_from_them():
     assert max(sizes) < 60_000 and max(sizes) < max(samples_bytes)
     assert fit_drive_stats(stats).summary() == fit_drive(runs).summary()
     assert fit_drive_stats([None]) is None
+
+
+def test_family_adapter(field_model):
+    from wifibot_power.drive.family import FAMILY
+
+    runs = [as_run(r) for r in simulate_free(SMALL)]
+    records = [FAMILY.run_stats(run, None) for run in runs]
+    model = FAMILY.fit(records)
+    assert FAMILY.name == "drive" and model.summary() == field_model.summary()
+    loaded = FAMILY.load(json.loads(json.dumps(model.to_json())))
+    measured, predicted = FAMILY.run_energy_J(loaded, records[0])
+    assert_allclose(predicted, measured, rtol=0.05)
+    assert_allclose(measured, runs[0].energy_J, rtol=0.05)
