@@ -31,9 +31,8 @@ def _free(
     duration_s: float,
     realism_name: str,
     seed: int,
-    json_out: bool,
-) -> None:
-    """`--drive free`: `repeats` runs a surface (drive/simulate.py)."""
+) -> dict[str, object]:
+    """`--drive free`: `repeats` runs a surface (drive/simulate.py); what was written."""
     from wifibot_power.drive.simulate import FreeDriveConfig, write_free
 
     names = tuple(s.strip() for s in surfaces.split(",") if s.strip())
@@ -49,12 +48,7 @@ def _free(
         seed=seed,
     )
     config.level()  # an unknown realism is a usage error before anything is written
-    summary = write_free(config, out)
-    if json_out:
-        print_json(summary)
-        return
-    cells = [[key, str(value)] for key, value in summary.items()]
-    print_table(stdout, "simulated", (Col("what", "text", key=True), Col("value", "text")), cells)
+    return write_free(config, out)
 
 
 def _floats(text: str, option: str) -> tuple[float, ...]:
@@ -152,7 +146,7 @@ def simulate_command(
     if drive not in ("grid", "free"):
         raise typer.BadParameter("--drive takes grid or free")
     if drive == "free":
-        _free(out, surfaces, repeats, duration, realism_name, seed, json_out)
+        _print_summary(_free(out, surfaces, repeats, duration, realism_name, seed), json_out)
         return
     # checked before anything is simulated or written (cli.md: a usage error, exit 2)
     write = WriteOptions(columns=columns, compress=compress, decimals=decimals)
@@ -171,7 +165,10 @@ def simulate_command(
         effects=parse_effects(effect or []),
         seed=seed,
     )
-    summary = write_simulation(config, out, write)
+    _print_summary(write_simulation(config, out, write), json_out)
+
+
+def _print_summary(summary: dict[str, object], json_out: bool) -> None:
     if json_out:
         print_json(summary)
         return

@@ -109,37 +109,44 @@ def check_speed(
 ) -> None:
     """A speed column must hold a finite number in every sample (a gap in it would be a
     quietly wrong phase); any sign is kept (a robot may reverse)."""
-    if not speed_mps.size:
-        return
-    _require_finite(speed_mps, "speed", file, line_of, f", column '{name}'")
-    high = float(np.max(np.abs(speed_mps)))
-    if high > ABSURD_SPEED_MPS:
-        index = int(np.argmax(np.abs(speed_mps) > ABSURD_SPEED_MPS))
-        raise LogError(
-            f"absurd speed ({speed_mps[index]:.4g} m/s, over {ABSURD_SPEED_MPS:g} m/s)",
-            file=file,
-            where=f"line {line_of(index)}, column '{name}'",
-            fix="the speed column must be in m/s (mm/s or rpm need converting)",
-        )
+    _check_motion(
+        file, name, speed_mps, line_of, ("speed", "m/s", ABSURD_SPEED_MPS),
+        "the speed column must be in m/s (mm/s or rpm need converting)",
+    )  # fmt: skip
 
 
 def check_yaw_rate(
     file: str, name: str, yaw_rate_radps: np.ndarray, *, line_of: Callable[[int], int]
 ) -> None:
     """A rate-of-turn column must hold a finite number in every sample, in rad/s."""
-    if not yaw_rate_radps.size:
+    _check_motion(
+        file, name, yaw_rate_radps, line_of, ("yaw rate", "rad/s", ABSURD_YAW_RATE_RADPS),
+        "the rate of turn must be in rad/s (deg/s needs converting; a wheel-speed pair "
+        "needs the track width in m)",
+    )  # fmt: skip
+
+
+def _check_motion(
+    file: str,
+    name: str,
+    values: np.ndarray,
+    line_of: Callable[[int], int],
+    quantity: tuple[str, str, float],
+    fix: str,
+) -> None:
+    """Every value finite, and none over the quantity's absurd limit (a unit mistake)."""
+    if not values.size:
         return
-    _require_finite(yaw_rate_radps, "yaw rate", file, line_of, f", column '{name}'")
-    high = float(np.max(np.abs(yaw_rate_radps)))
-    if high > ABSURD_YAW_RATE_RADPS:
-        index = int(np.argmax(np.abs(yaw_rate_radps) > ABSURD_YAW_RATE_RADPS))
+    what, unit, limit = quantity
+    _require_finite(values, what, file, line_of, f", column '{name}'")
+    high = float(np.max(np.abs(values)))
+    if high > limit:
+        index = int(np.argmax(np.abs(values) > limit))
         raise LogError(
-            f"absurd yaw rate ({yaw_rate_radps[index]:.4g} rad/s, over "
-            f"{ABSURD_YAW_RATE_RADPS:g} rad/s)",
+            f"absurd {what} ({values[index]:.4g} {unit}, over {limit:g} {unit})",
             file=file,
             where=f"line {line_of(index)}, column '{name}'",
-            fix="the rate of turn must be in rad/s (deg/s needs converting; a wheel-speed "
-            "pair needs the track width in m)",
+            fix=fix,
         )
 
 
