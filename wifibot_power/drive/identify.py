@@ -87,26 +87,36 @@ def lag_search(
     for lag in lags:
         for mask, rw in zip(common, runs, strict=True):
             mask &= rw.power_at(int(lag))[1]
-    sse = np.full(lags.size, np.inf)
-    for k, lag in enumerate(lags):
-        table = assemble(runs, int(lag), surfaces, only=common)
+
+    def sse_at(lag: float) -> float:
+        table = assemble(runs, lag, surfaces, only=common)
         X, y = table.design, table.power_W
         usable = np.any(X != 0, axis=0)
         if y.size <= usable.sum():
-            continue
+            return np.inf
         coef = least_squares(X[:, usable], y)
-        sse[k] = float(np.sum(np.square(y - X[:, usable] @ coef)))
+        return float(np.sum(np.square(y - X[:, usable] @ coef)))
+
+    sse = np.array([sse_at(int(lag)) for lag in lags])
     if not np.isfinite(sse).any():
         return 0.0, sse
     best = int(np.argmin(sse))
-    if 0 < best < lags.size - 1 and np.isfinite(sse[best - 1 : best + 2]).all():
-        # the parabola through the best lag and its neighbours: the lag to a fraction of a
-        # bin (the inertial terms move by ~10% a bin on a 6.5 Hz log)
-        below, at, above = sse[best - 1 : best + 2]
+    if not (0 < best < lags.size - 1 and np.isfinite(sse[best - 1 : best + 2]).all()):
+        return float(lags[best]), sse
+    # to a fraction of a bin (the inertial terms move by ~10% a bin of lag): the vertex of
+    # the parabola through the best lag and its neighbours, then again through it and the
+    # points half a bin either side (the sum of squares is a parabola only near its minimum)
+    step = 1.0
+    centre, values = float(best), tuple(sse[best - 1 : best + 2])
+    for _ in range(2):
+        below, at, above = values
         curvature = below - 2 * at + above
-        if curvature > 0:
-            return best + float(np.clip(0.5 * (below - above) / curvature, -0.5, 0.5)), sse
-    return float(lags[best]), sse
+        if not curvature > 0:
+            break
+        centre += step * float(np.clip(0.5 * (below - above) / curvature, -0.5, 0.5))
+        step /= 2
+        values = (sse_at(centre - step), sse_at(centre), sse_at(centre + step))
+    return centre, sse
 
 
 def identify(windows: Windows, lag_bins: float, clusters: np.ndarray) -> Identified:

@@ -185,13 +185,14 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
         & (np.abs(mean_speed) < 3.0 * max(speed_noise, NOISE_FLOOR_MPS))
         & (np.abs(mean_yaw) < 3.0 * max(yaw_noise, NOISE_FLOOR_RADPS))
     )
-    # moving: a bin faster than standing, beyond its own noise, or turning so
+    # moving: a bin whose speed or rate of turn is beyond 3 deviations of its own noise (and
+    # the resolution floor): a ramp starting is moving from its first mm/s on an exact log,
+    # from its first few encoder steps on a noisy one
     bin_samples = max(stats.samples_per_bin, 1.0)
-    moving_bins = (
-        np.abs(speed[:used]) > max(STANDING_MPS, 3.0 * stats.speed_noise_mps / np.sqrt(bin_samples))
-    ) | (
-        np.abs(stats.yaw_rate_radps[:used])
-        > max(STANDING_RADPS, 3.0 * stats.yaw_noise_radps / np.sqrt(bin_samples))
+    speed_floor = max(NOISE_FLOOR_MPS, 3.0 * stats.speed_noise_mps / np.sqrt(bin_samples))
+    yaw_floor = max(NOISE_FLOOR_RADPS, 3.0 * stats.yaw_noise_radps / np.sqrt(bin_samples))
+    moving_bins = (np.abs(speed[:used]) > speed_floor) | (
+        np.abs(stats.yaw_rate_radps[:used]) > yaw_floor
     )
     moving = moving_bins.reshape(shape).mean(axis=1)
     # (not the speeding-up and braking terms: a window standing still may end where a step
