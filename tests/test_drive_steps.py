@@ -111,3 +111,34 @@ def test_route_energy_and_its_terms_by_hand():
     assert result.pi90_J is None and set(result.summary()) == {
         "energy_J", "pi90_J", "time_s", "distance_m", "mean_power_W", "terms_J",
     }  # fmt: skip
+
+
+def test_energy_profile_command(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from wifibot_power.cli import app
+
+    model_json = tmp_path / "model.json"
+    model_json.write_text(json.dumps({"drive": _hand_model().to_json()}))
+    t = np.arange(0, 20, 0.01)
+    v = np.where((t >= 12) & (t < 16), 1.0, 0.0)
+    rows = "\n".join(f"{a:.2f},{b:g},floor" for a, b in zip(t, v, strict=True))
+    route = tmp_path / "route.csv"
+    route.write_text("time_s,speed_mps,surface\n" + rows + "\n")
+    runner = CliRunner()
+    args = ["energy", "--profile", str(route), "--model", str(model_json)]
+    result = runner.invoke(app, [*args, "--json"])
+    assert result.exit_code == 0, result.output
+    answer = json.loads(result.stdout)
+    # by hand: 10 W x 20 s + 2 W x 4 s moving + 20 W/(m/s) x 4 m + 30 x 1/2 - 5 x 1/2
+    assert_allclose(answer["energy_J"], 200 + 8 + 80 + 15 - 2.5, rtol=0.01)
+    assert answer["pi90_J"] is None and "turning_Nm" in answer["terms_J"]
+    table = runner.invoke(app, args)
+    assert table.exit_code == 0 and "total" in table.stdout
+    bad = runner.invoke(app, ["energy", "--profile", str(route), "--model", "paper"])
+    assert bad.exit_code == 2 and "drive model" in bad.output
+    route.write_text("time_s,speed\n0,1\n1,1\n")
+    bad = runner.invoke(app, args)
+    assert bad.exit_code == 2 and "speed_mps" in bad.output and str(route) in bad.output

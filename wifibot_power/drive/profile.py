@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -154,3 +155,88 @@ def step_phase_powers(
         half = t95 * math.sqrt(max(gradient[kept] @ cov @ gradient[kept], 0.0))
         out[phase] = (power_W, (power_W - half, power_W + half))
     return out
+
+
+def read_profile(
+    path: str | Path,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, str | None]:
+    """A planned route (cli.md, `energy --profile`): a CSV of `time_s`, `speed_mps`, and
+    optionally `yaw_rate_radps` and `surface` (one surface a route). Returns time [s], speed
+    [m/s], rate of turn [rad/s] or None, and the surface or None; a one-line `LogError`
+    naming the file for anything else."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    from wifibot_power.errors import LogError
+
+    path = Path(path)
+    try:
+        table = pacsv.read_csv(path)
+    except (OSError, pa.ArrowException) as exc:
+        raise LogError(
+            f"cannot read the route ({str(exc).splitlines()[0][:80]})",
+            file=path,
+            fix="give a CSV with time_s and speed_mps columns",
+        ) from None
+    names = {name.strip().lower(): name for name in table.column_names}
+    missing = [c for c in ("time_s", "speed_mps") if c not in names]
+    if missing:
+        raise LogError(
+            f"the route has no {' or '.join(missing)} column",
+            file=path,
+            fix="give a CSV with time_s and speed_mps (and optionally yaw_rate_radps, surface)",
+        )
+
+    def numbers(name: str) -> np.ndarray:
+        try:
+            values = table[names[name]].to_numpy(zero_copy_only=False).astype(np.float64)
+        except (ValueError, TypeError, pa.ArrowException):
+            values = np.array([np.nan])
+        if not np.isfinite(values).all():
+            raise LogError(
+                f"column '{name}' holds a value that is not a number",
+                file=path,
+                fix="every cell of time_s, speed_mps and yaw_rate_radps must be a number",
+            )
+        return values
+
+    time_s, speed_mps = numbers("time_s"), numbers("speed_mps")
+    if time_s.size < 2 or not np.all(np.diff(time_s) > 0):
+        raise LogError(
+            "the route's time_s does not go forwards", file=path, fix="sort it, 2 rows or more"
+        )
+    yaw = numbers("yaw_rate_radps") if "yaw_rate_radps" in names else None
+    surface = None
+    if "surface" in names:
+        found = {str(s).strip() for s in table[names["surface"]].to_pylist() if s}
+        if len(found) > 1:
+            raise LogError(
+                f"the route crosses surfaces ({', '.join(sorted(found))})",
+                file=path,
+                fix="split it into one route per surface and add their energies",
+            )
+        surface = next(iter(found), None)
+    return time_s, speed_mps, yaw, surface
+
+
+def load_drive_model(path: str | Path) -> DriveModel:
+    """The drive model of a model.json (`fit -o`: its `drive` section) or of a drive section
+    saved alone (`DriveModel.to_json`); a one-line `UsageError` naming the file otherwise."""
+    import json
+
+    from wifibot_power.errors import UsageError
+
+    path = Path(path)
+    fix = "give a model.json from 'wbpower fit -o' on logs with a speed column"
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        message = f"cannot read the model ({exc.__class__.__name__})"
+        raise UsageError(message, file=path, fix=fix) from None
+    section = data.get("drive", data) if isinstance(data, dict) else None
+    if not isinstance(section, dict) or "coef" not in section:
+        raise UsageError("the model has no drive model", file=path, fix=fix)
+    try:
+        return DriveModel.from_json(section)
+    except (KeyError, TypeError, ValueError):
+        raise UsageError("the drive model is damaged", file=path, fix=fix) from None
