@@ -41,10 +41,26 @@ def test_track_width_option_wins_and_is_needed(tmp_path):
     path = _write(tmp_path, WHEELS.format(track=""))
     run = read_log(path, ReadOptions(track_width_m=1.0))
     assert_allclose(run.yaw_rate_radps, [0.0, 0.2, -0.2, 0.4], atol=1e-12)
+    # without a track width: the speed is the wheels' mean, the rate of turn is not read, and
+    # a warning says so (not an error: logs with their own speed column, REGBOT's, have the
+    # wheel pair and no track width, and read as before)
+    run = read_log(path)
+    assert run.yaw_rate_radps is None
+    assert_allclose(run.speed_mps, [0.0, 0.3, 0.2, 0.0], atol=1e-12)
+    (problem,) = [p for p in run.problems if p.kind == "turning_unread"]
+    assert "--track-width" in problem.message
+    with_speed = WHEELS.format(track="").replace("surface\n", "surface,speed_mps\n")
+    with_speed = "\n".join(
+        line + ",0.5" if line[:1].isdigit() else line for line in with_speed.splitlines()
+    )
+    run = read_log(_write(tmp_path, with_speed + "\n", "own.csv"))
+    assert run.yaw_rate_radps is None and not run.problems
+    assert_allclose(run.speed_mps, 0.5)
+    bad = _write(tmp_path, WHEELS.format(track="# track_m: wide\n"), "bad.csv")
     with pytest.raises(LogError) as caught:
-        read_log(path)
+        read_log(bad)
     message = str(caught.value)
-    assert str(path) in message and "--track-width" in message and "\n" not in message
+    assert str(bad) in message and "--track-width" in message and "\n" not in message
 
 
 def test_yaw_rate_column_and_option(tmp_path):

@@ -13,6 +13,7 @@ What is read where the spec is silent is described in docs/log-format.md.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -102,7 +103,9 @@ def read_log(
     power_W, channels_W, measured = _power(path, columns, sources, options.flip_current)
     time_s = _time(path, columns, time_source, meta.sample_period_s)
     speed_mps = _column(path, columns, (speed_column, 1.0)) if speed_column else None
-    speed_mps, yaw_rate_radps = _turning(path, columns, turning, speed_mps, values, options)
+    speed_mps, yaw_rate_radps, turn_problems = _turning(
+        path, columns, turning, speed_mps, values, options
+    )
     surface_index, surface_names = columns.labels.get(turning.surface or "", (None, ()))
     columns.values.clear()  # the arrays live on in power_W, measured and time_s only
     period_s, problems = check_samples(
@@ -133,7 +136,7 @@ def read_log(
         meta=meta,
         stamps_s=time_s,  # None without a time column: `Run.time_s` makes the axis if asked
         power_W=power_W,
-        problems=(*time_problems, *problems),
+        problems=(*time_problems, *turn_problems, *problems),
         speed_mps=speed_mps,
         yaw_rate_radps=yaw_rate_radps,
         channels_W=channels_W,
@@ -245,37 +248,54 @@ def _turning(
     speed_mps: np.ndarray | None,
     values: dict[str, str],
     options: ReadOptions,
-) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """The speed [m/s] and rate of turn [rad/s]: the yaw-rate column, or from the two wheel
-    speeds v_l, v_r of a differential or skid-steer drive: v = (v_l + v_r)/2 (when the log has
-    no speed column) and yaw rate = (v_r - v_l)/track width (kinematics of a differential
-    drive, counter-clockwise positive; for skid steer the track width is the effective one)."""
+) -> tuple[np.ndarray | None, np.ndarray | None, list[Problem]]:
+    """The speed [m/s], rate of turn [rad/s] and what to say: the yaw-rate column, or from the
+    two wheel speeds v_l, v_r of a differential or skid-steer drive: v = (v_l + v_r)/2 (when
+    the log has no speed column) and yaw rate = (v_r - v_l)/track width (kinematics of a
+    differential drive, counter-clockwise positive; for skid steer the track width is the
+    effective one). Without a track width the rate of turn is not read: said as a problem when
+    the wheel speeds are the log's only speed (a log with its own speed column, as REGBOT's,
+    reads as before, and the drive model says its turning is unknown)."""
     if turning.yaw_rate:
-        return speed_mps, _column(path, columns, (turning.yaw_rate, 1.0))
+        return speed_mps, _column(path, columns, (turning.yaw_rate, 1.0)), []
     if not (turning.speed_left and turning.speed_right):
-        return speed_mps, None
+        return speed_mps, None, []
     track_m = _track_width_m(path, values, options)
+    problems = []
+    if track_m is None and speed_mps is None:
+        problems.append(
+            Problem(
+                "turning_unread",
+                f"wheel speeds {turning.speed_left}, {turning.speed_right} without a track "
+                "width: speed is their mean, the rate of turn is not read (give --track-width "
+                "M or a '# track_m: M' metadata line)",
+            )
+        )
     left_mps = _column(path, columns, (turning.speed_left, 1.0))
     right_mps = _column(path, columns, (turning.speed_right, 1.0))
     if speed_mps is None:
         speed_mps = 0.5 * (left_mps + right_mps)
-    return speed_mps, (right_mps - left_mps) / track_m
+    if track_m is None:
+        return speed_mps, None, problems
+    return speed_mps, (right_mps - left_mps) / track_m, problems
 
 
-def _track_width_m(path: Path, values: dict[str, str], options: ReadOptions) -> float:
+def _track_width_m(path: Path, values: dict[str, str], options: ReadOptions) -> float | None:
     """`--track-width`, else the `track_m` metadata: what turns wheel speeds into a rate of
-    turn; a one-line error naming the option when neither is given or it is not > 0."""
+    turn (None: neither given); a one-line error naming the option when `track_m` is not a
+    width > 0 m."""
     if options.track_width_m is not None:
         return options.track_width_m
     text = values.get("track_m")
+    if not text:
+        return None
     try:
-        track_m = float(text) if text else None
+        track_m = float(text)
     except ValueError:
-        track_m = None
-    if track_m is None or not (np.isfinite(track_m) and track_m > 0):
-        said = f"track_m '{text}' is not a width > 0 m" if text else "no track width is given"
+        track_m = math.nan
+    if not (math.isfinite(track_m) and track_m > 0):
         raise LogError(
-            f"wheel speeds speed_left_mps and speed_right_mps need a track width: {said}",
+            f"wheel speeds need a track width: track_m '{text}' is not a width > 0 m",
             file=path,
             fix="give --track-width M or a '# track_m: M' metadata line",
         )
