@@ -142,3 +142,31 @@ def test_energy_profile_command(tmp_path):
     route.write_text("time_s,speed\n0,1\n1,1\n")
     bad = runner.invoke(app, args)
     assert bad.exit_code == 2 and "speed_mps" in bad.output and str(route) in bad.output
+
+
+def test_energy_profile_of_a_log_shows_measured(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from wifibot_power.cli import app
+    from wifibot_power.drive.simulate import FreeDriveConfig, format_free_log, simulate_free
+
+    config = FreeDriveConfig(runs_per_surface=1, run_s=30.0, seed=1, surfaces=("asphalt",))
+    (free,) = simulate_free(config)
+    log = tmp_path / "log.csv"
+    log.write_bytes(format_free_log(free))
+    model = _hand_model()
+    # the hand model's surface is 'floor': the log's 'asphalt' is not one it knows
+    model_json = tmp_path / "model.json"
+    model_json.write_text(json.dumps({"drive": model.to_json()}))
+    args = ["energy", "--profile", str(log), "--model", str(model_json), "--json"]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2 and "asphalt" in result.output
+    data = model.to_json()
+    data["columns"] = [c.replace("floor", "asphalt") for c in data["columns"]]
+    data["surface_names"] = ["asphalt"]
+    model_json.write_text(json.dumps({"drive": data}))
+    answer = json.loads(CliRunner().invoke(app, args).stdout)
+    assert_allclose(answer["measured_J"], float(np.sum(free.power_W) * 0.05), rtol=1e-3)
+    assert answer["energy_J"] > 0

@@ -207,7 +207,12 @@ def _route(profile: Path, model: str, json_out: bool) -> None:
             "--profile needs a drive model", fix="give --model model.json from 'wbpower fit -o'"
         )
     drive = load_drive_model(model)
-    time_s, speed_mps, yaw_radps, surface = read_profile(profile)
+    run = _as_log(profile)
+    if run is not None:  # a log: measured beside predicted
+        time_s, speed_mps, yaw_radps = run.time_s, run.speed_mps, run.yaw_rate_radps
+        surface = run.meta.extra.get("surface")
+    else:
+        time_s, speed_mps, yaw_radps, surface = read_profile(profile)
     try:
         result = route_energy(drive, time_s, speed_mps, yaw_radps, surface)
     except ValueError as exc:
@@ -215,6 +220,8 @@ def _route(profile: Path, model: str, json_out: bool) -> None:
     for message in result.warnings:
         warn(message)
     summary = result.summary()
+    if run is not None:
+        summary["measured_J"] = run.energy_J
     if json_out:
         print_json(summary)
         return
@@ -223,8 +230,22 @@ def _route(profile: Path, model: str, json_out: bool) -> None:
     rows = [[name, f"{joules:.1f}"] for name, joules in result.terms_J.items()]
     rows.append(["total", f"{result.energy_J:.1f}"])
     title = f"{result.distance_m:.1f} m in {result.time_s:.1f} s, mean {result.mean_power_W:.2f} W"
+    if run is not None:
+        rows.append(["measured", f"{run.energy_J:.1f}"])
     columns = (Col("term", "text", key=True), Col("energy J"))
     print_table(stdout, title, columns, rows, caption=caption)
+
+
+def _as_log(path: Path):
+    """The route file as a log wbpower reads, with a speed column (None: a planned route)."""
+    from wifibot_power.errors import LogError
+    from wifibot_power.io.reader import read_log
+
+    try:
+        run = read_log(path)
+    except LogError:
+        return None
+    return run if run.speed_mps is not None else None
 
 
 def _frame(rows: object) -> object:
