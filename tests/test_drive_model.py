@@ -202,3 +202,17 @@ def test_family_adapter(field_model):
     measured, predicted = FAMILY.run_energy_J(loaded, records[0])
     assert_allclose(predicted, measured, rtol=0.05)
     assert_allclose(measured, runs[0].energy_J, rtol=0.05)
+
+
+def test_one_short_run_says_what_it_cannot_tell():
+    # one run of 30 s without a 3 s stop: one trip, one cluster: no term can have an
+    # interval, so none has a number; the answer is JSON without NaN and loads back
+    config = FreeDriveConfig(runs_per_surface=1, run_s=30.0, seed=9, surfaces=("asphalt",))
+    model = _fit(config)
+    assert model.terms == {} and model.surfaces == {} and model.heldout is None
+    assert len(model.not_determined) == 7
+    assert all("seen in only 1 run(s) or trip(s)" in r for r in model.not_determined)
+    text = json.dumps(model.to_json(), allow_nan=False)
+    assert DriveModel.from_json(json.loads(text)).summary() == model.summary()
+    assert json.dumps(model.summary(), allow_nan=False)
+    assert any("intervals are robust by trip" in w for w in model.warnings)

@@ -236,8 +236,8 @@ def _unseen_reason(column: str, n_clusters: int) -> str:
     if n_clusters == 0:
         return f"{column}: {what}{where} in the data"
     return (
-        f"{column}: {what}{where} in all but {n_clusters} run(s) (at least {MIN_CLUSTERS} "
-        "are needed for an interval)"
+        f"{column}: seen in only {n_clusters} run(s) or trip(s){where} (at least "
+        f"{MIN_CLUSTERS} are needed for an interval)"
     )
 
 

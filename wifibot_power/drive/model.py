@@ -38,7 +38,9 @@ class TermValue:
     unit: str
 
     def as_dict(self) -> dict[str, object]:
-        return {"value": self.value, "ci95": list(self.ci95), "unit": self.unit}
+        """JSON-safe: an interval that could not be made (one cluster) is null, not NaN."""
+        ci95 = [None if math.isnan(x) else x for x in self.ci95]
+        return {"value": self.value, "ci95": ci95, "unit": self.unit}
 
 
 @dataclass(frozen=True)
@@ -93,7 +95,7 @@ class DriveModel:
             **self.summary(),
             "columns": list(self.columns),
             "coef": [None if math.isnan(c) else c for c in self.coef],
-            "cov": [list(row) for row in self.cov],
+            "cov": [[None if math.isnan(v) else v for v in row] for row in self.cov],
             "window_s": self.window_s,
             "surface_names": list(self.surface_names),
             "dof": self.dof,
@@ -105,7 +107,11 @@ class DriveModel:
     def from_json(cls, data: dict) -> DriveModel:
         def terms_of(named: dict) -> dict[str, TermValue]:
             return {
-                name: TermValue(float(t["value"]), tuple(t["ci95"]), t["unit"])
+                name: TermValue(
+                    float(t["value"]),
+                    tuple(math.nan if x is None else float(x) for x in t["ci95"]),
+                    t["unit"],
+                )
                 for name, t in named.items()
             }
 
@@ -139,7 +145,9 @@ class DriveModel:
             warnings=tuple(data["warnings"]),
             columns=tuple(data["columns"]),
             coef=tuple(math.nan if c is None else float(c) for c in data["coef"]),
-            cov=tuple(tuple(float(v) for v in row) for row in data["cov"]),
+            cov=tuple(
+                tuple(math.nan if v is None else float(v) for v in row) for row in data["cov"]
+            ),
             window_s=float(data["window_s"]),
             surface_names=tuple(data["surface_names"]),
             dof=int(data["dof"]),
