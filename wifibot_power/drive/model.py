@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
@@ -64,6 +64,31 @@ class DriveModel:
     surface_names: tuple[str, ...] = field(default=())
     #: degrees of freedom of the intervals (clusters - 1)
     dof: int = 0
+    #: the model family's name (`models.base.FittedModel.family`)
+    family: ClassVar[str] = "drive"
+
+    def predict_energy_J(self, record: object) -> float:
+        """A run's energy as the model predicts it [J], over the windows of its statistics
+        (`record.models["drive"]`, or a `DriveStats`); NaN for a run without them."""
+        return self.run_energy_J(record)[1]
+
+    def run_energy_J(self, record: object) -> tuple[float, float]:
+        """(measured, predicted) energy [J] of a run over its windows, the lag applied (a
+        drop-out's windows in neither); NaN for a run without drive statistics."""
+        stats = record if isinstance(record, DriveStats) else None
+        if stats is None:
+            stats = getattr(record, "models", {}).get(self.family)
+        if stats is None:
+            return math.nan, math.nan
+        rw = run_windows(stats, self.window_s)
+        windows = assemble([rw], self.lag_s / stats.bin_s, self.surface_names)
+        coef = np.array(self.coef)
+        kept = np.isfinite(coef)
+        predicted_W = windows.design[:, kept] @ coef[kept]
+        return (
+            float(np.sum(windows.power_W) * windows.window_s),
+            float(np.sum(predicted_W) * windows.window_s),
+        )
 
     def summary(self) -> dict[str, object]:
         """cli.md's `drive` object (JSON-safe)."""

@@ -70,6 +70,53 @@ class DriveStats:
     def bins(self) -> int:
         return int(self.power_W.size)
 
+    def to_json(self) -> dict[str, object]:
+        """JSON values (the parse cache keeps a run's statistics): arrays as lists, NaN (a
+        drop-out's bin) as null; `from_json` gives back the same floats."""
+
+        def values(array: np.ndarray) -> list[float | None]:
+            return [None if v != v else v for v in array.tolist()]  # v != v: NaN
+
+        return {
+            **{k: getattr(self, k) for k in _SCALARS},
+            "power_W": values(self.power_W),
+            "speed_mps": values(self.speed_mps),
+            "yaw_rate_radps": values(self.yaw_rate_radps),
+            "surface_index": self.surface_index.tolist(),
+            "surfaces": list(self.surfaces),
+            "notes": list(self.notes),
+        }
+
+    @classmethod
+    def from_json(cls, data: dict) -> DriveStats:
+        def array(values: list) -> np.ndarray:
+            return np.array([np.nan if v is None else v for v in values], dtype=np.float64)
+
+        return cls(
+            **{k: data[k] for k in _SCALARS},
+            power_W=array(data["power_W"]),
+            speed_mps=array(data["speed_mps"]),
+            yaw_rate_radps=array(data["yaw_rate_radps"]),
+            surface_index=np.array(data["surface_index"], dtype=np.int16),
+            surfaces=tuple(data["surfaces"]),
+            notes=tuple(data["notes"]),
+        )
+
+
+#: `DriveStats` fields that are plain values (JSON as they are)
+_SCALARS = (
+    "run_id",
+    "file",
+    "bin_s",
+    "has_turning",
+    "energy_J",
+    "duration_s",
+    "speed_noise_mps",
+    "yaw_noise_radps",
+    "samples_per_bin",
+    "speed_from_phases",
+)
+
 
 def drive_stats(run: Run, segmentation: Segmentation | None = None) -> DriveStats | None:
     """The drive model's statistics of one run, or None when it has no speed (neither a speed
