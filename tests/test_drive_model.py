@@ -219,33 +219,3 @@ def test_family_adapter(field_model):
     assert_allclose(predicted, measured, rtol=0.05)
     assert_allclose(measured, runs[0].energy_J, rtol=0.05)
     assert np.isnan(loaded.predict_energy_J(SimpleNamespace(models={})))
-
-
-def test_a_term_the_logs_cannot_pin_has_no_number():
-    # a design where the step on moving is 5% of its own (past the collinearity screen) and
-    # the power noisy, over 4 clusters: its interval spans more than the mean power, so it
-    # is not determined (said why) and the terms that carry the power keep their numbers
-    from wifibot_power.drive.identify import identify
-    from wifibot_power.drive.windows import Windows, design_columns
-
-    rng = np.random.default_rng(2)
-    n = 400
-    columns = design_columns(("floor",))
-    moving = (np.arange(n) % 2).astype(float)
-    speed = moving * (0.6 + 0.1 * rng.standard_normal(n))
-    design = np.zeros((n, len(columns)))
-    design[:, columns.index("idle_W")] = 1.0
-    design[:, columns.index("drive_on_W")] = moving
-    design[:, columns.index("rolling_W_per_mps[floor]")] = speed
-    power = 10 + 30 * speed + 2 * moving + rng.normal(0, 20, n)
-    run = np.arange(n) // 100
-    windows = Windows(
-        design, np.zeros_like(design), columns, power, run, run, np.zeros(n, int),
-        ("r0", "r1", "r2", "r3"), ("floor",), 0.5,
-    )  # fmt: skip
-    fitted = identify(windows, 0.0, run)
-    reasons = dict(fitted.not_determined)
-    assert "cannot be pinned" in reasons["drive_on_W"], reasons
-    kept = [columns[j] for j in np.flatnonzero(fitted.kept)]
-    assert kept == ["idle_W", "rolling_W_per_mps[floor]"]
-    assert abs(fitted.coef[columns.index("rolling_W_per_mps[floor]")] - 33) < 6

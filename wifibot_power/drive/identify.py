@@ -120,32 +120,13 @@ def lag_search(
 
 
 def identify(windows: Windows, lag_bins: float, clusters: np.ndarray) -> Identified:
-    """Fit the determined columns of `windows` (module docstring). After each fit, a term
-    whose 95% interval, at its regressor's typical size, spans more than `MAX_SPREAD_SHARE`
-    of the mean power is left out (the last in `PREFERENCE` of those first) and the rest
-    refitted: the data cannot pin it (near-collinear with the others: a robot driven at one
-    speed), and its number would only look exact while unsettling the others."""
-    X, y = windows.design, windows.power_W
-    columns = windows.columns
+    """Fit the determined columns of `windows` (module docstring). A term that passes the
+    screens keeps its number however wide its interval: leaving out the terms whose interval
+    spans over half the mean power was tried and made held-out energy worse on real logs
+    (BorealTC 29.7% -> 38.2% MAPE, the unicycles' wAPE 11.9% -> 21.6%): the interval, not
+    its absence, says how loosely the logs hold a term."""
     kept, reasons = _determined(windows, clusters)
-    while True:
-        fitted = _fit_kept(windows, lag_bins, clusters, kept, reasons)
-        loose = _loosest(fitted, X, y)
-        if loose is None:
-            return fitted
-        j, spread_W = loose
-        kept = kept.copy()
-        kept[j] = False
-        reasons = [
-            *reasons,
-            (
-                columns[j],
-                f"{columns[j]} cannot be pinned by these logs: its 95% interval spans "
-                f"+-{spread_W:.3g} W at its typical size, over "
-                f"{100 * MAX_SPREAD_SHARE:.0f}% of the mean power (it moves with the other "
-                "terms: e.g. one speed only)",
-            ),
-        ]
+    return _fit_kept(windows, lag_bins, clusters, kept, reasons)
 
 
 #: The terms in the order they are kept when the data cannot tell them apart (roughly how
@@ -159,30 +140,6 @@ PREFERENCE = (
     "drive_on_W",
     "quadratic_W_per_mps2",
 )
-#: A term whose interval spans more than this share of the mean power is not determined.
-MAX_SPREAD_SHARE = 0.5
-
-
-def _loosest(fitted: Identified, X: np.ndarray, y: np.ndarray) -> tuple[int, float] | None:
-    """Of the kept terms (not idle) whose 95% interval times their typical regressor (the mean
-    |x| where it is non-zero) spans over `MAX_SPREAD_SHARE` of the mean power, the last in
-    `PREFERENCE` (v^2 before the step on moving, ... rolling last: of terms that move
-    together, the one physics expects to carry the power is kept), and its spread [W]."""
-    ci = fitted.ci95()
-    limit_W = MAX_SPREAD_SHARE * (float(np.mean(np.abs(y))) if y.size else 0.0)
-    loose = []
-    for j in np.flatnonzero(fitted.kept):
-        if _term(fitted.columns[j]) == "idle_W" or not np.isfinite(ci[j]).all():
-            continue
-        active = X[:, j] != 0
-        typical = float(np.mean(np.abs(X[active, j]))) if active.any() else 0.0
-        spread_W = (ci[j, 1] - ci[j, 0]) / 2 * typical
-        if spread_W > limit_W:
-            loose.append((PREFERENCE.index(_term(fitted.columns[j])), spread_W, int(j)))
-    if not loose:
-        return None
-    _, spread_W, j = max(loose)
-    return j, spread_W
 
 
 def _fit_kept(
