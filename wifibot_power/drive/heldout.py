@@ -15,6 +15,7 @@ intervals hold the measured energy: the check that they mean what they say.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -63,8 +64,8 @@ class HeldOut:
     def as_dict(self) -> dict[str, object]:
         return {
             "runs": [run.as_dict() for run in self.runs],
-            "mape_pct": self.mape_pct,
-            "median_ape_pct": self.median_ape_pct,
+            "mape_pct": None if math.isnan(self.mape_pct) else self.mape_pct,
+            "median_ape_pct": None if math.isnan(self.median_ape_pct) else self.median_ape_pct,
             "coverage_pi90_pct": self.coverage_pi90_pct,
         }
 
@@ -129,7 +130,10 @@ def _accuracy(
     half = t95 * others_rms * np.sqrt(1.0 + 1.0 / (n - 1)) * np.abs(predicted_J)
     low, high = predicted_J - half, predicted_J + half
     inside = (measured_J >= low) & (measured_J <= high)
-    ape = np.abs(measured_J - predicted_J) / np.abs(measured_J) * 100.0
+    # a trip of zero net energy has no relative error: left out of the percentages
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ape = np.abs(measured_J - predicted_J) / np.abs(measured_J) * 100.0
+    ape = ape[np.isfinite(ape)]
     rows = []
     for j, trip in enumerate(trip_ids):
         r = int(np.searchsorted(trip_base, trip, side="right") - 1)
@@ -148,8 +152,8 @@ def _accuracy(
     rows.sort(key=lambda row: row.run_id)
     return HeldOut(
         runs=tuple(rows),
-        mape_pct=float(np.mean(ape)),
-        median_ape_pct=float(np.median(ape)),
+        mape_pct=float(np.mean(ape)) if ape.size else float("nan"),
+        median_ape_pct=float(np.median(ape)) if ape.size else float("nan"),
         coverage_pi90_pct=float(np.mean(inside) * 100.0),
         relative_rms=float(np.sqrt(np.mean(squares))),
         dof=n - 1,

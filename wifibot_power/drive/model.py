@@ -154,8 +154,10 @@ class DriveModel:
                     )
                     for r in held["runs"]
                 ),
-                mape_pct=held["mape_pct"],
-                median_ape_pct=held["median_ape_pct"],
+                mape_pct=math.nan if held["mape_pct"] is None else held["mape_pct"],
+                median_ape_pct=(
+                    math.nan if held["median_ape_pct"] is None else held["median_ape_pct"]
+                ),
                 coverage_pi90_pct=held["coverage_pi90_pct"],
                 relative_rms=data["relative_rms"],
                 dof=data["relative_dof"],
