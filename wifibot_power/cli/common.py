@@ -76,6 +76,21 @@ PowerColumn = Annotated[
         "--power-column", help="Name of a power column; repeat it to sum several (two motors)."
     ),
 ]
+YawRateColumn = Annotated[
+    str | None,
+    typer.Option(
+        "--yaw-rate-column",
+        help="Name of the rate-of-turn column [rad/s] (default: yaw_rate_radps, if any).",
+    ),
+]
+TrackWidth = Annotated[
+    float | None,
+    typer.Option(
+        "--track-width",
+        min=0.0,
+        help="Track width [m] turning speed_left_mps/speed_right_mps into a rate of turn.",
+    ),
+]
 TimeColumn = Annotated[
     str | None, typer.Option("--time-column", help="Name of the time column (see --time-unit).")
 ]
@@ -151,6 +166,8 @@ READING_OPTIONS = (
     ("time_column", TimeColumn, None),
     ("time_unit", TimeUnitOption, None),
     ("speed_column", SpeedColumn, None),
+    ("yaw_rate_column", YawRateColumn, None),
+    ("track_width", TrackWidth, None),
     ("sample_period", SamplePeriod, None),
     ("flip_current", FlipCurrent, False),
     ("power_topic", PowerTopic, None),
@@ -169,6 +186,8 @@ def read_options(
     time_column: str | None = None,
     time_unit: TimeUnit | str | None = None,
     speed_column: str | None = None,
+    yaw_rate_column: str | None = None,
+    track_width: float | None = None,
     sample_period: float | None = None,
     flip_current: bool = False,
     power_topic: str | None = None,
@@ -191,6 +210,8 @@ def read_options(
         current_topic=current_topic,
         voltage_topic=voltage_topic,
         speed_topic=speed_topic,
+        yaw_rate_column=yaw_rate_column,
+        track_width_m=track_width,
     )
 
 

@@ -57,6 +57,7 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
         ("-o logs/", "the paper's grid (about 1 GB of CSV)"),
         ("-o logs/ --effect decel_phase=0.3 --seed 1", "a robot that needs 0.3 s to stop"),
         ("-o small/ --sample-period 0.001024 --compress zst", "smaller, zstd-compressed"),
+        ("-o free/ --drive free --realism field", "free driving: turns, stops, two surfaces"),
     ],
     "report": [
         ("sample_logs/ -o out/report", "out/report/report.html, opens offline"),

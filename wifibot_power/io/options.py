@@ -81,12 +81,18 @@ class ReadOptions:
     voltage_topic: str | None = None
     current_topic: str | None = None
     speed_topic: str | None = None
+    #: the column holding the rate of turn [rad/s] (default: `yaw_rate_radps`, log-format.md
+    #: "Turning"), and the track width [m] that turns two wheel speeds into a rate of turn
+    #: (`--track-width`; default: the `track_m` metadata)
+    yaw_rate_column: str | None = None
+    track_width_m: float | None = None
 
     def __post_init__(self) -> None:
         for option, value, unit in (
             ("--supply-voltage", self.supply_voltage_V, "V"),
             ("--sample-period", self.sample_period_s, "s"),
             ("--max-power", self.max_power_W, "W"),
+            ("--track-width", self.track_width_m, "m"),
         ):
             # 0 V would read every log as 0 W and 0 J, NaN as a NaN in the file's first
             # line: a usage error, named as such, before any file is read

@@ -13,6 +13,7 @@ What is read where the spec is silent is described in docs/log-format.md.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +27,7 @@ from wifibot_power.io.columns import (
     unit_scale,
 )
 from wifibot_power.io.formats import LogFormat, Preamble, TimeSource, file_format_of, format_of
-from wifibot_power.io.formats.base import SNIFF_LINES
+from wifibot_power.io.formats.base import SNIFF_LINES, TurningColumns
 from wifibot_power.io.formats.files import samples_to_run
 from wifibot_power.io.metadata import MAX_POWER_KEY, build_meta, max_power_W
 from wifibot_power.io.options import TIME_UNITS, ReadOptions, log_stem
@@ -45,6 +46,7 @@ from wifibot_power.io.validate import (
     check_channels,
     check_samples,
     check_speed,
+    check_yaw_rate,
 )
 from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem, Run
 
@@ -81,6 +83,7 @@ def read_log(
             options.current_column,
             options.voltage_column,
             options.speed_column,
+            options.yaw_rate_column,
             options.time_column,
             *options.power_columns,
         )
@@ -91,11 +94,14 @@ def read_log(
     sources = _power_sources(path, log_format, pre, options)
     time_source, time_problems = _time_source(path, log_format, pre, options)
     speed_column = _speed_column(path, log_format, pre, options)
+    turning = _turning_columns(path, log_format, pre, options)
     # only the columns used are converted to numbers (about a third of the parse time saved
     # on the 4-column canonical log); every line's field count is still checked
     used = list(dict.fromkeys(name for source in sources for name in source.columns()))
     used += [name for name in (time_source and time_source.column, speed_column) if name]
-    columns = read_columns(path, content, pre, head, used)
+    used += [c for c in (turning.yaw_rate, turning.speed_left, turning.speed_right) if c]
+    labels = (turning.surface,) if turning.surface else ()
+    columns = read_columns(path, content, pre, head, list(dict.fromkeys(used)), labels)
     values = dict(pre.metadata)
     where = {k: f"metadata {w}" for k, w in pre.metadata_where.items()}
     for key, value in (overrides or {}).items():
@@ -112,6 +118,10 @@ def read_log(
         _check_index(path, columns, time_source.column)
     time_s = _time(path, columns, time_source, meta.sample_period_s)
     speed_mps = _column(path, columns, (speed_column, 1.0)) if speed_column else None
+    speed_mps, yaw_rate_radps, turn_problems = _turning(
+        path, columns, turning, speed_mps, values, options
+    )
+    surface_index, surface_names = columns.labels.get(turning.surface or "", (None, ()))
     columns.values.clear()  # the arrays live on in power_W, measured and time_s only
     period_s, problems = check_samples(
         str(path),
@@ -125,7 +135,11 @@ def read_log(
     del measured
     check_channels(str(path), channels_W)
     if speed_mps is not None:
-        check_speed(str(path), speed_column, speed_mps, line_of=columns.lines.line_of)
+        named_speed = speed_column or f"{turning.speed_left}, {turning.speed_right}"
+        check_speed(str(path), named_speed, speed_mps, line_of=columns.lines.line_of)
+    if yaw_rate_radps is not None:
+        named_turn = turning.yaw_rate or f"{turning.speed_left}, {turning.speed_right}"
+        check_yaw_rate(str(path), named_turn, yaw_rate_radps, line_of=columns.lines.line_of)
     if time_s is not None and period_s != meta.sample_period_s:
         values["sample_period_s"] = repr(period_s)
         meta = build_meta(
@@ -140,10 +154,14 @@ def read_log(
         problems=(
             *_assumptions(sources, time_source, options, values, power_W.size),
             *time_problems,
+            *turn_problems,
             *problems,
         ),
         speed_mps=speed_mps,
+        yaw_rate_radps=yaw_rate_radps,
         channels_W=channels_W,
+        surface_index=surface_index,
+        surface_names=surface_names,
     )
 
 
@@ -228,6 +246,81 @@ def _speed_column(
     if options.speed_column:
         return _lookup(path, pre, options.speed_column, "--speed-column")
     return log_format.speed_column(pre)
+
+
+def _turning_columns(
+    path: Path, log_format: LogFormat, pre: Preamble, options: ReadOptions
+) -> TurningColumns:
+    """The turning columns (log-format.md, "Turning"): `--yaw-rate-column`, which must exist,
+    else the format's own rate of turn, else its two wheel speeds; and its `surface` column."""
+    own = log_format.turning_columns(pre)
+    if options.yaw_rate_column:
+        found = _lookup(path, pre, options.yaw_rate_column, "--yaw-rate-column")
+        return TurningColumns(yaw_rate=found, surface=own.surface)
+    if own.yaw_rate or not (own.speed_left and own.speed_right):
+        return TurningColumns(yaw_rate=own.yaw_rate, surface=own.surface)
+    return own
+
+
+def _turning(
+    path: Path,
+    columns: Columns,
+    turning: TurningColumns,
+    speed_mps: np.ndarray | None,
+    values: dict[str, str],
+    options: ReadOptions,
+) -> tuple[np.ndarray | None, np.ndarray | None, list[Problem]]:
+    """The speed [m/s], rate of turn [rad/s] and what to say: the yaw-rate column, or from the
+    two wheel speeds v_l, v_r of a differential or skid-steer drive: v = (v_l + v_r)/2 (when
+    the log has no speed column) and yaw rate = (v_r - v_l)/track width (kinematics of a
+    differential drive, counter-clockwise positive; for skid steer the track width is the
+    effective one). Without a track width the rate of turn is not read: said as a problem when
+    the wheel speeds are the log's only speed (a log with its own speed column, as REGBOT's,
+    reads as before, and the drive model says its turning is unknown)."""
+    if turning.yaw_rate:
+        return speed_mps, _column(path, columns, (turning.yaw_rate, 1.0)), []
+    if not (turning.speed_left and turning.speed_right):
+        return speed_mps, None, []
+    track_m = _track_width_m(path, values, options)
+    problems = []
+    if track_m is None and speed_mps is None:
+        problems.append(
+            Problem(
+                "turning_unread",
+                f"wheel speeds {turning.speed_left}, {turning.speed_right} without a track "
+                "width: speed is their mean, the rate of turn is not read (give --track-width "
+                "M or a '# track_m: M' metadata line)",
+            )
+        )
+    left_mps = _column(path, columns, (turning.speed_left, 1.0))
+    right_mps = _column(path, columns, (turning.speed_right, 1.0))
+    if speed_mps is None:
+        speed_mps = 0.5 * (left_mps + right_mps)
+    if track_m is None:
+        return speed_mps, None, problems
+    return speed_mps, (right_mps - left_mps) / track_m, problems
+
+
+def _track_width_m(path: Path, values: dict[str, str], options: ReadOptions) -> float | None:
+    """`--track-width`, else the `track_m` metadata: what turns wheel speeds into a rate of
+    turn (None: neither given); a one-line error naming the option when `track_m` is not a
+    width > 0 m."""
+    if options.track_width_m is not None:
+        return options.track_width_m
+    text = values.get("track_m")
+    if not text:
+        return None
+    try:
+        track_m = float(text)
+    except ValueError:
+        track_m = math.nan
+    if not (math.isfinite(track_m) and track_m > 0):
+        raise LogError(
+            f"wheel speeds need a track width: track_m '{text}' is not a width > 0 m",
+            file=path,
+            fix="give --track-width M or a '# track_m: M' metadata line",
+        )
+    return track_m
 
 
 # -- samples from the columns read --------------------------------------------------------------

@@ -38,6 +38,9 @@ _MEDIAN_SAMPLES = 4096
 DEAD_CHANNEL_SHARE = 0.05
 #: Above this a speed column is not in m/s (a small robot; mm/s or rpm by mistake) [m/s].
 ABSURD_SPEED_MPS = 50.0
+#: Above this a rate of turn is not in rad/s (deg/s by mistake: 60 deg/s, a slow spin, would
+#: read 60 rad/s, ten turns a second) [rad/s].
+ABSURD_YAW_RATE_RADPS = 30.0
 #: Below this a reading is negative, not an offset around zero: such samples are data
 #: (regenerative braking, current lagging a voltage reversal by a sample), read and reported.
 NEGATIVE_POWER_W = -1.0
@@ -144,17 +147,44 @@ def check_speed(
 ) -> None:
     """A speed column must hold a finite number in every sample (a gap in it would be a
     quietly wrong phase); any sign is kept (a robot may reverse)."""
-    if not speed_mps.size:
+    _check_motion(
+        file, name, speed_mps, line_of, ("speed", "m/s", ABSURD_SPEED_MPS),
+        "the speed column must be in m/s (mm/s or rpm need converting)",
+    )  # fmt: skip
+
+
+def check_yaw_rate(
+    file: str, name: str, yaw_rate_radps: np.ndarray, *, line_of: Callable[[int], int]
+) -> None:
+    """A rate-of-turn column must hold a finite number in every sample, in rad/s."""
+    _check_motion(
+        file, name, yaw_rate_radps, line_of, ("yaw rate", "rad/s", ABSURD_YAW_RATE_RADPS),
+        "the rate of turn must be in rad/s (deg/s needs converting; a wheel-speed pair "
+        "needs the track width in m)",
+    )  # fmt: skip
+
+
+def _check_motion(
+    file: str,
+    name: str,
+    values: np.ndarray,
+    line_of: Callable[[int], int],
+    quantity: tuple[str, str, float],
+    fix: str,
+) -> None:
+    """Every value finite, and none over the quantity's absurd limit (a unit mistake)."""
+    if not values.size:
         return
-    _require_finite(speed_mps, "speed", file, line_of, f", column '{name}'")
-    high = float(np.max(np.abs(speed_mps)))
-    if high > ABSURD_SPEED_MPS:
-        index = int(np.argmax(np.abs(speed_mps) > ABSURD_SPEED_MPS))
+    what, unit, limit = quantity
+    _require_finite(values, what, file, line_of, f", column '{name}'")
+    high = float(np.max(np.abs(values)))
+    if high > limit:
+        index = int(np.argmax(np.abs(values) > limit))
         raise LogError(
-            f"absurd speed ({speed_mps[index]:.4g} m/s, over {ABSURD_SPEED_MPS:g} m/s)",
+            f"absurd {what} ({values[index]:.4g} {unit}, over {limit:g} {unit})",
             file=file,
             where=f"line {line_of(index)}, column '{name}'",
-            fix="the speed column must be in m/s (mm/s or rpm need converting)",
+            fix=fix,
         )
 
 

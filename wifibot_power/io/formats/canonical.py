@@ -3,7 +3,8 @@ columns with their unit, and the data. Also the fallback for any CSV whose colum
 options name (`--power-column`, `--current-column`, ...).
 
 Its column names live here and nowhere else: `power_W`, `power_mW`, `voltage_V`,
-`voltage_mV`, `current_A`, `current_mA`, `time_s`, `time_ms`, `time_us`, `speed_mps`, and the
+`voltage_mV`, `current_A`, `current_mA`, `time_s`, `time_ms`, `time_us`, `speed_mps`, the
+turning columns `yaw_rate_radps` or `speed_left_mps` + `speed_right_mps`, `surface`, and the
 channels `power_<name>_W`, `voltage_<name>_V` + `current_<name>_A` (summed). A column whose
 name says it is time (`t`, `Time [s]`, `timestamp`; `columns.time_unit_of`) is never
 silently ignored.
@@ -27,6 +28,7 @@ from wifibot_power.io.formats.base import (
     LogFormat,
     Preamble,
     TimeSource,
+    TurningColumns,
     check_header,
     delimiter_of,
     header_cells,
@@ -51,10 +53,18 @@ COLUMNS: dict[str, tuple[str, float]] = {
     "time_ms": ("time", 1e-3),
     "time_us": ("time", 1e-6),
     "speed_mps": ("speed", 1.0),
+    "yaw_rate_radps": ("yaw_rate", 1.0),
+    "speed_left_mps": ("speed_left", 1.0),
+    "speed_right_mps": ("speed_right", 1.0),
 }
 #: Canonical time columns: these win over other time-like columns.
 TIME_COLUMNS = tuple(name for name, (quantity, _) in COLUMNS.items() if quantity == "time")
 SPEED_COLUMN = "speed_mps"
+#: log-format.md, "Turning": the rate of turn, or the two sides' wheel speeds; and the
+#: per-sample surface (text)
+YAW_RATE_COLUMN = "yaw_rate_radps"
+WHEEL_SPEED_COLUMNS = ("speed_left_mps", "speed_right_mps")
+SURFACE_COLUMN = "surface"
 
 #: Channel columns (log-format.md, "Several channels"): `power_<name>_W`,
 #: `voltage_<name>_V`, `current_<name>_A` (and their milli units).
@@ -206,6 +216,15 @@ class Canonical(LogFormat):
 
     def speed_column(self, pre: Preamble) -> str | None:
         return find_column(pre.header, SPEED_COLUMN)
+
+    def turning_columns(self, pre: Preamble) -> TurningColumns:
+        left, right = (find_column(pre.header, name) for name in WHEEL_SPEED_COLUMNS)
+        return TurningColumns(
+            yaw_rate=find_column(pre.header, YAW_RATE_COLUMN),
+            speed_left=left,
+            speed_right=right,
+            surface=find_column(pre.header, SURFACE_COLUMN),
+        )
 
 
 def _channels(
