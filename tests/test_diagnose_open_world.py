@@ -8,6 +8,7 @@ cause of causes.md takes (the offcat branch builds a fuller, independent generat
 from __future__ import annotations
 
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -388,10 +389,17 @@ def test_steps_without_a_cruise_are_summarised_not_an_internal_error():
     voltage steps: accel, decel, accel, decel). `trace_stats` paired each step with the next
     one's start by a strict zip that raised on a run with no step holding both (an internal
     error on 60 of 75 real logs, hidden behind the batch's "0 usable" line); such a run has no
-    accel-and-cruise step to take windows of."""
+    accel-and-cruise step to take windows of (`traces.step_windows`, whose windows the start
+    transient's and the stopping phase's statistics are taken over)."""
     from test_runtable import build
 
-    from wifibot_power.traces import trace_stats
+    from wifibot_power.causes import RunView, run_statistics
+    from wifibot_power.runtable import WindowEnergy
+
+    def trace_stats(run, segmentation):
+        view = RunView(run, segmentation, WindowEnergy(run))
+        stats, _ = run_statistics(view)
+        return SimpleNamespace(steps=len(view.steps), **stats)
 
     ramp = np.linspace(30.0, 40.0, 30)
     pieces = [

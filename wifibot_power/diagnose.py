@@ -36,15 +36,16 @@ from wifibot_power.causes import (
     Check,
     Evidence,
     RunTable,
+    RunView,
 )
 from wifibot_power.causes.extended import (
-    PREDICT_COLUMNS,
     NotEstimable,
     predict_columns_J,
     predict_motion_energy_J,
+    prediction_inputs,
 )
 from wifibot_power.causes.extended import fit_model as _fit_model
-from wifibot_power.causes.registry import ordered
+from wifibot_power.causes.registry import ordered, run_statistics
 from wifibot_power.errors import LogError
 from wifibot_power.fit import TableColumns, _import_work_modules, segment_checked
 from wifibot_power.io import LogSource, ReadOptions, Skipped
@@ -64,15 +65,12 @@ from wifibot_power.runtable import (
     runs_frame,
 )
 from wifibot_power.stats import spearman
-from wifibot_power.traces import EMPTY, TraceStats, trace_stats
 
 if TYPE_CHECKING:  # pandas (~0.3 s to import) loads where the tables are made, while
     import pandas as pd  # the workers read the logs (`diagnose_logs`)
 
 #: Smallest held-out gain that makes a significant cause a finding [%].
 MIN_GAIN_PCT = {"run_energy": 5.0, "power_trace": 10.0}
-#: A gap longer than this between one run's end and the next's start ends a session [s].
-SESSION_GAP_S = 30 * 60.0
 FOLDS = 5
 #: Fewest usable motion runs, and speeds, that causes can be chosen and checked on.
 MIN_MOTION_RUNS = 6
@@ -128,10 +126,13 @@ def _fitted_once(
 
 @dataclass(frozen=True, eq=False)
 class RunSummary:
+    """What diagnosis keeps of a run: its row (`runtable.run_row`), the statistics each
+    cause's tests need (`Cause.run_stats`) and each cause's trace data (`Cause.run_trace`,
+    by cause); a run of another mode than motion has only its row."""
+
     row: dict[str, object]
-    trace: TraceStats
-    #: the statistics each cause's tests need (`Cause.run_columns`)
     cause_columns: dict[str, float] = field(default_factory=dict)
+    traces: dict[str, object] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -183,6 +184,9 @@ class Diagnosis:
     rejected: tuple[dict[str, object], ...] = ()
     #: every candidate's checks as last run, by cause
     candidate_checks: dict[str, list[Check]] = field(default_factory=dict)
+    #: each cause's per-run trace data (`Cause.run_trace`), by cause, then run_id: what
+    #: its trace metric and its figure panels read
+    traces: dict[str, dict[str, object]] = field(default_factory=dict)
 
     @property
     def gain_pct(self) -> float:
@@ -240,23 +244,19 @@ def gain_pct(baseline: float, extended: float) -> float:
 
 # -- reading ---------------------------------------------------------------------------
 def summarize_run(run: Run, segmenter: Segmenter | None = None) -> RunSummary:
-    """Segment a run and keep only its row and trace statistics."""
+    """Segment a run and keep only its row and the causes' statistics."""
     if run.meta.mode != "motion":
-        return RunSummary(run_row(run, Segmentation(run.meta.run_id, ())), EMPTY)
+        return RunSummary(run_row(run, Segmentation(run.meta.run_id, ())))
     return summarize_segmented(run, segment_checked(run, segmenter))
 
 
 def summarize_segmented(run: Run, segmentation: Segmentation) -> RunSummary:
-    """A segmented motion run's row, trace statistics and the statistics each cause's tests
-    need (`Cause.run_columns`), with the phases' and windows' energies from one
+    """A segmented motion run's row and what each cause keeps of it (`Cause.run_stats`,
+    `Cause.run_trace`), with the phases' and windows' energies from one
     `runtable.WindowEnergy`: what `diagnose` and `report` keep of it."""
     energy = WindowEnergy(run)
-    columns: dict[str, float] = {}
-    for cause in CAUSES.values():
-        columns.update(cause.run_columns(run, segmentation))
-    return RunSummary(
-        run_row(run, segmentation, energy), trace_stats(run, segmentation, energy), columns
-    )
+    columns, traces = run_statistics(RunView(run, segmentation, energy))
+    return RunSummary(run_row(run, segmentation, energy), columns, traces)
 
 
 def diagnose_logs(
@@ -308,38 +308,14 @@ def diagnose_runs(
 
 
 # -- the diagnosis ---------------------------------------------------------------------
-def session_clock(runs: pd.DataFrame) -> pd.DataFrame:
-    """Motor-on minutes accumulated in the session before each run and at its middle.
-
-    Runs are ordered by `started_at`; a gap of over 30 min ends a session (motors cool).
-    Runs without `started_at` get NaN (thermal drift is then not testable)."""
-    import pandas as pd
-
-    runs = runs.copy()
-    motion_s = np.where(
-        runs["mode"] == "motion",
-        runs["t_acc_s"].fillna(0) * runs["steps_found"]
-        + runs["cruise_duration_s"].fillna(0)
-        + runs["decel_duration_s"].fillna(0) * runs["steps_found"],
-        0.0,
-    )
-    runs["motion_s"] = motion_s
-    runs["tau_before_min"] = np.nan
-    runs["tau_mid_min"] = np.nan
-    runs["session_order"] = -1
+def session_order(runs: pd.DataFrame) -> np.ndarray:
+    """Each run's place among the runs with a `started_at`, in time order (-1: none)."""
+    order = np.full(len(runs), -1)
     timed = runs["started_at"].notna()
-    if not timed.any():
-        return runs
-    order = runs[timed].sort_values("started_at").index
-    start = runs.loc[order, "started_at"]
-    end = start + pd.to_timedelta(runs.loc[order, "duration_s"], unit="s")
-    new_session = (start - end.shift()).dt.total_seconds().fillna(np.inf) > SESSION_GAP_S
-    session = new_session.cumsum()
-    before = runs.loc[order, "motion_s"].groupby(session).cumsum() - runs.loc[order, "motion_s"]
-    runs.loc[order, "tau_before_min"] = before.to_numpy() / 60.0
-    runs.loc[order, "tau_mid_min"] = (before + runs.loc[order, "motion_s"] / 2).to_numpy() / 60.0
-    runs.loc[order, "session_order"] = np.arange(len(order))
-    return runs
+    if timed.any():
+        ranked = runs[timed].sort_values("started_at").index
+        order[runs.index.get_indexer(ranked)] = np.arange(len(ranked))
+    return order
 
 
 def assign_folds(run_ids: pd.Series, folds: int = FOLDS) -> np.ndarray:
@@ -406,7 +382,7 @@ class HeldOut:
         self.columns = TableColumns(self.table)
         self.files = self.table["file"].to_numpy(dtype=object)
         self.run_ids = self.table["run_id"].to_numpy(dtype=object)
-        self.predictors = {c: motion[c].to_numpy() for c in PREDICT_COLUMNS}
+        self.predictors = prediction_inputs(motion)
         self._others = np.arange(len(others))
 
     def __iter__(self) -> Iterator[int]:
@@ -482,7 +458,7 @@ def select_causes(
     folds: np.ndarray,
     measured: np.ndarray,
     baseline_rmse: float,
-    blocks: dict[str, tuple[np.ndarray, float]],
+    traces: dict[str, dict[str, object]],
     notes: list[str],
     seen: Selection | None = None,
 ) -> tuple[dict[str, float], dict[frozenset, float], tuple[Evidence, ...]]:
@@ -509,7 +485,7 @@ def select_causes(
         latest[name] = e = cause.evidence(table)
         if not e.passes:
             continue
-        gain = cause.heldout_trace_gain_pct(motion, folds, blocks)
+        gain = cause.heldout_trace_gain_pct(motion, folds, traces.get(name, {}))
         seen.gains[name] = gain
         seen.checks[name] = cause.checks(table, e)
         if gain < MIN_GAIN_PCT[POWER_TRACE]:
@@ -624,7 +600,7 @@ def nested_heldout_energy_J(
     runs: pd.DataFrame,
     motion: pd.DataFrame,
     folds: np.ndarray,
-    blocks: dict[str, tuple[np.ndarray, float]],
+    traces: dict[str, dict[str, object]],
     causes: list[str],
     notes: list[str],
 ) -> np.ndarray:
@@ -652,7 +628,7 @@ def nested_heldout_energy_J(
                 inner_folds,
                 inner_measured,
                 _rmse_mape(inner_measured, inner_pred)[0],
-                blocks,
+                traces,
                 [],
             )
             chosen = list(selected)
@@ -708,17 +684,30 @@ def motion_runs(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def summary_table(summaries: list[RunSummary]) -> pd.DataFrame:
-    """One row per run: its run-table row, trace statistics and place in its session."""
+    """One row per run: its run-table row, each cause's statistics and session columns, and
+    its place in the session."""
     import pandas as pd
 
     runs = runs_frame([s.row for s in summaries])
-    traces = pd.DataFrame([s.trace.as_row() for s in summaries], index=runs.index)
     extra = pd.DataFrame([s.cause_columns for s in summaries], index=runs.index)
-    table = session_clock(pd.concat([runs, traces, extra], axis=1))
+    table = pd.concat([runs, extra], axis=1)
+    table["session_order"] = session_order(table)
+    for cause in CAUSES.values():
+        for name, values in cause.session_columns(table).items():
+            table[name] = values
     # text as Python objects in one block: the held-out folds select rows of this table
     # hundreds of times, and each Arrow-backed text column is a take of its own
     text = [c for c in table.columns if isinstance(table[c].dtype, pd.StringDtype)]
     return table.astype(dict.fromkeys(text, object)).copy()
+
+
+def trace_data(summaries: Iterable[RunSummary]) -> dict[str, dict[str, object]]:
+    """Each cause's per-run trace data (`Cause.run_trace`), by cause, then run_id."""
+    out: dict[str, dict[str, object]] = {name: {} for name in CAUSES}
+    for summary in summaries:
+        for name, data in summary.traces.items():
+            out.setdefault(name, {})[str(summary.row["run_id"])] = data
+    return out
 
 
 def diagnose_summaries(
@@ -775,11 +764,13 @@ def _diagnose(
         raise LogError("no readable logs", fix="see 'wbpower inspect' for what each log holds")
     in_doubt = kept_in_doubt([s.row for s in summaries]) if keep_doubtful else None
     if keep_doubtful:
-        summaries = [RunSummary(admit_doubtful(s.row), s.trace, s.cause_columns) for s in summaries]
+        summaries = [
+            RunSummary(admit_doubtful(s.row), s.cause_columns, s.traces) for s in summaries
+        ]
     runs = summary_table(summaries)
     # per-run data is keyed by run_id (here, the folds, the causes' evidence): one run each
     _check_one_run_per_run_id(summaries)
-    blocks = {s.row["run_id"]: (s.trace.cruise_blocks_W, s.trace.block_s) for s in summaries}
+    traces = trace_data(summaries)
     for row in runs[~runs["usable"]].itertuples():
         skipped.append(Skipped(str(row.file), f"{row.file}: {row.skip_reason}"))
     doubted = doubted_motion_reason(runs)
@@ -822,11 +813,11 @@ def _diagnose(
     # the reported baseline is
     seen = Selection()
     selected, energy_rmse, evidence = select_causes(
-        runs, motion, folds, measured, refit_rmse, blocks, notes, seen
+        runs, motion, folds, measured, refit_rmse, traces, notes, seen
     )
     causes = list(selected)
     # the extended model's held-out error: causes chosen and fitted without the run's fold
-    extended_pred = nested_heldout_energy_J(runs, motion, folds, blocks, causes, notes)
+    extended_pred = nested_heldout_energy_J(runs, motion, folds, traces, causes, notes)
     extended_rmse, extended_mape = _rmse_mape(measured, extended_pred)
     # a finding's own gain compares like with like: the findings' causes held fixed, with and
     # without it (both fitted without the run's fold, both chosen on all runs). Selection
@@ -883,12 +874,8 @@ def _diagnose(
             "steps",
             "payload_kg",
             "session_order",
-            "tau_before_min",
-            # the cruise spectrum's peak of each run: the ripple's evidence, for its figure
-            "ripple_hz",
-            "ripple_amplitude_W",
-            "ripple_p_value",
-            "ripple_cruise_s",
+            # what each cause's figure panels read
+            *(c for cause in CAUSES.values() for c in cause.table_columns),
         ]
     ].copy()
     table["fold"] = folds
@@ -922,6 +909,7 @@ def _diagnose(
         patterns=error_patterns(table),
         skipped=tuple(skipped),
         notes=tuple(notes),
+        traces=traces,
         baseline_label=(
             "paper (Eq. 1-6) fitted to these logs"
             if reference is None

@@ -47,8 +47,6 @@ class Report:
     fit_problem: str | None
     diagnosis: Diagnosis | None
     diagnosis_problem: str | None
-    #: run_id -> (detrended cruise power in blocks [W], block length [s]), for the spectrum
-    cruise_blocks: dict[str, tuple[np.ndarray, float]]
     skipped: tuple[Skipped, ...] = ()
 
 
@@ -61,19 +59,18 @@ def _work(run: Run) -> tuple[dict, list[dict], RunSummary, TraceView]:
     from wifibot_power.fit import segment_checked
     from wifibot_power.phases import Segmentation
     from wifibot_power.runtable import run_row
-    from wifibot_power.traces import EMPTY
 
     segmentation = segment_checked(run)
     empty = Segmentation(run.meta.run_id, ())
     if run.meta.mode == "unknown":  # as fit: nothing to fit it to
         row = run_row(run, empty)
-        return row, [], RunSummary(row, EMPTY), trace_view(run, segmentation)
+        return row, [], RunSummary(row), trace_view(run, segmentation)
     phases = segmentation.rows(run.file)
     if run.meta.mode == "motion":  # its summary with the cause columns, as diagnose's
         summary = summarize_segmented(run, segmentation)
         return summary.row, phases, summary, trace_view(run, segmentation)
     row = run_row(run, segmentation)
-    summary = RunSummary(run_row(run, empty), EMPTY)
+    summary = RunSummary(run_row(run, empty))
     return row, phases, summary, trace_view(run, segmentation)
 
 
@@ -130,11 +127,6 @@ def build_report(
             diagnosis_problem = exc.one_line()
     else:
         diagnosis_problem = "no fit to diagnose"
-    blocks = {
-        s.row["run_id"]: (s.trace.cruise_blocks_W, s.trace.block_s)
-        for s in summaries
-        if s.trace.cruise_blocks_W.size
-    }
     return Report(
         paths=tuple(str(p) for p in paths),
         traces=tuple(r[3] for r in results),
@@ -142,7 +134,6 @@ def build_report(
         fit_problem=fit_problem,
         diagnosis=diagnosis,
         diagnosis_problem=diagnosis_problem,
-        cruise_blocks=blocks,
         skipped=skipped,
     )
 
@@ -208,7 +199,7 @@ def report_figures(report: Report) -> Iterator[tuple[str, str, Callable[[], Figu
         yield (
             "findings",
             "Each finding's evidence",
-            lambda: findings_figure(diagnosis, report.cruise_blocks),
+            lambda: findings_figure(diagnosis, diagnosis.traces),
             "",
         )
     for view in report.traces:

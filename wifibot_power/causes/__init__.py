@@ -24,13 +24,22 @@ from wifibot_power.causes.base import (
     Cause,
     Check,
     Evidence,
+    PanelView,
     RunTable,
+    RunView,
     SimTrace,
     TripTerms,
 )
 from wifibot_power.causes.cruise_ripple import CruiseRipple
 from wifibot_power.causes.decel_phase import DecelPhase
-from wifibot_power.causes.registry import CAUSES, ordered, register, registered, unregister
+from wifibot_power.causes.registry import (
+    CAUSES,
+    ordered,
+    register,
+    registered,
+    run_statistics,
+    unregister,
+)
 from wifibot_power.causes.speed_quadratic import SpeedQuadratic
 from wifibot_power.causes.start_transient import StartTransient
 from wifibot_power.causes.thermal_drift import ThermalDrift
@@ -69,11 +78,14 @@ __all__ = [
     "Cause",
     "Check",
     "Evidence",
+    "PanelView",
     "RunTable",
+    "RunView",
     "SimTrace",
     "TripTerms",
     "ordered",
     "register",
     "registered",
+    "run_statistics",
     "unregister",
 ]

@@ -104,32 +104,46 @@ def _not_estimable(motion: pd.DataFrame, base: PowerModel, causes: list[str]) ->
     return None
 
 
-#: The columns a run's predicted motion energy is simulated from.
-PREDICT_COLUMNS = ("speed_mps", "distance_m", "steps", "payload_kg", "tau_before_min")
+#: The columns of a run its predicted motion energy is simulated from, beside what the
+#: causes' energy terms read (`Cause.trip_inputs`).
+PREDICT_COLUMNS = ("speed_mps", "distance_m", "steps", "payload_kg")
+
+
+def prediction_inputs(runs: pd.DataFrame) -> dict[str, np.ndarray]:
+    """What `predict_columns_J` reads of `runs`: the `PREDICT_COLUMNS`, and each cause's
+    keyword arguments of `energy.trip_energy` (`Cause.trip_inputs`), an array each."""
+    columns = {c: runs[c].to_numpy() for c in PREDICT_COLUMNS}
+    for cause in CAUSES.values():
+        columns.update(cause.trip_inputs(runs))
+    return columns
 
 
 def predict_motion_energy_J(model: PowerModel, runs: pd.DataFrame) -> np.ndarray:
     """Motion energy of each run as the model simulates it from (v, D, N, payload) alone:
-    paper Eq. 5/6 per step with the model's extensions (energy.trip_energy), the run starting
-    the motor-on minutes into its session that precede it (tau_before_min)."""
-    return predict_columns_J(model, {c: runs[c].to_numpy() for c in PREDICT_COLUMNS})
+    paper Eq. 5/6 per step with the model's extensions (energy.trip_energy), with what each
+    cause's term reads of the run (`Cause.trip_inputs`: e.g. the motor-on minutes into its
+    session that precede it)."""
+    return predict_columns_J(model, prediction_inputs(runs))
 
 
 def predict_columns_J(model: PowerModel, columns: dict[str, np.ndarray]) -> np.ndarray:
-    """`predict_motion_energy_J` of runs given as their `PREDICT_COLUMNS` (arrays, a run
+    """`predict_motion_energy_J` of runs given as their `prediction_inputs` (arrays, a run
     each): `diagnose` predicts each held-out fold from the columns read once."""
-    # the four columns as Python lists (itertuples boxes every column of a ~60-column table)
-    values = (columns[c].tolist() for c in ("speed_mps", "distance_m", "steps", "payload_kg"))
-    tau = np.asarray(columns["tau_before_min"], dtype=np.float64)
-    out = np.empty(len(tau))
-    for i, (speed, distance, steps, payload) in enumerate(zip(*values, strict=True)):
+    # the columns as Python lists (itertuples boxes every column of a ~60-column table)
+    values = [columns[c].tolist() for c in PREDICT_COLUMNS]
+    keywords = [k for k in columns if k not in PREDICT_COLUMNS]
+    extra = [np.asarray(columns[k], dtype=np.float64).tolist() for k in keywords]
+    out = np.empty(len(values[0]))
+    for i, (speed, distance, steps, payload, *given) in enumerate(
+        zip(*values, *extra, strict=True)
+    ):
         trip = trip_energy(  # a run per iteration, not a sample
             model,
             speed,
             distance,
             int(steps),
             payload_kg=payload,
-            motor_on_before_min=float(tau[i]) if np.isfinite(tau[i]) else 0.0,
+            **dict(zip(keywords, given, strict=True)),
         )
         out[i] = trip.energy_J
     return out
@@ -141,4 +155,5 @@ __all__ = [
     "power_factor",
     "predict_columns_J",
     "predict_motion_energy_J",
+    "prediction_inputs",
 ]
