@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 from test_diagnose import GRID  # noqa: E402  (the grid every diagnose test runs on)
 
-from wifibot_power.causes.extended import NotEstimable
 from wifibot_power.diagnose import (
+    NOT_NAMED,
+    Batch,
     Selection,
     assign_folds,
     diagnose_runs,
@@ -25,6 +26,7 @@ from wifibot_power.diagnose import (
     summarize_run,
     summary_table,
 )
+from wifibot_power.diagnose.extended import NotEstimable
 from wifibot_power.errors import LogError
 from wifibot_power.simulate import SimConfig, simulate_runs
 
@@ -135,16 +137,15 @@ def test_a_candidate_the_training_folds_cannot_identify_is_not_estimable():
     folds = assign_folds(motion["run_id"])
     with pytest.raises(NotEstimable, match="stopping phase was found in"):
         heldout_energy_J(frame, motion, folds, ["decel_phase"], strict=True)
-    notes: list[str] = []
-    seen = Selection()
     measured = motion["motion_energy_J"].to_numpy(np.float64)
     baseline = float(np.sqrt(np.mean((heldout_energy_J(frame, motion, folds, []) - measured) ** 2)))
-    selected, rmse_of, _ = select_causes(frame, motion, folds, measured, baseline, {}, notes, seen)
-    assert "decel_phase" not in selected
+    seen = select_causes(Batch(frame, motion, folds), baseline)
+    assert isinstance(seen, Selection) and "decel_phase" not in seen.selected
     assert seen.gains["decel_phase"] is None
-    (note,) = [n for n in notes if n.startswith("decel_phase")]
-    assert "not estimable" in note and "%" not in note
-    assert all(np.isnan(r) or r < 10 * baseline for r in rmse_of.values())
+    (note,) = [n for n in seen.notes if n.text.startswith("decel_phase")]
+    assert note.kind == NOT_NAMED
+    assert "not estimable" in note.text and "%" not in note.text
+    assert all(np.isnan(r) or r < 10 * baseline for r in seen.rmse_of.values())
 
 
 def test_the_human_output_never_says_explained_when_unexplained(monkeypatch):

@@ -19,7 +19,7 @@ from scipy import stats as scipy_stats
 from test_diagnose import GRID
 
 from wifibot_power import diagnose, report
-from wifibot_power.causes.extended import motion_of, predict_motion_energy_J
+from wifibot_power.diagnose.extended import motion_of, predict_motion_energy_J
 from wifibot_power.fit import TableColumns, fit_table, fit_table_model, segment_checked
 from wifibot_power.runtable import WindowEnergy, run_row
 from wifibot_power.simulate import SimConfig, simulate_runs
@@ -155,18 +155,15 @@ def test_motion_of_is_the_pandas_selection(table) -> None:
 
 
 def test_a_fit_asked_with_an_iterator_of_causes_fits_them(table) -> None:
-    """`diagnose.fit_model` keys its memo by the causes and fits them: an iterator read
+    """`diagnose.Fits` keys its memo by the causes and fits them: an iterator read
     once for the key left the fit none, and the causeless model was kept under the causes'
     key (the review's case)."""
     runs = table[table["usable"]]
     causes = ["decel_phase", "start_transient"]
-    token = diagnose._FITS.set({})
-    try:
-        from_iterator = diagnose.fit_model(runs, iter(causes))
-        from_list = diagnose.fit_model(runs, causes)
-    finally:
-        diagnose._FITS.reset(token)
-    expected = diagnose._fit_model(runs, causes)
+    fits = diagnose.Fits()
+    from_iterator = fits.fit(runs, iter(causes))
+    from_list = fits.fit(runs, causes)
+    expected = diagnose.fit_model(runs, causes)
     assert json.dumps(from_iterator.to_json()) == json.dumps(expected.to_json())
     assert json.dumps(from_list.to_json()) == json.dumps(expected.to_json())
 
@@ -220,7 +217,7 @@ def _run_task(index):
 
 parallel._run_task = _run_task  # looked up by name in the forked workers
 import threading
-import wifibot_power.diagnose as diagnose
+import wifibot_power.diagnose.batch as diagnose
 
 importing = diagnose._import_pandas
 

@@ -9,7 +9,7 @@ name a cause. To add a cause: one module here, one line below, one row in causes
 its tests (docs/diagnose.md, "Adding a cause"); `register`/`registered` add one from
 outside the package (e.g. a test's toy cause).
 
-The extended model (`fit_model`, `predict_motion_energy_J`) is in `causes.extended`, which
+The extended model (`fit_model`, `predict_motion_energy_J`) is in `diagnose.extended`, which
 loads the fitting code; importing this package loads numpy only.
 """
 
@@ -57,16 +57,6 @@ CAUSES.update(
         )
     }
 )
-
-
-def __getattr__(name: str):
-    """`fit_model` and `predict_motion_energy_J` live in `causes.extended` (which loads the
-    fitting code); reached through the package for callers of the former causes.py."""
-    if name in ("fit_model", "predict_motion_energy_J", "NotEstimable"):
-        from wifibot_power.causes import extended
-
-        return getattr(extended, name)
-    raise AttributeError(f"module 'wifibot_power.causes' has no attribute '{name}'")
 
 
 __all__ = [

@@ -184,7 +184,7 @@ class Cause:
     """Base class of a named cause. Subclasses set the class attributes and override the
     hooks their physics needs; the defaults add nothing.
 
-    Fitting (`causes.extended.fit_model`) runs in three stages, given by `fit_stage`:
+    Fitting (`diagnose.extended.fit_model`) runs in three stages, given by `fit_stage`:
     ``"scale"`` causes multiply motion power above idle (`power_factor`) and are estimated
     first; ``"column"`` causes are linear in their parameter and enter the one stacked
     least-squares fit of the acceleration and cruise means (`power_terms`,

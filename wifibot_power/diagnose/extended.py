@@ -1,11 +1,12 @@
 """The paper's model extended by any set of named causes, fitted on any subset of runs (the
-held-out machinery of `diagnose` calls it on training folds only), and its prediction of
-each run's motion energy. Loops over the registry; names no cause.
+held-out machinery of `diagnose` calls it on training folds only), its prediction of each
+run's motion energy, and the fits one diagnosis has made (`Fits`). Loops over the registry;
+names no cause.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
@@ -149,7 +150,53 @@ def predict_columns_J(model: PowerModel, columns: dict[str, np.ndarray]) -> np.n
     return out
 
 
+class Fits:
+    """The fits made in one diagnosis, by what they were fitted on: forward selection, the
+    held-out folds and the nested folds fit the same rows with the same causes again and
+    again (a third to a tenth of all fits). Made per diagnosis and passed to what fits."""
+
+    def __init__(self) -> None:
+        self._made: dict[tuple, PowerModel | NotEstimable] = {}
+
+    def fit(
+        self, runs: pd.DataFrame, causes: Iterable[str] = (), *, strict: bool = False
+    ) -> PowerModel:
+        """`fit_model(runs, causes, strict=strict)`, fitted once per rows (in their order),
+        causes and `strict`: the same fit of the same rows is the same model, and a fit the
+        rows cannot identify raises `NotEstimable` each time it is asked for."""
+        causes = ordered(causes)  # a list: the key and the fit both read it (an iterator once)
+        return self.once(
+            lambda: (runs["file"].tolist(), runs["run_id"].tolist()),
+            causes,
+            strict,
+            lambda: fit_model(runs, causes, strict=strict),
+        )
+
+    def once(
+        self,
+        rows: Callable[[], tuple[list, list]],
+        causes: Iterable[str],
+        strict: bool,
+        fit: Callable[[], PowerModel],
+    ) -> PowerModel:
+        """`fit()`, or what it gave (a model or `NotEstimable`) when these fits hold the
+        same `rows` (their files and run ids, in order) fitted with the same causes and
+        `strict`."""
+        files, run_ids = rows()
+        key = (tuple(files), tuple(run_ids), tuple(ordered(causes)), strict)
+        if key not in self._made:
+            try:
+                self._made[key] = fit()
+            except NotEstimable as exc:
+                self._made[key] = exc
+        found = self._made[key]
+        if isinstance(found, NotEstimable):
+            raise NotEstimable(str(found))
+        return found
+
+
 __all__ = [
+    "Fits",
     "NotEstimable",
     "fit_model",
     "power_factor",
