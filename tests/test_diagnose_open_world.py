@@ -158,6 +158,8 @@ def test_the_human_output_never_says_explained_when_unexplained(monkeypatch):
         _changed(sims, lambda sim, moving: 1.0 if sim.run.meta.speed_mps == 0.2 else 0.0)
     )
     assert result.unexplained and result.findings == ()
+    assert result.verdict == "unexplained"  # decided by the library; the CLI renders it
+    assert result.report().startswith("[[Diagnosis]] no catalogue cause explains")
     console = Console(width=200, record=True)
     monkeypatch.setattr(diagnose_cmd, "stdout", console)  # _findings prints the table
     diagnose_cmd._findings(result)
@@ -166,6 +168,7 @@ def test_the_human_output_never_says_explained_when_unexplained(monkeypatch):
     assert "no catalogue cause explains" in text
     # too few repeats and nothing else: "cannot tell", not "nothing left" (the review)
     once = diagnose_runs([s.run for s in simulate_runs(SimConfig(**{**GRID, "repeats": 1}))])
+    assert once.verdict == "cannot_tell"
     console = Console(width=200, record=True)
     monkeypatch.setattr(diagnose_cmd, "stdout", console)
     diagnose_cmd._findings(once)
@@ -452,6 +455,7 @@ def test_without_repeated_runs_nothing_left_is_not_claimed():
     spread is unknown, and nothing is named; with them it is not unexplained (seed 11's
     null batch, as in test_diagnose)."""
     once = diagnose_runs([s.run for s in simulate_runs(SimConfig(**{**GRID, "repeats": 1}))])
+    assert once.verdict == "cannot_tell"
     assert once.findings == ()
     assert once.unexplained
     (reason,) = once.unexplained_reasons
