@@ -56,13 +56,16 @@ class DecelPhase(Cause):
     def _end_windows(self, view: RunView) -> tuple[list[int], list[int]]:
         """Each step's stop window: END_WINDOW_S after its cruise ends, or up to where the
         next step starts moving."""
+        if self.name in view.memo:  # asked for by `energy_windows`, then read by `run_stats`
+            return view.memo[self.name]  # type: ignore[return-value]
         w_end = max(1, round(END_WINDOW_S / view.run.sample_period_s))
         steps = view.steps
         ends = [
             min(ic1 + w_end, next_start)
             for ic1, next_start in zip(steps.cruise_end, steps.next_start, strict=True)
         ]
-        return steps.cruise_end, ends
+        view.memo[self.name] = windows = (steps.cruise_end, ends)
+        return windows
 
     def energy_windows(self, view: RunView) -> tuple[list[int], list[int]]:
         return self._end_windows(view)

@@ -62,8 +62,10 @@ def run_statistics(view: RunView) -> tuple[dict[str, float], dict[str, object]]:
         starts = np.concatenate([np.asarray(w[0], dtype=np.int64) for w in asked.values()])
         ends = np.concatenate([np.asarray(w[1], dtype=np.int64) for w in asked.values()])
         energies = view.energy.between(starts, ends) if starts.size else np.zeros(0)
-        cuts = np.cumsum([len(w[0]) for w in asked.values()])[:-1]
-        view.window_J.update(zip(asked, np.split(energies, cuts), strict=True))
+        at = 0
+        for name, windows in asked.items():
+            view.window_J[name] = energies[at : at + len(windows[0])]
+            at += len(windows[0])
     stats: dict[str, float] = {}
     traces: dict[str, object] = {}
     for name, cause in CAUSES.items():

@@ -77,13 +77,16 @@ class StartTransient(Cause):
     def _start_windows(self, view: RunView) -> tuple[list[int], list[int]]:
         """Each step's start window: its first START_WINDOW_S of acceleration, and of the
         cruise after it when the acceleration is shorter (ending at the cruise's end)."""
+        if self.name in view.memo:  # asked for by `energy_windows`, then read by `run_stats`
+            return view.memo[self.name]  # type: ignore[return-value]
         w_start = max(1, round(START_WINDOW_S / view.run.sample_period_s))
         steps = view.steps
         stops = [
             min(ia0 + w_start, ic1)
             for ia0, ic1 in zip(steps.accel_start, steps.cruise_end, strict=True)
         ]
-        return steps.accel_start, stops
+        view.memo[self.name] = windows = (steps.accel_start, stops)
+        return windows
 
     def energy_windows(self, view: RunView) -> tuple[list[int], list[int]]:
         return self._start_windows(view)
