@@ -38,6 +38,15 @@ class StepWindows:
         return len(self.accel_start)
 
 
+def windows_after(
+    starts: list[int], length_s: float, limits: list[int], period_s: float
+) -> tuple[list[int], list[int]]:
+    """Windows of `length_s` (at least a sample) from each of `starts`, each cut at its
+    matching `limits` (sample indices): (starts, ends)."""
+    n = max(1, round(length_s / period_s))
+    return starts, [min(i + n, limit) for i, limit in zip(starts, limits, strict=True)]
+
+
 def step_windows(segmentation: Segmentation, samples: int) -> StepWindows:
     """The steps of a segmented run that have an acceleration and a cruise (`StepWindows`).
     Each step's stop window ends where the next step's motion starts, whether or not that

@@ -106,11 +106,18 @@ class RunView:
     def steps(self) -> StepWindows:
         return step_windows(self.segmentation, self.run.samples)
 
+    def windows_of(self, cause: Cause) -> tuple[list[int], list[int]]:
+        """The windows `cause` asks for (`Cause.energy_windows`), made once per run."""
+        key = f"{cause.name}:windows"
+        if key not in self.memo:
+            self.memo[key] = cause.energy_windows(self) or ([], [])
+        return self.memo[key]  # type: ignore[return-value]
+
     def window_energies_J(self, cause: Cause) -> np.ndarray:
         """The energies [J] of the windows `cause` asked for (`Cause.energy_windows`): as
         summed with every cause's (`registry.run_statistics`), or alone."""
         if cause.name not in self.window_J:
-            starts, ends = cause.energy_windows(self) or ((), ())
+            starts, ends = self.windows_of(cause)
             self.window_J[cause.name] = self.energy.between(starts, ends) if starts else np.zeros(0)
         return self.window_J[cause.name]
 
@@ -234,9 +241,10 @@ class Cause:
     table_columns: ClassVar[tuple[str, ...]] = ()
 
     # -- per-run statistics --------------------------------------------------------------
-    def energy_windows(self, view: RunView) -> tuple[np.ndarray, np.ndarray] | None:
+    def energy_windows(self, view: RunView) -> tuple[list[int], list[int]] | None:
         """Windows of the run's samples (start and end indices) whose energies `run_stats`
-        reads from ``view.window_J[self.name]``, or None."""
+        reads (``view.window_energies_J(self)``; the windows: ``view.windows_of(self)``), or
+        None."""
         del view
         return None
 

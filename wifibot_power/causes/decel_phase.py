@@ -14,6 +14,7 @@ from wifibot_power.causes.base import Cause, Check, Evidence, RunTable, RunView,
 from wifibot_power.causes.design import column
 from wifibot_power.causes.design import power_factor as factor_of
 from wifibot_power.stats import ols, one_sample_p_greater, t_quantile
+from wifibot_power.traces import windows_after
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -53,28 +54,18 @@ class DecelPhase(Cause):
     energy_phase = "decel"
     columns = ("end_measured_J", "end_s")
 
-    def _end_windows(self, view: RunView) -> tuple[list[int], list[int]]:
+    def energy_windows(self, view: RunView) -> tuple[list[int], list[int]]:
         """Each step's stop window: END_WINDOW_S after its cruise ends, or up to where the
         next step starts moving."""
-        if self.name in view.memo:  # asked for by `energy_windows`, then read by `run_stats`
-            return view.memo[self.name]  # type: ignore[return-value]
-        w_end = max(1, round(END_WINDOW_S / view.run.sample_period_s))
         steps = view.steps
-        ends = [
-            min(ic1 + w_end, next_start)
-            for ic1, next_start in zip(steps.cruise_end, steps.next_start, strict=True)
-        ]
-        view.memo[self.name] = windows = (steps.cruise_end, ends)
-        return windows
-
-    def energy_windows(self, view: RunView) -> tuple[list[int], list[int]]:
-        return self._end_windows(view)
+        period_s = view.run.sample_period_s
+        return windows_after(steps.cruise_end, END_WINDOW_S, steps.next_start, period_s)
 
     def run_stats(self, view: RunView) -> dict[str, float]:
         """The stop windows' measured energy [J] and time [s], summed over steps."""
         dt = view.run.sample_period_s
         end_s = 0.0
-        starts, ends = self._end_windows(view)
+        starts, ends = view.windows_of(self)
         for ic1, j_stop in zip(starts, ends, strict=True):
             end_s += (j_stop - ic1) * dt
         return {

@@ -55,8 +55,8 @@ def run_statistics(view: RunView) -> tuple[dict[str, float], dict[str, object]]:
     for (`Cause.energy_windows`) are summed in one pass over the samples first."""
     asked = {}
     for name, cause in CAUSES.items():
-        windows = cause.energy_windows(view)
-        if windows is not None:
+        windows = view.windows_of(cause)
+        if len(windows[0]):
             asked[name] = windows
     if asked:
         starts = np.concatenate([np.asarray(w[0], dtype=np.int64) for w in asked.values()])

@@ -28,6 +28,7 @@ from wifibot_power.causes.design import (
 )
 from wifibot_power.causes.design import power_factor as factor_of
 from wifibot_power.stats import ols, one_sample_p_greater
+from wifibot_power.traces import windows_after
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -74,22 +75,12 @@ class StartTransient(Cause):
     #: grid (docs/diagnose.md, "The same at field realism on the study's own grid")
     lump_within_s = START_WINDOW_S / 2
 
-    def _start_windows(self, view: RunView) -> tuple[list[int], list[int]]:
+    def energy_windows(self, view: RunView) -> tuple[list[int], list[int]]:
         """Each step's start window: its first START_WINDOW_S of acceleration, and of the
         cruise after it when the acceleration is shorter (ending at the cruise's end)."""
-        if self.name in view.memo:  # asked for by `energy_windows`, then read by `run_stats`
-            return view.memo[self.name]  # type: ignore[return-value]
-        w_start = max(1, round(START_WINDOW_S / view.run.sample_period_s))
         steps = view.steps
-        stops = [
-            min(ia0 + w_start, ic1)
-            for ia0, ic1 in zip(steps.accel_start, steps.cruise_end, strict=True)
-        ]
-        view.memo[self.name] = windows = (steps.accel_start, stops)
-        return windows
-
-    def energy_windows(self, view: RunView) -> tuple[list[int], list[int]]:
-        return self._start_windows(view)
+        period_s = view.run.sample_period_s
+        return windows_after(steps.accel_start, START_WINDOW_S, steps.cruise_end, period_s)
 
     def run_stats(self, view: RunView) -> dict[str, float]:
         """The start windows' measured energy [J] and, summed over steps, their time in
@@ -99,7 +90,7 @@ class StartTransient(Cause):
         (`start_window_excess_J`)."""
         dt = view.run.sample_period_s
         accel_s = ramp_s = ramp2_s = cruise_s = 0.0
-        starts, stops = self._start_windows(view)
+        starts, stops = view.windows_of(self)
         for ia0, ia1, i_stop in zip(starts, view.steps.accel_end, stops, strict=True):
             n_acc = min(i_stop, ia1) - ia0
             # u at the middle of each accel sample in the window (an arithmetic series)
