@@ -3,7 +3,11 @@
 Each cause is a `Cause` subclass (`base.py`) holding its physics, its term in the stacked
 regression, its evidence test (one signature: ``evidence(table: RunTable) -> Evidence``),
 its consequence checks, its energy term for `energy.trip_energy`, its injection for
-`simulate`, and its plausible size range with the reasoning. `CAUSES` below is the only
+`simulate`, and its plausible size range with the reasoning; and everything of its own that
+the diagnosis carries: its per-run statistics and trace data, made in the worker
+(`run_stats`, `energy_windows`, `run_trace`, over a `RunView`; `run_statistics` runs them
+all), its covariates over the batch (`session_columns`, `trip_inputs`), its trace metric and
+its figure panels (`panels`). `CAUSES` below is the only
 list of them: fitting, energy, simulation, selection and reporting loop over it and never
 name a cause. To add a cause: one module here, one line below, one row in causes.md, and
 its tests (docs/diagnose.md, "Adding a cause"); `register`/`registered` add one from
