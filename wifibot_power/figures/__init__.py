@@ -64,7 +64,7 @@ FIGURES: dict[str, FigureSpec] = {
         FigureSpec(
             "findings",
             "Each finding's evidence",
-            "diagnose (Diagnosis), cruise blocks of the runs",
+            "diagnose (Diagnosis) and its causes' trace data (Diagnosis.traces)",
             findings_figure,
             "For the ripple: each run's spectral peak against its speed and the fitted "
             "f = k v line, and one run's cruise spectrum. For an energy cause: what each "
