@@ -27,12 +27,7 @@ of one diagnosis), `folds` (held-out evaluation), `selection` (the choice of cau
 
 from __future__ import annotations
 
-from wifibot_power.diagnose.batch import (
-    _import_pandas,
-    diagnose_logs,
-    diagnose_runs,
-    write_diagnosis,
-)
+from wifibot_power.diagnose.batch import diagnose_logs, diagnose_runs, write_diagnosis
 from wifibot_power.diagnose.diagnosis import (
     COVARIATES,
     diagnose_summaries,
@@ -115,7 +110,6 @@ __all__ = [
     "RunSummary",
     "Segmenter",
     "Selection",
-    "_import_pandas",
     "assign_folds",
     "diagnose_logs",
     "diagnose_runs",
