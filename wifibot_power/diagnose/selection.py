@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wifibot_power.causes import CAUSES, POWER_TRACE, RUN_ENERGY, Check, Evidence, RunTable
+from wifibot_power.causes import CAUSES, RUN_ENERGY, Check, Evidence, RunTable
 from wifibot_power.diagnose.extended import NotEstimable, predict_motion_energy_J
 from wifibot_power.diagnose.folds import (
     Batch,
@@ -79,10 +79,11 @@ def select_causes(batch: Batch, baseline_rmse: float) -> Selection:
 
 
 def _trace_causes(batch: Batch, seen: Selection, latest: dict[str, Evidence]) -> None:
-    """The causes measured on the power trace: chosen on their held-out trace gain."""
+    """The causes measured on something else than run energy (the power trace): each chosen
+    alone on its own held-out gain (`Cause.heldout_trace_gain_pct`), given its trace data."""
     base_model = batch.fit()
     for name, cause in CAUSES.items():
-        if cause.metric != POWER_TRACE:
+        if cause.metric == RUN_ENERGY:
             continue
         table = RunTable(batch.motion, base_model)
         latest[name] = e = cause.evidence(table)
@@ -91,12 +92,12 @@ def _trace_causes(batch: Batch, seen: Selection, latest: dict[str, Evidence]) ->
         gain = cause.heldout_trace_gain_pct(batch.motion, batch.folds, batch.traces.get(name, {}))
         seen.gains[name] = gain
         seen.checks[name] = cause.checks(table, e)
-        if gain < MIN_GAIN_PCT[POWER_TRACE]:
+        if gain < MIN_GAIN_PCT[cause.metric]:
             seen.notes.append(
                 Note(
                     NOT_NAMED,
                     f"{name}: significant (p = {e.p_value:.2g}) but held-out "
-                    f"trace gain {gain:.1f}% is below {MIN_GAIN_PCT[POWER_TRACE]:g}%",
+                    f"trace gain {gain:.1f}% is below {MIN_GAIN_PCT[cause.metric]:g}%",
                 )
             )
         elif all(c.passed for c in seen.checks[name]):
