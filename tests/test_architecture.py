@@ -13,8 +13,8 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "wifibot_power"
 
 
-def module_name(path: Path) -> str:
-    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+def module_name(path: Path, package: Path = PACKAGE) -> str:
+    parts = path.relative_to(package.parent).with_suffix("").parts
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
@@ -31,12 +31,12 @@ def _runtime_nodes(tree: ast.AST):
             stack.append(child)
 
 
-def imported_modules(path: Path, modules: set[str]) -> set[str]:
+def imported_modules(path: Path, modules: set[str], package: Path = PACKAGE) -> set[str]:
     """The package's modules `path` imports when it runs (at its top or in a function):
     `from a.b import c` imports a.b, and a.b.c when that is a module; importing a module
     runs its packages' `__init__` first."""
-    name = module_name(path)
-    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    name = module_name(path, package)
+    package_name = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found: set[str] = set()
     for node in _runtime_nodes(ast.parse(path.read_text())):
         if isinstance(node, ast.Import):
@@ -44,7 +44,8 @@ def imported_modules(path: Path, modules: set[str]) -> set[str]:
         elif isinstance(node, ast.ImportFrom):
             base = node.module or ""
             if node.level:
-                anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
+                parts = package_name.split(".")
+                anchor = parts[: len(parts) - node.level + 1]
                 base = ".".join([*anchor, base] if base else anchor)
             found.add(base)
             found.update(f"{base}.{alias.name}" for alias in node.names)
@@ -140,13 +141,15 @@ def _docstrings(tree: ast.AST) -> set[int]:
     }
 
 
-def cause_references(path: Path, fields: dict[str, str], modules: set[str]) -> list[str]:
+def cause_references(
+    path: Path, fields: dict[str, str], modules: set[str], package: Path = PACKAGE
+) -> list[str]:
     """Where `path` names a cause's field (a string such as a column name or a dictionary
     key, an attribute, a keyword argument; docstrings and comments are prose) or imports a
     cause's module."""
     tree = ast.parse(path.read_text())
     docs = _docstrings(tree)
-    where = path.relative_to(PACKAGE).as_posix()
+    where = path.relative_to(package).as_posix()
     found = []
     for node in ast.walk(tree):
         named = None
@@ -159,7 +162,7 @@ def cause_references(path: Path, fields: dict[str, str], modules: set[str]) -> l
         if named in fields and (path.name, named) not in SHARED_NAMES:
             found.append(f"{where}:{node.lineno} names {fields[named]}'s '{named}'")
     all_modules = {module_name(p) for p in PACKAGE.rglob("*.py")}
-    for module in sorted(imported_modules(path, all_modules) & modules):
+    for module in sorted(imported_modules(path, all_modules, package) & modules):
         found.append(f"{where} imports {module}")
     return found
 
@@ -180,16 +183,15 @@ def test_the_check_finds_a_reference(tmp_path) -> None:
     """The check above is not blind: a column read by name, a parameter key and an import of
     a cause's module, each in a module outside causes/, are found."""
     fields, modules = cause_fields(), cause_modules()
-    planted = PACKAGE / "_planted_for_the_test.py"
+    package = tmp_path / "wifibot_power"  # beside the package, not in it: tests run at once
+    package.mkdir()
+    planted = package / "_planted_for_the_test.py"
     planted.write_text(
         "from wifibot_power.causes.cruise_ripple import lines_found\n\n\n"
         "def f(runs, estimate):\n"
         '    return runs["ripple_hz"], estimate.get("hz_per_mps"), runs.tau_before_min\n'
     )
-    try:
-        found = cause_references(planted, fields, modules)
-    finally:
-        planted.unlink()
+    found = cause_references(planted, fields, modules, package)
     assert len(found) == 4, found
     assert any("imports wifibot_power.causes.cruise_ripple" in f for f in found)
 
@@ -263,15 +265,14 @@ def test_the_cycle_check_finds_a_cycle() -> None:
 def test_the_import_graph_sees_imports_inside_functions_not_type_checking(tmp_path) -> None:
     """A function-level import is an edge (it runs when the function does); one under
     `if TYPE_CHECKING:` is not (it never runs)."""
-    planted = PACKAGE / "_planted_for_the_graph.py"
+    package = tmp_path / "wifibot_power"
+    package.mkdir()
+    planted = package / "_planted_for_the_graph.py"
     planted.write_text(
         "from typing import TYPE_CHECKING\n\n"
         "if TYPE_CHECKING:\n    from wifibot_power import fit\n\n\n"
         "def f():\n    from wifibot_power.causes import design\n    return design\n"
     )
     modules = {module_name(p) for p in PACKAGE.rglob("*.py")}
-    try:
-        found = imported_modules(planted, modules)
-    finally:
-        planted.unlink()
+    found = imported_modules(planted, modules, package)
     assert found == {"wifibot_power.causes", "wifibot_power.causes.design"}
