@@ -13,7 +13,6 @@ import pytest
 from contract import RUNS_PARQUET_COLUMNS
 from typer.testing import CliRunner
 
-from wifibot_power import fit as fit_module
 from wifibot_power.cli import app
 from wifibot_power.model import load_model
 from wifibot_power.phases import Phase, Segmentation
@@ -58,7 +57,7 @@ def truth_segments(logs, monkeypatch):
             )
         return Segmentation(run.meta.run_id, tuple(phases))
 
-    monkeypatch.setattr(fit_module, "_default_segmenter", lambda: segment)
+    monkeypatch.setattr("wifibot_power.segment.segment_run", segment)  # the default segmenter
     return truth
 
 

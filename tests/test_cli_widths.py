@@ -67,7 +67,7 @@ def _run(args: list[str], width: int, monkeypatch) -> str:
 def _inspect(doc) -> list[float]:
     return [
         v
-        for row in doc
+        for row in doc["logs"]
         for v in (
             row["samples"],
             row["sample_period_s"] * 1e3,

@@ -18,7 +18,7 @@ import pytest
 from scipy import stats as scipy_stats
 from test_diagnose import GRID
 
-from wifibot_power import diagnose, report
+from wifibot_power import diagnose
 from wifibot_power.diagnose.extended import motion_of, predict_motion_energy_J
 from wifibot_power.fit import TableColumns, fit_table, fit_table_model, segment_checked
 from wifibot_power.runtable import WindowEnergy, run_row
@@ -82,13 +82,20 @@ def test_window_energies_are_the_windows_samples_summed(segmented) -> None:
 
 
 def test_report_summarises_a_run_as_diagnose_does(segmented) -> None:
-    """report's worker keeps what every cause's tests need (the thermal drift's within-run
-    creep among them), as `diagnose` does, so its diagnosis is diagnose's."""
+    """report's per-run record keeps what every cause's tests need (the thermal drift's
+    within-run creep among them), as `diagnose` does, so its diagnosis is diagnose's."""
+    from wifibot_power.causes import RunView, run_statistics
+    from wifibot_power.pipeline import DIAGNOSE_PLAN, REPORT_PLAN, run_record
+
     for run, _ in segmented[:2]:
-        row, _, summary, _ = report._work(run)
-        expected = diagnose.summarize_run(run)
-        assert summary.cause_columns == expected.cause_columns
-        assert {"creep_s_tp", "creep_s_tt"} <= set(summary.cause_columns)
+        record = run_record(run, REPORT_PLAN)
+        row = record.row
+        # the causes' hooks run on the run directly, not through a record
+        expected, _ = run_statistics(RunView(run, segment_checked(run), WindowEnergy(run)))
+        assert record.causes == expected
+        assert run_record(run, DIAGNOSE_PLAN).causes == expected
+        assert diagnose.summarize_run(run).cause_columns == expected
+        assert {"creep_s_tp", "creep_s_tt"} <= set(record.causes)
         alone = run_row(run, segment_checked(run))
         assert all(
             _same(row[k], alone[k]) if isinstance(alone[k], float) else row[k] == alone[k]
@@ -217,9 +224,9 @@ def _run_task(index):
 
 parallel._run_task = _run_task  # looked up by name in the forked workers
 import threading
-import wifibot_power.diagnose.batch as diagnose
+import wifibot_power.pipeline.preload as preload
 
-importing = diagnose._import_pandas
+importing = preload.preload_tables
 
 
 def _import_pandas():
@@ -228,7 +235,7 @@ def _import_pandas():
     importing()
 
 
-diagnose._import_pandas = _import_pandas
+preload.preload_tables = _import_pandas
 loaded_before = "pandas" in sys.modules
 try:
     diagnose_logs([sys.argv[1]], jobs=2)

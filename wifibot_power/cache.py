@@ -54,7 +54,7 @@ from pathlib import Path
 from typing import Generic, TypeVar
 
 from wifibot_power.errors import UsageError
-from wifibot_power.io.options import ReadOptions, codec_of
+from wifibot_power.io.options import ReadOptions, codec_of, is_read_whole
 from wifibot_power.run import Problem, Run, RunMeta
 
 #: Version of the entry layout; part of every key (2: the speed and channel columns).
@@ -315,6 +315,8 @@ class ParseCache:
         """
         path = Path(path)
         options = options or ReadOptions()
+        if is_read_whole(path):
+            return MISSING  # not cached: read by its own library (`process`)
         try:
             stat = os.stat(path)
         except OSError:
@@ -354,6 +356,8 @@ class ParseCache:
 
         path = Path(path)
         options = options or ReadOptions()
+        if is_read_whole(path):  # a bag folder has no bytes to hash, a recording too many
+            return work(read_log(path, options, overrides, origin=origin))
         try:
             stat = os.stat(path)
         except OSError:

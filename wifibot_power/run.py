@@ -77,6 +77,9 @@ class Run:
     #: the robot's speed at each sample [m/s] when the log has a speed column
     #: (log-format.md, "Speed"), else None
     speed_mps: np.ndarray | None = None
+    #: the robot's rate of turn at each sample [rad/s] (counter-clockwise positive) when the log
+    #: has a turning column (log-format.md, "Turning"), else None
+    yaw_rate_radps: np.ndarray | None = None
     #: each channel's power [W] when `power_W` is the sum of several (two motors; log-format.md
     #: "Several channels"), by channel name; empty when the log has one
     channels_W: dict[str, np.ndarray] = field(default_factory=dict)

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Annotated, TypeVar
 
 import typer
 
+from wifibot_power.cli import consoles
 from wifibot_power.errors import UsageError, WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
 from wifibot_power.outputs import json_safe
@@ -31,25 +32,15 @@ EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
 
 
-def _console(name: str) -> Console:
-    from rich.console import Console
-
-    if name == "stdout":
-        # a pipe gets wide tables (not rich's 80 columns), whatever COLUMNS the environment has
-        return Console(soft_wrap=False, width=None if sys.stdout.isatty() else 200)
-    return Console(stderr=True, soft_wrap=True)
-
-
-#: `stdout` and `stderr`: the rich consoles human output is drawn on, made (and rich
-#: imported, ~40 ms) on first use: `--json` output and one-line messages need neither.
+#: `stdout` and `stderr`: the rich consoles human output is drawn on (`cli.consoles`, made on
+#: first use: `--json` output and one-line messages need neither).
 stdout: Console
 stderr: Console
 
 
 def __getattr__(name: str) -> object:
     if name in ("stdout", "stderr"):
-        console = globals()[name] = _console(name)
-        return console
+        return getattr(consoles, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -95,9 +86,41 @@ FlipCurrent = Annotated[
     bool,
     typer.Option("--flip-current", help="Negate the current (and power): a reversed sensor."),
 ]
+MaxPower = Annotated[
+    float | None,
+    typer.Option(
+        "--max-power",
+        min=0.0,
+        help="The most the robot can draw [W]: above it a reading is an error (a unit "
+        "mistake); wins over the logs' max_power_W metadata.",
+    ),
+]
 SamplePeriod = Annotated[
     float | None,
     typer.Option("--sample-period", min=0.0, help="Sample spacing [s] for logs without time."),
+]
+PowerTopic = Annotated[
+    str | None,
+    typer.Option(
+        "--power-topic",
+        help="A bag's power topic: BatteryState (P = V x -I), or Float32/64 in W "
+        "(default: the one BatteryState topic).",
+    ),
+]
+CurrentTopic = Annotated[
+    str | None,
+    typer.Option("--current-topic", help="A bag's current topic (Float32/64 in A, draw > 0)."),
+]
+VoltageTopic = Annotated[
+    str | None, typer.Option("--voltage-topic", help="A bag's voltage topic (Float32/64 in V).")
+]
+SpeedTopic = Annotated[
+    str | None,
+    typer.Option(
+        "--speed-topic",
+        help="A bag's speed and yaw-rate topic: Odometry, or a Twist such as cmd_vel (read as "
+        "commanded) (default: the one Odometry topic).",
+    ),
 ]
 JsonFlag = Annotated[bool, typer.Option("--json", help="Print one JSON document on stdout.")]
 OutDir = Annotated[
@@ -112,6 +135,7 @@ ModelSpec = Annotated[
 #: every command
 READING_OPTIONS = (
     ("supply_voltage", SupplyVoltage, None),
+    ("max_power", MaxPower, None),
     ("current_column", CurrentColumn, None),
     ("voltage_column", VoltageColumn, None),
     ("power_column", PowerColumn, None),
@@ -120,11 +144,16 @@ READING_OPTIONS = (
     ("speed_column", SpeedColumn, None),
     ("sample_period", SamplePeriod, None),
     ("flip_current", FlipCurrent, False),
+    ("power_topic", PowerTopic, None),
+    ("current_topic", CurrentTopic, None),
+    ("voltage_topic", VoltageTopic, None),
+    ("speed_topic", SpeedTopic, None),
 )
 
 
 def read_options(
     supply_voltage: float | None = None,
+    max_power: float | None = None,
     current_column: str | None = None,
     voltage_column: str | None = None,
     power_column: list[str] | None = None,
@@ -133,9 +162,14 @@ def read_options(
     speed_column: str | None = None,
     sample_period: float | None = None,
     flip_current: bool = False,
+    power_topic: str | None = None,
+    current_topic: str | None = None,
+    voltage_topic: str | None = None,
+    speed_topic: str | None = None,
 ) -> ReadOptions:
     return ReadOptions(
         supply_voltage_V=supply_voltage,
+        max_power_W=max_power,
         current_column=current_column,
         voltage_column=voltage_column,
         sample_period_s=sample_period,
@@ -144,6 +178,10 @@ def read_options(
         time_column=time_column,
         time_unit=TimeUnit(time_unit).value if time_unit is not None else None,
         flip_current=bool(flip_current),
+        power_topic=power_topic,
+        current_topic=current_topic,
+        voltage_topic=voltage_topic,
+        speed_topic=speed_topic,
     )
 
 

@@ -11,12 +11,14 @@ import typer
 from wifibot_power.cli.common import (
     EXIT_OK,
     EXIT_SKIPPED,
+    CacheDir,
     Jobs,
     JsonFlag,
     KeepDoubtful,
     OutDir,
     check_out_dir,
     handles_errors,
+    parse_cache,
     print_json,
     progress,
     report_skipped,
@@ -155,6 +157,7 @@ def diagnose_command(
     json_out: JsonFlag = False,
     out: OutDir = None,
     jobs: Jobs = 0,
+    cache: CacheDir = None,
     model: Annotated[
         str | None,
         typer.Option(
@@ -183,6 +186,7 @@ def diagnose_command(
         options,
         wrap=lambda s: progress(s, "diagnosing"),
         jobs=jobs,
+        cache=parse_cache(cache),
         on_problems=warn_problems,
         reference=reference,
         keep_doubtful=keep_doubtful,

@@ -16,6 +16,7 @@ SHORT_HELP = {
     "simulate": "Write synthetic logs of a simulated robot, with truth.",
     # for branch `report` (its command registers with **command_help("report"))
     "report": "Figures and one report.html: traces, fits, diagnosis.",
+    "export": "The drive model as Open-RMF or Gazebo power parameters.",
 }
 
 #: command -> (example arguments after `wbpower COMMAND`, what it does)
@@ -60,6 +61,11 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
     "report": [
         ("sample_logs/ -o out/report", "out/report/report.html, opens offline"),
         ("logs/ -o out/ --jobs 2", "figures drawn by 2 workers"),
+    ],
+    "export": [
+        ("--model out/model.json --to rmf --turn-rate 0.6", "the fleet config's YAML"),
+        ("--model m.json --to gazebo --voltage 24 --capacity 20", "the battery <plugin>"),
+        ("--model m.json --to rmf --moment-of-inertia 9 --json", "JSON, for CI"),
     ],
 }
 

@@ -24,8 +24,10 @@ from wifibot_power.cli.common import (
 from wifibot_power.cli.help import command_help
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
+from wifibot_power.errors import WbpowerError
 from wifibot_power.inspect import inspect_logs
-from wifibot_power.io import ReadOptions
+from wifibot_power.io import ReadOptions, Skipped
+from wifibot_power.run import Problem
 
 #: file is the key (repeated if the table is split); numbers never cut, text folds
 COLUMNS = (
@@ -54,15 +56,26 @@ def inspect_command(
 ) -> None:
     """What is in each log: format, samples, period, duration, mean power, energy, metadata."""
     check_out_dir(out)  # before any work (cli.md)
-    rows, skipped = inspect_logs(
-        paths, options, wrap=lambda s: progress(s, "reading"), on_problems=warn_problems
-    )
+    warnings: list[str] = []
+
+    def said(file: str, problems: tuple[Problem, ...]) -> None:
+        warn_problems(file, problems)  # stderr, as every command
+        warnings.extend(f"{file}: {problem.message}" for problem in problems)
+
+    try:
+        rows, skipped = inspect_logs(
+            paths, options, wrap=lambda s: progress(s, "reading"), on_problems=said
+        )
+    except WbpowerError as exc:
+        if json_out:  # cli.md: the one document also on failure, with `error`
+            print_json(_document([], [], warnings, exc.one_line()))
+        raise
     if out is not None:
         for written in write_inspection(rows, out):
             print(f"wbpower: wrote {written}", file=sys.stderr)
     if json_out:
-        # the JSON document stays the list of cli.md; skipped inputs go to stderr (and exit 1)
-        print_json(rows)
+        # cli.md: {logs, skipped, warnings, error}; skipped inputs also on stderr (exit 1)
+        print_json(_document(rows, skipped, warnings, None))
     else:
         cells = [
             [
@@ -87,7 +100,40 @@ def inspect_command(
                 )
                 name = Path(str(row["file"])).name
                 stdout.print(f"{name}: power is the sum of channels {summed}", highlight=False)
+        for row in rows:
+            if row.get("topics"):
+                _print_topics(Path(str(row["file"])).name, row["topics"])
     raise typer.Exit(report_skipped(skipped))
+
+
+#: a bag's topics (log-format.md section 3)
+TOPIC_COLUMNS = (Col("topic", "text", key=True), Col("type", "text"), Col("messages"), Col("Hz"))
+
+
+def _print_topics(name: str, topics: list[dict[str, object]]) -> None:
+    cells = [
+        [
+            str(t["topic"]),
+            str(t["type"]),
+            f"{t['messages']:,}",
+            "-" if t["rate_Hz"] is None else f"{t['rate_Hz']:.4g}",
+        ]
+        for t in topics
+    ]
+    print_table(stdout, f"{name}: {len(topics)} topic(s)", TOPIC_COLUMNS, cells)
+
+
+def _document(
+    rows: list[dict[str, object]], skipped: list[Skipped], warnings: list[str], error: str | None
+) -> dict[str, object]:
+    """`inspect --json`'s object (cli.md): every log read, every input skipped with its reason
+    (what `fit` would refuse at read time), every warning, and the error (null on success)."""
+    return {
+        "logs": rows,
+        "skipped": [item.as_dict() for item in skipped],
+        "warnings": warnings,
+        "error": error,
+    }
 
 
 def _problems_cell(problems: list[str], shown: int = 2) -> str:
@@ -112,9 +158,10 @@ LOG_COLUMNS = (
     "speed_column",
     "problems",
     "problem_details",
+    "topics",
 )
 #: the keys whose values nest (a dict or a list): JSON text in their column
-_NESTED = ("meta", "channels", "problems", "problem_details")
+_NESTED = ("meta", "channels", "problems", "problem_details", "topics")
 
 
 def write_inspection(rows: list[dict[str, object]], out: Path) -> list[Path]:

@@ -5,17 +5,21 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wifibot_power.diagnose.diagnosis import diagnose_summaries
 from wifibot_power.diagnose.result import Diagnosis
-from wifibot_power.diagnose.summaries import Segmenter, summarize_run
+from wifibot_power.diagnose.summaries import Segmenter, diagnose_plan, summary_of
 from wifibot_power.errors import LogError
-from wifibot_power.fit import _import_work_modules
 from wifibot_power.io import LogSource, ReadOptions
-from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.model import PowerModel
 from wifibot_power.outputs import json_file, parquet_file, write_set
+from wifibot_power.pipeline import gather, records_of
+from wifibot_power.pipeline.duplicates import ProblemHook
 from wifibot_power.run import Run
+
+if TYPE_CHECKING:
+    from wifibot_power.cache import ParseCache
 
 
 def diagnose_logs(
@@ -25,34 +29,32 @@ def diagnose_logs(
     wrap: Callable[[list[LogSource]], Iterator[LogSource]] | None = None,
     segmenter: Segmenter | None = None,
     jobs: int | None = 1,
+    cache: ParseCache | None = None,
     on_problems: ProblemHook | None = None,
     reference: PowerModel | None = None,
     keep_doubtful: bool = False,
 ) -> Diagnosis:
-    """Read, segment and summarise every log under `paths` (`jobs` files at a time, one file
-    in memory per worker), then diagnose them (module docstring). `reference`,
-    `keep_doubtful`: see `diagnose_summaries`."""
-    summaries, skipped = map_runs(
-        [Path(p) for p in paths],
-        options or ReadOptions(),
-        lambda run: summarize_run(run, segmenter),
+    """Read, segment and summarise every log under `paths` (`pipeline.gather`, `jobs` files
+    at a time, one file in memory per worker; `cache` skips parsing files parsed before),
+    then diagnose them (module docstring). `reference`, `keep_doubtful`: see
+    `diagnose_summaries`."""
+    gathered = gather(
+        paths,
+        options,
+        diagnose_plan(segmenter),
         wrap=wrap,
         jobs=jobs,
+        cache=cache,
         on_problems=on_problems,
-        prepare=_import_work_modules,
-        # the tables' library loads while the workers read: the diagnosis after them needs it
-        beside=_import_pandas,
+        tables_after=True,  # the diagnosis after the workers makes tables
     )
+    summaries = [summary_of(r) for r in gathered.records]
     try:
         return diagnose_summaries(
-            summaries, skipped, reference=reference, keep_doubtful=keep_doubtful
+            summaries, gathered.skipped, reference=reference, keep_doubtful=keep_doubtful
         )
     except LogError as exc:  # about the batch: named by what the user gave
         raise exc.with_file(", ".join(map(str, paths))) from None
-
-
-def _import_pandas() -> None:
-    import pandas  # noqa: F401
 
 
 def diagnose_runs(
@@ -62,7 +64,7 @@ def diagnose_runs(
     reference: PowerModel | None = None,
 ) -> Diagnosis:
     """Diagnose runs already in memory (e.g. simulated); same result as from their logs."""
-    summaries = [summarize_run(run, segmenter) for run in runs]
+    summaries = [summary_of(r) for r in records_of(runs, diagnose_plan(segmenter))]
     return diagnose_summaries(summaries, reference=reference)
 
 

@@ -3,22 +3,20 @@ worker while the run is in memory) and the per-run table made of them."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from collections.abc import Iterable
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wifibot_power.causes import CAUSES, RunView, run_statistics
-from wifibot_power.fit import segment_checked
-from wifibot_power.phases import Segmentation
+from wifibot_power.causes import CAUSES
+from wifibot_power.pipeline import DIAGNOSE_PLAN, RunPlan, RunRecord, run_record
+from wifibot_power.pipeline.record import Segmenter
 from wifibot_power.run import Run
-from wifibot_power.runtable import WindowEnergy, run_row, runs_frame
+from wifibot_power.runtable import runs_frame
 
 if TYPE_CHECKING:  # pandas (~0.3 s to import) loads where the tables are made, while
     import pandas as pd  # the workers read the logs (`diagnose_logs`)
-
-Segmenter = Callable[[Run], Segmentation]
 
 
 @dataclass(frozen=True, eq=False)
@@ -32,20 +30,21 @@ class RunSummary:
     traces: dict[str, object] = field(default_factory=dict)
 
 
+def diagnose_plan(segmenter: Segmenter | None = None) -> RunPlan:
+    """`pipeline.DIAGNOSE_PLAN`, with `segmenter` (None: `segment.segment_run`)."""
+    return DIAGNOSE_PLAN if segmenter is None else replace(DIAGNOSE_PLAN, segmenter=segmenter)
+
+
+def summary_of(record: RunRecord) -> RunSummary:
+    """What diagnosis keeps of a run's record (`pipeline.run_record`)."""
+    return RunSummary(record.row, record.causes, record.traces)
+
+
 def summarize_run(run: Run, segmenter: Segmenter | None = None) -> RunSummary:
-    """Segment a run and keep only its row and the causes' statistics."""
-    if run.meta.mode != "motion":
-        return RunSummary(run_row(run, Segmentation(run.meta.run_id, ())))
-    return summarize_segmented(run, segment_checked(run, segmenter))
-
-
-def summarize_segmented(run: Run, segmentation: Segmentation) -> RunSummary:
-    """A segmented motion run's row and what each cause keeps of it (`Cause.run_stats`,
-    `Cause.run_trace`), with the phases' and windows' energies from one
-    `runtable.WindowEnergy`: what `diagnose` and `report` keep of it."""
-    energy = WindowEnergy(run)
-    columns, traces = run_statistics(RunView(run, segmentation, energy))
-    return RunSummary(run_row(run, segmentation, energy), columns, traces)
+    """A run in memory's summary, made as `diagnose_logs` makes it in a worker: its record
+    under `diagnose_plan(segmenter)` (motion runs segmented; the phases' and the causes'
+    windows' energies from one `runtable.WindowEnergy`)."""
+    return summary_of(run_record(run, diagnose_plan(segmenter)))
 
 
 def session_order(runs: pd.DataFrame) -> np.ndarray:

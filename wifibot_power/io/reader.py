@@ -18,10 +18,17 @@ from pathlib import Path
 import numpy as np
 
 from wifibot_power.errors import LogError
-from wifibot_power.io.columns import PowerSource, find_column, time_unit_of, unit_scale
-from wifibot_power.io.formats import LogFormat, Preamble, TimeSource, format_of
+from wifibot_power.io.columns import (
+    PowerSource,
+    find_column,
+    time_unit_disagrees,
+    time_unit_of,
+    unit_scale,
+)
+from wifibot_power.io.formats import LogFormat, Preamble, TimeSource, file_format_of, format_of
 from wifibot_power.io.formats.base import SNIFF_LINES
-from wifibot_power.io.metadata import build_meta
+from wifibot_power.io.formats.files import samples_to_run
+from wifibot_power.io.metadata import MAX_POWER_KEY, build_meta, max_power_W
 from wifibot_power.io.options import TIME_UNITS, ReadOptions, log_stem
 from wifibot_power.io.transport import (
     Columns,
@@ -33,8 +40,13 @@ from wifibot_power.io.transport import (
     read_bytes,
     read_columns,
 )
-from wifibot_power.io.validate import check_channels, check_samples, check_speed
-from wifibot_power.run import Problem, Run
+from wifibot_power.io.validate import (
+    PowerScale,
+    check_channels,
+    check_samples,
+    check_speed,
+)
+from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem, Run
 
 __all__ = ["read_bytes", "read_log"]
 
@@ -59,6 +71,10 @@ def read_log(
     """
     options = options or ReadOptions()
     path = Path(path)
+    file_format = file_format_of(path)
+    if file_format is not None:  # a bag or a recording: read whole by its own library
+        samples = file_format.read_samples(path, options)
+        return samples_to_run(path, file_format, samples, options, overrides, origin)
     named = tuple(
         c
         for c in (
@@ -90,7 +106,10 @@ def read_log(
         where["sample_period_s"] = "--sample-period"
     log_format.check_metadata(path, values)
     meta = build_meta(values, file=str(path), stem=log_stem(path), where="metadata", origins=where)
+    scale = _power_scale(path, content, head, pre, sources, options, values, where)
     power_W, channels_W, measured = _power(path, columns, sources, options.flip_current)
+    if time_source is not None and time_source.index:
+        _check_index(path, columns, time_source.column)
     time_s = _time(path, columns, time_source, meta.sample_period_s)
     speed_mps = _column(path, columns, (speed_column, 1.0)) if speed_column else None
     columns.values.clear()  # the arrays live on in power_W, measured and time_s only
@@ -101,7 +120,7 @@ def read_log(
         line_of=columns.lines.line_of,
         default_period_s=meta.sample_period_s,
         measured=measured,
-        voltages=frozenset(source.voltage[0] for source in sources if source.voltage),
+        scale=scale,
     )
     del measured
     check_channels(str(path), channels_W)
@@ -118,7 +137,11 @@ def read_log(
         meta=meta,
         stamps_s=time_s,  # None without a time column: `Run.time_s` makes the axis if asked
         power_W=power_W,
-        problems=(*time_problems, *problems),
+        problems=(
+            *_assumptions(sources, time_source, options, values, power_W.size),
+            *time_problems,
+            *problems,
+        ),
         speed_mps=speed_mps,
         channels_W=channels_W,
     )
@@ -185,7 +208,8 @@ def _time_source(
     if not options.time_column:
         return log_format.time_source(path, pre, options)
     found = _lookup(path, pre, options.time_column, "--time-column")
-    scale_s = TIME_UNITS[options.time_unit] if options.time_unit else time_unit_of(found)[1]
+    named_s = time_unit_of(found)[1]
+    scale_s = TIME_UNITS[options.time_unit] if options.time_unit else named_s
     if scale_s is None:
         raise LogError(
             f"the unit of time column '{found}' is unknown",
@@ -193,7 +217,7 @@ def _time_source(
             where=f"line {pre.header_line + 1}",
             fix="give --time-unit s|ms|us",
         )
-    return TimeSource(found, scale_s), []
+    return TimeSource(found, scale_s), time_unit_disagrees(found, named_s, options.time_unit)
 
 
 def _speed_column(
@@ -299,3 +323,150 @@ def _preamble(
         if head_ends_cut(head) and exc.where == f"line {len(lines)}":
             raise cut_line_error(path, len(lines)) from None
         raise
+
+
+# -- what the log says of its robot, and what was assumed ---------------------------------------
+
+#: Data lines of the head whose medians judge a power column against the voltage x current
+#: logged beside it (a unit mistake holds through the whole column).
+HEAD_ROWS = SNIFF_LINES
+#: The largest sample index a float64 holds exactly: beyond it `Sample` x interval cannot be
+#: a time stamp (neighbouring indices round to one value).
+MAX_SAMPLE_INDEX = 2**53
+
+
+def _power_scale(
+    path: Path,
+    content: Content,
+    head: bytes,
+    pre: Preamble,
+    sources: list[PowerSource],
+    options: ReadOptions,
+    values: dict[str, str],
+    where: dict[str, str],
+) -> PowerScale:
+    """What the log says of its robot to judge its power by (`validate.check_power_scale`):
+    `--max-power`, else the `max_power_W` metadata; its voltage and current columns; and a
+    power column's median against the voltage x current logged beside it, from the head."""
+    if options.max_power_W is not None:
+        ceiling_W, ceiling_where = options.max_power_W, "--max-power"
+    else:
+        ceiling_W = max_power_W(values, file=str(path), origins=where)
+        ceiling_where = where.get(MAX_POWER_KEY, "metadata")
+    head_medians = None
+    if (
+        len(sources) == 1
+        and sources[0].power
+        and (sources[0].logged_current or sources[0].logged_voltage)
+    ):
+        head_medians = _head_medians(path, content, head, pre, sources[0])
+    return PowerScale(
+        max_power_W=ceiling_W,
+        max_power_where=ceiling_where,
+        voltages=frozenset(source.voltage[0] for source in sources if source.voltage),
+        currents=frozenset(source.current[0] for source in sources if source.current),
+        head=head_medians,
+    )
+
+
+def _head_medians(
+    path: Path, content: Content, head: bytes, pre: Preamble, source: PowerSource
+) -> tuple[str, float, float | None, float | None] | None:
+    """(power column, median |power| [W], median |voltage x current| [W] or None, median
+    |voltage| [V] or None) over the first `HEAD_ROWS` data lines that parse; None when none
+    do (the full parse then says what is wrong)."""
+    import csv
+
+    specs = {"power": source.power, "current": source.logged_current}
+    specs["voltage"] = source.logged_voltage
+    index = {key: pre.header.index(spec[0]) for key, spec in specs.items() if spec}
+    lines = head_lines(path, content, head, limit=pre.header_line + 1 + HEAD_ROWS)
+    rows: dict[str, list[float]] = {key: [] for key in index}
+    data = (line for line in lines[pre.header_line + 1 :] if line.strip())
+    for cells in csv.reader(data, delimiter=pre.delimiter):
+        try:
+            parsed = {
+                key: float(cells[k].replace(",", ".") if pre.decimal_comma else cells[k])
+                for key, k in index.items()
+            }
+        except (ValueError, IndexError):
+            continue
+        for key, value in parsed.items():
+            rows[key].append(value * specs[key][1])
+    if not rows["power"]:
+        return None
+    arrays = {key: np.abs(np.asarray(found)) for key, found in rows.items()}
+    power = float(np.median(arrays["power"]))
+    both = "current" in arrays and "voltage" in arrays
+    vi = float(np.median(arrays["current"] * arrays["voltage"])) if both else None
+    volts = float(np.median(arrays["voltage"])) if "voltage" in arrays else None
+    return source.power[0], power, vi, volts
+
+
+def _check_index(path: Path, columns: Columns, name: str) -> None:
+    """A sample index (N6705 `Sample`) must be a count a float holds exactly."""
+    values = columns.values.get(name)
+    if values is None or not values.size or name in columns.text:
+        return
+    high = float(np.max(np.abs(values)))
+    if high > MAX_SAMPLE_INDEX:
+        at = int(np.argmax(np.abs(values) > MAX_SAMPLE_INDEX))
+        raise LogError(
+            f"sample index {values[at]:.4g} in column '{name}' is beyond 2^53: no logger "
+            "counts so many samples, and neighbouring indices would be one time stamp",
+            file=path,
+            where=f"line {columns.lines.line_of(at)}",
+            fix="the column is not a sample count (or the line is damaged); fix or cut that line",
+        )
+
+
+def _assumptions(
+    sources: list[PowerSource],
+    time_source: TimeSource | None,
+    options: ReadOptions,
+    values: dict[str, str],
+    samples: int,
+) -> list[Problem]:
+    """What the reading assumed, and options that had no effect on this log: each said
+    (log-format.md: every assumption is said; cli.md: warnings on stderr and in --json).
+    A time column with a single stamp gives no spacing either."""
+    said: list[Problem] = []
+    unspaced = time_source is None or (samples == 1 and not time_source.index)
+    if unspaced and "sample_period_s" not in values:
+        said.append(
+            Problem(
+                "assumed_period",
+                f"no time column (or a single stamp) and no sample_period_s: samples assumed "
+                f"{PAPER_SAMPLE_PERIOD_S * 1e3:g} ms apart (the reference analyser's "
+                f"{1 / PAPER_SAMPLE_PERIOD_S:g} Hz); give --sample-period S or sample_period_s "
+                "metadata (a 1 kHz logger read so gives energies ten times too small)",
+            )
+        )
+    if options.supply_voltage_V is not None and not any(
+        source.supply_voltage_V is not None for source in sources
+    ):
+        used = ", ".join(f"'{c}'" for source in sources for c in source.columns())
+        said.append(
+            Problem(
+                "ignored_option",
+                f"--supply-voltage {options.supply_voltage_V:g} has no effect: power comes from "
+                f"{used}",
+            )
+        )
+    if options.sample_period_s is not None and time_source is not None and not time_source.index:
+        said.append(
+            Problem(
+                "ignored_option",
+                f"--sample-period {options.sample_period_s:g} has no effect: time comes from "
+                f"column '{time_source.column}'",
+            )
+        )
+    if options.time_unit is not None and (time_source is None or time_source.index):
+        said.append(
+            Problem(
+                "ignored_option",
+                f"--time-unit {options.time_unit} has no effect: the log has no time column "
+                "in a unit (none, or a sample index)",
+            )
+        )
+    return said

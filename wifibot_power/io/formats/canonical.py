@@ -16,7 +16,13 @@ from pathlib import Path
 from typing import ClassVar
 
 from wifibot_power.errors import LogError
-from wifibot_power.io.columns import PowerSource, find_column, time_unit_of
+from wifibot_power.io.columns import (
+    PowerSource,
+    column_hint,
+    find_column,
+    time_unit_disagrees,
+    time_unit_of,
+)
 from wifibot_power.io.formats.base import (
     LogFormat,
     Preamble,
@@ -101,10 +107,12 @@ class Canonical(LogFormat):
                     ch.isalpha() for ch in stripped
                 ):
                     raise not_a_log(path, "data but no header row", where=f"line {index + 1}")
-                raise not_a_log(
-                    path,
-                    "no header row with power_W, voltage_V x current_A or current_A",
+                raise LogError(
+                    "not a power log (no header row with power_W, voltage_V x current_A or "
+                    "current_A)",
+                    file=path,
                     where=f"line {index + 1}",
+                    fix=f"{column_hint(header)}; or give a wbpower CSV (see docs/log-format.md)",
                 )
             version = metadata.get("wbpower-log")
             if version is not None and version not in KNOWN_VERSIONS:
@@ -133,9 +141,10 @@ class Canonical(LogFormat):
             return (lowered[key], COLUMNS[key][1]) if key else None
 
         power = first("power_w", "power_mw")
-        if power:
-            return [PowerSource(power=power)]
         current, voltage = first("current_a", "current_ma"), first("voltage_v", "voltage_mv")
+        if power:
+            # current and voltage logged beside it judge its unit (validate.check_power_scale)
+            return [PowerSource(power=power, logged_current=current, logged_voltage=voltage)]
         if current and voltage:
             return [PowerSource(current=current, voltage=voltage)]
         channels = _channels(path, pre, voltage, options)
@@ -147,14 +156,14 @@ class Canonical(LogFormat):
             raise LogError(
                 "current only, no power or voltage column",
                 file=path,
-                fix="give --supply-voltage V, or name the voltage column with --voltage-column",
+                fix="give --supply-voltage V, or name the voltage column with --voltage-column "
+                f"({column_hint(pre.header)})",
             )
         raise LogError(
             "no power_W, power_mW, or voltage_V x current_A columns",
             file=path,
             where=f"line {pre.header_line + 1}",
-            fix="name the columns as in docs/log-format.md, or use --power-column, or "
-            "--current-column and --voltage-column",
+            fix=f"{column_hint(pre.header)}; or name the columns as in docs/log-format.md",
         )
 
     def time_source(
@@ -178,7 +187,8 @@ class Canonical(LogFormat):
             )
         ((name, scale_s),) = timelike
         if options.time_unit:
-            return TimeSource(name, TIME_UNITS[options.time_unit]), []
+            said = time_unit_disagrees(name, scale_s, options.time_unit)
+            return TimeSource(name, TIME_UNITS[options.time_unit]), said
         if scale_s is not None:
             return TimeSource(name, scale_s), []
         if options.sample_period_s is not None:

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import ClassVar
 
 from wifibot_power.errors import LogError
-from wifibot_power.io.columns import PowerSource, find_column
+from wifibot_power.io.columns import PowerSource, column_hint, find_column
 from wifibot_power.io.formats.base import (
     LogFormat,
     Preamble,
@@ -105,7 +105,14 @@ class N6705(LogFormat):
                     fix="name the one to use with --current-column",
                 )
         for candidates, build in (
-            (with_power, lambda k: PowerSource(power=(outputs[k]["power"], 1.0))),
+            (
+                with_power,
+                lambda k: PowerSource(
+                    power=(outputs[k]["power"], 1.0),
+                    logged_current=_logged(outputs[k], "current"),
+                    logged_voltage=_logged(outputs[k], "voltage"),
+                ),
+            ),
             (
                 with_both,
                 lambda k: PowerSource(
@@ -133,7 +140,8 @@ class N6705(LogFormat):
             "no 'Curr avg K' or 'Power avg K' column",
             file=path,
             where=f"line {pre.header_line + 1}",
-            fix="export the datalog with current logged",
+            fix=f"export the datalog with current logged, or name the columns: "
+            f"{column_hint(pre.header, with_time=False)}",
         )
 
     def time_source(
@@ -150,6 +158,11 @@ class N6705(LogFormat):
                 file=path,
                 fix="give the sample spacing with --sample-period S, or re-export the datalog",
             )
+
+
+def _logged(output: dict[str, str], quantity: str) -> tuple[str, float] | None:
+    """An output's current or voltage column logged beside its power (judges its unit)."""
+    return (output[quantity], 1.0) if quantity in output else None
 
 
 def _several_outputs_fix(outputs: list[dict[str, str]]) -> str:
