@@ -24,16 +24,17 @@ FIT_STAGES = {
     "fit of the run records (fit_records)": ("fit.py", "fit_records"),
 }
 DIAGNOSE_STAGES = {
-    "diagnose_logs (whole, 1 job)": ("diagnose.py", "diagnose_logs"),
+    "diagnose_logs (whole, 1 job)": ("diagnose/batch.py", "diagnose_logs"),
     "read_log": ("reader.py", "read_log"),
     "  CSV parse to numpy (read_columns)": ("transport.py", "read_columns"),
     "  sample checks (check_samples)": ("validate.py", "check_samples"),
     "per run (run_record)": ("record.py", "run_record"),
     "  segmentation (segment_run)": ("segment/__init__.py", "segment_run"),
-    "  trace statistics (trace_stats)": ("traces.py", "trace_stats"),
-    "  causes' run statistics (run_columns)": ("", "run_columns"),
+    # until issue 24, "trace statistics (trace_stats)" and "causes' run statistics
+    # (run_columns)": now every cause's, windows, spectrum and creep alike
+    "  causes' run statistics (run_statistics)": ("causes/registry.py", "run_statistics"),
     "  run_row": ("runtable.py", "run_row"),
-    "statistics over runs (diagnose_summaries)": ("diagnose.py", "diagnose_summaries"),
+    "statistics over runs (diagnose_summaries)": ("diagnose/diagnosis.py", "diagnose_summaries"),
 }
 
 PROFILE = r"""

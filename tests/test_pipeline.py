@@ -70,9 +70,9 @@ def test_each_plan_computes_what_its_command_needs(logs) -> None:
     run = read_log(logs / "v0.30_d10_s1_r1.csv.gz")
     idle = read_log(logs / "idle_r1.csv.gz")
     fit, diagnose, report = (run_record(run, p) for p in (FIT_PLAN, DIAGNOSE_PLAN, REPORT_PLAN))
-    assert fit.phases and fit.models and not fit.causes and fit.trace is None and fit.view is None
-    assert not diagnose.phases and diagnose.causes and diagnose.trace is not None
-    assert report.phases and report.causes and report.trace is not None and report.view
+    assert fit.phases and fit.models and not fit.causes and not fit.traces and fit.view is None
+    assert not diagnose.phases and diagnose.causes and diagnose.traces
+    assert report.phases and report.causes and report.traces and report.view
     # one row whatever the plan (the numbers the fit and the diagnosis read are the same)
     for other in (diagnose, report):
         assert all(

@@ -48,8 +48,6 @@ class Report:
     fit_problem: str | None
     diagnosis: Diagnosis | None
     diagnosis_problem: str | None
-    #: run_id -> (detrended cruise power in blocks [W], block length [s]), for the spectrum
-    cruise_blocks: dict[str, tuple[np.ndarray, float]]
     skipped: tuple[Skipped, ...] = ()
 
 
@@ -67,9 +65,8 @@ def build_report(
     diagnose them (module docstring); `cache` skips parsing files parsed before;
     `keep_doubtful`: as `fit`/`diagnose --keep-doubtful`, runs whose segmentation is in
     doubt are used by both."""
-    from wifibot_power.diagnose import RunSummary, diagnose_summaries
+    from wifibot_power.diagnose import diagnose_summaries, summary_of
     from wifibot_power.fit import fit_records
-    from wifibot_power.traces import EMPTY
 
     gathered = gather(
         paths, options, REPORT_PLAN, wrap=wrap, jobs=jobs, cache=cache, on_problems=on_problems
@@ -78,9 +75,7 @@ def build_report(
     fit, skipped = fit_records(records, read_skipped, keep_doubtful=keep_doubtful)
     fit_problem = None if fit is not None else _why_no_fit(records, read_skipped, skipped)
     # diagnose's summaries: the causes' and trace statistics of motion runs (none for others)
-    summaries = [
-        RunSummary(r.row, EMPTY if r.trace is None else r.trace, r.causes) for r in records
-    ]
+    summaries = [summary_of(r) for r in records]
     diagnosis = diagnosis_problem = None
     if fit is not None:
         try:
@@ -89,11 +84,6 @@ def build_report(
             diagnosis_problem = exc.one_line()
     else:
         diagnosis_problem = "no fit to diagnose"
-    blocks = {
-        s.row["run_id"]: (s.trace.cruise_blocks_W, s.trace.block_s)
-        for s in summaries
-        if s.trace.cruise_blocks_W.size
-    }
     return Report(
         paths=gathered.paths,
         traces=tuple(r.view for r in records if r.view is not None),
@@ -101,7 +91,6 @@ def build_report(
         fit_problem=fit_problem,
         diagnosis=diagnosis,
         diagnosis_problem=diagnosis_problem,
-        cruise_blocks=blocks,
         skipped=skipped,
     )
 

@@ -97,9 +97,10 @@ DOUBT_REASON = "segmentation in doubt: "
 class WindowEnergy:
     """Energy [J] of windows of a run's samples (rectangle rule, Eq. 1's integral over the
     window), for any windows at once: one pass of `np.add.reduceat` over the samples at the
-    windows' sorted edges, pairwise-summed between them, shared by `run_row` and
-    `traces.trace_stats`. No array as long as the run is made (a cumulative sum of the
-    samples was one: 1.8 ms per 300 k samples, against 0.06 ms for the pass)."""
+    windows' sorted edges, pairwise-summed between them, shared by `run_row` and the
+    causes' windows (`causes.run_statistics`). No array as long as the run is made (a
+    cumulative sum of the samples was one: 1.8 ms per 300 k samples, against 0.06 ms for
+    the pass)."""
 
     def __init__(self, run: Run) -> None:
         self._power_W = run.power_W

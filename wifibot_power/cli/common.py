@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Annotated, TypeVar
 
 import typer
 
+from wifibot_power.cli import consoles
 from wifibot_power.errors import UsageError, WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
 from wifibot_power.outputs import json_safe
@@ -31,25 +32,15 @@ EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
 
 
-def _console(name: str) -> Console:
-    from rich.console import Console
-
-    if name == "stdout":
-        # a pipe gets wide tables (not rich's 80 columns), whatever COLUMNS the environment has
-        return Console(soft_wrap=False, width=None if sys.stdout.isatty() else 200)
-    return Console(stderr=True, soft_wrap=True)
-
-
-#: `stdout` and `stderr`: the rich consoles human output is drawn on, made (and rich
-#: imported, ~40 ms) on first use: `--json` output and one-line messages need neither.
+#: `stdout` and `stderr`: the rich consoles human output is drawn on (`cli.consoles`, made on
+#: first use: `--json` output and one-line messages need neither).
 stdout: Console
 stderr: Console
 
 
 def __getattr__(name: str) -> object:
     if name in ("stdout", "stderr"):
-        console = globals()[name] = _console(name)
-        return console
+        return getattr(consoles, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

@@ -75,7 +75,7 @@ def _diagnosis(report: Report) -> tuple[object, ...] | str:
 
 def _findings(report: Report) -> tuple[object, ...] | str:
     d = report.diagnosis
-    return (d, report.cruise_blocks) if d is not None else str(report.diagnosis_problem)
+    return (d, d.traces) if d is not None else str(report.diagnosis_problem)
 
 
 #: Every figure, in the order a report shows them (the per-run figures after the others).
@@ -126,7 +126,7 @@ FIGURES: dict[str, FigureSpec] = {
         FigureSpec(
             "findings",
             "Each finding's evidence",
-            "diagnose (Diagnosis), cruise blocks of the runs",
+            "diagnose (Diagnosis) and its causes' trace data (Diagnosis.traces)",
             findings_figure,
             "For the ripple: each run's spectral peak against its speed and the fitted "
             "f = k v line, and one run's cruise spectrum. For an energy cause: what each "

@@ -7,10 +7,10 @@ process, never the samples. A record holds:
 - `row`: the run-table row (`runtable.run_row`, runs.parquet's columns);
 - `phases`: a row per phase (`Segmentation.rows`, phases.parquet) when the plan keeps them;
 - `models`: each model family's per-run statistics (`ModelFamily.run_stats`), by name;
-- `causes`: each cause's per-run statistics (`Cause.run_columns`, through the cause
-  registry), motion runs only, when the plan diagnoses;
-- `trace`: the window sums and cruise spectrum of a motion run (`traces.trace_stats`), when
-  the plan diagnoses;
+- `causes`: each cause's per-run statistics (`Cause.run_stats`, through the cause
+  registry's `run_statistics`), motion runs only, when the plan diagnoses;
+- `traces`: each cause's per-run trace data (`Cause.run_trace`, by cause; e.g. the ripple's
+  cruise blocks), motion runs only, when the plan diagnoses;
 - `view`: the trace figure's envelope (`figures.trace.TraceView`), when the plan draws.
 
 A run of unknown mode (no mode or speed in its metadata) has nothing to fit to: its row is
@@ -34,7 +34,6 @@ if TYPE_CHECKING:
     from wifibot_power.figures.trace import TraceView
     from wifibot_power.phases import Segmentation
     from wifibot_power.run import Run
-    from wifibot_power.traces import TraceStats
 
 Segmenter = Callable[["Run"], "Segmentation"]
 
@@ -52,7 +51,7 @@ class RunPlan:
     phases: bool = True
     #: compute each model family's per-run statistics
     families: bool = True
-    #: compute the causes' per-run statistics and the trace statistics (motion runs)
+    #: compute the causes' per-run statistics and trace data (motion runs)
     causes: bool = False
     #: keep the trace figure's envelope
     view: bool = False
@@ -70,13 +69,13 @@ class RunPlan:
     @property
     def keepable(self) -> bool:
         """Whether a cache can keep its records (JSON values: with the default segmenter,
-        and neither trace statistics nor views, which hold arrays)."""
+        and neither the causes' trace data nor views, which hold arrays)."""
         return self.segmenter is None and not self.causes and not self.view
 
 
 #: `fit`: every run of known mode segmented, its phases and the families' statistics
 FIT_PLAN = RunPlan()
-#: `diagnose`: motion runs segmented, the causes' and trace statistics
+#: `diagnose`: motion runs segmented, the causes' statistics and trace data
 DIAGNOSE_PLAN = RunPlan(segment=SEGMENT_MOTION, phases=False, families=False, causes=True)
 #: `report`: all of it, and every run's trace view
 REPORT_PLAN = RunPlan(segment=SEGMENT_ALL, causes=True, view=True)
@@ -90,7 +89,7 @@ class RunRecord:
     phases: tuple[dict[str, object], ...] = ()
     models: dict[str, object] = field(default_factory=dict)
     causes: dict[str, float] = field(default_factory=dict)
-    trace: TraceStats | None = None
+    traces: dict[str, object] = field(default_factory=dict)
     view: TraceView | None = None
 
     @property
@@ -130,19 +129,18 @@ def run_record(run: Run, plan: RunPlan = FIT_PLAN) -> RunRecord:
     diagnosed = plan.causes and mode == "motion"
     # the phases' and the causes' windows' energies from one pass over the samples
     energy = WindowEnergy(run) if diagnosed else None
-    trace = None
     causes: dict[str, float] = {}
+    traces: dict[str, object] = {}
     if diagnosed:
-        from wifibot_power.traces import trace_stats
+        from wifibot_power.causes import RunView, run_statistics
 
-        trace = trace_stats(run, fitted, energy)
-        causes = cause_statistics(run, fitted)
+        causes, traces = run_statistics(RunView(run, fitted, energy))
     return RunRecord(
         row=run_row(run, fitted, energy),
         phases=tuple(fitted.rows(run.file)) if plan.phases else (),
         models=family_statistics(run, fitted) if plan.families else {},
         causes=causes,
-        trace=trace,
+        traces=traces,
         view=_view(run, segmentation) if plan.view else None,
     )
 
@@ -152,17 +150,6 @@ def family_statistics(run: Run, segmentation: Segmentation) -> dict[str, object]
     from wifibot_power.models import FAMILIES
 
     return {name: family.run_stats(run, segmentation) for name, family in FAMILIES.items()}
-
-
-def cause_statistics(run: Run, segmentation: Segmentation) -> dict[str, float]:
-    """Each cause's per-run statistics (`Cause.run_columns`), through the cause registry:
-    what its evidence tests read, computed while the samples are in memory."""
-    from wifibot_power.causes import CAUSES
-
-    columns: dict[str, float] = {}
-    for cause in CAUSES.values():
-        columns.update(cause.run_columns(run, segmentation))
-    return columns
 
 
 def _view(run: Run, segmentation: Segmentation | None) -> TraceView:
@@ -175,7 +162,7 @@ def _view(run: Run, segmentation: Segmentation | None) -> TraceView:
 # -- the cache's copy of a record (`fit --cache`) ------------------------------------------
 def record_to_json(record: RunRecord, *, phases: bool = True) -> object:
     """A record as JSON values (datetimes as ISO text, NaN kept as NaN); only a plan's
-    `keepable` records (no trace statistics, no view)."""
+    `keepable` records (no causes' statistics or trace data, no view)."""
     from wifibot_power.models import FAMILIES
 
     row = record.row
