@@ -221,12 +221,6 @@ SPINNING = ("borealtc/asphalt/pro_05.csv.gz", "borealtc/ice/pro_11.csv.gz")
 TURNING_RADPS = 0.2
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="issue 26, 'A standstill at motion power' (issue 25: 'a spinning robot is never "
-    "idle'): the Husky spinning in place at 0.46 rad/s and 372 W is labelled idle, no doubt",
-)
 @pytest.mark.parametrize("name", SPINNING)
 def test_a_spinning_husky_is_never_idle(name: str, wbpower) -> None:
     log = DRIVE / name
@@ -250,6 +244,8 @@ def test_a_spinning_husky_is_never_idle(name: str, wbpower) -> None:
         > TURNING_RADPS
     ]
     assert not spinning_idles, spinning_idles
+    # and the spin is a turn (issues 25/26: read from the two wheel speeds and track_m)
+    assert any(ph["phase"] == "turn" for ph in run["phases"]), run["phases"]
 
 
 #: the phone-app logs' current is scaled by this to stay under the 1 kW ceiling, so that
