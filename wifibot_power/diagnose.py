@@ -776,7 +776,11 @@ def _diagnose(
 ) -> Diagnosis:
     skipped = list(skipped)
     if not summaries:
-        raise LogError("no readable logs", fix="see 'wbpower inspect' for what each log holds")
+        raise LogError(
+            "no readable logs",
+            fix="each input left out is listed with its own reason",
+            skipped=skipped,
+        )
     in_doubt = kept_in_doubt([s.row for s in summaries]) if keep_doubtful else None
     if keep_doubtful:
         summaries = [RunSummary(admit_doubtful(s.row), s.trace, s.cause_columns) for s in summaries]
@@ -805,6 +809,7 @@ def _diagnose(
             + (f"; left out: {reasons_in_brief(others)}" if others else ""),
             fix=f"diagnose needs at least {MIN_MOTION_RUNS} motion runs at {MIN_SPEEDS} or "
             "more speeds" + (" (--keep-doubtful uses the doubted runs)" if doubted_runs else ""),
+            skipped=skipped,
         )
     notes: list[str] = [in_doubt] if in_doubt else []  # said first (cli.md: never as sound)
     baseline_model = fit_model(runs)

@@ -50,12 +50,13 @@ class OneLineUsageGroup(typer.core.TyperGroup):
         except _NO_ARGS_IS_HELP:
             raise
         except _USAGE_ERROR as exc:
-            self._fail(exc, info_name or "wbpower")
+            self._fail(exc, info_name or "wbpower", wants_json(args))
 
     def resolve_command(self, ctx: Any, args: list[str]) -> Any:
         # remembered for an error raised without a context ("Option '--speed' requires an
         # argument"): the hint still names the subcommand
         ctx.meta["wbpower.command"] = f"{ctx.command_path} {args[0]}" if args else None
+        ctx.meta["wbpower.json"] = wants_json(args[1:])
         return super().resolve_command(ctx, args)
 
     def invoke(self, ctx: Any) -> Any:
@@ -71,13 +72,23 @@ class OneLineUsageGroup(typer.core.TyperGroup):
                 command = failing.command_path
             elif resolved and self.get_command(ctx, resolved.rsplit(" ", 1)[-1]) is not None:
                 command = resolved
-            self._fail(exc, command)
+            self._fail(exc, command, ctx.meta.get("wbpower.json", False))
 
     @staticmethod
-    def _fail(exc: Exception, command: str) -> None:
-        from wifibot_power.cli.common import fail  # every command loads it: no start-up cost
+    def _fail(exc: Exception, command: str, json_out: bool) -> None:
+        # every command loads common: no start-up cost
+        from wifibot_power.cli.common import fail, json_usage_error
 
-        fail(usage_line(exc, command))
+        line = usage_line(exc, command)
+        if json_out:  # cli.md: `--json` prints its one document also on a usage error
+            json_usage_error(line)
+        fail(line)
+
+
+def wants_json(args: list[str]) -> bool:
+    """Whether a command line asks for `--json` (before a `--`, which ends the options)."""
+    options = args[: args.index("--")] if "--" in args else args
+    return "--json" in options
 
 
 app = typer.Typer(
