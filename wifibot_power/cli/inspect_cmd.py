@@ -27,19 +27,21 @@ from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.inspect import inspect_logs
 from wifibot_power.io import ReadOptions
+from wifibot_power.io.options import log_stem
 
-#: file is the key (repeated if the table is split); numbers never cut, text folds
+#: file is the key (repeated if the table is split); numbers never cut, text folds; what
+#: every log shares (one format, one period, no problem) is said once, in the caption
 COLUMNS = (
     Col("file", "text", key=True),
-    Col("format", "text"),
+    Col("format", "text", once=True),
     Col("run_id", "text"),
     Col("mode", "text"),
     Col("samples"),
-    Col("period ms"),
+    Col("period ms", once=True),
     Col("duration s"),
     Col("mean W"),
     Col("energy J"),
-    Col("problems", "text"),
+    Col("problems", "text", once=True),
 )
 
 
@@ -81,7 +83,13 @@ def inspect_command(
             ]
             for row in rows
         ]
-        print_table(stdout, f"{len(rows)} log(s)", COLUMNS, cells)
+        columns, caption = COLUMNS, None
+        if all(str(row["run_id"]) == log_stem(Path(str(row["file"]))) for row in rows):
+            # each run_id is its file's name: not a column of its own (issue 28: compact)
+            columns = tuple(c for c in COLUMNS if c.name != "run_id")
+            cells = [cell[:2] + cell[3:] for cell in cells]
+            caption = "run_id: the file's name"
+        print_table(stdout, f"{len(rows)} log(s)", columns, cells, caption=caption)
         for row in rows:
             if row["channels"]:
                 summed = ", ".join(
