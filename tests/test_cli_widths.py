@@ -278,3 +278,26 @@ def test_names_are_never_broken_mid_word(precomputed, monkeypatch):
     wide80 = _run(["inspect", str(SAMPLE_LOGS)], 80, monkeypatch)
     assert len(wide80.splitlines()) <= len(names) + 8, len(wide80.splitlines())
     assert "format: wbpower-csv" in wide80 and "run_id: the file's name" in wide80
+
+
+def test_a_name_column_is_never_narrower_than_its_longest_word():
+    """Laid out at 60 columns, a file name column with numbers beside it: the numbers move to
+    a second table rather than the names being broken across lines ("v0.10_d10_s10_" /
+    "r1.csv.gz", issue 28)."""
+    from rich.console import Console
+
+    from wifibot_power.cli.tables import Col, tables
+
+    names = [f"v0.{k}0_d10_s10_r{k}.csv.gz" for k in range(1, 8)]
+    cols = (Col("file", "text", key=True), *(Col(f"value {k}") for k in range(5)))
+    rows = [[name, *(f"{1234.5678 * k:.4f}" for k in range(5))] for name in names]
+    console = Console(width=60, record=True, file=open("/dev/null", "w"))  # noqa: SIM115
+    for table in tables("t", cols, rows, width=60):
+        console.print(table)
+    text = console.export_text()
+    assert all(len(line) <= 60 for line in text.splitlines())
+    parts = len(re.findall(r"^t \(\d/\d\)", text, re.MULTILINE))
+    assert parts >= 2  # the layout was tight: the numbers moved, not the names broken
+    for name in names:
+        assert text.count(f"│ {name} ") == parts, name  # whole, in every part
+    assert _numbers(" ".join(" ".join(row[1:]) for row in rows)) <= _numbers(text)
