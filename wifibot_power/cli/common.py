@@ -71,28 +71,39 @@ def __getattr__(name: str) -> object:
 # -- reading options: every command that reads logs takes these (cli.md) --------------
 SupplyVoltage = Annotated[
     float | None,
-    typer.Option("--supply-voltage", min=0.0, help="Supply voltage [V]: power = current x V."),
+    typer.Option(
+        "--supply-voltage", metavar="V", help="Supply voltage [V], > 0: power = current x V."
+    ),
 ]
 CurrentColumn = Annotated[
-    str | None, typer.Option("--current-column", help="Name of the current column to use.")
+    str | None,
+    typer.Option("--current-column", metavar="NAME", help="Name of the current column to use."),
 ]
 VoltageColumn = Annotated[
-    str | None, typer.Option("--voltage-column", help="Name of the voltage column to use.")
+    str | None,
+    typer.Option("--voltage-column", metavar="NAME", help="Name of the voltage column to use."),
 ]
 SpeedColumn = Annotated[
     str | None,
     typer.Option(
-        "--speed-column", help="Name of the speed column [m/s] (default: speed_mps, if any)."
+        "--speed-column",
+        metavar="NAME",
+        help="Name of the speed column [m/s] (default: speed_mps, if any).",
     ),
 ]
 PowerColumn = Annotated[
     list[str] | None,
     typer.Option(
-        "--power-column", help="Name of a power column; repeat it to sum several (two motors)."
+        "--power-column",
+        metavar="NAME",
+        help="Name of a power column; repeat it to sum several (two motors).",
     ),
 ]
 TimeColumn = Annotated[
-    str | None, typer.Option("--time-column", help="Name of the time column (see --time-unit).")
+    str | None,
+    typer.Option(
+        "--time-column", metavar="NAME", help="Name of the time column (see --time-unit)."
+    ),
 ]
 
 
@@ -104,7 +115,11 @@ class TimeUnit(StrEnum):
 
 TimeUnitOption = Annotated[
     TimeUnit | None,
-    typer.Option("--time-unit", help="Unit of the time column, when its name does not say."),
+    typer.Option(
+        "--time-unit",
+        metavar="s|ms|us",
+        help="Unit of the time column, when its name does not say.",
+    ),
 ]
 FlipCurrent = Annotated[
     bool,
@@ -114,44 +129,59 @@ MaxPower = Annotated[
     float | None,
     typer.Option(
         "--max-power",
-        min=0.0,
-        help="The most the robot can draw [W]: above it a reading is an error (a unit "
+        metavar="W",
+        help="The most the robot can draw [W], > 0: above it a reading is an error (a unit "
         "mistake); wins over the logs' max_power_W metadata.",
     ),
 ]
 SamplePeriod = Annotated[
     float | None,
-    typer.Option("--sample-period", min=0.0, help="Sample spacing [s] for logs without time."),
+    typer.Option(
+        "--sample-period", metavar="S", help="Sample spacing [s], > 0, for logs without time."
+    ),
 ]
 PowerTopic = Annotated[
     str | None,
     typer.Option(
         "--power-topic",
+        metavar="TOPIC",
         help="A bag's power topic: BatteryState (P = V x -I), or Float32/64 in W "
         "(default: the one BatteryState topic).",
     ),
 ]
 CurrentTopic = Annotated[
     str | None,
-    typer.Option("--current-topic", help="A bag's current topic (Float32/64 in A, draw > 0)."),
+    typer.Option(
+        "--current-topic",
+        metavar="TOPIC",
+        help="A bag's current topic (Float32/64 in A, draw > 0).",
+    ),
 ]
 VoltageTopic = Annotated[
-    str | None, typer.Option("--voltage-topic", help="A bag's voltage topic (Float32/64 in V).")
+    str | None,
+    typer.Option(
+        "--voltage-topic", metavar="TOPIC", help="A bag's voltage topic (Float32/64 in V)."
+    ),
 ]
 SpeedTopic = Annotated[
     str | None,
     typer.Option(
         "--speed-topic",
+        metavar="TOPIC",
         help="A bag's speed and yaw-rate topic: Odometry, or a Twist such as cmd_vel (read as "
         "commanded) (default: the one Odometry topic).",
     ),
 ]
 JsonFlag = Annotated[bool, typer.Option("--json", help="Print one JSON document on stdout.")]
 OutDir = Annotated[
-    Path | None, typer.Option("-o", "--out", help="Write the tables (Parquet, JSON) into DIR.")
+    Path | None,
+    typer.Option("-o", "--out", metavar="DIR", help="Write the tables (Parquet, JSON) into DIR."),
 ]
 ModelSpec = Annotated[
-    str, typer.Option("--model", help="'paper' (the paper's coefficients) or a model.json.")
+    str,
+    typer.Option(
+        "--model", metavar="paper|FILE", help="'paper' (the paper's coefficients) or a model.json."
+    ),
 ]
 
 
@@ -449,6 +479,7 @@ Jobs = Annotated[
         "--jobs",
         "-j",
         min=0,
+        metavar="N",
         help="Files processed in parallel (worker processes); 0 = all cores.",
     ),
 ]
@@ -456,6 +487,7 @@ CacheDir = Annotated[
     Path | None,
     typer.Option(
         "--cache",
+        metavar="DIR",
         help="Keep parsed logs as Parquet in DIR so a second run skips parsing unchanged "
         "files (keyed by content; see docs/benchmarks.md).",
     ),

@@ -52,7 +52,8 @@ def simulate_command(
     effect: Annotated[
         list[str] | None,
         typer.Option(
-            "--effect", help=f"NAME[=SIZE], repeatable: {', '.join(EFFECTS)} (causes.md)."
+            "--effect",
+            help=f"NAME[=SIZE], repeatable: {', '.join(EFFECTS)} (the causes diagnose names).",
         ),
     ] = None,
     seed: Annotated[int, typer.Option(help="Random seed: same seed, same logs.")] = 0,

@@ -52,6 +52,12 @@ class OneLineUsageGroup(typer.core.TyperGroup):
         except _USAGE_ERROR as exc:
             self._fail(exc, info_name or "wbpower", wants_json(args))
 
+    def get_command(self, ctx: Any, cmd_name: str) -> Any:
+        command = super().get_command(ctx, cmd_name)
+        if command is not None:
+            plain_metavars(command)
+        return command
+
     def resolve_command(self, ctx: Any, args: list[str]) -> Any:
         # remembered for an error raised without a context ("Option '--speed' requires an
         # argument"): the hint still names the subcommand
@@ -83,6 +89,41 @@ class OneLineUsageGroup(typer.core.TyperGroup):
         if json_out:  # cli.md: `--json` prints its one document also on a usage error
             json_usage_error(line)
         fail(line)
+
+
+#: click type -> the placeholder help shows for a value of it, where the option names none
+#: (typer's own are `<float range>`, `<str>`, `{paths}...`: issue 28)
+_METAVARS = {
+    "FloatParamType": "NUMBER",
+    "FloatRange": "NUMBER",
+    "IntParamType": "N",
+    "IntRange": "N",
+    "StringParamType": "TEXT",
+}
+
+
+def plain_metavars(command: Any) -> None:
+    """Give every option of `command` without a metavar a plain one (`NUMBER`, `N`, `TEXT`,
+    a choice's `a|b`; a path `DIR` or `FILE` when its help says which, else `PATH`), and its
+    arguments their name in capitals (`PATH...`), as `--plot FILE` has. Idempotent."""
+    for param in command.params:
+        if param.metavar is not None or getattr(param, "is_flag", False):
+            continue
+        kind = type(param.type).__name__
+        if param.param_type_name == "argument":
+            name = (param.name or "arg").upper().removesuffix("S")
+            text = name + ("..." if param.nargs != 1 else "")
+            param.metavar = text
+            # typer wraps a required argument's metavar in braces ("{PATH...}") in usage
+            param.make_metavar = lambda *args, _text=text, **kwargs: _text
+        elif kind.endswith("Choice"):  # click's Choice, typer's TyperChoice
+            param.metavar = "|".join(str(getattr(c, "value", c)) for c in param.type.choices)
+        elif kind.endswith("Path"):  # click's Path, typer's TyperPath
+            help_text = (param.help or "").lower()
+            param.metavar = "DIR" if "dir" in help_text or "folder" in help_text else "PATH"
+            param.metavar = "FILE" if "file" in help_text.split(".")[0] else param.metavar
+        else:
+            param.metavar = _METAVARS.get(kind, "VALUE")
 
 
 def wants_json(args: list[str]) -> bool:
