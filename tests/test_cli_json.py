@@ -265,3 +265,14 @@ def test_a_batch_with_nothing_usable_still_names_each_input(wbpower, logs, comma
     result = wbpower(*args)
     doc = _document(result, 1) if command == "report" else _failed(result)
     _check_batch(result, doc, folder, expected)
+
+
+def test_a_result_json_cannot_hold_is_an_error_document_not_a_traceback(wbpower, monkeypatch):
+    """The document is printed when the command ends; what it holds is made JSON when the
+    command hands it over, so a bad value is the command's one-line error."""
+    from wifibot_power.energy import EnergyReport
+
+    monkeypatch.setattr(EnergyReport, "summary", lambda self: {"energy_J": object()})
+    result = wbpower("energy", "--speed", "0.8", "--dist", "10", "--json")
+    doc = _failed(result, "internal error")
+    assert "energy_J" not in doc

@@ -387,7 +387,9 @@ def print_json(data: dict[str, object]) -> None:
     if document is None:
         _write_json(data)
     else:
-        document.result = dict(data)
+        # made JSON now, inside the command: a value JSON cannot hold is the command's
+        # error (one line, exit 2), never a traceback from printing the document at the end
+        document.result = json.loads(json.dumps(json_safe(data), allow_nan=False))
 
 
 def _write_json(data: object) -> None:
