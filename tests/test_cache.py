@@ -311,7 +311,9 @@ def test_fit_with_cache_same_result_cold_and_warm(tmp_path: Path, wbpower, monke
         assert_same_fit(fit_logs([corpus], jobs=jobs, cache=cache), plain)
     warm = wbpower("fit", corpus, "--json", "--cache", tmp_path / "cache")
     assert warm.exit_code == 0, warm.stderr
-    assert json.loads(warm.stdout) == json.loads(json.dumps(plain.summary()))
+    document = json.loads(warm.stdout)
+    assert document.pop("error") is None  # cli.md: every --json document has it
+    assert document == json.loads(json.dumps(plain.summary()))
 
 
 def test_fit_kept_results_follow_the_content(tmp_path: Path, settled) -> None:
@@ -557,7 +559,9 @@ def test_warm_fit_forks_no_worker_and_loads_no_parser(tmp_path: Path) -> None:
             text=True,
             check=True,
         )
-        return json.loads(done.stdout), json.loads(done.stderr.strip().splitlines()[-1])
+        document = json.loads(done.stdout)
+        assert document.pop("error") is None  # cli.md: every --json document has it
+        return document, json.loads(done.stderr.strip().splitlines()[-1])
 
     cold_summary, cold = run("spy")
     warm_summary, warm = run("spy")

@@ -88,7 +88,7 @@ def test_json_contract_and_exit_0(logs, truth_segments):
 
 
 def test_table_shows_paper_values_and_silent_stderr(logs, truth_segments):
-    result = invoke(logs)
+    result = invoke(logs, "--wide")  # headers whole on one line (a pipe is 80 columns)
     assert result.exit_code == 0
     for text in ("P_acc slope", "14.8", "P_v intercept", "23.9", "network", "4.4", "n runs"):
         assert text in result.stdout

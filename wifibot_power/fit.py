@@ -220,5 +220,6 @@ def _nothing_to_fit(inputs: int, skipped: Sequence[Skipped], where: str) -> LogE
     return LogError(
         f"no usable run among {inputs} input(s): {why}",
         file=where,
-        fix="see 'wbpower inspect' for what each log holds",
+        fix="each input left out is listed with its own reason",
+        skipped=skipped,
     )

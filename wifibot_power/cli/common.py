@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextvars
 import functools
 import inspect
 import json
@@ -9,6 +10,7 @@ import os
 import sys
 import typing
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, TypeVar
@@ -47,24 +49,32 @@ def __getattr__(name: str) -> object:
 # -- reading options: every command that reads logs takes these (cli.md) --------------
 SupplyVoltage = Annotated[
     float | None,
-    typer.Option("--supply-voltage", min=0.0, help="Supply voltage [V]: power = current x V."),
+    typer.Option(
+        "--supply-voltage", metavar="V", help="Supply voltage [V], > 0: power = current x V."
+    ),
 ]
 CurrentColumn = Annotated[
-    str | None, typer.Option("--current-column", help="Name of the current column to use.")
+    str | None,
+    typer.Option("--current-column", metavar="NAME", help="Name of the current column to use."),
 ]
 VoltageColumn = Annotated[
-    str | None, typer.Option("--voltage-column", help="Name of the voltage column to use.")
+    str | None,
+    typer.Option("--voltage-column", metavar="NAME", help="Name of the voltage column to use."),
 ]
 SpeedColumn = Annotated[
     str | None,
     typer.Option(
-        "--speed-column", help="Name of the speed column [m/s] (default: speed_mps, if any)."
+        "--speed-column",
+        metavar="NAME",
+        help="Name of the speed column [m/s] (default: speed_mps, if any).",
     ),
 ]
 PowerColumn = Annotated[
     list[str] | None,
     typer.Option(
-        "--power-column", help="Name of a power column; repeat it to sum several (two motors)."
+        "--power-column",
+        metavar="NAME",
+        help="Name of a power column; repeat it to sum several (two motors).",
     ),
 ]
 YawRateColumn = Annotated[
@@ -83,7 +93,10 @@ TrackWidth = Annotated[
     ),
 ]
 TimeColumn = Annotated[
-    str | None, typer.Option("--time-column", help="Name of the time column (see --time-unit).")
+    str | None,
+    typer.Option(
+        "--time-column", metavar="NAME", help="Name of the time column (see --time-unit)."
+    ),
 ]
 
 
@@ -95,7 +108,11 @@ class TimeUnit(StrEnum):
 
 TimeUnitOption = Annotated[
     TimeUnit | None,
-    typer.Option("--time-unit", help="Unit of the time column, when its name does not say."),
+    typer.Option(
+        "--time-unit",
+        metavar="s|ms|us",
+        help="Unit of the time column, when its name does not say.",
+    ),
 ]
 FlipCurrent = Annotated[
     bool,
@@ -105,44 +122,59 @@ MaxPower = Annotated[
     float | None,
     typer.Option(
         "--max-power",
-        min=0.0,
-        help="The most the robot can draw [W]: above it a reading is an error (a unit "
+        metavar="W",
+        help="The most the robot can draw [W], > 0: above it a reading is an error (a unit "
         "mistake); wins over the logs' max_power_W metadata.",
     ),
 ]
 SamplePeriod = Annotated[
     float | None,
-    typer.Option("--sample-period", min=0.0, help="Sample spacing [s] for logs without time."),
+    typer.Option(
+        "--sample-period", metavar="S", help="Sample spacing [s], > 0, for logs without time."
+    ),
 ]
 PowerTopic = Annotated[
     str | None,
     typer.Option(
         "--power-topic",
+        metavar="TOPIC",
         help="A bag's power topic: BatteryState (P = V x -I), or Float32/64 in W "
         "(default: the one BatteryState topic).",
     ),
 ]
 CurrentTopic = Annotated[
     str | None,
-    typer.Option("--current-topic", help="A bag's current topic (Float32/64 in A, draw > 0)."),
+    typer.Option(
+        "--current-topic",
+        metavar="TOPIC",
+        help="A bag's current topic (Float32/64 in A, draw > 0).",
+    ),
 ]
 VoltageTopic = Annotated[
-    str | None, typer.Option("--voltage-topic", help="A bag's voltage topic (Float32/64 in V).")
+    str | None,
+    typer.Option(
+        "--voltage-topic", metavar="TOPIC", help="A bag's voltage topic (Float32/64 in V)."
+    ),
 ]
 SpeedTopic = Annotated[
     str | None,
     typer.Option(
         "--speed-topic",
+        metavar="TOPIC",
         help="A bag's speed and yaw-rate topic: Odometry, or a Twist such as cmd_vel (read as "
         "commanded) (default: the one Odometry topic).",
     ),
 ]
 JsonFlag = Annotated[bool, typer.Option("--json", help="Print one JSON document on stdout.")]
 OutDir = Annotated[
-    Path | None, typer.Option("-o", "--out", help="Write the tables (Parquet, JSON) into DIR.")
+    Path | None,
+    typer.Option("-o", "--out", metavar="DIR", help="Write the tables (Parquet, JSON) into DIR."),
 ]
 ModelSpec = Annotated[
-    str, typer.Option("--model", help="'paper' (the paper's coefficients) or a model.json.")
+    str,
+    typer.Option(
+        "--model", metavar="paper|FILE", help="'paper' (the paper's coefficients) or a model.json."
+    ),
 ]
 
 
@@ -244,36 +276,129 @@ _CLICK_ERROR: type[Exception] = next(
 
 
 def handles_errors(command: F) -> F:
-    """Library errors become one line on stderr and exit 2; never a traceback.
+    """Library errors become one line on stderr and exit 2; never a traceback. With
+    `--json` (a `json_out` parameter), the command's one JSON document (`JsonDocument`) is
+    printed on stdout however it ends: its result, or the error, with what was skipped and
+    every warning said (cli.md).
 
     Set WBPOWER_DEBUG=1 to see the traceback of an unexpected error.
     """
 
     @functools.wraps(command)
     def wrapper(*args: object, **kwargs: object) -> object:
+        document = JsonDocument() if kwargs.get("json_out") else None
+        token = _DOCUMENT.set(document)
         try:
-            return command(*args, **kwargs)
-        except WbpowerError as exc:
-            fail(exc.one_line())
-        except KeyboardInterrupt:
-            fail("interrupted", EXIT_INTERRUPTED)
-        except (typer.Exit, typer.Abort, SystemExit):
-            raise
-        except _CLICK_ERROR as exc:  # e.g. typer.BadParameter from an option's parser
-            fail(exc.format_message())
-        except OSError as exc:  # an output that cannot be written (disk full, read-only, ...)
-            where = f"{exc.filename}: " if exc.filename else ""
-            fail(f"{where}cannot write: {exc.strerror or exc} (check the path and free space)")
-        except Exception as exc:  # noqa: BLE001 - the promise is: no traceback, ever
-            if os.environ.get("WBPOWER_DEBUG"):
-                raise
-            fail(
-                f"internal error: {exc.__class__.__name__}: {exc} (please report it; "
-                "WBPOWER_DEBUG=1 shows the traceback)"
-            )
-        return None
+            return _reporting_errors(command, *args, **kwargs)
+        finally:
+            _DOCUMENT.reset(token)
+            if document is not None:
+                document.emit()
 
     return wrapper  # type: ignore[return-value]
+
+
+def _reporting_errors(command: Callable[..., object], *args: object, **kwargs: object) -> object:
+    try:
+        return command(*args, **kwargs)
+    except WbpowerError as exc:
+        # a batch that failed as a whole still says why each input was left out
+        report_skipped(list(getattr(exc, "skipped", ())))
+        fail(exc.one_line())
+    except KeyboardInterrupt:
+        fail("interrupted", EXIT_INTERRUPTED)
+    except (typer.Exit, typer.Abort, SystemExit):
+        raise
+    except _CLICK_ERROR as exc:  # e.g. typer.BadParameter from an option's parser
+        fail(exc.format_message())
+    except OSError as exc:  # an output that cannot be written (disk full, read-only, ...)
+        where = f"{exc.filename}: " if exc.filename else ""
+        fail(f"{where}cannot write: {exc.strerror or exc} (check the path and free space)")
+    except Exception as exc:  # noqa: BLE001 - the promise is: no traceback, ever
+        if os.environ.get("WBPOWER_DEBUG"):
+            raise
+        fail(
+            f"internal error: {exc.__class__.__name__}: {exc} (please report it; "
+            "WBPOWER_DEBUG=1 shows the traceback)"
+        )
+    return None
+
+
+# -- --json: one document, however the command ends (cli.md) -------------------------------
+def _one_line(message: object) -> str:
+    return " ".join(str(message).split())
+
+
+@dataclass
+class JsonDocument:
+    """The one JSON document a command prints with `--json`, whatever happens (cli.md): what
+    it computed (`print_json`), `error` (the one-line message, null on success), `skipped`
+    (`[{file, reason}]`, every input left out) and `warnings` (every warning said on
+    stderr, the reader's included). `handles_errors` makes one per `--json` run and prints
+    it when the command ends, returns or fails; `fail`, `warn` and `report_skipped` fill it.
+    """
+
+    #: keys the document holds also when the command fails (`json_defaults`)
+    defaults: dict[str, object] = field(default_factory=dict)
+    #: what the command computed (`print_json`), None until it has
+    result: dict[str, object] | None = None
+    error: str | None = None
+    skipped: list[dict[str, str]] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, object]:
+        result = self.result or {}
+        skipped = list(result.get("skipped") or [])
+        skipped += [s for s in self.skipped if s not in skipped]
+        warnings = [str(w) for w in result.get("warnings") or []]
+        said = {_one_line(w) for w in warnings}
+        warnings += [w for w in self.warnings if w not in said]
+        return {
+            **self.defaults,
+            **result,
+            "error": self.error,
+            "skipped": skipped,
+            "warnings": warnings,
+        }
+
+    def emit(self) -> None:
+        _write_json(self.as_dict())
+
+
+_DOCUMENT: contextvars.ContextVar[JsonDocument | None] = contextvars.ContextVar(
+    "json_document", default=None
+)
+
+
+def json_defaults(**keys: object) -> None:
+    """Keys the `--json` document holds also if the command fails from here on (e.g.
+    `inspect`'s empty `logs`); nothing without `--json`."""
+    document = _DOCUMENT.get()
+    if document is not None:
+        document.defaults.update(keys)
+
+
+def print_json(data: dict[str, object]) -> None:
+    """The command's result as its one JSON document on stdout: printed when the command
+    ends, with `error`, `skipped` and `warnings` (`JsonDocument`); at once outside a
+    command."""
+    document = _DOCUMENT.get()
+    if document is None:
+        _write_json(data)
+    else:
+        # made JSON now, inside the command: a value JSON cannot hold is the command's
+        # error (one line, exit 2), never a traceback from printing the document at the end
+        document.result = json.loads(json.dumps(json_safe(data), allow_nan=False))
+
+
+def _write_json(data: object) -> None:
+    sys.stdout.write(json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n")
+
+
+def json_usage_error(message: str) -> None:
+    """A usage error found while parsing the command line (before the command runs), as
+    the `--json` document: `fail` prints the line on stderr."""
+    _write_json({"error": _one_line(message), "skipped": [], "warnings": []})
 
 
 def check_out_dir(out: Path | None) -> None:
@@ -297,14 +422,23 @@ def check_out_dir(out: Path | None) -> None:
 
 
 def fail(message: str, code: int = EXIT_USAGE) -> None:
-    """Print `wbpower: error: message` on stderr (one line) and exit."""
-    one_line = " ".join(str(message).split())
+    """Print `wbpower: error: message` on stderr (one line) and exit; with `--json`, the
+    message is the document's `error`."""
+    one_line = _one_line(message)
+    document = _DOCUMENT.get()
+    if document is not None:
+        document.error = one_line
     print(f"wbpower: error: {one_line}", file=sys.stderr)
     raise typer.Exit(code)
 
 
 def warn(message: str) -> None:
-    print(f"wbpower: warning: {' '.join(str(message).split())}", file=sys.stderr)
+    """A warning: one line on stderr, and in the `--json` document's `warnings`."""
+    one_line = _one_line(message)
+    document = _DOCUMENT.get()
+    if document is not None and one_line not in document.warnings:
+        document.warnings.append(one_line)
+    print(f"wbpower: warning: {one_line}", file=sys.stderr)
 
 
 def warn_problems(file: str, problems: tuple[Problem, ...]) -> None:
@@ -314,15 +448,14 @@ def warn_problems(file: str, problems: tuple[Problem, ...]) -> None:
         warn(f"{file}: {problem.message}")
 
 
-def print_json(data: object) -> None:
-    """The one JSON document on stdout."""
-    sys.stdout.write(json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n")
-
-
 def report_skipped(skipped: list[Skipped]) -> int:
-    """List skipped inputs on stderr; the exit code per cli.md."""
+    """List skipped inputs on stderr, each with its own reason, and in the `--json`
+    document's `skipped`; the exit code per cli.md."""
+    document = _DOCUMENT.get()
     for item in skipped:
-        print(f"wbpower: skipped: {' '.join(item.reason.split())}", file=sys.stderr)
+        if document is not None and item.as_dict() not in document.skipped:
+            document.skipped.append(item.as_dict())
+        print(f"wbpower: skipped: {_one_line(item.reason)}", file=sys.stderr)
     return EXIT_SKIPPED if skipped else EXIT_OK
 
 
@@ -347,6 +480,7 @@ Jobs = Annotated[
         "--jobs",
         "-j",
         min=0,
+        metavar="N",
         help="Files processed in parallel (worker processes); 0 = all cores.",
     ),
 ]
@@ -354,6 +488,7 @@ CacheDir = Annotated[
     Path | None,
     typer.Option(
         "--cache",
+        metavar="DIR",
         help="Keep parsed logs as Parquet in DIR so a second run skips parsing unchanged "
         "files (keyed by content; see docs/benchmarks.md).",
     ),

@@ -5,6 +5,7 @@ that the progress bar (`cli/progress_bar.py`) reads the console without importin
 
 from __future__ import annotations
 
+import os
 import sys
 from typing import TYPE_CHECKING
 
@@ -16,9 +17,22 @@ def _console(name: str) -> Console:
     from rich.console import Console
 
     if name == "stdout":
-        # a pipe gets wide tables (not rich's 80 columns), whatever COLUMNS the environment has
-        return Console(soft_wrap=False, width=None if sys.stdout.isatty() else 200)
+        return Console(soft_wrap=False, width=stdout_width())
     return Console(stderr=True, soft_wrap=True)
+
+
+#: the width of output that is not a terminal (a pipe, a file), when COLUMNS does not say
+PIPE_WIDTH = 80
+
+
+def stdout_width() -> int | None:
+    """The width tables are laid out for (docs/cli-output.md): `COLUMNS` when set, else the
+    terminal's (None: rich asks it), else `PIPE_WIDTH` (`| less`, `| head`, a CI log);
+    `--wide` draws one table however wide."""
+    columns = os.environ.get("COLUMNS", "").strip()
+    if columns.isdigit() and int(columns) > 0:
+        return int(columns)
+    return None if sys.stdout.isatty() else PIPE_WIDTH
 
 
 stdout: Console

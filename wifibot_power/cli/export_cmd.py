@@ -11,10 +11,10 @@ from typing import Annotated
 
 import typer
 
-from wifibot_power.cli.common import JsonFlag, handles_errors, print_json, warn
+from wifibot_power.cli.common import JsonFlag, handles_errors, json_defaults, print_json, warn
 from wifibot_power.cli.help import command_help
 from wifibot_power.cli.typer_app import app
-from wifibot_power.errors import UsageError, WbpowerError
+from wifibot_power.errors import UsageError
 from wifibot_power.export import TARGETS, ExportOptions, export_model
 
 #: the `--to` choices: the registry's targets (no list of them here)
@@ -93,23 +93,18 @@ def export_command(
         turn_angle_rad=turn_angle,
         speed_mps=speed,
     )
-    try:
-        _check_out_file(out)
-        result = export_model(model, to.value, options)
-        for message in result.warnings:
-            warn(message)
-        if out is not None:
-            _write(out, result.text)
-        if json_out:
-            print_json(result.summary())
-        elif out is None:
-            sys.stdout.write(result.text)
-    except WbpowerError as exc:
-        if json_out:  # cli.md: the one document also when the command fails
-            print_json(
-                {"target": to.value, "parameters": {}, "warnings": [], "error": exc.one_line()}
-            )
-        raise
+    # the `--json` document also when the command fails (cli.md: `common.JsonDocument`)
+    json_defaults(target=to.value, parameters={})
+    _check_out_file(out)
+    result = export_model(model, to.value, options)
+    for message in result.warnings:
+        warn(message)
+    if out is not None:
+        _write(out, result.text)
+    if json_out:
+        print_json(result.summary())
+    elif out is None:
+        sys.stdout.write(result.text)
 
 
 def _check_out_file(out: Path | None) -> None:

@@ -24,7 +24,7 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
     "inspect": [
         ("sample_logs/", "every log in a folder"),
         ("log.csv --supply-voltage 12.6", "a log of current only, at 12.6 V"),
-        ("sample_logs/ --json", "one JSON list, for scripts"),
+        ("sample_logs/ --json", "one JSON document, for scripts"),
         ("sample_logs/ -o out/", "also out/logs.parquet, a row per log"),
     ],
     "segment": [

@@ -14,6 +14,7 @@ from wifibot_power.cli.common import (
     OutDir,
     check_out_dir,
     handles_errors,
+    json_defaults,
     print_json,
     progress,
     report_skipped,
@@ -24,23 +25,23 @@ from wifibot_power.cli.common import (
 from wifibot_power.cli.help import command_help
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
-from wifibot_power.errors import WbpowerError
 from wifibot_power.inspect import inspect_logs
-from wifibot_power.io import ReadOptions, Skipped
-from wifibot_power.run import Problem
+from wifibot_power.io import ReadOptions
+from wifibot_power.io.options import log_stem
 
-#: file is the key (repeated if the table is split); numbers never cut, text folds
+#: file is the key (repeated if the table is split); numbers never cut, text folds; what
+#: every log shares (one format, one period, no problem) is said once, in the caption
 COLUMNS = (
     Col("file", "text", key=True),
-    Col("format", "text"),
+    Col("format", "text", once=True),
     Col("run_id", "text"),
     Col("mode", "text"),
     Col("samples"),
-    Col("period ms"),
+    Col("period ms", once=True),
     Col("duration s"),
     Col("mean W"),
     Col("energy J"),
-    Col("problems", "text"),
+    Col("problems", "text", once=True),
 )
 
 
@@ -56,26 +57,16 @@ def inspect_command(
 ) -> None:
     """What is in each log: format, samples, period, duration, mean power, energy, metadata."""
     check_out_dir(out)  # before any work (cli.md)
-    warnings: list[str] = []
-
-    def said(file: str, problems: tuple[Problem, ...]) -> None:
-        warn_problems(file, problems)  # stderr, as every command
-        warnings.extend(f"{file}: {problem.message}" for problem in problems)
-
-    try:
-        rows, skipped = inspect_logs(
-            paths, options, wrap=lambda s: progress(s, "reading"), on_problems=said
-        )
-    except WbpowerError as exc:
-        if json_out:  # cli.md: the one document also on failure, with `error`
-            print_json(_document([], [], warnings, exc.one_line()))
-        raise
+    # cli.md: {logs, skipped, warnings, error}, also on failure (`common.JsonDocument`)
+    json_defaults(logs=[])
+    rows, skipped = inspect_logs(
+        paths, options, wrap=lambda s: progress(s, "reading"), on_problems=warn_problems
+    )
     if out is not None:
         for written in write_inspection(rows, out):
             print(f"wbpower: wrote {written}", file=sys.stderr)
-    if json_out:
-        # cli.md: {logs, skipped, warnings, error}; skipped inputs also on stderr (exit 1)
-        print_json(_document(rows, skipped, warnings, None))
+    if json_out:  # skipped inputs: in `skipped` and on stderr (exit 1), as warnings are
+        print_json({"logs": rows})
     else:
         cells = [
             [
@@ -92,7 +83,13 @@ def inspect_command(
             ]
             for row in rows
         ]
-        print_table(stdout, f"{len(rows)} log(s)", COLUMNS, cells)
+        columns, caption = COLUMNS, None
+        if all(str(row["run_id"]) == log_stem(Path(str(row["file"]))) for row in rows):
+            # each run_id is its file's name: not a column of its own (issue 28: compact)
+            columns = tuple(c for c in COLUMNS if c.name != "run_id")
+            cells = [cell[:2] + cell[3:] for cell in cells]
+            caption = "run_id: the file's name"
+        print_table(stdout, f"{len(rows)} log(s)", columns, cells, caption=caption)
         for row in rows:
             if row["channels"]:
                 summed = ", ".join(
@@ -121,19 +118,6 @@ def _print_topics(name: str, topics: list[dict[str, object]]) -> None:
         for t in topics
     ]
     print_table(stdout, f"{name}: {len(topics)} topic(s)", TOPIC_COLUMNS, cells)
-
-
-def _document(
-    rows: list[dict[str, object]], skipped: list[Skipped], warnings: list[str], error: str | None
-) -> dict[str, object]:
-    """`inspect --json`'s object (cli.md): every log read, every input skipped with its reason
-    (what `fit` would refuse at read time), every warning, and the error (null on success)."""
-    return {
-        "logs": rows,
-        "skipped": [item.as_dict() for item in skipped],
-        "warnings": warnings,
-        "error": error,
-    }
 
 
 def _problems_cell(problems: list[str], shown: int = 2) -> str:

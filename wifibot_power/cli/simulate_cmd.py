@@ -9,7 +9,7 @@ import typer
 
 from wifibot_power.cli.common import JsonFlag, check_out_dir, handles_errors, print_json, stdout
 from wifibot_power.cli.help import command_help
-from wifibot_power.cli.tables import Col, print_table
+from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.simulate import (
     COLUMN_SETS,
@@ -73,12 +73,14 @@ def _trips(text: str) -> tuple[tuple[float, int], ...]:
 
 @app.command("simulate", **command_help("simulate"))
 @handles_errors
+@with_wide_option
 def simulate_command(
     out: Annotated[Path, typer.Option("-o", "--out", help="Folder to write the logs into.")],
     effect: Annotated[
         list[str] | None,
         typer.Option(
-            "--effect", help=f"NAME[=SIZE], repeatable: {', '.join(EFFECTS)} (causes.md)."
+            "--effect",
+            help=f"NAME[=SIZE], repeatable: {', '.join(EFFECTS)} (the causes diagnose names).",
         ),
     ] = None,
     seed: Annotated[int, typer.Option(help="Random seed: same seed, same logs.")] = 0,

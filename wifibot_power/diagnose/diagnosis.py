@@ -76,7 +76,11 @@ def diagnose_summaries(
     """
     skipped = list(skipped)
     if not summaries:
-        raise LogError("no readable logs", fix="see 'wbpower inspect' for what each log holds")
+        raise LogError(
+            "no readable logs",
+            fix="each input left out is listed with its own reason",
+            skipped=skipped,
+        )
     in_doubt = kept_in_doubt([s.row for s in summaries]) if keep_doubtful else None
     if keep_doubtful:
         summaries = [
@@ -120,6 +124,7 @@ def _too_few(motion: pd.DataFrame, skipped: list[Skipped]) -> LogError:
         + (f"; left out: {reasons_in_brief(others)}" if others else ""),
         fix=f"diagnose needs at least {MIN_MOTION_RUNS} motion runs at {MIN_SPEEDS} or "
         "more speeds" + (" (--keep-doubtful uses the doubted runs)" if doubted_runs else ""),
+        skipped=skipped,
     )
 
 
