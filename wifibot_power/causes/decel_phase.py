@@ -13,6 +13,7 @@ import numpy as np
 from wifibot_power.causes.base import Cause, Check, Evidence, RunTable, RunView, TripTerms
 from wifibot_power.causes.design import column
 from wifibot_power.causes.design import power_factor as factor_of
+from wifibot_power.segment.resolution import quantized_durations
 from wifibot_power.stats import ols, one_sample_p_greater, t_quantile
 from wifibot_power.traces import windows_after
 
@@ -206,9 +207,16 @@ def decel_parameters(runs: pd.DataFrame, base: PowerModel, factor: np.ndarray | 
         extra_W = float(np.nanmean(excess)) / t_dec if t_dec > 1e-3 else 0.0
         intercept, slope = base.idle_W + extra_W, 0.0
     half = t_quantile(0.975, dof) * se if dof > 0 else float("nan")
+    ci95 = (t_dec - half, t_dec + half)
+    if found.sum() >= 2 and "sample_period_s" in runs:
+        # decel phases a sample or two long are known to a sample period, however alike
+        # (issue 26: a 6.5 Hz log's every phase is one sample; segment/resolution.py)
+        coarse = quantized_durations(durations[found], column(runs, "sample_period_s")[found])
+        if coarse is not None:
+            ci95 = coarse.floor_ci95(t_dec, ci95)
     return {
         T_DEC: t_dec,
         P_DEC0: intercept,
         P_DEC1: slope,
-        "t_dec_ci95": (t_dec - half, t_dec + half),
+        "t_dec_ci95": ci95,
     }
