@@ -100,6 +100,7 @@ def test_report_replaces_the_old_figures_whole(old_report: Path, real_n6705: Pat
         old_report / "report.html",
     ]
     assert sorted(_snapshot(old_report)) == [
+        "figures/.wbpower-figures",  # what a later report may replace (issue 29)
         "figures/trace_n6705c_dlog1.png",
         "notes.txt",
         "report.html",
@@ -118,7 +119,10 @@ def test_report_of_a_log_without_motion_metadata_draws_its_trace(
     built = build_report([real_n6705], ReadOptions(supply_voltage_V=12.6))
     assert built.fit is None and built.diagnosis is None
     write_report(built, tmp_path)
-    assert [p.name for p in (tmp_path / "figures").iterdir()] == ["trace_n6705c_dlog1.png"]
+    assert sorted(p.name for p in (tmp_path / "figures").iterdir()) == [
+        ".wbpower-figures",
+        "trace_n6705c_dlog1.png",
+    ]
     page = (tmp_path / "report.html").read_text(encoding="utf-8")
     assert len(IMG.findall(page)) == 1
     for name in ("power_speed", "figure5", "figure7", "heldout_error", "findings"):
@@ -313,3 +317,32 @@ def test_the_reports_fit_names_each_phases_log(report, subset_dir: Path) -> None
     assert list(phases.columns) == list(PHASE_COLUMNS)
     assert len(phases) and phases["file"].notna().all()
     assert {Path(f).parent for f in phases["file"]} == {subset_dir}
+
+
+def test_trace_names_of_run_ids_that_file_names_would_merge_stay_apart() -> None:
+    # issue 29: run_ids `a b` and `a_b` both gave figures/trace_a_b.png: one figure lost
+    from wifibot_power.report import _unique_safe
+
+    names = _unique_safe(["a b", "a_b", "v0.5_r1", "x/y"])
+    assert len(set(names.values())) == 4
+    assert names["v0.5_r1"] == "v0.5_r1" and names["x/y"] == "x_y"  # alone: as before
+    assert names == _unique_safe(["x/y", "a_b", "v0.5_r1", "a b"])  # not by order
+
+
+def test_report_never_deletes_files_it_did_not_write(wbpower, tmp_path: Path) -> None:
+    """issue 29: `report -o DIR` replaced DIR/figures whole, deleting a user's files there;
+    refused before any work, the user's file intact; a report's own figures are replaced."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    for name in ("v0.30_d2_s1_r1.csv.gz", "v0.90_d2_s1_r1.csv.gz", "idle_r1.csv.gz"):
+        shutil.copy(SAMPLE_LOGS / name, logs / name)
+    out = tmp_path / "out"
+    assert wbpower("report", logs, "-o", out, "--jobs", "1").exit_code == 0
+    again = wbpower("report", logs, "-o", out, "--jobs", "1")  # its own figures: replaced
+    assert again.exit_code == 0, again.stderr
+    mine = out / "figures" / "my_notes.txt"
+    mine.write_text("the user's")
+    refused = wbpower("report", logs, "-o", out, "--jobs", "1")
+    assert refused.exit_code == 2
+    assert "my_notes.txt" in refused.stderr and "another -o DIR" in refused.stderr
+    assert mine.read_text() == "the user's"

@@ -139,10 +139,11 @@ def report_figures(report: Report) -> Iterator[tuple[str, str, Callable[[], Figu
             yield spec.name, spec.title, None, f"not drawn: {args}"
         else:
             yield spec.name, spec.title, _bind(spec.draw, *args), ""
+    safe = _unique_safe([view.run_id for view in report.traces])
     for spec in FIGURES.values():
         if spec.per_run:
             for view in report.traces:
-                name = f"{spec.name}_{_safe(view.run_id)}"
+                name = f"{spec.name}_{safe[view.run_id]}"
                 yield name, f"Trace: {view.run_id}", _bind(spec.draw, view), ""
 
 
@@ -152,6 +153,54 @@ def _bind(function: Callable[..., Figure], *args: object) -> Callable[[], Figure
 
 def _safe(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", name)[:120] or "run"
+
+
+def _unique_safe(run_ids: Sequence[str]) -> dict[str, str]:
+    """A file-name-safe name for each run_id, unique in the batch (issue 29: run_ids `a b`
+    and `a_b` both gave `trace_a_b.png`, one figure lost): a name two run_ids share gets a
+    short hash of each run_id appended, the same for the same run_id in every report."""
+    import hashlib
+    from collections import Counter
+
+    shared = Counter(_safe(r) for r in set(run_ids))
+    return {
+        r: _safe(r)
+        if shared[_safe(r)] == 1
+        else f"{_safe(r)[:111]}_{hashlib.sha1(r.encode()).hexdigest()[:8]}"
+        for r in run_ids
+    }
+
+
+#: the list `report` leaves in DIR/figures of the files it wrote there: what a later report
+#: may replace (a user's own files there are never deleted: `check_report_dir`)
+FIGURES_LIST = ".wbpower-figures"
+
+
+def check_report_dir(out_dir: str | Path) -> None:
+    """Refuse, before any work, an `-o DIR` whose `figures/` holds files an earlier report did
+    not write (issue 29: `report -o DIR` replaced DIR/figures whole, deleting a user's
+    files there). An earlier report's figures (listed in its `FIGURES_LIST`, or PNGs beside
+    its report.html where an older wbpower left no list) are replaced as before."""
+    figures = Path(out_dir) / "figures"
+    if not figures.is_dir():
+        return
+    listed = figures / FIGURES_LIST
+    if listed.is_file():
+        ours = set(listed.read_text(encoding="utf-8").split("\n")) | {FIGURES_LIST}
+    elif (Path(out_dir) / "report.html").is_file():
+        ours = {p.name for p in figures.iterdir() if p.suffix == ".png" and p.is_file()}
+    else:
+        ours = set()
+    foreign = sorted(p.name for p in figures.iterdir() if p.name not in ours)
+    if foreign:
+        shown = ", ".join(foreign[:3]) + (
+            f" and {len(foreign) - 3} more" if len(foreign) > 3 else ""
+        )
+        raise WbpowerError(
+            f"{figures} holds {len(foreign)} file(s) no wbpower report wrote ({shown}), and a "
+            "report replaces that folder whole",
+            fix="give another -o DIR, or move those files out of it",
+        )
 
 
 def write_report(report: Report, out_dir: str | Path, *, jobs: int | None = 1) -> list[Path]:
@@ -199,6 +248,8 @@ def write_report(report: Report, out_dir: str | Path, *, jobs: int | None = 1) -
             drawn.append((Drawn(name, title, file, note, how), data))
         if not written:  # no figure drawn: still a figures/ folder, and no old one left
             (stage / "figures").mkdir()
+        names = "\n".join(p.name for p in written)
+        (stage / "figures" / FIGURES_LIST).write_text(names, encoding="utf-8")
         page = render_html(report, drawn)
         write_atomic(stage / "report.html", lambda tmp: tmp.write_text(page, encoding="utf-8"))
     written.append(out_dir / "report.html")

@@ -45,9 +45,10 @@ def report_command(
 ) -> None:
     """Read, segment, fit and diagnose the logs; write one self-contained report.html (every
     figure embedded, opens offline) and its figures as PNG (docs/report.md)."""
-    from wifibot_power.report import build_report, report_figures, write_report
+    from wifibot_power.report import build_report, check_report_dir, report_figures, write_report
 
     check_out_dir(out)  # before any work
+    check_report_dir(out)
     report = build_report(
         paths,
         options,
