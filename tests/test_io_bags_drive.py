@@ -61,8 +61,8 @@ LAG_SHIFT_S = BATTERY_PERIOD_S / 2 + ODOM_PERIOD_NS * 1e-9 / 2
 
 
 def voltage_and_current(power_W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A 3-cell lead battery's voltage (sagging with the draw) and the current, as BatteryState
-    carries them: float32, the current negative while discharging."""
+    """A 3-cell lithium-ion pack's voltage (12.6 V full, sagging with the draw) and the
+    current, as BatteryState carries them: float32, the current negative while discharging."""
     voltage_V = (12.6 - 0.004 * power_W).astype(np.float32)
     return voltage_V, (-power_W / voltage_V).astype(np.float32)
 
