@@ -166,10 +166,13 @@ def drive_stats(run: Run, segmentation: Segmentation | None = None) -> DriveStat
 def _sample_noise(values: np.ndarray) -> float:
     """The noise of one sample: the median absolute successive difference over 0.6745 and
     sqrt(2) (robust to the minority of differences that are real motion: a MAD estimate of
-    white noise's standard deviation)."""
-    if values.size < 3:
+    white noise's standard deviation), over the differences of known samples (a bag's speed
+    is NaN where its odometry has no recent message: rosbag.py)."""
+    steps = np.abs(np.diff(values))
+    steps = steps[np.isfinite(steps)]
+    if steps.size < 2:
         return 0.0
-    return float(np.median(np.abs(np.diff(values))) / 0.6745 / np.sqrt(2.0))
+    return float(np.median(steps) / 0.6745 / np.sqrt(2.0))
 
 
 def _surfaces(run: Run) -> tuple[np.ndarray, tuple[str, ...]]:
