@@ -99,6 +99,8 @@ class Trip:
     power_W: np.ndarray
     speed_mps: np.ndarray
     yaw_radps: np.ndarray | None
+    #: the log's `voltage_assumed_V` metadata: its power is a current proxy (drive/stats.py)
+    voltage_assumed: str | None = None
 
     @property
     def held_s(self) -> np.ndarray:
@@ -215,6 +217,7 @@ def trips_of(path: Path, set_name: str) -> list[Trip]:
                 p[a:b],
                 v[a:b],
                 None if yaw is None else yaw[a:b],
+                meta.get("voltage_assumed_V"),
             )
         )
     return out
@@ -288,9 +291,10 @@ def as_run(trip: Trip):
     from wifibot_power.run import Run, RunMeta
 
     step = float(np.median(np.diff(trip.time_s)))
-    meta = RunMeta(
-        run_id=trip.run_id, mode="motion", sample_period_s=step, extra={"surface": trip.group}
-    )
+    extra_meta = {"surface": trip.group}
+    if trip.voltage_assumed is not None:
+        extra_meta["voltage_assumed_V"] = trip.voltage_assumed
+    meta = RunMeta(run_id=trip.run_id, mode="motion", sample_period_s=step, extra=extra_meta)
     extra = {}
     if "yaw_rate_radps" in {f.name for f in fields(Run)} and trip.yaw_radps is not None:
         extra["yaw_rate_radps"] = trip.yaw_radps
