@@ -104,25 +104,58 @@ DRIVE = Path(os.environ.get("WBPOWER_REAL_DRIVE") or "/work/real_drive") / "bore
 
 @pytest.mark.skipif(not DRIVE.is_dir(), reason=f"no converted BorealTC logs in {DRIVE}")
 def test_force_form_fits_a_real_current_log_as_well():
-    # the Husky logs' "power" is 24 V x motor current: the force form (chosen by physics, not
-    # by this data) fits its windows as well as P = F v's (the same least squares over the
-    # same windows: 83.4 W against 82.1 W RMS when measured); a turning moment constant while
-    # turning (the share of bins turning, tried first) left 96 W and fails this
+    # the Husky logs' "power" is 24 V x motor current. The force form is chosen by physics,
+    # not by this data: fitted per surface on every other log, it leaves 7% more squared
+    # residual on the windows than P = F v's (measured: the data hardly choose between
+    # them); a force form without the rate-dependent part of turning (the Coulomb part
+    # alone) left 37% more and fails this
     from scripts import load_script
 
     root = Path(__file__).resolve().parents[1]
     script = load_script("validate_drive_real", root / "benchmarks" / "validate_drive_real.py")
     as_run, trips_of = script.as_run, script.trips_of
 
-    files = sorted(DRIVE.rglob("*.csv.gz"))[::4]
+    files = sorted(DRIVE.rglob("*.csv.gz"))[::2]
     trips = [tr for f in files for tr in trips_of(f, "borealtc")]
     assert trips and all(tr.voltage_assumed for tr in trips)
     stats = [drive_stats(as_run(tr)) for tr in trips]
-    sse = {}
+    surfaces = sorted({tr.group for tr in trips})
+    sse = {True: 0.0, False: 0.0}
     for proxy in (True, False):
-        forms = [DriveStats(**{**s.__dict__, "current_proxy": proxy}) for s in stats]
-        table = assemble([run_windows(s) for s in forms], 2)
-        X, y = table.design, table.power_W
-        used = np.any(X != 0, axis=0)
-        sse[proxy] = float(np.sum(np.square(y - X[:, used] @ least_squares(X[:, used], y))))
-    assert sse[True] < 1.05 * sse[False], sse
+        for surface in surfaces:  # one fit per surface, as the validation's per-group rows
+            forms = [
+                DriveStats(**{**s.__dict__, "current_proxy": proxy})
+                for s, tr in zip(stats, trips, strict=True)
+                if tr.group == surface
+            ]
+            table = assemble([run_windows(s) for s in forms], 2)
+            X, y = table.design, table.power_W
+            used = np.any(X != 0, axis=0)
+            coef = least_squares(X[:, used], y)
+            sse[proxy] += float(np.sum(np.square(y - X[:, used] @ coef)))
+    assert sse[True] < 1.15 * sse[False], sse
+
+
+def test_force_form_turning_step_is_the_share_turning():
+    # a current log holds no drivers' step: in the force form the step's column is the
+    # share of the window turning (a Coulomb scrubbing moment), 0 driving straight; the
+    # power form's is the share moving or turning (1 in both)
+    period_s = 1e-2
+    t = np.arange(0, 12, period_s)
+    v = np.where((t >= 2) & (t < 6), 0.5, 0.0)  # straight 2-6 s
+    yaw = np.where((t >= 7) & (t < 11), 1.0, 0.0)  # spin in place 7-11 s
+    columns = {}
+    for proxy in (True, False):
+        extra = {"surface": "floor", "voltage_assumed_V": "24"} if proxy else {"surface": "floor"}
+        meta = RunMeta(run_id="spin", sample_period_s=period_s, extra=extra)
+        run = Run("spin.csv", "wbpower-csv", meta, t, 10 + 0 * t, speed_mps=v, yaw_rate_radps=yaw)
+        windows = assemble([run_windows(drive_stats(run))], 0)
+        mid = (np.arange(windows.size) + 0.5) * windows.window_s
+        step = windows.design[:, windows.columns.index("drive_on_W")]
+        columns[proxy] = (step[(mid > 3) & (mid < 5)], step[(mid > 8) & (mid < 10)])
+    straight, spin = columns[True]
+    assert_allclose(straight, 0.0)
+    assert_allclose(spin, 1.0)
+    straight, spin = columns[False]
+    assert_allclose(straight, 1.0)
+    assert_allclose(spin, 1.0)

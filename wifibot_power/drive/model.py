@@ -234,7 +234,9 @@ def fit_drive_stats(
             "their power is a nominal voltage times current, ~ torque, so the terms take their "
             "force form (docs/drive-model.md, 'Current-only logs'): each coefficient is a force "
             "(or moment) times the motors' no-load speed, rolling_W_per_mps is a constant "
-            "force's [W], quadratic_W_per_mps2 a viscous force's [W/(m/s)], effective_mass_kg "
+            "force's [W], drive_on_W a constant scrubbing moment's while turning [W] (a motor "
+            "current holds no drivers' step), quadratic_W_per_mps2 a viscous force's "
+            "[W/(m/s)], effective_mass_kg "
             "and braking_mass_kg multiply d|v|/dt [W/(m/s^2)], turning_Nm |yaw rate| "
             "[W/(rad/s)]; not the battery's power"
             + (
