@@ -12,6 +12,9 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
   reversing included (v^2 does not care about the direction).
 - A window is kept only when all its power bins and the bins its speeds are taken from hold
   samples: no window spans a drop-out.
+- A current-proxy log (`DriveStats.current_proxy`: nominal voltage x motor current, ~ the
+  wheels' force) gets the force form of the regressors (terms.py): the share of the window
+  translating, |v|, the change of |v| (not of v^2/2), the share turning, and |yaw rate|.
 - Trips: a run is cut at its stops (the robot standing, not turning, for at least `STOP_S`),
   in the middle of each stop; a trip is the unit held out (heldout.py).
 """
