@@ -99,6 +99,8 @@ class Trip:
     power_W: np.ndarray
     speed_mps: np.ndarray
     yaw_radps: np.ndarray | None
+    #: the log's `voltage_assumed_V` metadata: its power is a current proxy (drive/stats.py)
+    voltage_assumed: str | None = None
 
     @property
     def held_s(self) -> np.ndarray:
@@ -215,6 +217,7 @@ def trips_of(path: Path, set_name: str) -> list[Trip]:
                 p[a:b],
                 v[a:b],
                 None if yaw is None else yaw[a:b],
+                meta.get("voltage_assumed_V"),
             )
         )
     return out
@@ -288,9 +291,10 @@ def as_run(trip: Trip):
     from wifibot_power.run import Run, RunMeta
 
     step = float(np.median(np.diff(trip.time_s)))
-    meta = RunMeta(
-        run_id=trip.run_id, mode="motion", sample_period_s=step, extra={"surface": trip.group}
-    )
+    extra_meta = {"surface": trip.group}
+    if trip.voltage_assumed is not None:
+        extra_meta["voltage_assumed_V"] = trip.voltage_assumed
+    meta = RunMeta(run_id=trip.run_id, mode="motion", sample_period_s=step, extra=extra_meta)
     extra = {}
     if "yaw_rate_radps" in {f.name for f in fields(Run)} and trip.yaw_radps is not None:
         extra["yaw_rate_radps"] = trip.yaw_radps
@@ -446,16 +450,22 @@ def report() -> str:
                 cells += scores(m, pooled_yaw[idx])
             text = " | ".join("-" if c is None else fmt(c) for c in cells)
             out.append(f"| {g} | {idx.size} | {nonpos} | {text} |")
-        drive = drive_model_rows(
-            trips,
-            by_vehicle=any(tr.group != name for tr in trips)
-            and all("vehicle" in _meta_of(f) for f in files),
+        vehicles = any(tr.group != name for tr in trips) and all(
+            "vehicle" in _meta_of(f) for f in files
         )
-        if drive is None:
-            out.append("\nDrive model: drive model not available yet\n")
-        else:
+        proxy = any(tr.voltage_assumed is not None for tr in trips)
+        form = " (force form: a current proxy, drive/stats.py)" if proxy else ""
+        # one fit per group (every term per surface, as "LS per group"); and, where the
+        # groups are surfaces of one robot, one fit for the set (per-surface rolling and
+        # turning terms, the rest shared: what `fit` does with a folder of them)
+        for by_group in (True,) if vehicles else (True, False):
+            drive = drive_model_rows(trips, by_vehicle=by_group)
+            if drive is None:
+                out.append("\nDrive model: drive model not available yet\n")
+                break
+            how = "one fit per group" if by_group else "one fit for the set"
             out += [
-                "\nDrive model (`fit_drive`, each trip a run; its own folds):\n",
+                f"\nDrive model{form}, {how} (`fit_drive`, each trip a run; its own folds):\n",
                 "| group | n | E<=0 | MAPE | median | wAPE | cover90 |",
                 "|---|---|---|---|---|---|---|",
                 *drive,

@@ -227,6 +227,24 @@ def fit_drive_stats(
             "the speed of step runs without a speed column is the trapezoid of their phases "
             "(constant acceleration, the paper's experiment), not a measurement"
         )
+    proxies = sum(s.current_proxy for s in stats)
+    if proxies:
+        warnings.append(
+            f"{proxies} of {len(stats)} log(s) hold motor currents only (voltage_assumed_V): "
+            "their power is a nominal voltage times current, ~ torque, so the terms take their "
+            "force form (docs/drive-model.md, 'Current-only logs'): each coefficient is a force "
+            "(or moment) times the motors' no-load speed, rolling_W_per_mps is a constant "
+            "force's [W], drive_on_W a constant scrubbing moment's while turning [W] (a motor "
+            "current holds no drivers' step), quadratic_W_per_mps2 a viscous force's "
+            "[W/(m/s)], effective_mass_kg "
+            "and braking_mass_kg multiply d|v|/dt [W/(m/s^2)], turning_Nm |yaw rate| "
+            "[W/(rad/s)]; not the battery's power"
+            + (
+                "; mixed with power logs, their terms are not comparable"
+                if proxies < len(stats)
+                else ""
+            )
+        )
     heldout = heldout_accuracy(runs, surfaces, by_run, seed=seed)
     if heldout is None:
         warnings.append("fewer than 4 trips: no held-out accuracy")

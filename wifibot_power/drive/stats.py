@@ -65,6 +65,10 @@ class DriveStats:
     #: the speed is the phases' trapezoid, not a measured column (`speed_from_phases`)
     speed_from_phases: bool = False
     notes: tuple[str, ...] = field(default=())
+    #: the power column is a current proxy, a nominal voltage times motor currents (the log's
+    #: `voltage_assumed_V` metadata, `current_proxy`): it grows with the motors' torque, not
+    #: with the power they draw, and the drive model takes its force form (windows.py)
+    current_proxy: bool = False
 
     @property
     def bins(self) -> int:
@@ -85,6 +89,7 @@ class DriveStats:
             "surface_index": self.surface_index.tolist(),
             "surfaces": list(self.surfaces),
             "notes": list(self.notes),
+            "current_proxy": self.current_proxy,
         }
 
     @classmethod
@@ -100,6 +105,7 @@ class DriveStats:
             surface_index=np.array(data["surface_index"], dtype=np.int16),
             surfaces=tuple(data["surfaces"]),
             notes=tuple(data["notes"]),
+            current_proxy=bool(data.get("current_proxy", False)),
         )
 
 
@@ -160,7 +166,24 @@ def drive_stats(run: Run, segmentation: Segmentation | None = None) -> DriveStat
         yaw_noise_radps=_sample_noise(yaw_radps) if yaw_radps is not None else 0.0,
         samples_per_bin=BIN_S / period_s,
         speed_from_phases=from_phases,
+        current_proxy=current_proxy(run),
     )
+
+
+#: The metadata key a converter writes when the log holds motor currents only and the power
+#: is that current times a voltage it assumed (benchmarks/real_logs/convert_borealtc.py).
+VOLTAGE_ASSUMED_KEY = "voltage_assumed_V"
+
+
+def current_proxy(run: Run) -> bool:
+    """Whether the run's power is a current proxy: the log says, by its `voltage_assumed_V`
+    metadata, that its voltage is assumed (a nominal battery voltage) and only the motor
+    currents are measured. Such a "power" is V_nom I, and a DC motor's current is its torque
+    over its torque constant (I = tau / k_t), so the proxy is proportional to the force at the
+    wheels, F: V_nom I = u_0 F with u_0 = V_nom r / k_t the motor's no-load speed at the
+    ground [m/s] (k_e = k_t). It does not grow with the speed as the electrical power F v /
+    eta does (docs/drive-model.md, "Current-only logs")."""
+    return VOLTAGE_ASSUMED_KEY in run.meta.extra
 
 
 def _sample_noise(values: np.ndarray) -> float:

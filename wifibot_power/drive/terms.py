@@ -14,6 +14,13 @@ efficiency, which the fitted coefficient absorbs: the coefficients are electrica
 mechanical, quantities. `TERMS` is the only list of them: the design matrix, the summary
 and the route energy loop over it.
 
+A log of motor currents with an assumed voltage (`stats.current_proxy`) is not power but
+V_nom I = u_0 F, a force times the motor's no-load speed at the ground (I = tau / k_t): its
+terms take their force form (windows.py; docs/drive-model.md, "Current-only logs"), the
+same names with the speed divided out: a constant rolling force while translating, a viscous
+force |v|, m_eff a sign(v), and for turning a Coulomb moment while turning (in drive_on_W's
+slot: a motor current holds no drivers' step) plus its part in |yaw rate|.
+
 References
 ----------
 [1] J. Morales, J. L. Martinez, A. Mandow, A. J. Garcia-Cerezo, S. Pedraza, "Power

@@ -12,6 +12,9 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
   reversing included (v^2 does not care about the direction).
 - A window is kept only when all its power bins and the bins its speeds are taken from hold
   samples: no window spans a drop-out.
+- A current-proxy log (`DriveStats.current_proxy`: nominal voltage x motor current, ~ the
+  wheels' force) gets the force form of the regressors (terms.py): the share of the window
+  translating, |v|, the change of |v| (not of v^2/2), the share turning, and |yaw rate|.
 - Trips: a run is cut at its stops (the robot standing, not turning, for at least `STOP_S`),
   in the middle of each stop; a trip is the unit held out (heldout.py).
 """
@@ -175,7 +178,9 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     edges = np.arange(count + 1) * n
     edge_bins = max(EDGE_BINS, int(np.ceil(EDGE_SAMPLES / stats.samples_per_bin)))
     edge_speed = _edge_means(speed, edges, edge_bins)
-    av_up, av_down = _speeding_and_braking(edge_speed, mean_speed, n * stats.bin_s)
+    # power: d(v^2/2)/dt = a v; a current proxy's force form: d|v|/dt = a sign(v) (terms.py)
+    kinetic = np.abs if stats.current_proxy else _half_square
+    av_up, av_down = _speeding_and_braking(edge_speed, mean_speed, n * stats.bin_s, kinetic)
     ok = np.isfinite(abs_speed) & np.isfinite(abs_yaw) & np.isfinite(av_up + av_down)
     standing = (np.abs(mean_speed) < STANDING_MPS) & (np.abs(mean_yaw) < STANDING_RADPS)
     # a robot standing still is not moving a little: where speed and rate of turn are both
@@ -195,6 +200,19 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
         np.abs(stats.yaw_rate_radps[:used]) > yaw_floor
     )
     moving = moving_bins.reshape(shape).mean(axis=1)
+    if stats.current_proxy:
+        # the force form (docs/drive-model.md, "Current-only logs"): a Coulomb rolling force
+        # while the robot translates, a viscous force ~ |v|; a scrubbing moment's Coulomb part
+        # while it turns in the step's slot (a motor current holds no drivers' step: their
+        # own draw is not in it), its rate-dependent part on |yaw rate| (the Husky's currents
+        # grow with the rate of turn within a trip: 83 W window RMS on BorealTC against 96 W
+        # with the Coulomb part alone; its spins' currents are flat in the rate from trip to
+        # trip: sandy loam 39% held-out MAPE without the Coulomb part, 13% with it)
+        translating = np.abs(speed[:used]) > speed_floor
+        turning = np.abs(stats.yaw_rate_radps[:used]) > yaw_floor
+        speed2 = abs_speed
+        abs_speed = translating.reshape(shape).mean(axis=1)
+        moving = turning.reshape(shape).mean(axis=1)
     # (not the speeding-up and braking terms: a window standing still may end where a step
     # in speed begins, and its edge speeds say so; at a true standstill they are ~0 anyway)
     for regressor in (abs_speed, speed2, abs_yaw, moving):
@@ -226,8 +244,16 @@ def _denoised_abs(mean: np.ndarray, noise: float) -> np.ndarray:
     return np.sqrt(np.maximum(np.square(mean) - noise * noise, 0.0))
 
 
+def _half_square(speed_mps: np.ndarray) -> np.ndarray:
+    """v^2 / 2 [m^2/s^2]: its rate of change is a v."""
+    return np.square(speed_mps) / 2.0
+
+
 def _speeding_and_braking(
-    edge_speed: np.ndarray, mean_speed: np.ndarray, window_s: float
+    edge_speed: np.ndarray,
+    mean_speed: np.ndarray,
+    window_s: float,
+    kinetic=_half_square,
 ) -> tuple[np.ndarray, ...]:
     """Each window's mean of (a v)+ and (a v)- [m^2/s^3]. Its size is the change of v^2/2
     between the speeds at its edges over its duration (d(v^2/2)/dt = a v, exact whatever
@@ -236,16 +262,18 @@ def _speeding_and_braking(
     speeds up from 0 to v_end^2/2. Whether a window speeds up or brakes is read from its
     neighbours' mean speeds (v^2 after against before), not from the sign of its own noisy
     change: split by its own sign, the edges' noise in a cruise would be rectified into both
-    columns, biasing both coefficients (seen on the simulator at 6.5 Hz: braking 10% low)."""
+    columns, biasing both coefficients (seen on the simulator at 6.5 Hz: braking 10% low).
+    `kinetic` is the quantity differentiated: v^2/2 (power, a v), or |v| (a current proxy's
+    force form, a sign(v) [m/s^2]: windows.run_windows)."""
     start, end = edge_speed[:-1], edge_speed[1:]
-    half_change = (np.square(end) - np.square(start)) / 2.0
+    half_change = kinetic(end) - kinetic(start)
     crosses = start * end < 0
     square = np.square(mean_speed)
     after = np.concatenate((square[1:], square[-1:]))
     before = np.concatenate((square[:1], square[:-1]))
     rising = np.where(np.isfinite(after - before), after - before, half_change) > 0
-    up = np.where(crosses, np.square(end) / 2.0, np.where(rising, half_change, 0.0))
-    down = np.where(crosses, -np.square(start) / 2.0, np.where(rising, 0.0, half_change))
+    up = np.where(crosses, kinetic(end), np.where(rising, half_change, 0.0))
+    down = np.where(crosses, -kinetic(start), np.where(rising, 0.0, half_change))
     return up / window_s, down / window_s
 
 
