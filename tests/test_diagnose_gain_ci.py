@@ -3,6 +3,7 @@ gain interval reaches zero is not named)."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -128,3 +129,18 @@ def test_gain_interval_covers_the_deals_and_narrows_with_runs():
     assert big_high - big_low < 0.7 * (high - low)
     # a term that helps no run on average: the interval reaches zero
     assert reaches_zero(gain_ci95(without, without * rng.uniform(0.8, 1.2, (3, n))))
+
+
+def test_the_human_table_and_headline_show_each_gain_interval(wbpower):
+    from pathlib import Path
+
+    logs = Path(__file__).resolve().parents[1] / "sample_logs"
+    doc = json.loads(wbpower("diagnose", "--json", logs).stdout)
+    text = wbpower("diagnose", logs).stdout
+    assert "gain 95% CI" in text
+    for f in doc["findings"]:
+        low, high = f["gain_ci95"]
+        assert low > 0  # a named finding's interval is above zero
+        assert f"[{low:.1f}, {high:.1f}]" in text
+    low, high = doc["gain_ci95"]
+    assert f"Gain {doc['gain_pct']:.1f}% [{low:.1f}, {high:.1f}]" in " ".join(text.split())
