@@ -62,7 +62,12 @@ class AccelInertial(Cause):
         if distinct(column(table.runs, "payload_kg")) < 2:
             return Evidence(self.name, False, summary="needs runs with different payloads")
         return coefficient_evidence(
-            self, table, "acceleration power rises with payload x acceleration x speed"
+            self,
+            table,
+            "acceleration power rises with payload x acceleration x speed",
+            "acceleration power falls with payload x acceleration x speed (not inertia)",
+            "no change of acceleration power with payload x acceleration x speed "
+            "distinguishable from zero",
         )
 
     def checks(self, table: RunTable, evidence: Evidence) -> list[Check]:

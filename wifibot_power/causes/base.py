@@ -342,6 +342,16 @@ class Cause:
         the run's `run_trace`."""
         raise NotImplementedError
 
+    def heldout_trace_errors(
+        self, runs: pd.DataFrame, folds: np.ndarray, traces: Mapping[str, object]
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """("power_trace" causes, optional) Each run's summed squared held-out trace error
+        without and with the cause (arrays in the order of `runs`), whose sums give
+        `heldout_trace_gain_pct`: what the gain's interval resamples (diagnose). None: not
+        broken down by run (the interval is then over fold deals alone)."""
+        del runs, folds, traces
+        return None
+
     # -- figures -------------------------------------------------------------------------
     def panels(self, view: PanelView) -> list[Callable[[Axes], None]] | None:
         """The panels of the findings figure that show this cause's evidence, each drawing

@@ -13,18 +13,33 @@ if TYPE_CHECKING:
     from wifibot_power.causes.base import Cause
 
 
-def coefficient_evidence(cause: Cause, table: RunTable, what: str) -> Evidence:
+def coefficient_evidence(
+    cause: Cause,
+    table: RunTable,
+    rises: str,
+    falls: str | None = None,
+    flat: str | None = None,
+) -> Evidence:
     """The cause's column in the stacked fit, on top of the causes already found: its
-    one-sided t-test (the term adds power) and 95% interval."""
+    one-sided t-test (the term adds power) and 95% interval. Its summary is worded from the
+    estimate's sign and size: `rises` when the interval is above zero, `falls` when below,
+    `flat` when it holds zero (so a negative coefficient is never said to rise)."""
     _, fit, names = stacked_fit(table.runs, [*table.given, cause.name], table.model)
     j = names.index(cause.parameter)
     estimate = float(fit.coef[j])
+    ci95 = fit.ci95(j)
+    if ci95[0] > 0:
+        what = rises
+    elif ci95[1] < 0:
+        what = falls or f"the opposite of '{rises}'"
+    else:
+        what = flat or f"not distinguishable from zero ('{rises}' not shown)"
     return Evidence(
         cause.name,
         True,
         fit.p_greater(j),
         estimate,
-        fit.ci95(j),
+        ci95,
         {cause.parameter: estimate},
         f"{what}: {cause.parameter} = {estimate:.3g} {cause.unit}",
     )

@@ -213,17 +213,25 @@ class CruiseRipple(Cause):
     def heldout_trace_gain_pct(
         self, runs: pd.DataFrame, folds: np.ndarray, traces: Mapping[str, object]
     ) -> float:
-        """Held-out gain on the cruise power trace [%]: amplitude and Hz per m/s from the
-        training folds, only the phase fitted to each held-out cruise (its start time is
-        arbitrary). `traces`: run_id -> `run_trace` (detrended 10 ms block means of its
-        longest cruise, block length [s])."""
-        base_sq, ext_sq, count = 0.0, 0.0, 0
+        """Held-out gain on the cruise power trace [%], over every block of every run
+        (`heldout_trace_errors`)."""
+        base_sq, ext_sq = self.heldout_trace_errors(runs, folds, traces)
+        base, ext = float(base_sq.sum()), float(ext_sq.sum())
+        return 100.0 * (1.0 - np.sqrt(ext / base)) if base > 0 else 0.0
+
+    def heldout_trace_errors(
+        self, runs: pd.DataFrame, folds: np.ndarray, traces: Mapping[str, object]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Each run's summed squared error over its cruise blocks [W²], without and with the
+        ripple: amplitude and Hz per m/s from the training folds, only the phase fitted to
+        each held-out cruise (its start time is arbitrary). `traces`: run_id -> `run_trace`
+        (detrended 10 ms block means of its longest cruise, block length [s]); a run
+        without one contributes 0."""
+        base_sq, ext_sq = np.zeros(len(runs)), np.zeros(len(runs))
         for k in np.unique(folds):
-            train, test = runs[folds != k], runs[folds == k]
-            params = self.estimate(train, {}, None)  # model unused by the ripple's test
-            for run_id, speed_mps in zip(  # a run per iteration
-                test["run_id"].tolist(), test["speed_mps"].tolist(), strict=True
-            ):
+            params = self.estimate(runs[folds != k], {}, None)  # model unused by the test
+            for i in np.flatnonzero(folds == k):  # a run per iteration
+                run_id, speed_mps = runs["run_id"].iat[i], float(runs["speed_mps"].iat[i])
                 x, block_s = traces.get(run_id, (np.zeros(0), 0.0))
                 if x.size == 0:
                     continue
@@ -235,12 +243,8 @@ class CruiseRipple(Cause):
                     if params
                     else rms_W  # not found on the training folds: the baseline's error
                 )
-                base_sq += rms_W**2 * x.size
-                ext_sq += rmse**2 * x.size
-                count += x.size
-        if count == 0 or base_sq <= 0:
-            return 0.0
-        return 100.0 * (1.0 - np.sqrt(ext_sq / count) / np.sqrt(base_sq / count))
+                base_sq[i], ext_sq[i] = rms_W**2 * x.size, rmse**2 * x.size
+        return base_sq, ext_sq
 
     def panels(self, view: PanelView) -> list[Callable[[Axes], None]]:
         """The cruise spectrum's peak frequency of each run against its speed, with the

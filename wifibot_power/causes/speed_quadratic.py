@@ -60,7 +60,13 @@ class SpeedQuadratic(Cause):
         """Residual curvature against speed: the k2 v² column of the stacked fit, one-sided."""
         if distinct(column(table.runs, "speed_mps")) < 3:
             return Evidence(self.name, False, summary="needs runs at 3 or more speeds")
-        return coefficient_evidence(self, table, "phase power curves upward with speed")
+        return coefficient_evidence(
+            self,
+            table,
+            "phase power curves upward with speed",
+            "phase power curves downward with speed (not a drag that grows with speed)",
+            "no curvature of phase power with speed distinguishable from zero",
+        )
 
     def checks(self, table: RunTable, evidence: Evidence) -> list[Check]:
         return [

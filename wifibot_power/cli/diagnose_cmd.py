@@ -61,6 +61,7 @@ _FINDING_COLUMNS = (
     Col("95% CI"),
     Col("p"),
     Col("gain %"),
+    Col("gain 95% CI"),
     Col("metric", "text"),
     Col("evidence", "text"),
 )
@@ -117,6 +118,11 @@ def _patterns(result: Diagnosis) -> None:
     )
 
 
+def _interval(ci95: tuple[float, float]) -> str:
+    low, high = ci95
+    return f"[{low:.1f}, {high:.1f}]" if math.isfinite(low) else "-"
+
+
 def _findings(result: Diagnosis) -> None:
     cells = []
     for f in result.findings:
@@ -130,6 +136,7 @@ def _findings(result: Diagnosis) -> None:
                 ci,
                 f"{f.p_value:.2g}",
                 f"{f.gain_pct:.1f}",
+                _interval(f.gain_ci95),
                 f.metric,
                 f.summary,
             ]
@@ -139,11 +146,11 @@ def _findings(result: Diagnosis) -> None:
         verdict = result.verdict_text
         if result.unexplained:
             verdict += " (see 'unexplained' below)"
-        cells.append(["(none)", "", "", "", "", "", verdict])
+        cells.append(["(none)", "", "", "", "", "", "", verdict])
     for f in result.findings:
         failed = [c for c in f.checks if not c.passed]
         if failed:  # a finding's checks all pass by construction; shown if ever not
-            cells.append([f.cause, "", "", "", "", "", f"check failed: {failed[0].detail}"])
+            cells.append([f.cause, "", "", "", "", "", "", f"check failed: {failed[0].detail}"])
     print_table(stdout, "Findings: named causes (shared/spec/causes.md)", _FINDING_COLUMNS, cells)
 
 

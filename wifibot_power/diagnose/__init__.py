@@ -18,11 +18,14 @@
    but fails a check is reported (`rejected`) and makes the result `unexplained`, as does
    structure left in the extended model's held-out errors (`unexplained_reasons`), rather
    than forcing a name. A fit the training folds cannot identify is "not estimable".
+   Every gain has its 95% interval over fold deals and the runs drawn (`intervals`); a
+   finding whose interval reaches zero is not named either (`selection.drop_uncertain`).
 6. The result (`result.Diagnosis`) carries the verdict and a text report of its own.
 
 Modules, one job each: `summaries` (per run), `extended` (the extended model and the fits
 of one diagnosis), `folds` (held-out evaluation), `selection` (the choice of causes),
-`diagnosis` (the steps above, put together), `result`, `batch` (the entry points).
+`intervals` (the gains' intervals), `diagnosis` (the steps above, put together), `result`,
+`batch` (the entry points).
 """
 
 from __future__ import annotations
@@ -59,6 +62,7 @@ from wifibot_power.diagnose.folds import (
     heldout_folds,
     rmse_mape,
 )
+from wifibot_power.diagnose.intervals import DEALS, gain_ci95, gain_deals
 from wifibot_power.diagnose.result import (
     FOLD,
     KEPT_IN_DOUBT,
@@ -71,8 +75,10 @@ from wifibot_power.diagnose.result import (
     verdict_of,
 )
 from wifibot_power.diagnose.selection import (
+    GAIN_INTERVAL,
     MIN_GAIN_PCT,
     Selection,
+    drop_uncertain,
     nested_heldout_energy_J,
     rejected_candidates,
     select_causes,
@@ -91,8 +97,10 @@ from wifibot_power.diagnose.summaries import (
 
 __all__ = [
     "COVARIATES",
+    "DEALS",
     "FOLD",
     "FOLDS",
+    "GAIN_INTERVAL",
     "KEPT_IN_DOUBT",
     "MIN_GAIN_PCT",
     "MIN_MOTION_RUNS",
@@ -116,10 +124,13 @@ __all__ = [
     "diagnose_plan",
     "diagnose_runs",
     "diagnose_summaries",
+    "drop_uncertain",
     "doubted_motion_reason",
     "enough_to_choose",
     "error_patterns",
     "fit_model",
+    "gain_ci95",
+    "gain_deals",
     "gain_pct",
     "heldout_energy_J",
     "heldout_folds",

@@ -22,6 +22,7 @@ from wifibot_power.diagnose.folds import (
     missing_data,
     rmse_mape,
 )
+from wifibot_power.diagnose.intervals import energy_errors, gain_ci95, gain_deals
 from wifibot_power.diagnose.result import (
     KEPT_IN_DOUBT,
     REJECTED,
@@ -32,6 +33,7 @@ from wifibot_power.diagnose.result import (
 )
 from wifibot_power.diagnose.selection import (
     Selection,
+    drop_uncertain,
     nested_heldout_energy_J,
     rejected_candidates,
     select_causes,
@@ -149,6 +151,10 @@ def _diagnosis(
     # the reported baseline is
     seen = select_causes(batch, refit_rmse)
     notes += seen.notes
+    # a cause whose own gain's interval (over fold deals and the runs drawn) reaches zero
+    # is not named (causes.md)
+    deals = gain_deals(batch)
+    drop_uncertain(deals, seen)
     causes = list(seen.selected)
     # the extended model's held-out error: causes chosen and fitted without the run's fold
     extended_pred, fold_notes = nested_heldout_energy_J(batch, causes)
@@ -157,7 +163,8 @@ def _diagnosis(
     extended_model = batch.fit(causes)
     findings, fixed_rmse = _findings(batch, seen, extended_model)
     table = _run_table(batch, baseline_pred, extended_pred)
-    rejected = rejected_candidates(seen.evidence, causes, seen)
+    rejected = rejected_candidates(seen.evidence, causes, seen, deals)
+    overall_ci = _overall_ci95(deals, causes, baseline_pred, extended_pred, reference)
     found, spread_unknown = structure(replication_table(table, "extended_energy_J"))
     reasons = found + ([spread_unknown] if spread_unknown else [])
     reasons += [str(r["reason"]) for r in rejected] + ([doubted] if doubted else [])
@@ -174,6 +181,7 @@ def _diagnosis(
         extended_rmse_J=extended_rmse,
         extended_mape_pct=extended_mape,
         extended_fixed_rmse_J=fixed_rmse,
+        gain_ci95=overall_ci,
         unexplained=bool(reasons),
         unexplained_reasons=tuple(reasons),
         rejected=tuple(rejected),
@@ -191,6 +199,30 @@ def _diagnosis(
     )
 
 
+def _overall_ci95(
+    deals: list[Batch],
+    causes: list[str],
+    baseline_pred: np.ndarray,
+    extended_pred: np.ndarray,
+    reference: PowerModel | None,
+) -> tuple[float, float]:
+    """The 95% interval of the overall gain (`intervals`). On the diagnosis's own deal, the
+    extended model is the nested one (its causes chosen again without each fold: the
+    reported gain); on the further deals, the findings' energy causes fitted without each
+    fold (choosing again there would cost a selection per fold per deal). The baseline is
+    the refitted paper-form lines on each deal, or the given model, on none."""
+    measured = deals[0].measured
+    energy = frozenset(c for c in causes if CAUSES[c].metric == RUN_ENERGY)
+    extended = energy_errors(deals, energy)
+    extended[0] = (extended_pred - measured) ** 2
+    if reference is None:
+        baseline = energy_errors(deals, frozenset())
+        baseline[0] = (baseline_pred - measured) ** 2
+    else:
+        baseline = np.tile((baseline_pred - measured) ** 2, (len(deals), 1))
+    return gain_ci95(baseline, extended)
+
+
 def _findings(
     batch: Batch, seen: Selection, extended_model: PowerModel
 ) -> tuple[list[Finding], float]:
@@ -200,10 +232,12 @@ def _findings(
     findings' causes held fixed, with and without it (both fitted without the run's fold,
     both chosen on all runs). Selection tried those sets already; keyed by energy causes
     only, since a trace cause adds no energy. Its checks, run again on the extended model,
-    replace its candidate's in `seen`."""
+    replace its candidate's in `seen`; its gain's interval is `drop_uncertain`'s."""
     causes = list(seen.selected)
     energy_causes = frozenset(c for c in causes if CAUSES[c].metric == RUN_ENERGY)
-    fixed_rmse = seen.rmse_of[energy_causes]
+    fixed_rmse = seen.rmse_of.get(energy_causes)
+    if fixed_rmse is None:  # a finding dropped for its gain's interval left a set not tried
+        fixed_rmse = batch.heldout_rmse_J(sorted(energy_causes))
     findings = []
     for e in seen.evidence:
         if e.cause not in seen.selected:
@@ -237,6 +271,7 @@ def _findings(
                     **{k: v for k, v in e.parameters.items() if k != cause.parameter},
                 },
                 checks,
+                seen.gain_ci95[e.cause],
             )
         )
     return findings, fixed_rmse

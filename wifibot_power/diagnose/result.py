@@ -56,6 +56,8 @@ class Finding:
     p_value: float
     estimate: dict[str, object]
     checks: tuple[Check, ...] = ()
+    #: the 95% interval of `gain_pct` over fold deals and the runs drawn (`intervals`) [%]
+    gain_ci95: tuple[float, float] = (math.nan, math.nan)
 
     def as_dict(self) -> dict[str, object]:
         return {
@@ -63,6 +65,7 @@ class Finding:
             "summary": self.summary,
             "metric": self.metric,
             "gain_pct": self.gain_pct,
+            "gain_ci95": list(self.gain_ci95),
             "p_value": self.p_value,
             "estimate": self.estimate,
             "checks": [c.as_dict() for c in self.checks],
@@ -73,6 +76,17 @@ class Finding:
         low, high = self.estimate["ci95"]  # type: ignore[misc]
         ci = f"[{low:.4g}, {high:.4g}]" if math.isfinite(low) else "-"
         return f"{self.estimate['value']:.4g} {self.estimate['unit']} {ci}"
+
+    def gain_text(self) -> str:
+        """'gain% [low, high]' (`gain_ci95`)."""
+        return gain_text(self.gain_pct, self.gain_ci95)
+
+
+def gain_text(gain: float, ci95: tuple[float, float]) -> str:
+    """A held-out gain with its 95% interval: '93.1% [90.2, 95.0]'."""
+    low, high = ci95
+    ci = f" [{low:.1f}, {high:.1f}]" if math.isfinite(low) else ""
+    return f"{gain:.1f}%{ci}"
 
 
 def verdict_of(named: bool, reasons: list[str], spread_unknown: str | None) -> str:
@@ -103,6 +117,8 @@ class Diagnosis:
     #: the extended model's held-out RMSE with its causes chosen on all runs, only their fit
     #: held out (not nested; `extended_rmse_J` is): how much choosing on all runs flatters
     extended_fixed_rmse_J: float
+    #: the 95% interval of `gain_pct` over fold deals and the runs drawn (`intervals`) [%]
+    gain_ci95: tuple[float, float]
     unexplained: bool
     unexplained_reasons: tuple[str, ...]
     patterns: dict[str, object]
@@ -143,6 +159,7 @@ class Diagnosis:
                 "heldout_mape_pct": self.extended_mape_pct,
             },
             "gain_pct": self.gain_pct,
+            "gain_ci95": list(self.gain_ci95),
             "unexplained": self.unexplained,
             "unexplained_reasons": list(self.unexplained_reasons),
             "candidates": [
@@ -167,7 +184,8 @@ class Diagnosis:
             f"({self.baseline_label}): RMSE {self.baseline_rmse_J:.3g} J, MAPE "
             f"{self.baseline_mape_pct:.3g}%. Extended ({causes}; chosen and fitted without "
             f"each held-out fold): RMSE {self.extended_rmse_J:.3g} J, MAPE "
-            f"{self.extended_mape_pct:.3g}%. Gain {self.gain_pct:.1f}%."
+            f"{self.extended_mape_pct:.3g}%. Gain {gain_text(self.gain_pct, self.gain_ci95)} "
+            "(95% interval over fold deals and runs)."
         )
 
     def report(self) -> str:
@@ -178,7 +196,7 @@ class Diagnosis:
         for f in self.findings:
             lines.append(
                 f"    {f.cause}: {f.estimate_text()}, p = {f.p_value:.2g}, gain "
-                f"{f.gain_pct:.1f}% ({f.metric})"
+                f"{f.gain_text()} ({f.metric})"
             )
             lines.append(f"        {f.summary}")
             passed = ", ".join(c.check for c in f.checks if c.passed)

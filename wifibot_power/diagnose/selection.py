@@ -1,5 +1,6 @@
 """The choice of causes: forward selection on held-out error (`select_causes`), the
-candidates a consequence check rejects (`rejected_candidates`), and the extended model's
+candidates a consequence check rejects (`rejected_candidates`), the findings whose gain's
+interval reaches zero, not named (`drop_uncertain`), and the extended model's
 held-out error with its causes chosen again without each fold (`nested_heldout_energy_J`).
 """
 
@@ -19,6 +20,12 @@ from wifibot_power.diagnose.folds import (
     heldout_folds,
     rmse_mape,
 )
+from wifibot_power.diagnose.intervals import (
+    energy_errors,
+    gain_ci95,
+    reaches_zero,
+    trace_ci95,
+)
 from wifibot_power.diagnose.result import FOLD, NOT_NAMED, Note
 
 if TYPE_CHECKING:
@@ -33,8 +40,10 @@ class Selection:
     """What forward selection chose and saw: {cause: held-out gain when added [%]}, the
     held-out RMSE of every cause set tried [J], the evidence of every cause as last tested
     (registry order), the checks of every candidate as last run, the held-out gain each
-    candidate would have given when last tried [%] (None: not estimable), why a trial could
-    not be estimated, and the notes on candidates not named."""
+    candidate would have given when last tried [%] (None: not estimable) and the causes it
+    was tried on top of, why a trial could not be estimated, the notes on candidates not
+    named, the 95% interval of each gain (`intervals`: a finding's own, a candidate's as
+    tried), and the findings dropped because theirs reaches zero (their own gain [%])."""
 
     selected: dict[str, float] = field(default_factory=dict)
     rmse_of: dict[frozenset, float] = field(default_factory=dict)
@@ -43,6 +52,9 @@ class Selection:
     gains: dict[str, float | None] = field(default_factory=dict)
     not_estimable: dict[str, str] = field(default_factory=dict)
     notes: list[Note] = field(default_factory=list)
+    gain_base: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    gain_ci95: dict[str, tuple[float, float]] = field(default_factory=dict)
+    uncertain: dict[str, float] = field(default_factory=dict)
 
 
 def select_causes(batch: Batch, baseline_rmse: float) -> Selection:
@@ -129,6 +141,7 @@ def _energy_round(
         seen.checks[cause] = CAUSES[cause].checks(table, latest[cause])
         rmse = seen.rmse_of[trial]
         seen.gains[cause] = gain_pct(now, rmse) if np.isfinite(rmse) else None
+        seen.gain_base[cause] = current
     estimable = [c for c in passing if np.isfinite(seen.rmse_of[frozenset(current) | {c}])]
     eligible = [c for c in estimable if all(ch.passed for ch in seen.checks[c])]
     if not eligible and len(estimable) > 1:
@@ -179,19 +192,24 @@ def _eligible_beside_others(
 
 
 def rejected_candidates(
-    evidence: tuple[Evidence, ...], named: list[str], seen: Selection
+    evidence: tuple[Evidence, ...], named: list[str], seen: Selection, deals: list[Batch]
 ) -> list[dict[str, object]]:
     """Candidates whose signature is there, at a size worth naming, that would have predicted
-    but fail a consequence of their physics: not named, and structure no name explains
-    (causes.md, "How a cause earns its name")."""
+    but fail a consequence of their physics, and findings whose gain's 95% interval reaches
+    zero (`drop_uncertain`): not named, and structure no name explains (causes.md, "How a
+    cause earns its name"). `deals`: the batch on the fold deals gains are measured on."""
     out = []
     for e in evidence:
+        if e.cause in seen.uncertain:
+            out.append(_uncertain(e, seen))
+            continue
         if e.cause in named or not e.passes or e.cause not in seen.checks:
             continue
         failed = [c for c in seen.checks[e.cause] if not c.passed]
         if not failed:
             continue
         gain = seen.gains.get(e.cause)
+        ci = _candidate_ci95(deals, seen, e.cause) if gain is not None else (np.nan, np.nan)
         metric = CAUSES[e.cause].metric
         would = (
             f"would have lowered the held-out error of {metric.replace('_', ' ')} by {gain:.1f}%"
@@ -202,6 +220,7 @@ def rejected_candidates(
             {
                 "cause": e.cause,
                 "gain_pct": gain,
+                "gain_ci95": list(ci),
                 "failed": [c.check for c in failed],
                 "reason": f"{e.cause}: its signature is there ({e.summary}, p = "
                 f"{e.p_value:.2g}) and it {would}, but "
@@ -210,6 +229,72 @@ def rejected_candidates(
             }
         )
     return out
+
+
+def _uncertain(e: Evidence, seen: Selection) -> dict[str, object]:
+    """A finding dropped because its gain's interval reaches zero, as a rejected candidate."""
+    gain, (low, high) = seen.uncertain[e.cause], seen.gain_ci95[e.cause]
+    metric = CAUSES[e.cause].metric.replace("_", " ")
+    return {
+        "cause": e.cause,
+        "gain_pct": gain,
+        "gain_ci95": [low, high],
+        "failed": [GAIN_INTERVAL],
+        "reason": f"{e.cause}: its signature is there ({e.summary}, p = {e.p_value:.2g}) and "
+        f"it lowers the held-out error of {metric} by {gain:.1f}%, but '{GAIN_INTERVAL}' "
+        f"fails: that gain's 95% interval over fold deals and the runs drawn, "
+        f"[{low:.1f}, {high:.1f}]%, reaches zero: not named",
+    }
+
+
+def _candidate_ci95(deals: list[Batch], seen: Selection, cause: str) -> tuple[float, float]:
+    """The interval of a candidate's gain as it was last tried (on top of the causes chosen
+    then)."""
+    if CAUSES[cause].metric != RUN_ENERGY:
+        return _trace_ci95(deals, cause)
+    base = frozenset(seen.gain_base.get(cause, ()))
+    return gain_ci95(energy_errors(deals, base), energy_errors(deals, base | {cause}))
+
+
+def _trace_ci95(deals: list[Batch], cause: str) -> tuple[float, float]:
+    def gain(d: Batch) -> float:
+        return CAUSES[cause].heldout_trace_gain_pct(d.motion, d.folds, d.traces.get(cause, {}))
+
+    return trace_ci95(deals, cause, gain)
+
+
+#: The check a finding fails when its gain's interval reaches zero.
+GAIN_INTERVAL = "gain interval above zero"
+
+
+def drop_uncertain(deals: list[Batch], seen: Selection) -> None:
+    """The 95% interval of each chosen cause's own held-out gain (`intervals`: over the fold
+    deals `deals` and the runs drawn), kept in `seen.gain_ci95`; a cause whose interval
+    reaches zero is taken out of `seen.selected` into `seen.uncertain` (causes.md: such a
+    gain is not a reason to name it). An energy cause's own gain is the findings' energy
+    causes held fixed, with and without it; when one is dropped, the others' intervals are
+    measured again without it."""
+    while seen.selected:
+        energy = frozenset(c for c in seen.selected if CAUSES[c].metric == RUN_ENERGY)
+        with_all = energy_errors(deals, energy) if energy else None
+        own: dict[str, float] = {}
+        for cause in seen.selected:
+            if CAUSES[cause].metric != RUN_ENERGY:
+                if cause not in seen.gain_ci95:
+                    seen.gain_ci95[cause] = _trace_ci95(deals, cause)
+                own[cause] = seen.selected[cause]
+                continue
+            without = energy_errors(deals, energy - {cause})
+            seen.gain_ci95[cause] = gain_ci95(without, with_all)
+            own[cause] = gain_pct(
+                float(np.sqrt(np.mean(without[0]))), float(np.sqrt(np.mean(with_all[0])))
+            )
+        doubtful = [c for c in seen.selected if reaches_zero(seen.gain_ci95[c])]
+        if not doubtful:
+            return
+        for cause in doubtful:
+            del seen.selected[cause]
+            seen.uncertain[cause] = own[cause]
 
 
 def nested_heldout_energy_J(batch: Batch, causes: list[str]) -> tuple[np.ndarray, list[Note]]:
@@ -256,8 +341,10 @@ def nested_heldout_energy_J(batch: Batch, causes: list[str]) -> tuple[np.ndarray
 
 
 __all__ = [
+    "GAIN_INTERVAL",
     "MIN_GAIN_PCT",
     "Selection",
+    "drop_uncertain",
     "nested_heldout_energy_J",
     "rejected_candidates",
     "rmse_mape",
