@@ -36,9 +36,14 @@ class PowerSource:
     voltage: tuple[str, float] | None = None
     supply_voltage_V: float | None = None
     name: str = ""
+    #: (current, voltage) columns the log also holds for this channel when its power comes
+    #: from `power`: the log says the power twice, and the two must agree
+    #: (`validate.check_power_twice`)
+    twice: tuple[tuple[str, float], tuple[str, float]] | None = None
 
     def columns(self) -> list[str]:
-        return [spec[0] for spec in (self.power, self.current, self.voltage) if spec]
+        twice = self.twice or ()
+        return [spec[0] for spec in (self.power, self.current, self.voltage, *twice) if spec]
 
 
 def time_unit_of(name: str) -> tuple[bool, float | None]:

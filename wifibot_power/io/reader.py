@@ -33,7 +33,12 @@ from wifibot_power.io.transport import (
     read_bytes,
     read_columns,
 )
-from wifibot_power.io.validate import check_channels, check_samples, check_speed
+from wifibot_power.io.validate import (
+    check_channels,
+    check_power_twice,
+    check_samples,
+    check_speed,
+)
 from wifibot_power.run import Problem, Run
 
 __all__ = ["read_bytes", "read_log"]
@@ -242,6 +247,14 @@ def _power(
         if source.power:
             power_W = _column(path, columns, source.power)
             measured[source.power[0]] = power_W
+            if source.twice:  # the log says the power twice: the two must agree
+                current, voltage = source.twice
+                check_power_twice(
+                    str(path),
+                    (source.power[0], power_W),
+                    (current[0], _column(path, columns, current)),
+                    (voltage[0], _column(path, columns, voltage)),
+                )
         else:
             current_A = _column(path, columns, source.current)
             measured[source.current[0]] = current_A

@@ -441,3 +441,51 @@ def _require_finite(
             fix="fix or delete that line",
         )
     return float(low), float(high)
+
+
+#: How far a power column and the product of the voltage and current columns beside it
+#: may disagree, as a share of their energy, before the log is refused
+#: (`check_power_twice`). Each of voltage and current is good to about 1% on the loggers
+#: seen (INA219/INA226-class sensors 0.5-1%, a Keysight N6705 0.1%), so their product to
+#: about 2%; an instrument's power averaged over a sample interval (mean of V x I) differs
+#: from the product of the averaged V and I by the covariance within the interval, a few
+#: percent at most for a PWM motor load. 5% leaves room for both; a mW column in a W
+#: column (1000x) or a wrong scale of 1.5x is far outside.
+POWER_TWICE_TOLERANCE = 0.05
+
+
+def check_power_twice(
+    file: str,
+    power: tuple[str, np.ndarray],
+    current: tuple[str, np.ndarray],
+    voltage: tuple[str, np.ndarray],
+) -> None:
+    """A log that says its power twice (a power column, and voltage and current columns
+    of the same channel) must agree with itself: the energy of the power column and that of
+    voltage x current, sample by sample, within `POWER_TWICE_TOLERANCE` of the larger,
+    over the samples where all three are finite numbers. Else a one-line error naming the
+    columns: the power column would otherwise be trusted whatever it holds (issue 29).
+
+    P = V x I (Joule's law for the electrical power a DC load draws)."""
+    (power_name, power_W), (current_name, current_A), (voltage_name, voltage_V) = (
+        power,
+        current,
+        voltage,
+    )
+    product_W = current_A * voltage_V
+    both = np.isfinite(power_W) & np.isfinite(product_W)
+    column_J = float(np.sum(power_W, where=both))  # per sample: energy / sample period
+    product_J = float(np.sum(product_W, where=both))
+    scale_J = max(
+        float(np.sum(np.abs(power_W), where=both)), float(np.sum(np.abs(product_W), where=both))
+    )
+    if scale_J == 0.0 or abs(column_J - product_J) <= POWER_TWICE_TOLERANCE * scale_J:
+        return
+    ratio = f"{column_J / product_J:.4g}x" if product_J else "not 0 where they give 0"
+    raise LogError(
+        f"column '{power_name}' disagrees with '{voltage_name}' x '{current_name}' (its energy "
+        f"is {ratio} theirs, over {POWER_TWICE_TOLERANCE:.0%} apart)",
+        file=file,
+        fix="check the units of the columns (a power in mW in a W column?), or name the ones "
+        "to use with --power-column, or --current-column and --voltage-column",
+    )

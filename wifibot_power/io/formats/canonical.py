@@ -133,9 +133,11 @@ class Canonical(LogFormat):
             return (lowered[key], COLUMNS[key][1]) if key else None
 
         power = first("power_w", "power_mw")
-        if power:
-            return [PowerSource(power=power)]
         current, voltage = first("current_a", "current_ma"), first("voltage_v", "voltage_mv")
+        if power:
+            return [
+                PowerSource(power=power, twice=(current, voltage) if current and voltage else None)
+            ]
         if current and voltage:
             return [PowerSource(current=current, voltage=voltage)]
         channels = _channels(path, pre, voltage, options)
@@ -224,7 +226,12 @@ def _channels(
     sources = []
     for channel, quantities in found.items():
         if "power" in quantities:
-            sources.append(PowerSource(power=quantities["power"], name=channel))
+            twice = (quantities.get("current"), quantities.get("voltage"))
+            sources.append(
+                PowerSource(
+                    power=quantities["power"], name=channel, twice=twice if all(twice) else None
+                )
+            )
         elif "current" in quantities:
             voltage = quantities.get("voltage", shared_voltage)
             if voltage is None and options.supply_voltage_V is None:

@@ -105,7 +105,10 @@ class N6705(LogFormat):
                     fix="name the one to use with --current-column",
                 )
         for candidates, build in (
-            (with_power, lambda k: PowerSource(power=(outputs[k]["power"], 1.0))),
+            (
+                with_power,
+                lambda k: PowerSource(power=(outputs[k]["power"], 1.0), twice=_twice(outputs[k])),
+            ),
             (
                 with_both,
                 lambda k: PowerSource(
@@ -150,6 +153,13 @@ class N6705(LogFormat):
                 file=path,
                 fix="give the sample spacing with --sample-period S, or re-export the datalog",
             )
+
+
+def _twice(output: dict[str, str]) -> tuple[tuple[str, float], tuple[str, float]] | None:
+    """An output's current and voltage columns beside its power column: its power again."""
+    if "current" in output and "voltage" in output:
+        return (output["current"], 1.0), (output["voltage"], 1.0)
+    return None
 
 
 def _several_outputs_fix(outputs: list[dict[str, str]]) -> str:
