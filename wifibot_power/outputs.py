@@ -110,6 +110,14 @@ def write_text(path: Path, text: str) -> Path:
     return write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
+#: What this process has written in full so far (`write_set`, `staged_folder`): a command
+#: stopped by Ctrl-C or SIGTERM after it wrote its outputs says so (`cli.common.interrupted`).
+written: list[Path] = []
+
+#: the name a stale temporary file of ours has beside `NAME` (`_temporary`)
+_TEMPORARY = ".{name}.*.tmp"
+
+
 def write_set(
     out_dir: Path,
     files: Mapping[str, Callable[[Path], None]],
@@ -120,46 +128,115 @@ def write_set(
     each to a temporary file beside its target first; only once all are written (and
     flushed to disk) are they renamed over their targets, and the names in `remove` (what
     an earlier run left there that this one does not make, e.g. fit's `model.json`) deleted,
-    with Ctrl-C held off for those renames (`hold_ctrl_c`).
+    with Ctrl-C and SIGTERM held off for those renames (`signals.held`).
 
-    A failure or Ctrl-C while writing leaves DIR as it was (the temporary files removed,
-    folders this call created removed again), so a command writes nothing partial (cli.md);
-    only a SIGKILL or power loss during the renames themselves can leave some new, some old.
-    Returns the files written, in the order of `files`.
+    One writer at a time per folder: an advisory lock on DIR itself (flock(2) on the
+    folder, so no lock file is left behind) is taken first; held by another process, this
+    one stops with a one-line error before it writes anything (two `fit -o DIR` at once
+    could otherwise leave model.json of one beside runs.parquet of the other). Under the
+    lock, temporary files of these names that a killed writer left (`.NAME.*.tmp`) are
+    removed.
+
+    A failure, Ctrl-C or SIGTERM while writing leaves DIR as it was (the temporary files
+    removed, folders this call created removed again), so a command writes nothing partial
+    (cli.md); only a SIGKILL or power loss during the renames themselves can leave some new,
+    some old. An error writing a file names it. Returns the files written, in the order of
+    `files`.
     """
     out_dir = Path(out_dir)
     made: list[Path] = []
     staged: list[tuple[Path, Path]] = []
+    lock: int | None = None
     try:
-        with hold_ctrl_c():
-            made = make_dirs(out_dir)
-        for name, write in files.items():
-            target = out_dir / name
-            with hold_ctrl_c():  # a Ctrl-C comes once the file is known, to be removed
-                staged.append((_temporary(target), target))
-            _write_flushed(staged[-1][0], write)
-    except BaseException:
-        for tmp, _ in staged:
-            tmp.unlink(missing_ok=True)
-        remove_made_dirs(made)
-        raise
-    with hold_ctrl_c():
         try:
-            # a target that is a folder would fail its rename after the ones before it
-            # were done: refused first, nothing replaced
-            for _, target in staged:
-                if target.is_dir() and not target.is_symlink():
-                    raise IsADirectoryError(21, "a folder is in the way", str(target))
-            for tmp, target in staged:
-                os.replace(tmp, target)
+            with hold_ctrl_c():
+                made = make_dirs(out_dir)
+            lock = _lock_folder(out_dir)
+            _remove_stale(out_dir, [*files, *remove])
+            for name, write in files.items():
+                target = out_dir / name
+                with hold_ctrl_c():  # a signal comes once the file is known, to be removed
+                    staged.append((_temporary(target), target))
+                with _naming(target):
+                    _write_flushed(staged[-1][0], write)
         except BaseException:
             for tmp, _ in staged:
                 tmp.unlink(missing_ok=True)
+            if lock is not None:  # (not taken: the folder is another writer's now)
+                remove_made_dirs(made)
             raise
-        for name in remove:
-            (out_dir / name).unlink(missing_ok=True)
-    _fsync_dir(out_dir)
+        with hold_ctrl_c():
+            try:
+                # a target that is a folder would fail its rename after the ones before it
+                # were done: refused first, nothing replaced
+                for _, target in staged:
+                    if target.is_dir() and not target.is_symlink():
+                        raise IsADirectoryError(21, "a folder is in the way", str(target))
+                for tmp, target in staged:
+                    os.replace(tmp, target)
+            except BaseException:
+                for tmp, _ in staged:
+                    tmp.unlink(missing_ok=True)
+                raise
+            for name in remove:
+                (out_dir / name).unlink(missing_ok=True)
+            _fsync_dir(out_dir)
+            written.extend(target for _, target in staged)
+    finally:
+        if lock is not None:
+            os.close(lock)  # the lock goes with it
     return [target for _, target in staged]
+
+
+def _lock_folder(folder: Path) -> int:
+    """An exclusive advisory lock (flock(2)) on `folder` itself, held until the descriptor
+    returned is closed; a one-line error when another process holds it."""
+    import fcntl
+
+    from wifibot_power.errors import UsageError
+
+    fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        raise UsageError(
+            "another wbpower is writing into this folder now",
+            file=folder,
+            fix="wait for it to finish, or write into another folder",
+        ) from None
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+def _remove_stale(folder: Path, names: Iterable[str]) -> None:
+    """Remove the temporary files (`.NAME.*.tmp`) of `names` that a writer killed by
+    SIGKILL left in `folder`: called under the folder's lock, so no live writer owns one."""
+    for name in names:
+        for stale in folder.glob(_TEMPORARY.format(name=glob_escape(name))):
+            stale.unlink(missing_ok=True)
+
+
+def glob_escape(name: str) -> str:
+    """`name` with glob's special characters taken literally."""
+    import glob
+
+    return glob.escape(name)
+
+
+@contextlib.contextmanager
+def _naming(target: Path) -> Iterator[None]:
+    """An OSError writing `target`'s temporary file that names no file (pyarrow's "No space
+    left on device") names `target`: the message then says which file could not be
+    written."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is not None:
+            raise
+        raise OSError(exc.errno, exc.strerror or str(exc), str(target)) from exc
 
 
 def _temporary(path: Path) -> Path:
@@ -201,25 +278,12 @@ def remove_made_dirs(made: list[Path]) -> None:
             return
 
 
-@contextlib.contextmanager
-def hold_ctrl_c() -> Iterator[None]:
-    """Hold a Ctrl-C (SIGINT) back until the block ends, then act on it: for a few renames
-    that must happen all or not at all. Outside the main thread (where Python cannot set a
-    handler) the block just runs."""
-    import signal
-    import threading
+def hold_ctrl_c() -> contextlib.AbstractContextManager[None]:
+    """Hold Ctrl-C (SIGINT) and SIGTERM back until the block ends, then act on them: for a
+    few renames that must happen all or not at all (`signals.held`)."""
+    from wifibot_power.signals import held
 
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-        if caught:  # delivered again, now to the usual handler (KeyboardInterrupt)
-            signal.raise_signal(signal.SIGINT)
+    return held()
 
 
 @contextlib.contextmanager
@@ -269,6 +333,7 @@ def staged_folder(out_dir: Path) -> Iterator[Path]:
                 os.rename(stage, out_dir)  # one rename: the whole new folder at once
             else:
                 _swap_entries(stage, out_dir)
+            written.append(out_dir)
     except BaseException:
         if stage is not None:  # (after the renames: what is left of it, the old entries)
             shutil.rmtree(stage, ignore_errors=True)

@@ -45,10 +45,16 @@ def __getattr__(name: str) -> object:
 
 
 def main() -> None:
+    from wifibot_power import signals
+
     try:
+        signals.install()  # SIGTERM stops a command as Ctrl-C does (exit 143)
         wanted = [arg for arg in sys.argv[1:2] if arg in COMMANDS]
         load_commands(wanted or None)()
-    except KeyboardInterrupt:
-        # Ctrl-C outside a command's own handling (while loading, or parsing options)
-        print("wbpower: error: interrupted", file=sys.stderr)
-        raise SystemExit(130) from None
+    except KeyboardInterrupt as exc:
+        # Ctrl-C or SIGTERM outside a command's own handling (loading, parsing options)
+        from wifibot_power.cli.common import interrupted
+
+        message, code = interrupted(exc)
+        print(f"wbpower: error: {message}", file=sys.stderr)
+        raise SystemExit(code) from None

@@ -17,7 +17,7 @@ import typer
 
 from wifibot_power.errors import UsageError, WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
-from wifibot_power.outputs import json_safe
+from wifibot_power.outputs import json_safe, written
 from wifibot_power.run import Problem
 
 if TYPE_CHECKING:
@@ -29,6 +29,9 @@ EXIT_OK = 0
 EXIT_SKIPPED = 1
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
+EXIT_TERMINATED = 143  # 128 + SIGTERM
+#: stopped by Ctrl-C or SIGTERM after its outputs were written in full (docs/errors.md)
+EXIT_INTERRUPTED_WRITTEN = 3
 
 
 def _console(name: str) -> Console:
@@ -192,12 +195,13 @@ def handles_errors(command: F) -> F:
 
     @functools.wraps(command)
     def wrapper(*args: object, **kwargs: object) -> object:
+        written.clear()  # (several commands may run in one process: tests)
         try:
             return command(*args, **kwargs)
         except WbpowerError as exc:
             fail(exc.one_line())
-        except KeyboardInterrupt:
-            fail("interrupted", EXIT_INTERRUPTED)
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (`signals.Terminated`)
+            fail(*interrupted(exc))
         except (typer.Exit, typer.Abort, SystemExit):
             raise
         except _CLICK_ERROR as exc:  # e.g. typer.BadParameter from an option's parser
@@ -215,6 +219,20 @@ def handles_errors(command: F) -> F:
         return None
 
     return wrapper  # type: ignore[return-value]
+
+
+def interrupted(exc: BaseException) -> tuple[str, int]:
+    """The message and exit code of a command stopped by Ctrl-C or SIGTERM: 130 or 143 when
+    it wrote nothing, `EXIT_INTERRUPTED_WRITTEN` when its outputs were written in full
+    first (`outputs.written`), so that a script can tell the two (docs/errors.md)."""
+    from wifibot_power.signals import Terminated, exit_code
+
+    what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
+    if written:
+        return f"{what} after writing {', '.join(map(str, written))} in full", (
+            EXIT_INTERRUPTED_WRITTEN
+        )
+    return what, exit_code(exc)
 
 
 def check_out_dir(out: Path | None) -> None:

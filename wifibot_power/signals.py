@@ -1,0 +1,75 @@
+"""How wbpower stops on a signal: SIGTERM (what `timeout`, `kill` and a CI cancel send) as
+Ctrl-C (SIGINT), so that the same clean-up runs (workers stopped, temporary files removed,
+nothing partial written), with the exit code that names the signal (docs/errors.md,
+"Signals and exit codes").
+
+`Terminated` is a `KeyboardInterrupt`: every `except KeyboardInterrupt` / `except
+BaseException` clean-up that handles Ctrl-C handles SIGTERM too. `held` holds both back for
+a few renames that must happen all or not at all.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+from collections.abc import Iterator
+
+#: the signals that stop a command cleanly
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread as Ctrl-C raises KeyboardInterrupt."""
+
+
+def exit_code(exc: BaseException) -> int:
+    """128 + the signal's number, as shells report a command a signal stopped: 143 for
+    SIGTERM, 130 for Ctrl-C (SIGINT)."""
+    return 128 + (signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT)
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated()
+
+
+def install() -> None:
+    """SIGTERM raises `Terminated` in the main thread (from now on). Called first thing by
+    the command line; a library user keeps SIGTERM as it is."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminate)
+
+
+@contextlib.contextmanager
+def held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back until the block ends, then act on them (the usual
+    handlers: KeyboardInterrupt, `Terminated`): for a few renames that must happen all or
+    not at all. Outside the main thread (where Python cannot set a handler) the block just
+    runs."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = {
+        signum: signal.signal(signum, lambda number, frame: caught.append(number))
+        for signum in STOP_SIGNALS
+    }
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        for signum in dict.fromkeys(caught):  # delivered again, now to the usual handler
+            signal.raise_signal(signum)
+
+
+@contextlib.contextmanager
+def blocked() -> Iterator[None]:
+    """SIGINT and SIGTERM held pending by the kernel (delivered on leaving) while workers
+    are forked: each is forked with them blocked and installs its own handling before
+    unblocking them."""
+    signal.pthread_sigmask(signal.SIG_BLOCK, set(STOP_SIGNALS))
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, set(STOP_SIGNALS))
