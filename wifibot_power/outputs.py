@@ -15,6 +15,8 @@ from datetime import date, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wifibot_power.errors import UsageError
+
 if TYPE_CHECKING:
     import pandas as pd
 
@@ -151,7 +153,11 @@ def write_set(
         try:
             with hold_ctrl_c():
                 made = make_dirs(out_dir)
-            lock = _lock_folder(out_dir)
+            try:
+                lock = _lock_folder(out_dir)
+            except FolderLockedError:
+                made = []  # the folder is another writer's now: left as it is
+                raise
             _remove_stale(out_dir, [*files, *remove])
             for name, write in files.items():
                 target = out_dir / name
@@ -162,8 +168,7 @@ def write_set(
         except BaseException:
             for tmp, _ in staged:
                 tmp.unlink(missing_ok=True)
-            if lock is not None:  # (not taken: the folder is another writer's now)
-                remove_made_dirs(made)
+            remove_made_dirs(made)
             raise
         with hold_ctrl_c():
             try:
@@ -188,19 +193,21 @@ def write_set(
     return [target for _, target in staged]
 
 
+class FolderLockedError(UsageError):
+    """Another process holds an output folder's lock (`write_set`)."""
+
+
 def _lock_folder(folder: Path) -> int:
     """An exclusive advisory lock (flock(2)) on `folder` itself, held until the descriptor
     returned is closed; a one-line error when another process holds it."""
     import fcntl
-
-    from wifibot_power.errors import UsageError
 
     fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         os.close(fd)
-        raise UsageError(
+        raise FolderLockedError(
             "another wbpower is writing into this folder now",
             file=folder,
             fix="wait for it to finish, or write into another folder",
@@ -256,6 +263,22 @@ def _write_flushed(tmp: Path, write: Callable[[Path], None]) -> None:
     os.chmod(tmp, 0o666 & ~_umask())
     with open(tmp, "rb") as handle:
         os.fsync(handle.fileno())
+
+
+def probe_folder(out: Path, existing: Path) -> None:
+    """Whether `-o out` can be written, tried before any work (`cli.common.check_out_dir`):
+    a folder made and removed at once in `existing`, the nearest folder of `out` that
+    exists. Root's access(2) says yes to /proc and /sys, which refuse; the error naming
+    them came only after the work was done (issue 29)."""
+    import tempfile
+
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".wbpower-probe.", dir=existing))
+    except OSError as exc:
+        raise UsageError(
+            f"-o {out}: cannot create anything in {existing} ({exc.strerror or exc})",
+            fix="give a folder you can write to",
+        ) from None
 
 
 def make_dirs(folder: Path) -> list[Path]:

@@ -17,7 +17,7 @@ import typer
 
 from wifibot_power.errors import UsageError, WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
-from wifibot_power.outputs import json_safe, written
+from wifibot_power.outputs import json_safe, probe_folder, written
 from wifibot_power.run import Problem
 
 if TYPE_CHECKING:
@@ -253,6 +253,7 @@ def check_out_dir(out: Path | None) -> None:
         raise UsageError(
             f"-o {out}: {existing} is not writable", fix="give a folder you can write to"
         )
+    probe_folder(out, existing)  # what access() cannot tell (/proc, /sys, a full inode table)
 
 
 def fail(message: str, code: int = EXIT_USAGE) -> None:
