@@ -22,6 +22,7 @@ import contextlib
 import csv
 import os
 import re
+import stat
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
@@ -99,8 +100,25 @@ def read_errors(path: Path) -> Iterator[None]:
         ) from None
 
 
+def require_regular(path: Path) -> None:
+    """Refuse what is not a regular file before it is opened: a FIFO blocks `open()` forever
+    (and Ctrl-C cannot end a wait inside pyarrow), a device never ends. A missing file is
+    left to `open()` (its own error)."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return
+    if not stat.S_ISREG(mode) and not stat.S_ISDIR(mode):
+        raise LogError(
+            "not a regular file (a FIFO, device or socket)",
+            file=path,
+            fix="give a file; copy a stream to a file first",
+        )
+
+
 def read_bytes(path: Path) -> bytes:
     """The file's bytes, decompressed by extension (.gz, .zst)."""
+    require_regular(path)
     with read_errors(path):
         codec = codec_of(path)
         if codec is not None:
@@ -121,6 +139,7 @@ class Content:
         """A stream of the bytes from the start (errors surface as they are read)."""
         if self.data is not None:
             return pa.BufferReader(self.data)
+        require_regular(self.path)
         return pa.input_stream(str(self.path), compression=codec_of(self.path))
 
     def head(self) -> bytes:
