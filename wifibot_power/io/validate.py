@@ -454,6 +454,19 @@ def _require_finite(
 POWER_TWICE_TOLERANCE = 0.05
 
 
+def _written_step(values: np.ndarray, sample: int = 10_000) -> float:
+    """The step of the decimals a column is written with (0.01 for "12.61"), read off its
+    first `sample` finite values: the largest 10^-d of which they are all multiples (to
+    1e-6 of a step); 0 where they carry more than 9 decimals."""
+    head = values[:sample]
+    head = head[np.isfinite(head)]
+    for decimals in range(10):
+        scaled = head * 10.0**decimals
+        if np.all(np.abs(scaled - np.rint(scaled)) <= 1e-6 + 1e-12 * np.abs(scaled)):
+            return 10.0**-decimals
+    return 0.0
+
+
 def check_power_twice(
     file: str,
     power: tuple[str, np.ndarray],
@@ -462,9 +475,11 @@ def check_power_twice(
 ) -> None:
     """A log that says its power twice (a power column, and voltage and current columns
     of the same channel) must agree with itself: the energy of the power column and that of
-    voltage x current, sample by sample, within `POWER_TWICE_TOLERANCE` of the larger,
-    over the samples where all three are finite numbers. Else a one-line error naming the
-    columns: the power column would otherwise be trusted whatever it holds (issue 29).
+    voltage x current, sample by sample, within `POWER_TWICE_TOLERANCE` of the larger plus
+    what rounding the numbers as written can make (half a step of the decimals of each
+    column, `_written_step`), over the samples where all three are finite numbers. Else a
+    one-line error naming the columns: the power column would otherwise be trusted
+    whatever it holds (issue 29).
 
     P = V x I (Joule's law for the electrical power a DC load draws)."""
     (power_name, power_W), (current_name, current_A), (voltage_name, voltage_V) = (
@@ -479,7 +494,11 @@ def check_power_twice(
     scale_J = max(
         float(np.sum(np.abs(power_W), where=both)), float(np.sum(np.abs(product_W), where=both))
     )
-    if scale_J == 0.0 or abs(column_J - product_J) <= POWER_TWICE_TOLERANCE * scale_J:
+    # the numbers as written are rounded: V x I is off by up to half a step of each
+    step_V, step_A, step_W = (_written_step(x) for x in (voltage_V, current_A, power_W))
+    rounding_W = 0.5 * (np.abs(voltage_V) * step_A + np.abs(current_A) * step_V + step_W)
+    rounding_J = float(np.sum(rounding_W, where=both)) + 0.5 * step_V * step_A * both.sum()
+    if abs(column_J - product_J) <= POWER_TWICE_TOLERANCE * scale_J + rounding_J:
         return
     ratio = f"{column_J / product_J:.4g}x" if product_J else "not 0 where they give 0"
     raise LogError(
