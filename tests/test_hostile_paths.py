@@ -104,8 +104,10 @@ def test_a_manifest_row_naming_a_fifo_says_what_it_is(tmp_path):
     folder = tmp_path / "logs"
     folder.mkdir()
     os.mkfifo(folder / "pipe.csv")
-    (folder / "runs.csv").write_text("file,run_id\npipe.csv,p\nmissing.csv,m\n")
+    (folder / "sub").mkdir()
+    (folder / "runs.csv").write_text("file,run_id\npipe.csv,p\nmissing.csv,m\nsub,s\n")
     result = _run("inspect", folder / "runs.csv")
     assert result.returncode == 1
     assert "line 2: names 'pipe.csv', which is a FIFO (named pipe)" in result.stderr
     assert "line 3: names 'missing.csv', which does not exist" in result.stderr
+    assert "line 4: names 'sub', which is a folder, not a log" in result.stderr

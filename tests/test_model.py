@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import re
+from pathlib import Path
 
 import pytest
 
@@ -112,6 +113,7 @@ def test_hostile_model_values_are_one_line_errors(tmp_path, wbpower, what, chang
     for command in (
         ["energy", "--speed", "0.5", "--dist", "10", "--json"],
         ["lifetime", "--rate", "54", "--json"],
+        ["diagnose", Path(__file__).resolve().parents[1] / "sample_logs", "--json"],
     ):
         result = wbpower(*command, "--model", path)
         assert result.exit_code == 2, (command, result.stdout)

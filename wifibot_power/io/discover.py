@@ -140,11 +140,12 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
             elif manifest in named_manifests or not only_files or row.file in wanted:
                 # a manifest found beside a single file only matters for that file
                 odd = not_a_regular_file(row.file)
-                what = (
-                    "which does not exist (fix the row or restore the file)"
-                    if odd is None
-                    else f"which is {odd.removeprefix('not a log: ')}"
-                )
+                if row.file.is_dir():
+                    what = "which is a folder, not a log (name a log file in it)"
+                elif odd is None:
+                    what = "which does not exist (fix the row or restore the file)"
+                else:
+                    what = f"which is {odd.removeprefix('not a log: ')}"
                 skipped.append(
                     Skipped(
                         str(row.file),
