@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 
@@ -27,6 +28,24 @@ def exit_code(exc: BaseException) -> int:
     """128 + the signal's number, as shells report a command a signal stopped: 143 for
     SIGTERM, 130 for Ctrl-C (SIGINT)."""
     return 128 + (signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT)
+
+
+#: stopped by Ctrl-C or SIGTERM after its outputs were written in full (docs/errors.md)
+EXIT_INTERRUPTED_WRITTEN = 3
+
+
+def interrupted(exc: BaseException) -> tuple[str, int]:
+    """The message and exit code of a command stopped by Ctrl-C or SIGTERM: 130 or 143 when
+    it wrote nothing, `EXIT_INTERRUPTED_WRITTEN` when its outputs were written in full
+    first (`outputs.written`), so that a script can tell the two (docs/errors.md). Imports
+    nothing: the signal may have come while modules were loading."""
+    what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
+    outputs = sys.modules.get("wifibot_power.outputs")
+    written = list(getattr(outputs, "written", ()))
+    if written:
+        paths = ", ".join(map(str, written))
+        return f"{what} after writing {paths} in full", EXIT_INTERRUPTED_WRITTEN
+    return what, exit_code(exc)
 
 
 def _terminate(signum: int, frame: object) -> None:

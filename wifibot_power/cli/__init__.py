@@ -53,8 +53,6 @@ def main() -> None:
         load_commands(wanted or None)()
     except KeyboardInterrupt as exc:
         # Ctrl-C or SIGTERM outside a command's own handling (loading, parsing options)
-        from wifibot_power.cli.common import interrupted
-
-        message, code = interrupted(exc)
+        message, code = signals.interrupted(exc)
         print(f"wbpower: error: {message}", file=sys.stderr)
         raise SystemExit(code) from None

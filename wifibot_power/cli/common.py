@@ -19,6 +19,7 @@ from wifibot_power.errors import UsageError, WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
 from wifibot_power.outputs import json_safe, probe_folder, written
 from wifibot_power.run import Problem
+from wifibot_power.signals import interrupted
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -29,9 +30,6 @@ EXIT_OK = 0
 EXIT_SKIPPED = 1
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
-EXIT_TERMINATED = 143  # 128 + SIGTERM
-#: stopped by Ctrl-C or SIGTERM after its outputs were written in full (docs/errors.md)
-EXIT_INTERRUPTED_WRITTEN = 3
 
 
 def _console(name: str) -> Console:
@@ -219,20 +217,6 @@ def handles_errors(command: F) -> F:
         return None
 
     return wrapper  # type: ignore[return-value]
-
-
-def interrupted(exc: BaseException) -> tuple[str, int]:
-    """The message and exit code of a command stopped by Ctrl-C or SIGTERM: 130 or 143 when
-    it wrote nothing, `EXIT_INTERRUPTED_WRITTEN` when its outputs were written in full
-    first (`outputs.written`), so that a script can tell the two (docs/errors.md)."""
-    from wifibot_power.signals import Terminated, exit_code
-
-    what = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted"
-    if written:
-        return f"{what} after writing {', '.join(map(str, written))} in full", (
-            EXIT_INTERRUPTED_WRITTEN
-        )
-    return what, exit_code(exc)
 
 
 def check_out_dir(out: Path | None) -> None:
