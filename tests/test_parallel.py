@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import signal
 import time
 from pathlib import Path
 
@@ -308,3 +309,21 @@ def test_the_bar_rate_counts_from_the_start_of_the_work(corpus: Path, monkeypatc
     done_bytes = items[0].stat().st_size + items[1].stat().st_size
     assert str(rate.render(task)) == progress_bar.rate_text(done_bytes, 4.0) != ""
     bar.close()
+
+
+def _death_signal(_: int) -> int:
+    """In a worker: the signal the kernel sends it when its parent dies (prctl(2))."""
+    import ctypes
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    value = ctypes.c_int(-1)
+    libc.prctl(2, ctypes.byref(value), 0, 0, 0)  # PR_GET_PDEATHSIG
+    return value.value
+
+
+@pytest.mark.skipif(not parallel.can_fork(), reason="workers are forked on Linux only")
+def test_every_worker_ends_when_its_parent_dies():
+    """Each forked worker asks for SIGTERM when its parent dies (PR_SET_PDEATHSIG): a parent
+    killed by SIGKILL leaves no worker blocked on the pool's queue holding its stdout (issue
+    29). The end-to-end check: tests/test_interrupt.py, a real SIGKILL."""
+    assert parallel.map_ordered(list(range(4)), _death_signal, jobs=2) == [signal.SIGTERM] * 4
