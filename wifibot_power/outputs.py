@@ -113,7 +113,7 @@ def write_text(path: Path, text: str) -> Path:
 
 
 #: What this process has written in full so far (`write_set`, `staged_folder`): a command
-#: stopped by Ctrl-C or SIGTERM after it wrote its outputs says so (`cli.common.interrupted`).
+#: stopped by Ctrl-C or SIGTERM after it wrote its outputs says so (`signals.interrupted`).
 written: list[Path] = []
 
 #: the name a stale temporary file of ours has beside `NAME` (`_temporary`)
@@ -221,16 +221,11 @@ def _lock_folder(folder: Path) -> int:
 def _remove_stale(folder: Path, names: Iterable[str]) -> None:
     """Remove the temporary files (`.NAME.*.tmp`) of `names` that a writer killed by
     SIGKILL left in `folder`: called under the folder's lock, so no live writer owns one."""
-    for name in names:
-        for stale in folder.glob(_TEMPORARY.format(name=glob_escape(name))):
-            stale.unlink(missing_ok=True)
-
-
-def glob_escape(name: str) -> str:
-    """`name` with glob's special characters taken literally."""
     import glob
 
-    return glob.escape(name)
+    for name in names:
+        for stale in folder.glob(_TEMPORARY.format(name=glob.escape(name))):
+            stale.unlink(missing_ok=True)
 
 
 @contextlib.contextmanager
