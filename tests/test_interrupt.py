@@ -245,9 +245,9 @@ def test_ctrl_c_while_report_writes_leaves_the_old_report_or_the_whole_new_one(
     assert [p.name for p in work.iterdir()] == ["out"], "a folder left beside DIR"
 
 
-def _start_fit(corpus: Path, out: Path) -> subprocess.Popen:
+def _start_fit(corpus: Path, out: Path, name: str = "fit") -> subprocess.Popen:
     process = subprocess.Popen(
-        [*WBPOWER, "fit", str(corpus), "-j", "2", "-o", str(out)],
+        [*WBPOWER, name, str(corpus), "-j", "2", "-o", str(out)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         start_new_session=True,
@@ -261,16 +261,16 @@ def _start_fit(corpus: Path, out: Path) -> subprocess.Popen:
     return process
 
 
-@pytest.mark.parametrize("after_s", [0.0, 0.3])
+@pytest.mark.parametrize(("name", "after_s"), [("fit", 0.0), ("fit", 0.3), ("diagnose", 0.3)])
 def test_sigterm_to_fit_stops_its_workers_and_exits_143(
-    corpus: Path, tmp_path: Path, after_s: float
+    corpus: Path, tmp_path: Path, name: str, after_s: float
 ) -> None:
     """SIGTERM to the command alone (what `timeout` and a CI cancel send; not to its group):
     handled as Ctrl-C, exit 143, no worker left, nothing written, stdout closed (issue 29:
     `timeout -s TERM 0.35 wbpower fit logs -o X | cat` hung with orphaned workers holding
     the pipe)."""
     out = tmp_path / "out"
-    process = _start_fit(corpus, out)
+    process = _start_fit(corpus, out, name)
     try:
         time.sleep(after_s)
         process.send_signal(signal.SIGTERM)
