@@ -59,6 +59,15 @@ def install() -> None:
         signal.signal(signal.SIGTERM, _terminate)
 
 
+def ignore() -> None:
+    """Ignore SIGINT and SIGTERM from now on (a command that has finished; `cli.main`).
+    Python's shutdown leaves an ignored signal ignored, where it puts a handler back to
+    the default."""
+    if threading.current_thread() is threading.main_thread():
+        for signum in STOP_SIGNALS:
+            signal.signal(signum, signal.SIG_IGN)
+
+
 @contextlib.contextmanager
 def held() -> Iterator[None]:
     """Hold SIGINT and SIGTERM back until the block ends, then act on them (the usual
