@@ -323,7 +323,7 @@ def _death_signal(_: int) -> int:
 
 @pytest.mark.skipif(not parallel.can_fork(), reason="workers are forked on Linux only")
 def test_every_worker_ends_when_its_parent_dies():
-    """Each forked worker asks for SIGTERM when its parent dies (PR_SET_PDEATHSIG): a parent
+    """Each forked worker asks for SIGKILL when its parent dies (PR_SET_PDEATHSIG): a parent
     killed by SIGKILL leaves no worker blocked on the pool's queue holding its stdout (issue
     29). The end-to-end check: tests/test_interrupt.py, a real SIGKILL."""
-    assert parallel.map_ordered(list(range(4)), _death_signal, jobs=2) == [signal.SIGTERM] * 4
+    assert parallel.map_ordered(list(range(4)), _death_signal, jobs=2) == [signal.SIGKILL] * 4

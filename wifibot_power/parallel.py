@@ -81,14 +81,21 @@ def _start_worker(threads: int, parent: int) -> None:
 
 
 def _stop_with_parent(parent: int) -> None:
-    """SIGTERM to this worker when its parent dies, however it dies (SIGKILL, a crash): no
-    worker is left re-parented to init, blocked forever on the pool's queue and holding the
-    parent's stdout open (issue 29: `timeout ... wbpower fit | cat` then never ended).
+    """SIGKILL to this worker when its parent dies without stopping it (SIGKILL, a crash):
+    no worker is left re-parented to init, blocked forever on the pool's queue and holding
+    the parent's stdout open (issue 29: `timeout ... wbpower fit | cat` then never ended).
     Linux's PR_SET_PDEATHSIG (prctl(2)), set by the worker itself; a parent that died before
-    it was set is seen by its pid (the worker's parent is then init or a subreaper)."""
+    it was set is seen by its pid (the worker's parent is then init or a subreaper).
+
+    SIGKILL, not SIGTERM: a worker stuck in C code (seen once in 200 runs of
+    benchmarks/soak_fit.py: a parent killed 0.28 s into `fit`, a worker still holding the
+    pipe 60 s later) never runs a Python handler. A parent that stops normally (Ctrl-C,
+    SIGTERM, an error) still stops its workers with SIGTERM first (`_stop_workers`), so
+    that they remove what they were writing; only an abnormal death of the parent, which
+    leaves its own temporary files too, leaves theirs."""
     try:
         libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
+        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
     except (OSError, AttributeError):  # pragma: no cover - not Linux: never forked there
         pass
     if os.getppid() != parent:
