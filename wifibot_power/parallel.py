@@ -87,9 +87,12 @@ def _stop_with_parent(parent: int) -> None:
     Linux's PR_SET_PDEATHSIG (prctl(2)), set by the worker itself; a parent that died before
     it was set is seen by its pid (the worker's parent is then init or a subreaper).
 
-    SIGKILL, not SIGTERM: a worker stuck in C code (seen once in 200 runs of
-    benchmarks/soak_fit.py: a parent killed 0.28 s into `fit`, a worker still holding the
-    pipe 60 s later) never runs a Python handler. A parent that stops normally (Ctrl-C,
+    SIGKILL, not SIGTERM: a SIGTERM handled in Python runs only once the main thread gets
+    back to Python, and the kernel may hand a process's signal to any of its threads. Seen
+    (once in 200 runs of benchmarks/soak_fit.py, and again in 1 of 60 kills 0.15-0.45 s into
+    `fit`): an orphaned worker with SIGTERM caught (/proc SigCgt) and nothing pending, both
+    of its threads blocked reading a pipe, the signal taken by the other thread, the main
+    thread's read never interrupted, stdout held forever. A parent that stops normally (Ctrl-C,
     SIGTERM, an error) still stops its workers with SIGTERM first (`_stop_workers`), so
     that they remove what they were writing; only an abnormal death of the parent, which
     leaves its own temporary files too, leaves theirs."""
