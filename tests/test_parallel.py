@@ -327,3 +327,32 @@ def test_every_worker_ends_when_its_parent_dies():
     killed by SIGKILL leaves no worker blocked on the pool's queue holding its stdout (issue
     29). The end-to-end check: tests/test_interrupt.py, a real SIGKILL."""
     assert parallel.map_ordered(list(range(4)), _death_signal, jobs=2) == [signal.SIGKILL] * 4
+
+
+def _blocked_in_other_threads() -> list[int]:
+    """SigBlk of every thread of this process but the main one (/proc)."""
+    masks = []
+    for task in Path("/proc/self/task").iterdir():
+        if int(task.name) == os.getpid():
+            continue
+        status = (task / "status").read_text()
+        masks.append(int(status.split("SigBlk:")[1].split()[0], 16))
+    return masks
+
+
+@pytest.mark.skipif(not parallel.can_fork(), reason="workers are forked on Linux only")
+def test_the_parents_other_threads_leave_ctrl_c_and_sigterm_to_the_main_thread():
+    """The kernel gives a process's signal to any thread that does not block it; one taken
+    by the pool's manager thread or the `beside` thread does not interrupt the main thread's
+    wait, which then acts on it only when the next file is done. Both block SIGINT and
+    SIGTERM (as pyarrow's threads would, started from them)."""
+    seen: list[list[int]] = []
+    parallel.map_ordered(
+        list(range(4)),
+        lambda k: time.sleep(0.2) or k,
+        jobs=2,
+        beside=lambda: seen.append(_blocked_in_other_threads()),
+    )
+    wanted = (1 << (signal.SIGINT - 1)) | (1 << (signal.SIGTERM - 1))
+    assert seen and len(seen[0]) >= 2  # the manager thread and `beside` at least
+    assert all(mask & wanted == wanted for mask in seen[0]), [hex(m) for m in seen[0]]

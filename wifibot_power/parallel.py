@@ -217,7 +217,12 @@ def map_ordered(
                     processes = list(pool._processes.values())  # noqa: SLF001
                 if beside is not None:  # every worker is forked by now (fork: all at once)
                     meanwhile = threading.Thread(target=beside, name="beside", daemon=True)
-                    meanwhile.start()
+                    # started with Ctrl-C and SIGTERM blocked, which it keeps (as the pool's
+                    # manager thread, started by the first submit above): the kernel gives
+                    # them to the main thread, whose wait they interrupt; one taken by
+                    # another thread would wait for the next file to finish
+                    with signals.blocked():
+                        meanwhile.start()
             else:
                 pending[pool.submit(_run_task, index)] = index
             if len(pending) >= 2 * workers:
