@@ -329,11 +329,15 @@ def test_every_worker_ends_when_its_parent_dies():
     assert parallel.map_ordered(list(range(4)), _death_signal, jobs=2) == [signal.SIGKILL] * 4
 
 
-def _blocked_in_other_threads() -> list[int]:
-    """SigBlk of every thread of this process but the main one (/proc)."""
+def _threads() -> set[str]:
+    return {task.name for task in Path("/proc/self/task").iterdir()}
+
+
+def _blocked_in_new_threads(before: set[str]) -> list[int]:
+    """SigBlk of each thread of this process not in `before` (/proc)."""
     masks = []
     for task in Path("/proc/self/task").iterdir():
-        if int(task.name) == os.getpid():
+        if task.name in before:
             continue
         status = (task / "status").read_text()
         masks.append(int(status.split("SigBlk:")[1].split()[0], 16))
@@ -347,11 +351,12 @@ def test_the_parents_other_threads_leave_ctrl_c_and_sigterm_to_the_main_thread()
     wait, which then acts on it only when the next file is done. Both block SIGINT and
     SIGTERM (as pyarrow's threads would, started from them)."""
     seen: list[list[int]] = []
+    before = _threads()  # (threads earlier tests left: pyarrow's pools, ...)
     parallel.map_ordered(
         list(range(4)),
         lambda k: time.sleep(0.2) or k,
         jobs=2,
-        beside=lambda: seen.append(_blocked_in_other_threads()),
+        beside=lambda: seen.append(_blocked_in_new_threads(before)),
     )
     wanted = (1 << (signal.SIGINT - 1)) | (1 << (signal.SIGTERM - 1))
     assert seen and len(seen[0]) >= 2  # the manager thread and `beside` at least

@@ -10,11 +10,13 @@ a few renames that must happen all or not at all.
 
 from __future__ import annotations
 
+import _thread
 import contextlib
 import signal
 import sys
 import threading
 from collections.abc import Iterator
+from types import FrameType
 
 #: the signals that stop a command cleanly
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -48,15 +50,45 @@ def interrupted(exc: BaseException) -> tuple[str, int]:
     return what, exit_code(exc)
 
 
-def _terminate(signum: int, frame: object) -> None:
-    raise Terminated()
+#: the code of Python's import machinery, as frames name it
+_IMPORT_MACHINERY = ("<frozen importlib._bootstrap>", "<frozen importlib._bootstrap_external>")
+#: seconds before a signal that came during an import is delivered again (`_stop`)
+_RETRY_S = 0.02
+
+
+def _importing(frame: FrameType | None) -> bool:
+    """Whether `frame` runs inside an import (a module's top level, or the import
+    machinery's own callbacks)."""
+    while frame is not None:
+        if frame.f_code.co_filename in _IMPORT_MACHINERY:
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _stop(signum: int, frame: FrameType | None) -> None:
+    """Ctrl-C or SIGTERM in the main thread: `KeyboardInterrupt` or `Terminated`, as
+    Python's own handler raises KeyboardInterrupt; but not inside an import. There the
+    exception may be raised in a weakref callback of the import machinery, where Python
+    prints it ("Exception ignored in") and swallows it, and the command goes on as if no
+    signal came (benchmarks/soak_fit.py saw `fit -o` write its set after a Ctrl-C that
+    way). The signal is delivered again a moment later (`_thread.interrupt_main`), until
+    it comes outside an import: the imports of a command take well under a second."""
+    if _importing(frame):
+        retry = threading.Timer(_RETRY_S, _thread.interrupt_main, args=(signum,))
+        retry.daemon = True
+        retry.start()
+        return
+    raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
 
 def install() -> None:
-    """SIGTERM raises `Terminated` in the main thread (from now on). Called first thing by
-    the command line; a library user keeps SIGTERM as it is."""
+    """Ctrl-C and SIGTERM raise `KeyboardInterrupt` and `Terminated` in the main thread,
+    never swallowed inside an import (`_stop`). Called first thing by the command line; a
+    library user keeps the handlers it has."""
     if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _terminate)
+        for signum in STOP_SIGNALS:
+            signal.signal(signum, _stop)
 
 
 def ignore() -> None:
