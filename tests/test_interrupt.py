@@ -375,3 +375,28 @@ def test_a_signal_inside_an_import_callback_is_not_swallowed(tmp_path: Path, nam
     )
     assert done.stdout.strip() == raised, done.stderr
     assert "Exception ignored" not in done.stderr
+
+
+def test_no_interrupt_is_raised_while_workers_are_forked() -> None:
+    """While `signals.blocked()` holds Ctrl-C back (workers being forked), a Ctrl-C that
+    still reaches the Python handler (taken by another thread, or `interrupt_main`) is not
+    raised there, half-way through the forks: it comes once the block ends."""
+    import _thread
+
+    from wifibot_power import signals
+
+    saved = {s: signal.getsignal(s) for s in signals.STOP_SIGNALS}
+    signals.install()
+    try:
+        inside = []
+        with pytest.raises(KeyboardInterrupt):
+            with signals.blocked():
+                _thread.interrupt_main(signal.SIGINT)
+                for _ in range(50):  # bytecode on which the handler runs
+                    time.sleep(0.002)
+                inside.append("the block ran to its end")
+            time.sleep(2)  # the Ctrl-C comes here
+        assert inside == ["the block ran to its end"]
+    finally:
+        for signum, handler in saved.items():
+            signal.signal(signum, handler)

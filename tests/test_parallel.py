@@ -361,3 +361,44 @@ def test_the_parents_other_threads_leave_ctrl_c_and_sigterm_to_the_main_thread()
     wanted = (1 << (signal.SIGINT - 1)) | (1 << (signal.SIGTERM - 1))
     assert seen and len(seen[0]) >= 2  # the manager thread and `beside` at least
     assert all(mask & wanted == wanted for mask in seen[0]), [hex(m) for m in seen[0]]
+
+
+@pytest.mark.skipif(not parallel.can_fork(), reason="workers are forked on Linux only")
+def test_an_interrupt_after_the_forks_but_before_the_pool_knows_them_stops_them(monkeypatch):
+    """A Ctrl-C that lands inside the first submit, once the workers are forked but before
+    the pool's manager thread starts (soak_fit.py: the parent then waited at exit for its
+    idle workers forever): every forked worker is stopped all the same."""
+    from concurrent.futures import process
+
+    forked: list[int] = []
+
+    def interrupted_start(self):
+        self._launch_processes()
+        forked.extend(self._processes)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(
+        process.ProcessPoolExecutor, "_start_executor_manager_thread", interrupted_start
+    )
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            parallel.map_ordered(list(range(4)), lambda k: k, jobs=2)
+        assert len(forked) == 2
+        deadline = time.monotonic() + 5
+        alive = forked
+        while alive and time.monotonic() < deadline:
+            alive = [pid for pid in forked if _alive(pid)]
+            time.sleep(0.05)
+        assert alive == [], "forked workers left running"
+    finally:
+        for pid in forked:
+            if _alive(pid):
+                os.kill(pid, signal.SIGKILL)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"

@@ -139,6 +139,18 @@ def _run_task(index: int) -> object:
         _IN_TASK = False
 
 
+def _forked(
+    pool: ProcessPoolExecutor, known: list[multiprocessing.process.BaseProcess]
+) -> list[multiprocessing.process.BaseProcess]:
+    """Every worker the pool has forked, also when the first submit (which forks them all)
+    was interrupted before they were known: stopped, or idle workers would be waited for
+    at exit forever (the pool's manager thread, which tells them to end, may not have been
+    started; seen in benchmarks/soak_fit.py)."""
+    forked = dict.fromkeys(known)
+    forked.update(dict.fromkeys((pool._processes or {}).values()))  # noqa: SLF001
+    return list(forked)
+
+
 def _stop_workers(processes: list[multiprocessing.process.BaseProcess]) -> None:
     """Stop the workers now: SIGTERM (each unwinds its task and exits), then SIGKILL for any
     still running after `STOP_GRACE_S` (stuck in a long C call)."""
@@ -238,7 +250,7 @@ def map_ordered(
                 if next_index is not None:
                     pending[pool.submit(_run_task, next_index)] = next_index
     except BrokenProcessPool:
-        _stop_workers(processes)
+        _stop_workers(_forked(pool, processes))
         raise WbpowerError(
             "a worker process died (killed for lack of memory?)",
             fix="run again with --jobs 1, or with fewer jobs",
@@ -246,7 +258,7 @@ def map_ordered(
     except BaseException:
         # Ctrl-C (KeyboardInterrupt), SIGTERM (`signals.Terminated`), or an error a task
         # raised: no worker is left behind
-        _stop_workers(processes)
+        _stop_workers(_forked(pool, processes))
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)

@@ -73,8 +73,12 @@ def _stop(signum: int, frame: FrameType | None) -> None:
     prints it ("Exception ignored in") and swallows it, and the command goes on as if no
     signal came (benchmarks/soak_fit.py saw `fit -o` write its set after a Ctrl-C that
     way). The signal is delivered again a moment later (`_thread.interrupt_main`), until
-    it comes outside an import: the imports of a command take well under a second."""
-    if _importing(frame):
+    it comes outside an import: the imports of a command take well under a second.
+
+    Likewise while the main thread blocks these signals (`blocked`: workers being forked,
+    which must not be left half-made): such a delivery comes through another thread, or
+    through `_thread.interrupt_main`, not through the main thread's own signal mask."""
+    if _importing(frame) or signum in signal.pthread_sigmask(signal.SIG_BLOCK, []):
         retry = threading.Timer(_RETRY_S, _thread.interrupt_main, args=(signum,))
         retry.daemon = True
         retry.start()
