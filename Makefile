@@ -4,7 +4,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 WBPOWER := $(VENV)/bin/wbpower
 
-.PHONY: demo test lint bench sample-logs docs-figures clean
+.PHONY: demo test lint bench bench-jls sample-logs docs-figures clean
 
 # The oldest Python wbpower runs on (pyproject.toml: requires-python).
 MIN_PYTHON ?= 3.11
@@ -30,7 +30,8 @@ $(VENV)/.installed: pyproject.toml $(if $(VENV_OK),,venv-stale)
 	fi
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV_FLAGS) $(VENV)
 	$(PIP_INSTALL) --upgrade pip
-	$(PIP_INSTALL) -e '.[dev]'
+	@# ros, jls: the optional readers of bags and Joulescope recordings, tested by `make test`
+	$(PIP_INSTALL) -e '.[dev,ros,jls]'
 	@# an editable install compiles no bytecode, and where PYTHONDONTWRITEBYTECODE is set
 	@# every start would compile wifibot_power again (~80 ms): compiled here, as pip does
 	@# for a regular install (a module edited since is compiled from its source, as ever)
@@ -60,6 +61,12 @@ lint: $(VENV)/.installed
 BENCH_ARGS ?=
 bench: $(VENV)/.installed
 	$(PY) benchmarks/run.py $(BENCH_ARGS)
+	$(MAKE) bench-jls
+
+# a 100 M-sample Joulescope recording (828 MB, written once into the corpus folder) inspected
+# and segmented: throughput, peak memory, energy against the full-rate sum (~1 min)
+bench-jls: $(VENV)/.installed
+	$(PY) benchmarks/jls_long.py
 
 # Regenerates sample_logs/ exactly as committed (see sample_logs/README.md).
 sample-logs: $(VENV)/.installed

@@ -19,21 +19,22 @@ FIT_STAGES = {
     "read_log": ("reader.py", "read_log"),
     "  CSV parse to numpy (read_columns)": ("transport.py", "read_columns"),
     "  sample checks (check_samples)": ("validate.py", "check_samples"),
-    "segmentation (segment_run)": ("segment.py", "segment_run"),
+    "segmentation (segment_run)": ("segment/__init__.py", "segment_run"),
     "run_row": ("runtable.py", "run_row"),
-    "fit of the run rows (fit_gathered)": ("fit.py", "fit_gathered"),
+    "fit of the run records (fit_records)": ("fit.py", "fit_records"),
 }
 DIAGNOSE_STAGES = {
-    "diagnose_logs (whole, 1 job)": ("diagnose.py", "diagnose_logs"),
+    "diagnose_logs (whole, 1 job)": ("diagnose/batch.py", "diagnose_logs"),
     "read_log": ("reader.py", "read_log"),
     "  CSV parse to numpy (read_columns)": ("transport.py", "read_columns"),
     "  sample checks (check_samples)": ("validate.py", "check_samples"),
-    "per run (summarize_run)": ("diagnose.py", "summarize_run"),
-    "  segmentation (segment_run)": ("segment.py", "segment_run"),
-    "  trace statistics (trace_stats)": ("traces.py", "trace_stats"),
-    "  causes' run statistics (run_columns)": ("", "run_columns"),
+    "per run (run_record)": ("record.py", "run_record"),
+    "  segmentation (segment_run)": ("segment/__init__.py", "segment_run"),
+    # until issue 24, "trace statistics (trace_stats)" and "causes' run statistics
+    # (run_columns)": now every cause's, windows, spectrum and creep alike
+    "  causes' run statistics (run_statistics)": ("causes/registry.py", "run_statistics"),
     "  run_row": ("runtable.py", "run_row"),
-    "statistics over runs (diagnose_summaries)": ("diagnose.py", "diagnose_summaries"),
+    "statistics over runs (diagnose_summaries)": ("diagnose/diagnosis.py", "diagnose_summaries"),
 }
 
 PROFILE = r"""
@@ -73,7 +74,7 @@ _MODULES = {
     "reader.py": "wifibot_power.io.reader",
     "transport.py": "wifibot_power.io.transport",
     "validate.py": "wifibot_power.io.validate",
-    "segment.py": "wifibot_power.segment",
+    "segment/__init__.py": "wifibot_power.segment",
     "runtable.py": "wifibot_power.runtable",
 }
 #: stage label -> (module, function) timed by `timed_shares`, CPU time, no profiler: the

@@ -141,20 +141,40 @@ def compare(old: dict[str, dict], new: dict[str, dict]) -> int:
 
 def load_before(rev: str, tmp: Path) -> ModuleType:
     """`wifibot_power.segment` at git revision `rev`, as a package of its own (`_before`):
-    its segment, changepoint and phases modules; the rest (io, run, errors) shared."""
+    its segment (a module, or since the split a package), changepoint and phases modules;
+    the rest (io, run, errors) shared."""
     package = tmp / "_before"
     package.mkdir()
     (package / "__init__.py").write_text("")
-    for name in ("segment", "changepoint", "phases"):
+    listed = subprocess.run(
+        ["git", "-C", str(ROOT), "ls-tree", "-r", "--name-only", rev, "wifibot_power/"],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout.split()
+    own = ("segment", "changepoint", "phases")
+    files = [
+        name
+        for name in listed
+        if name.endswith(".py")
+        and (
+            name.startswith("wifibot_power/segment/")
+            or name in [f"wifibot_power/{o}.py" for o in own]
+        )
+    ]
+    for name in files:
         text = subprocess.run(
-            ["git", "-C", str(ROOT), "show", f"{rev}:wifibot_power/{name}.py"],
+            ["git", "-C", str(ROOT), "show", f"{rev}:{name}"],
             check=True,
             capture_output=True,
             text=True,
         ).stdout
-        for own in ("segment", "changepoint", "phases"):
-            text = text.replace(f"wifibot_power.{own} ", f"_before.{own} ")
-        (package / f"{name}.py").write_text(text)
+        for module in own:
+            text = text.replace(f"wifibot_power.{module} ", f"_before.{module} ")
+        text = text.replace("wifibot_power.segment.", "_before.segment.")
+        target = package / name.removeprefix("wifibot_power/")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_text(text)
     sys.path.insert(0, str(tmp))
     spec = importlib.util.find_spec("_before.segment")
     assert spec is not None

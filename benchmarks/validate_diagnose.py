@@ -70,7 +70,7 @@ def case(args: tuple[str, tuple[str, ...], int, dict[str, float]]) -> dict:
         "gain_pct": result.gain_pct,
         # the same causes chosen on all runs, only their fit held out (the pre-nesting figure)
         "gain_fixed_pct": diagnose.gain_pct(result.baseline_rmse_J, result.extended_fixed_rmse_J),
-        "notes": [n for n in result.notes if n.startswith("held-out fold")],
+        "notes": [n.text for n in result.notes if n.kind == diagnose.FOLD],
         "reasons": list(result.unexplained_reasons),
         "ceiling_pct": diagnose.gain_pct(
             result.baseline_rmse_J, irreducible_rmse_J(sims, config.robot.idle_W)

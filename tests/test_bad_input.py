@@ -97,10 +97,34 @@ ERRORS: list[tuple[str, str | bytes, tuple[str, ...]]] = [
         log("0.0000000,-23.3\n0.0001024,-5.0\n0.0002048,1.0\n"),
         ("negative most of the time", "--flip-current"),
     ),
+    # absurd power is judged against the log's own robot, never a fixed ceiling (log-format.md)
     (
-        "absurd_power",
-        log("0.0000000,23.3\n0.0001024,2000\n"),
-        ("line 6", "absurd power", "mA vs A"),
+        "over_max_power",
+        HEAD + "# max_power_W: 500\ntime_s,power_W\n0.0000000,23.3\n0.0001024,2000\n",
+        ("line 7", "over the robot's max_power_W 500 W", "metadata line 4", "raise max_power_W"),
+    ),
+    (
+        "power_mW_in_a_column_named_W",
+        log(
+            "0.0000000,12.0,2.0,24000\n0.0001024,12.0,2.1,25200\n",
+            "time_s,voltage_V,current_A,power_W",
+        ),
+        ("column 'power_W'", "1e+03 times the voltage x current", "mW in a column named W"),
+    ),
+    (
+        "current_mA_in_a_column_named_A",
+        log("0.0000000,12.0,1800\n0.0001024,12.0,1900\n", "time_s,voltage_V,current_A"),
+        ("column 'current_A'", "median 1850 A", "mA in a column named A"),
+    ),
+    (
+        "voltage_mV_in_a_column_named_V",
+        log("0.0000000,12000,1.8\n0.0001024,12000,1.9\n", "time_s,voltage_V,current_A"),
+        ("column 'voltage_V'", "not volts", "mV in a column named V"),
+    ),
+    (
+        "power_mW_beside_its_voltage",
+        log("0.0000000,12.0,24000\n0.0001024,12.0,25000\n", "time_s,voltage_V,power_W"),
+        ("column 'power_W'", "A at the 12 V logged beside it", "mW in a column named W"),
     ),
     (
         "decimal_comma_with_comma_separator",
@@ -299,7 +323,7 @@ def test_unambiguous_variants_are_read(tmp_path, wbpower, case, data):
     path.write_bytes(data)
     result = wbpower("inspect", "--json", path)
     assert result.exit_code == 0, result.stderr
-    (row,) = json.loads(result.stdout)
+    (row,) = json.loads(result.stdout)["logs"]
     assert row["samples"] == 3 and row["meta"]["mode"] == "idle" and row["run_id"] == "t"
     run = read_log(path)
     # decimal text parses to the nearest double: exact equality with the same literals
@@ -317,7 +341,14 @@ def test_cut_last_line_is_bad_input(tmp_path, wbpower):
     path = tmp_path / "cut.csv"
     path.write_text(log("0.0000000,23.3102\n0.0001024,23.3102\n0.0002048,23.3"))
     result = wbpower("inspect", "--json", path)
-    assert result.exit_code == 2 and result.stdout == ""
+    # cli.md: --json prints its one document also on failure, the error in it
+    assert result.exit_code == 2
+    assert json.loads(result.stdout) == {
+        "logs": [],
+        "skipped": [],
+        "warnings": [],
+        "error": result.stderr.strip().removeprefix("wbpower: error: "),
+    }
     (message,) = result.stderr.splitlines()
     assert message.startswith(f"wbpower: error: {path}: line 7: the last line has no line end")
     assert "delete it to read the rest" in message
@@ -328,7 +359,7 @@ def test_cut_last_line_is_bad_input(tmp_path, wbpower):
     good.write_text(log("0.0000000,23.3102\n0.0001024,23.3102\n0.0002048,23.3102\n"))
     batch = wbpower("inspect", "--json", tmp_path)
     assert batch.exit_code == 1
-    assert [row["file"] for row in json.loads(batch.stdout)] == [str(good)]
+    assert [row["file"] for row in json.loads(batch.stdout)["logs"]] == [str(good)]
     assert f"{path}: line 7: the last line has no line end" in batch.stderr
 
 
@@ -342,7 +373,7 @@ def test_short_gap_is_reported_and_the_rest_analysed(tmp_path, wbpower):
     path.write_text(log(text))
     result = wbpower("inspect", "--json", path)
     assert result.exit_code == 0, result.stderr
-    (row,) = json.loads(result.stdout)
+    (row,) = json.loads(result.stdout)["logs"]
     assert row["samples"] == 995
     assert row["sample_period_s"] == PERIOD_S  # the median step, not thrown by the gap
     assert row["problems"] == ["line 55: 0.512 ms of samples dropped after t = 0.0050176 s"]
@@ -441,7 +472,7 @@ def test_noise_free_levels_are_not_called_clipping(tmp_path, wbpower):
     path.write_text(log(rows(power_W)))
     result = wbpower("inspect", "--json", path)
     assert result.exit_code == 0, result.stderr
-    assert json.loads(result.stdout)[0]["problems"] == []
+    assert json.loads(result.stdout)["logs"][0]["problems"] == []
 
 
 # -- manifest rows ------------------------------------------------------------------------
@@ -459,7 +490,7 @@ def test_manifest_row_naming_a_missing_file(tmp_path, wbpower):
     (tmp_path / "runs.csv").write_text("file,run_id,mode\na.csv,a,idle\ngone.csv,g,idle\n")
     result = wbpower("inspect", "--json", tmp_path)
     assert result.exit_code == 1
-    assert [r["run_id"] for r in json.loads(result.stdout)] == ["a"]
+    assert [r["run_id"] for r in json.loads(result.stdout)["logs"]] == ["a"]
     assert (
         f"{tmp_path / 'runs.csv'}: line 3: names 'gone.csv', which does not exist" in result.stderr
     )
@@ -482,7 +513,7 @@ def test_manifest_contradictions_name_the_row(tmp_path, wbpower, row, needle):
     assert f"{manifest} line 2" in message
     # the folder: the file is skipped (exit 1), naming the row too
     result = wbpower("inspect", "--json", tmp_path)
-    assert result.exit_code == 1 and json.loads(result.stdout) == []
+    assert result.exit_code == 1 and json.loads(result.stdout)["logs"] == []
     assert f"{manifest} line 2" in result.stderr and needle in result.stderr
 
 
@@ -513,7 +544,7 @@ def test_batch_processes_good_files_and_lists_each_bad_one(tmp_path, wbpower):
     (tmp_path / "notes.md").write_text("not a log, not a .csv: ignored\n")
     result = wbpower("inspect", "--json", tmp_path)
     assert result.exit_code == 1
-    rows_out = json.loads(result.stdout)  # the JSON document stays the list of cli.md
+    rows_out = json.loads(result.stdout)["logs"]  # the JSON document stays the list of cli.md
     assert sorted(r["run_id"] for r in rows_out) == ["good1", "good2"]
     skipped_lines = [ln for ln in result.stderr.splitlines() if ln.startswith("wbpower: skipped:")]
     assert len(skipped_lines) == 4
@@ -528,7 +559,7 @@ def test_several_named_files_are_a_batch(tmp_path, wbpower):
     bad.write_text("")
     result = wbpower("inspect", "--json", good, bad)
     assert result.exit_code == 1
-    assert [r["run_id"] for r in json.loads(result.stdout)] == ["good"]
+    assert [r["run_id"] for r in json.loads(result.stdout)["logs"]] == ["good"]
     assert f"{bad}: the file is empty" in result.stderr
 
 
@@ -545,7 +576,7 @@ def test_n6705_dropped_samples_show_as_gaps_in_the_sample_index(tmp_path, wbpowe
     )
     result = wbpower("inspect", "--json", path)
     assert result.exit_code == 0, result.stderr
-    (row,) = json.loads(result.stdout)
+    (row,) = json.loads(result.stdout)["logs"]
     assert row["samples"] == 997 and row["sample_period_s"] == 0.001
     assert row["problems"] == ["line 508: 3 ms of samples dropped after t = 0.499 s"]
 

@@ -18,7 +18,7 @@ from hypothesis.extra import numpy as hnp
 from wifibot_power import cache as cache_module
 from wifibot_power.cache import ParseCache
 from wifibot_power.errors import LogError, UsageError
-from wifibot_power.fit import fit_logs
+from wifibot_power.fit import FitResult, fit_logs
 from wifibot_power.io import ReadOptions, read_log, reader
 from wifibot_power.run import Run, RunMeta
 
@@ -311,7 +311,9 @@ def test_fit_with_cache_same_result_cold_and_warm(tmp_path: Path, wbpower, monke
         assert_same_fit(fit_logs([corpus], jobs=jobs, cache=cache), plain)
     warm = wbpower("fit", corpus, "--json", "--cache", tmp_path / "cache")
     assert warm.exit_code == 0, warm.stderr
-    assert json.loads(warm.stdout) == json.loads(json.dumps(plain.summary()))
+    document = json.loads(warm.stdout)
+    assert document.pop("error") is None  # cli.md: every --json document has it
+    assert document == json.loads(json.dumps(plain.summary()))
 
 
 def test_fit_kept_results_follow_the_content(tmp_path: Path, settled) -> None:
@@ -357,7 +359,6 @@ def test_kept_fit_is_the_fit(tmp_path: Path, shape: dict) -> None:
     """What `fit --cache` keeps of a fit reads back to the same result, field by field: the
     `fit --json` document, the paper table, the model, every stop-and-go row, what was
     skipped, noted and warned."""
-    from wifibot_power.fit import _fit_from_json, _fit_to_json
     from wifibot_power.simulate import SimConfig, WriteOptions, write_simulation
 
     config = SimConfig(
@@ -374,12 +375,12 @@ def test_kept_fit_is_the_fit(tmp_path: Path, shape: dict) -> None:
     write_simulation(config, folder, WriteOptions(columns="full"))
     (folder / "broken.csv").write_text("# mode: idle\npower_W\n23.1\nabc\n")
     fit = fit_logs([folder], jobs=1)
-    back = _fit_from_json(json.loads(_json(_fit_to_json(fit))), fit.tables)
+    back = FitResult.from_json(json.loads(_json(fit.to_json())), fit.tables)
     assert back.summary() == fit.summary()
     assert back.to_markdown() == fit.to_markdown()
     assert _json(back.table_rows()) == _json(fit.table_rows())
     assert _json(back.model.to_json()) == _json(fit.model.to_json())
-    assert _json(_fit_to_json(back)) == _json(_fit_to_json(fit))
+    assert _json(back.to_json()) == _json(fit.to_json())
     assert back.skipped == fit.skipped and back.skipped
     assert back.warnings == fit.warnings and back.warnings
     assert back.model_complete == fit.model_complete
@@ -393,18 +394,18 @@ def test_warm_fit_is_kept_and_follows_every_input(tmp_path: Path, settled, monke
     """A warm `fit_logs` whose runs are all unchanged takes the fit from the cache (it does
     not fit again); a changed log, another `keep_doubtful`, another folder fit again, and
     every answer is the uncached one."""
-    from wifibot_power import fit as fit_module
+    from wifibot_power.models.paper import PaperFamily
 
     corpus = _corpus(tmp_path / "logs", trips=((2.0, 1), (2.0, 2)))
     cache = ParseCache(tmp_path / "cache")
     fits: list[int] = []
-    real = fit_module.fit_rows
+    real = PaperFamily.fit
 
     def counting(*args, **kwargs):
         fits.append(1)
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(fit_module, "fit_rows", counting)
+    monkeypatch.setattr(PaperFamily, "fit", counting)
     plain = fit_logs([corpus], jobs=1)
     assert len(fits) == 1
     assert_same_fit(fit_logs([corpus], jobs=1, cache=cache), plain)  # fills the cache
@@ -442,7 +443,7 @@ def test_broken_kept_fit_is_fitted_again(tmp_path: Path, settled) -> None:
     fit_logs([corpus], jobs=1, cache=cache)
     (kept,) = (tmp_path / "cache").glob("*.batch.json")
     document = json.loads(kept.read_text())
-    del document["result"]["model"]["accel"]  # another layout, or a file cut short
+    del document["result"]["fits"]["paper"]["model"]["accel"]  # another layout, or cut short
     kept.write_text(json.dumps(document))
     assert_same_fit(fit_logs([corpus], jobs=1, cache=cache), plain)
     kept.write_text(kept.read_text()[:100])
@@ -502,7 +503,7 @@ print(json.dumps({"loaded": loaded, "worked_on": len(started)}), file=sys.stderr
 
 #: What a warm `fit --json --cache` must not import, and why (measured with `-X importtime`
 #: on this 2-core machine; docs/benchmarks.md, "Warm cache"): numpy (~0.1 s, the largest
-#: part of a warm run: the fit itself is kept, `fit._fit_batch`, so nothing is computed on
+#: part of a warm run: the fit itself is kept, `pipeline.batch_key`, so nothing is computed on
 #: arrays) and the numerics (`stats`, `energy`, the causes), pandas, scipy, pyarrow (~0.8 s
 #: together; the reader: `io.reader`), the segmenter and run table (only for a file worked
 #: on), matplotlib (only a figure needs it), pydantic (typer >= 0.29 coerces options through
@@ -558,7 +559,9 @@ def test_warm_fit_forks_no_worker_and_loads_no_parser(tmp_path: Path) -> None:
             text=True,
             check=True,
         )
-        return json.loads(done.stdout), json.loads(done.stderr.strip().splitlines()[-1])
+        document = json.loads(done.stdout)
+        assert document.pop("error") is None  # cli.md: every --json document has it
+        return document, json.loads(done.stderr.strip().splitlines()[-1])
 
     cold_summary, cold = run("spy")
     warm_summary, warm = run("spy")

@@ -14,7 +14,7 @@ from test_diagnose import GRID  # noqa: E402  (the grid every diagnose test runs
 from wifibot_power import diagnose
 from wifibot_power.causes import CAUSES, RunTable
 from wifibot_power.causes.base import CHECK_ALPHA
-from wifibot_power.causes.extended import fit_model
+from wifibot_power.diagnose.extended import fit_model
 from wifibot_power.simulate import SimConfig, simulate_runs
 
 

@@ -135,7 +135,9 @@ def test_lifetime_sweeps(tmp_path, sweep, n_rows):
 
 
 def test_lifetime_table():
-    result = run("lifetime", "--rate", "54", "--embedded-scale", "0.5", "--e0b", "2e5")
+    # --wide: headers whole on one line (a pipe is 80 columns: "gain" / "%" otherwise)
+    args = ("--rate", "54", "--embedded-scale", "0.5", "--e0b", "2e5", "--wide")
+    result = run("lifetime", *args)
     assert result.exit_code == 0 and "gain %" in result.stdout
 
 

@@ -13,7 +13,6 @@ import pytest
 from contract import RUNS_PARQUET_COLUMNS
 from typer.testing import CliRunner
 
-from wifibot_power import fit as fit_module
 from wifibot_power.cli import app
 from wifibot_power.model import load_model
 from wifibot_power.phases import Phase, Segmentation
@@ -58,7 +57,7 @@ def truth_segments(logs, monkeypatch):
             )
         return Segmentation(run.meta.run_id, tuple(phases))
 
-    monkeypatch.setattr(fit_module, "_default_segmenter", lambda: segment)
+    monkeypatch.setattr("wifibot_power.segment.segment_run", segment)  # the default segmenter
     return truth
 
 
@@ -89,7 +88,7 @@ def test_json_contract_and_exit_0(logs, truth_segments):
 
 
 def test_table_shows_paper_values_and_silent_stderr(logs, truth_segments):
-    result = invoke(logs)
+    result = invoke(logs, "--wide")  # headers whole on one line (a pipe is 80 columns)
     assert result.exit_code == 0
     for text in ("P_acc slope", "14.8", "P_v intercept", "23.9", "network", "4.4", "n runs"):
         assert text in result.stdout

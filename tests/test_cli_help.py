@@ -3,6 +3,7 @@ cut "energy ... (paper Eq." mid-phrase), and an Examples block whose examples pa
 
 from __future__ import annotations
 
+import re
 import shlex
 
 import pytest
@@ -58,3 +59,46 @@ def test_every_example_parses(command, args):
     group = typer.main.get_command(app)
     with group.commands[command].make_context(command, shlex.split(args)) as context:
         assert context.params
+
+
+def _option_blocks(text: str) -> dict[str, str]:
+    """Each option's help: its line and the lines folded under it."""
+    blocks: dict[str, str] = {}
+    name = None
+    for line in text.splitlines():
+        found = re.match(r"^  (?:-\w, )?(--[\w-]+)", line)
+        if found:
+            name = found.group(1)
+            blocks[name] = line
+        elif name and line.startswith("    "):
+            blocks[name] += " " + line.strip()
+        else:
+            name = None
+    return blocks
+
+
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_help_shows_plain_placeholders(command):
+    """`--speed NUMBER`, `-o DIR`, `PATH...`: never typer's `<float range>`, `<str>`,
+    `<path>` or `{paths}...` (issue 28)."""
+    text = _help(command).replace("<plugin>", "")  # export's help names Gazebo's element
+    assert not re.search(r"<[a-z][a-z ]*>|\{[a-z_]+\}", text), text
+    for option, block in _option_blocks(text).items():
+        if option in ("-o", "--out"):
+            assert re.match(r"^  -o, --out (DIR|FILE) ", block), block
+
+
+@pytest.mark.parametrize(
+    ("option", "unit"), [("--supply-voltage", "V"), ("--max-power", "W"), ("--sample-period", "S")]
+)
+def test_help_shows_the_bound_that_is_enforced(wbpower, tmp_path, option, unit):
+    """0 is refused (it is no voltage, no power limit, no period): the help says > 0, never
+    typer's `[x>=0.0]`."""
+    block = _option_blocks(_help("fit"))[option]
+    assert block.startswith(f"  {option} {unit} ") and "> 0" in block, block
+    assert "x>=0" not in block, block
+    log = tmp_path / "a.csv"
+    log.write_text("time_s,current_A\n0,1\n0.001,1\n")
+    volts = [] if option == "--supply-voltage" else ["--supply-voltage", "12"]
+    result = wbpower("inspect", log, option, "0", *volts)
+    assert result.exit_code == 2 and option in result.stderr, result.stderr

@@ -23,7 +23,7 @@ def test_inspect_out_writes_a_row_per_log_with_the_json_keys(wbpower, tmp_path):
     out = tmp_path / "out"
     result = wbpower("inspect", *LOGS, "-o", out, "--json")
     assert result.exit_code == 0, result.stderr
-    rows = json.loads(result.stdout)
+    rows = json.loads(result.stdout)["logs"]
     table = pd.read_parquet(out / "logs.parquet")
     assert sorted(p.name for p in out.iterdir()) == ["logs.parquet"]
     assert list(table.columns)[:8] == [
@@ -76,6 +76,7 @@ def test_segment_out_writes_phases_with_run_id_and_doubts(wbpower, tmp_path):
         "mean_power_W",
         "energy_J",
         "speed_mps",
+        "yaw_rate_radps",
         "doubts",
     ]
     assert len(phases) == len(doc["phases"]) > 0

@@ -84,6 +84,7 @@ _COMMAND_ARGS = {
     "diagnose": [str(SAMPLE_LOGS)],
     "simulate": ["-o", "unused"],
     "report": [str(SAMPLE_LOGS), "-o", "unused"],
+    "export": ["--model", "model.json", "--to", "rmf"],
 }
 
 

@@ -67,7 +67,7 @@ def _run(args: list[str], width: int, monkeypatch) -> str:
 def _inspect(doc) -> list[float]:
     return [
         v
-        for row in doc
+        for row in doc["logs"]
         for v in (
             row["samples"],
             row["sample_period_s"] * 1e3,
@@ -213,3 +213,91 @@ def test_wide_puts_every_column_in_one_table(monkeypatch):
     assert text.count("Relay lifetime") == 1 and "(1/2)" not in text
     narrow = _run(["lifetime", "--rate", "100"], 80, monkeypatch)
     assert "(1/2)" in narrow and "(2/2)" in narrow
+
+
+# -- piped output: COLUMNS honoured, 80 columns when it is not set (issue 28) ----------------
+PIPED = {
+    "inspect": ["inspect", str(SAMPLE_LOGS)],
+    "fit": ["fit", str(SAMPLE_LOGS), "-j", "2"],
+    "diagnose": ["diagnose", str(SAMPLE_LOGS), "-j", "2"],
+    "energy": ["energy", "--speed", "0.8", "--dist", "10", "--steps", "10"],
+    "energy-sweep": ["energy", "--sweep", "speed"],
+    "lifetime": ["lifetime", "--rate", "100"],
+    "lifetime-sweep": ["lifetime", "--rate", "54", "--sweep", "e0b"],
+}
+
+
+def _piped(args: list[str], columns: str | None) -> str:
+    """`wbpower ARGS | cat`: stdout a pipe, COLUMNS as given (unset: None)."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
+    if columns is not None:
+        env["COLUMNS"] = columns
+    done = subprocess.run(
+        [sys.executable, "-m", "wifibot_power", *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        stdin=subprocess.DEVNULL,
+        timeout=600,
+    )
+    assert done.returncode in (0, 1), done.stderr
+    return done.stdout
+
+
+@pytest.mark.parametrize("case", list(PIPED))
+def test_piped_output_fits_80_columns_and_cuts_no_number(case):
+    if not ONE_LOG.is_file():
+        pytest.skip("sample_logs/ is not there (made by 'make sample-logs')")
+    args = PIPED[case]
+    wide = _piped([*args, "--wide"], "80")
+    texts = {}
+    for columns, width in (("80", 80), (None, 80), ("100", 100)):
+        text = texts[columns] = _piped(args, columns)
+        assert "…" not in text
+        too_long = [line for line in text.splitlines() if len(line) > width]
+        assert not too_long, f"{case}, COLUMNS={columns}: {too_long[:2]}"
+        missing = _numbers(wide) - _numbers(text)
+        assert not missing, f"{case}, COLUMNS={columns} lost {dict(missing)}:\n{text}"
+    assert texts[None] == texts["80"]  # 80 columns when COLUMNS is not set
+    if max(map(len, wide.splitlines())) > 80:  # COLUMNS is used, not a fixed width
+        assert texts["100"] != texts["80"]
+
+
+def test_names_are_never_broken_mid_word(precomputed, monkeypatch):
+    """inspect at 50 columns: the table is split, each file name stays whole on its line; and
+    a listing of many logs of one kind is a line per log (what they share said once)."""
+    text = _run(["inspect", str(SAMPLE_LOGS)], 50, monkeypatch)
+    names = sorted(p.name for p in SAMPLE_LOGS.glob("*.csv.gz"))
+    assert len(names) > 80
+    for name in names:
+        assert re.search(rf"│ {re.escape(name)} +│", text), name
+    wide80 = _run(["inspect", str(SAMPLE_LOGS)], 80, monkeypatch)
+    assert len(wide80.splitlines()) <= len(names) + 8, len(wide80.splitlines())
+    assert "format: wbpower-csv" in wide80 and "run_id: the file's name" in wide80
+
+
+def test_a_name_column_is_never_narrower_than_its_longest_word():
+    """Laid out at 60 columns, a file name column with numbers beside it: the numbers move to
+    a second table rather than the names being broken across lines ("v0.10_d10_s10_" /
+    "r1.csv.gz", issue 28)."""
+    from rich.console import Console
+
+    from wifibot_power.cli.tables import Col, tables
+
+    names = [f"v0.{k}0_d10_s10_r{k}.csv.gz" for k in range(1, 8)]
+    cols = (Col("file", "text", key=True), *(Col(f"value {k}") for k in range(5)))
+    rows = [[name, *(f"{1234.5678 * k:.4f}" for k in range(5))] for name in names]
+    console = Console(width=60, record=True, file=open("/dev/null", "w"))  # noqa: SIM115
+    for table in tables("t", cols, rows, width=60):
+        console.print(table)
+    text = console.export_text()
+    assert all(len(line) <= 60 for line in text.splitlines())
+    parts = len(re.findall(r"^t \(\d/\d\)", text, re.MULTILINE))
+    assert parts >= 2  # the layout was tight: the numbers moved, not the names broken
+    for name in names:
+        assert text.count(f"│ {name} ") == parts, name  # whole, in every part
+    assert _numbers(" ".join(" ".join(row[1:]) for row in rows)) <= _numbers(text)

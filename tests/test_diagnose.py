@@ -165,7 +165,7 @@ def test_a_ripple_too_small_to_name_is_a_note_not_unexplained():
     result, _ = _diagnose({"cruise_ripple": 0.1}, 61)
     assert result.findings == ()
     assert not result.unexplained, result.unexplained_reasons
-    assert any(n.startswith("cruise_ripple") for n in result.notes)
+    assert any(n.text.startswith("cruise_ripple") for n in result.notes)
 
 
 def test_a_heldout_run_does_not_change_its_own_baseline_prediction():
@@ -198,6 +198,7 @@ def test_a_heldout_fold_never_sees_the_causes_chosen_because_of_it(monkeypatch):
     one marked run is among the runs it chooses from; the marked run's fold must then be
     predicted without it, and every other fold with it."""
     from wifibot_power import diagnose
+    from wifibot_power.diagnose import selection
 
     runs = [s.run for s in simulate_runs(SimConfig(**GRID, seed=73))]
     result = diagnose_runs(runs)
@@ -206,16 +207,17 @@ def test_a_heldout_fold_never_sees_the_causes_chosen_because_of_it(monkeypatch):
     marked_fold = table.loc[marked, "fold"]
     seen: list[frozenset] = []
 
-    def stand_in(runs_, motion, *args):
-        seen.append(frozenset(motion["run_id"]))
-        return ({"decel_phase": 50.0} if marked in set(motion["run_id"]) else {}), {}, ()
+    def stand_in(batch, baseline_rmse):
+        seen.append(frozenset(batch.motion["run_id"]))
+        chosen = {"decel_phase": 50.0} if marked in set(batch.motion["run_id"]) else {}
+        return diagnose.Selection(selected=chosen)
 
-    monkeypatch.setattr(diagnose, "select_causes", stand_in)
+    monkeypatch.setattr(selection, "select_causes", stand_in)
     frame = diagnose.summary_table([diagnose.summarize_run(r) for r in runs])
     motion = diagnose.motion_runs(frame)
     folds = diagnose.assign_folds(motion["run_id"])
-    notes: list[str] = []
-    nested = diagnose.nested_heldout_energy_J(frame, motion, folds, {}, ["decel_phase"], notes)
+    batch = diagnose.Batch(frame, motion, folds)
+    nested, notes = diagnose.nested_heldout_energy_J(batch, ["decel_phase"])
     without = diagnose.heldout_energy_J(frame, motion, folds, [])
     with_decel = diagnose.heldout_energy_J(frame, motion, folds, ["decel_phase"])
     in_marked = folds == marked_fold
@@ -228,10 +230,11 @@ def test_a_heldout_fold_never_sees_the_causes_chosen_because_of_it(monkeypatch):
         (frozenset(all_ids - set(motion["run_id"][folds == k])) for k in np.unique(folds)),
         key=sorted,
     )
-    assert notes == [
+    assert [n.text for n in notes] == [
         f"held-out fold {marked_fold}: the causes chosen without its {in_marked.sum()} runs are "
         "none, not the findings ['decel_phase']"
     ]
+    assert [n.kind for n in notes] == [diagnose.FOLD]
 
 
 def test_folds_too_small_to_choose_on_use_the_findings_and_say_so():
@@ -240,6 +243,6 @@ def test_folds_too_small_to_choose_on_use_the_findings_and_say_so():
     grid = {**GRID, "speeds_mps": (0.4, 0.6, 0.8), "trips": ((2.0, 1), (4.0, 4)), "repeats": 1}
     result = diagnose_runs([s.run for s in simulate_runs(SimConfig(**grid, seed=74))])
     assert result.n_runs == 6
-    too_few = [n for n in result.notes if "too few runs without it" in n]
+    too_few = [n for n in result.notes if "too few runs without it" in n.text]
     assert len(too_few) == result.runs["fold"].nunique() == 5
     assert result.extended_rmse_J == result.extended_fixed_rmse_J

@@ -8,13 +8,15 @@ cause of causes.md takes (the offcat branch builds a fuller, independent generat
 from __future__ import annotations
 
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from test_diagnose import GRID  # noqa: E402  (the grid every diagnose test runs on)
 
-from wifibot_power.causes.extended import NotEstimable
 from wifibot_power.diagnose import (
+    NOT_NAMED,
+    Batch,
     Selection,
     assign_folds,
     diagnose_runs,
@@ -24,6 +26,7 @@ from wifibot_power.diagnose import (
     summarize_run,
     summary_table,
 )
+from wifibot_power.diagnose.extended import NotEstimable
 from wifibot_power.errors import LogError
 from wifibot_power.simulate import SimConfig, simulate_runs
 
@@ -134,16 +137,15 @@ def test_a_candidate_the_training_folds_cannot_identify_is_not_estimable():
     folds = assign_folds(motion["run_id"])
     with pytest.raises(NotEstimable, match="stopping phase was found in"):
         heldout_energy_J(frame, motion, folds, ["decel_phase"], strict=True)
-    notes: list[str] = []
-    seen = Selection()
     measured = motion["motion_energy_J"].to_numpy(np.float64)
     baseline = float(np.sqrt(np.mean((heldout_energy_J(frame, motion, folds, []) - measured) ** 2)))
-    selected, rmse_of, _ = select_causes(frame, motion, folds, measured, baseline, {}, notes, seen)
-    assert "decel_phase" not in selected
+    seen = select_causes(Batch(frame, motion, folds), baseline)
+    assert isinstance(seen, Selection) and "decel_phase" not in seen.selected
     assert seen.gains["decel_phase"] is None
-    (note,) = [n for n in notes if n.startswith("decel_phase")]
-    assert "not estimable" in note and "%" not in note
-    assert all(np.isnan(r) or r < 10 * baseline for r in rmse_of.values())
+    (note,) = [n for n in seen.notes if n.text.startswith("decel_phase")]
+    assert note.kind == NOT_NAMED
+    assert "not estimable" in note.text and "%" not in note.text
+    assert all(np.isnan(r) or r < 10 * baseline for r in seen.rmse_of.values())
 
 
 def test_the_human_output_never_says_explained_when_unexplained(monkeypatch):
@@ -156,6 +158,8 @@ def test_the_human_output_never_says_explained_when_unexplained(monkeypatch):
         _changed(sims, lambda sim, moving: 1.0 if sim.run.meta.speed_mps == 0.2 else 0.0)
     )
     assert result.unexplained and result.findings == ()
+    assert result.verdict == "unexplained"  # decided by the library; the CLI renders it
+    assert result.report().startswith("[[Diagnosis]] no catalogue cause explains")
     console = Console(width=200, record=True)
     monkeypatch.setattr(diagnose_cmd, "stdout", console)  # _findings prints the table
     diagnose_cmd._findings(result)
@@ -164,6 +168,7 @@ def test_the_human_output_never_says_explained_when_unexplained(monkeypatch):
     assert "no catalogue cause explains" in text
     # too few repeats and nothing else: "cannot tell", not "nothing left" (the review)
     once = diagnose_runs([s.run for s in simulate_runs(SimConfig(**{**GRID, "repeats": 1}))])
+    assert once.verdict == "cannot_tell"
     console = Console(width=200, record=True)
     monkeypatch.setattr(diagnose_cmd, "stdout", console)
     diagnose_cmd._findings(once)
@@ -388,10 +393,17 @@ def test_steps_without_a_cruise_are_summarised_not_an_internal_error():
     voltage steps: accel, decel, accel, decel). `trace_stats` paired each step with the next
     one's start by a strict zip that raised on a run with no step holding both (an internal
     error on 60 of 75 real logs, hidden behind the batch's "0 usable" line); such a run has no
-    accel-and-cruise step to take windows of."""
+    accel-and-cruise step to take windows of (`traces.step_windows`, whose windows the start
+    transient's and the stopping phase's statistics are taken over)."""
     from test_runtable import build
 
-    from wifibot_power.traces import trace_stats
+    from wifibot_power.causes import RunView, run_statistics
+    from wifibot_power.runtable import WindowEnergy
+
+    def trace_stats(run, segmentation):
+        view = RunView(run, segmentation, WindowEnergy(run))
+        stats, _ = run_statistics(view)
+        return SimpleNamespace(steps=len(view.steps), **stats)
 
     ramp = np.linspace(30.0, 40.0, 30)
     pieces = [
@@ -443,6 +455,7 @@ def test_without_repeated_runs_nothing_left_is_not_claimed():
     spread is unknown, and nothing is named; with them it is not unexplained (seed 11's
     null batch, as in test_diagnose)."""
     once = diagnose_runs([s.run for s in simulate_runs(SimConfig(**{**GRID, "repeats": 1}))])
+    assert once.verdict == "cannot_tell"
     assert once.findings == ()
     assert once.unexplained
     (reason,) = once.unexplained_reasons

@@ -18,8 +18,8 @@ import pytest
 from scipy import stats as scipy_stats
 from test_diagnose import GRID
 
-from wifibot_power import diagnose, report
-from wifibot_power.causes.extended import motion_of, predict_motion_energy_J
+from wifibot_power import diagnose
+from wifibot_power.diagnose.extended import motion_of, predict_motion_energy_J
 from wifibot_power.fit import TableColumns, fit_table, fit_table_model, segment_checked
 from wifibot_power.runtable import WindowEnergy, run_row
 from wifibot_power.simulate import SimConfig, simulate_runs
@@ -82,13 +82,20 @@ def test_window_energies_are_the_windows_samples_summed(segmented) -> None:
 
 
 def test_report_summarises_a_run_as_diagnose_does(segmented) -> None:
-    """report's worker keeps what every cause's tests need (the thermal drift's within-run
-    creep among them), as `diagnose` does, so its diagnosis is diagnose's."""
+    """report's per-run record keeps what every cause's tests need (the thermal drift's
+    within-run creep among them), as `diagnose` does, so its diagnosis is diagnose's."""
+    from wifibot_power.causes import RunView, run_statistics
+    from wifibot_power.pipeline import DIAGNOSE_PLAN, REPORT_PLAN, run_record
+
     for run, _ in segmented[:2]:
-        row, _, summary, _ = report._work(run)
-        expected = diagnose.summarize_run(run)
-        assert summary.cause_columns == expected.cause_columns
-        assert {"creep_s_tp", "creep_s_tt"} <= set(summary.cause_columns)
+        record = run_record(run, REPORT_PLAN)
+        row = record.row
+        # the causes' hooks run on the run directly, not through a record
+        expected, _ = run_statistics(RunView(run, segment_checked(run), WindowEnergy(run)))
+        assert record.causes == expected
+        assert run_record(run, DIAGNOSE_PLAN).causes == expected
+        assert diagnose.summarize_run(run).cause_columns == expected
+        assert {"creep_s_tp", "creep_s_tt"} <= set(record.causes)
         alone = run_row(run, segment_checked(run))
         assert all(
             _same(row[k], alone[k]) if isinstance(alone[k], float) else row[k] == alone[k]
@@ -155,18 +162,15 @@ def test_motion_of_is_the_pandas_selection(table) -> None:
 
 
 def test_a_fit_asked_with_an_iterator_of_causes_fits_them(table) -> None:
-    """`diagnose.fit_model` keys its memo by the causes and fits them: an iterator read
+    """`diagnose.Fits` keys its memo by the causes and fits them: an iterator read
     once for the key left the fit none, and the causeless model was kept under the causes'
     key (the review's case)."""
     runs = table[table["usable"]]
     causes = ["decel_phase", "start_transient"]
-    token = diagnose._FITS.set({})
-    try:
-        from_iterator = diagnose.fit_model(runs, iter(causes))
-        from_list = diagnose.fit_model(runs, causes)
-    finally:
-        diagnose._FITS.reset(token)
-    expected = diagnose._fit_model(runs, causes)
+    fits = diagnose.Fits()
+    from_iterator = fits.fit(runs, iter(causes))
+    from_list = fits.fit(runs, causes)
+    expected = diagnose.fit_model(runs, causes)
     assert json.dumps(from_iterator.to_json()) == json.dumps(expected.to_json())
     assert json.dumps(from_list.to_json()) == json.dumps(expected.to_json())
 
@@ -220,9 +224,9 @@ def _run_task(index):
 
 parallel._run_task = _run_task  # looked up by name in the forked workers
 import threading
-import wifibot_power.diagnose as diagnose
+import wifibot_power.pipeline.preload as preload
 
-importing = diagnose._import_pandas
+importing = preload.preload_tables
 
 
 def _import_pandas():
@@ -231,7 +235,7 @@ def _import_pandas():
     importing()
 
 
-diagnose._import_pandas = _import_pandas
+preload.preload_tables = _import_pandas
 loaded_before = "pandas" in sys.modules
 try:
     diagnose_logs([sys.argv[1]], jobs=2)

@@ -138,6 +138,8 @@ def test_fit_on_one_speed_says_its_model_is_incomplete(wbpower, tmp_path):
     assert not (out / "model.json").exists()
     human = wbpower("fit", folder)
     assert human.exit_code == 0 and "the model is incomplete" in human.stderr
+    # the fit's note is the warning's why, said once: not again as a warning of its own
+    assert human.stderr.count("fewer than 2 distinct speeds") == 1
 
 
 def test_an_incomplete_fit_removes_the_model_json_of_an_earlier_fit(wbpower, tmp_path):

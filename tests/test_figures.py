@@ -208,7 +208,7 @@ def test_findings_figure_shows_the_ripple_line_and_spectrum(report) -> None:
     diagnosis = report.diagnosis
     ripple = [f for f in diagnosis.findings if f.cause == "cruise_ripple"]
     assert ripple, "sample_logs have a 1 W ripple (sample_logs/README.md)"
-    figure = findings_figure(diagnosis, report.cruise_blocks)
+    figure = findings_figure(diagnosis, diagnosis.traces)
     visible = [ax for ax in figure.axes if ax.axison]
     assert len(visible) == len(diagnosis.findings) + 1  # + the ripple's spectrum
     (ax,) = [ax for ax in visible if ax.get_ylabel() == "ripple frequency [Hz]"]

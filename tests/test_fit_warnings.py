@@ -7,7 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from wifibot_power.fit import fit_rows, speed_levels
+from wifibot_power.fit import speed_levels
+from wifibot_power.models.paper import fit_rows
 
 
 def _rows(speeds, accel_W, cruise_W, idle_runs: int = 2) -> list[dict[str, object]]:
@@ -32,7 +33,7 @@ def _rows(speeds, accel_W, cruise_W, idle_runs: int = 2) -> list[dict[str, objec
 
 
 def _fit(rows):
-    return fit_rows(rows, lambda: (None, None))
+    return fit_rows(rows)
 
 
 SPEEDS = [0.2, 0.2, 0.5, 0.5, 0.8, 0.8]
@@ -105,3 +106,32 @@ def test_fit_command_prints_warnings_on_stderr_and_in_json(tmp_path, wbpower) ->
     assert len(doc["warnings"]) == 2
     for warning in doc["warnings"]:
         assert warning.split(":")[0] in result.stderr
+
+
+def test_t_acc_quantized_to_the_sample_period_gets_its_interval_and_a_warning() -> None:
+    # issue 26: a 6.5 Hz log's accelerations are one sample each (0.154 s): every run's t_acc
+    # is the same and a least-squares interval shrinks to [0.154, 0.154]
+    period_s = 1 / 6.5
+    speeds = np.array([0.3, 0.3, 0.6, 0.6, 0.9, 0.9, 1.2, 1.2])
+    rows = _rows(speeds, 23.9 + 14.8 * speeds, 23.9 + 11.2 * speeds)
+    for row in rows:
+        if row["mode"] == "motion":
+            row["t_acc_s"] = period_s
+            row["sample_period_s"] = period_s
+    t_acc = _fit(rows).model.t_acc
+    low, high = t_acc.intercept_ci95
+    assert low <= t_acc.intercept - period_s and high >= t_acc.intercept + period_s
+    # each point known to +- one period over a 0.9 m/s span: the slope to +- 2 periods / span
+    s_low, s_high = t_acc.slope_ci95
+    assert s_high - s_low >= 2 * (2 * period_s / 0.9) - 1e-12
+    assert any("t_acc is quantized to the sample period" in w for w in _fit(rows).warnings)
+
+
+def test_t_acc_many_samples_long_keeps_its_interval() -> None:
+    # the same runs at 1 kHz: 154 samples each, the scatter over runs is their error
+    speeds = np.array(SPEEDS)
+    rows = _rows(speeds, 23.9 + 14.8 * speeds, 23.9 + 11.2 * speeds)
+    for row in rows:
+        row["sample_period_s"] = 0.001
+    result = _fit(rows)
+    assert not any("quantized" in w for w in result.warnings)

@@ -47,6 +47,16 @@ def test_a_fifo_named_as_a_log_is_refused_not_waited_on(tmp_path):
         read_log(Path("/dev/zero"))  # a device never ends
 
 
+@pytest.mark.parametrize("name", ["x.jls", "x.bag", "x.mcap"])
+def test_a_fifo_named_as_a_recording_is_refused_by_the_reader(tmp_path, name):
+    # bags and recordings are opened by their own library (`io/formats/files.py`), not by
+    # the CSV transport: the reader refuses what is not a regular file before that too
+    fifo = tmp_path / name
+    os.mkfifo(fifo)
+    with pytest.raises(LogError, match="not a regular file"):
+        read_log(fifo)
+
+
 def test_a_fifo_and_a_dangling_link_in_a_folder_are_listed_as_skipped(tmp_path):
     folder = tmp_path / "logs"
     folder.mkdir()

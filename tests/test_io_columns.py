@@ -76,7 +76,7 @@ def test_power_column_option_repeatable_summed(tmp_path, wbpower):
         "--sample-period", "1", path,
     )  # fmt: skip
     assert result.exit_code == 0, result.stderr
-    (row,) = json.loads(result.stdout)
+    (row,) = json.loads(result.stdout)["logs"]
     assert_allclose(row["energy_J"], 5.0, rtol=1e-15)  # (3.5 + 1.5) W x 1 s
     assert [c["name"] for c in row["channels"]] == ["P1 [W]", "P2_mW"]
     result = wbpower("inspect", "--power-column", "P3", path)
@@ -126,7 +126,7 @@ def test_reproduction_time_column_not_ignored(tmp_path, wbpower):
     for unit in (("--time-unit", "s"), ("--time-column", "time", "--time-unit", "s")):
         result = wbpower("inspect", "--json", *named, *unit, path)
         assert result.exit_code == 0, result.stderr
-        (row,) = json.loads(result.stdout)
+        (row,) = json.loads(result.stdout)["logs"]
         assert row["sample_period_s"] == pytest.approx(1.024e-3, rel=1e-9)
         assert row["duration_s"] == pytest.approx(duration_s, rel=1e-9)
         assert row["energy_J"] == pytest.approx(energy_J, rel=1e-9)

@@ -14,9 +14,11 @@ import pytest
 
 from wifibot_power.cache import ParseCache
 from wifibot_power.fit import fit_logs
-from wifibot_power.io import ReadOptions, batch, read_log
-from wifibot_power.io.batch import _duplicate_keys, map_runs, run_fingerprint, run_identity
+from wifibot_power.io import ReadOptions, read_log
 from wifibot_power.io.discover import LogSource
+from wifibot_power.pipeline import duplicates
+from wifibot_power.pipeline.batch import map_runs
+from wifibot_power.pipeline.duplicates import duplicate_keys, run_fingerprint, run_identity
 from wifibot_power.run import Run, RunMeta
 
 SAMPLE_LOGS = Path(__file__).resolve().parents[1] / "sample_logs"
@@ -75,7 +77,9 @@ def test_reproduction_fit_counts_a_run_given_three_times_once(folder: Path, wbpo
 def test_inspect_lists_a_duplicate_once(folder: Path, wbpower) -> None:
     cli = wbpower("inspect", "--json", folder / "v0.60_d2_s1_r1.csv", folder / "copy of run.csv")
     assert cli.exit_code == 0, cli.stderr
-    assert [Path(row["file"]).name for row in json.loads(cli.stdout)] == ["v0.60_d2_s1_r1.csv"]
+    assert [Path(row["file"]).name for row in json.loads(cli.stdout)["logs"]] == [
+        "v0.60_d2_s1_r1.csv"
+    ]
     assert "warning" in cli.stderr and "copy of run.csv" in cli.stderr
 
 
@@ -89,7 +93,7 @@ def test_a_file_named_twice_is_read_once_with_a_warning(folder: Path, wbpower, c
     assert cli.exit_code == 0, cli.stderr
     assert f"{log}: given twice in this batch: analysed once" in cli.stderr
     if command == "inspect":
-        assert len(json.loads(cli.stdout)) == 1
+        assert len(json.loads(cli.stdout)["logs"]) == 1
     else:
         assert json.loads(cli.stdout)["cruise"]["n_runs"] == 6
 
@@ -162,8 +166,8 @@ def test_only_logs_sharing_a_fingerprint_are_digested(
         digested.append(run.samples)
         return original_identity(run)
 
-    original_identity = batch.run_identity
-    monkeypatch.setattr(batch, "run_identity", counting)
+    original_identity = duplicates.run_identity
+    monkeypatch.setattr(duplicates, "run_identity", counting)
     distinct = [folder / f"{name}.csv" for name in RUNS]
     found, _ = map_runs(distinct, ReadOptions(), lambda run: run.file)
     assert len(found) == len(RUNS) and digested == []
@@ -182,7 +186,7 @@ def test_logs_changed_or_gone_before_their_comparison_are_not_duplicates(folder:
 
     def keys(analysed_as: str) -> list[str | None]:
         outcomes = [(True, ((), analysed_as, None))] * 2
-        return _duplicate_keys(sources, outcomes, ReadOptions(), 1, None)
+        return duplicate_keys(sources, outcomes, ReadOptions(), 1, None)
 
     same = keys(fingerprint)
     assert same[0] == same[1] and same[0].startswith("identity ")
@@ -263,8 +267,9 @@ def test_single_file_commands_read_the_manifest_beside_it(tmp_path: Path, wbpowe
     assert result.exit_code == 0, result.stderr
     found = json.loads(result.stdout)
     if command == "inspect":
-        assert without[0]["meta"]["mode"] == "unknown"
-        assert found[0]["run_id"] == "from_manifest" and found[0]["meta"]["speed_mps"] == 0.6
+        (without,), (found,) = without["logs"], found["logs"]
+        assert without["meta"]["mode"] == "unknown"
+        assert found["run_id"] == "from_manifest" and found["meta"]["speed_mps"] == 0.6
     else:
         assert {p["phase"] for p in without["phases"]} == {"level"}
         assert found["run_id"] == "from_manifest"

@@ -61,7 +61,7 @@ def test_reproduction_brief_negative_samples_are_data(tmp_path, wbpower):
     result = wbpower("inspect", "--json", path)
     assert result.exit_code == 0, result.stderr
     assert "warning" in result.stderr and "negative power" in result.stderr
-    (row,) = json.loads(result.stdout)
+    (row,) = json.loads(result.stdout)["logs"]
     assert_allclose(row["energy_J"], power_W.sum() * 1e-3, rtol=1e-12)
 
 
@@ -133,10 +133,11 @@ def test_zero_mean_noise_of_a_motor_log_at_rest_is_neither_reversed_nor_reported
     assert_allclose(run.energy_J, noise.sum() * 1e-3, rtol=1e-9, atol=1e-15)
 
 
-def test_absurd_power_is_still_an_error(tmp_path):
+def test_power_over_the_robots_own_ceiling_is_still_an_error(tmp_path):
+    """No fixed ceiling (tests/test_io_field.py reads 1-3 kW), but `max_power_W` is one."""
     path = tmp_path / "kw.csv"
-    path.write_text("time_s,power_W\n0,23\n0.001,1500\n")
-    with pytest.raises(LogError, match="absurd power"):
+    path.write_text("# max_power_W: 1000\ntime_s,power_W\n0,23\n0.001,1500\n")
+    with pytest.raises(LogError, match="over the robot's max_power_W 1000 W"):
         read_log(path)
 
 

@@ -206,7 +206,7 @@ def _real_columns(path: Path) -> tuple[list[float], list[float]]:
 def test_real_n6705c_export(real_n6705, wbpower):
     result = wbpower("inspect", "--json", "--supply-voltage", "12.6", real_n6705)
     assert result.exit_code == 0, result.stderr
-    (row,) = json.loads(result.stdout)
+    (row,) = json.loads(result.stdout)["logs"]
     assert row["format"] == "n6705" and row["samples"] == 9965
     assert row["sample_period_s"] == 1.00352e-3
     assert_allclose(row["duration_s"], 9965 * 1.00352e-3, rtol=1e-12)
@@ -244,7 +244,7 @@ def test_manifest_overrides_and_unlisted_files(tmp_path, wbpower):
     )
     result = wbpower("inspect", "--json", tmp_path)
     assert result.exit_code == 0, result.stderr
-    by_file = {Path(r["file"]).name: r for r in json.loads(result.stdout)}
+    by_file = {Path(r["file"]).name: r for r in json.loads(result.stdout)["logs"]}
     assert set(by_file) == {"a.csv", "b.csv", "dlog.csv"}
     a = by_file["a.csv"]["meta"]
     assert (
@@ -267,9 +267,9 @@ def test_manifest_overrides_and_unlisted_files(tmp_path, wbpower):
     assert by_file["dlog.csv"]["meta"]["mode"] == "network"
     assert by_file["b.csv"]["run_id"] == "own_b"  # not in the manifest: its own metadata
     # a single file reads the manifest beside it; the manifest itself lists its files
-    single = json.loads(wbpower("inspect", "--json", tmp_path / "a.csv").stdout)
+    single = json.loads(wbpower("inspect", "--json", tmp_path / "a.csv").stdout)["logs"]
     assert [r["run_id"] for r in single] == ["v0.8_d10_s2"]
-    listed = json.loads(wbpower("inspect", "--json", tmp_path / "runs.csv").stdout)
+    listed = json.loads(wbpower("inspect", "--json", tmp_path / "runs.csv").stdout)["logs"]
     assert sorted(r["run_id"] for r in listed) == ["v0.8_d10_s2", "wifi_1"]
 
 
@@ -295,7 +295,7 @@ def test_custom_column_names_with_options(tmp_path, wbpower):
     options = ("--current-column", "I_mA", "--supply-voltage", "12", "--time-unit", "s")
     result = wbpower("inspect", "--json", *options, path)
     assert result.exit_code == 0, result.stderr
-    (row,) = json.loads(result.stdout)
+    (row,) = json.loads(result.stdout)["logs"]
     assert_allclose(row["mean_power_W"], 21.0, rtol=1e-15)
     assert row["sample_period_s"] == 1.0 and row["duration_s"] == 2.0
     # without --time-unit, `t` is not silently replaced by an assumed period

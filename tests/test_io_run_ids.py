@@ -159,7 +159,7 @@ def test_two_logs_saying_they_are_one_run_leave_the_later_out(tmp_path: Path, wb
     assert "give each run its own run_id in its metadata or runs.csv" in reason
     cli = wbpower("inspect", "--json", logs)
     assert cli.exit_code == 1, cli.stderr
-    assert [row["run_id"] for row in json.loads(cli.stdout)] == ["same", "r3"]
+    assert [row["run_id"] for row in json.loads(cli.stdout)["logs"]] == ["same", "r3"]
     (line,) = [ln for ln in cli.stderr.splitlines() if "skipped" in ln]
     assert str(later) in line and str(first) in line
 

@@ -212,7 +212,17 @@ def test_write_set_into_a_new_folder_stopped_leaves_no_folder(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_ctrl_c_during_the_renames_comes_after_them(tmp_path):
+@pytest.fixture
+def sigint_as_in_a_terminal():
+    """SIGINT raising KeyboardInterrupt, as Python sets it up in a foreground job, whatever
+    this test process inherited: a background job (`make test &`, a CI wrapper) starts with
+    SIGINT ignored, and Python then leaves it ignored (issue 28)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_ctrl_c_during_the_renames_comes_after_them(tmp_path, sigint_as_in_a_terminal):
     from wifibot_power.outputs import hold_ctrl_c
 
     done = []
@@ -222,6 +232,20 @@ def test_ctrl_c_during_the_renames_comes_after_them(tmp_path):
             done.append("the rest of the renames")
     assert done == ["the rest of the renames"]
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_process_that_ignores_ctrl_c_still_ignores_it_after_the_renames(tmp_path):
+    """Started with SIGINT ignored (a background job): the held Ctrl-C is not turned into
+    a KeyboardInterrupt, and SIGINT is left ignored, as it was."""
+    from wifibot_power.outputs import hold_ctrl_c
+
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with hold_ctrl_c():
+            signal.raise_signal(signal.SIGINT)
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def test_diagnose_out_is_written_as_one_set(tmp_path, monkeypatch):

@@ -34,8 +34,8 @@ def _const(value: float) -> np.ndarray:
 @pytest.mark.parametrize(
     ("power_W", "volts", "amps", "ratio"),
     [
-        (900.0, 5.0, 0.18, "1000x"),  # the repro: mW in a W column
         (36.0, 12.0, 2.0, "1.5x"),  # a 1.5x mismatch
+        (240.0, 12.0, 2.0, "10x"),  # 10x: within the unit-mistake check's 30x, caught here
         (24.0, 12.0, -2.0, "-1x"),  # the current's sign against the power's
     ],
 )
@@ -51,6 +51,24 @@ def test_a_power_column_that_disagrees_with_voltage_x_current_is_refused(
     result = wbpower("inspect", path)
     assert result.exit_code == 2
     assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_a_unit_mistake_is_named_as_such_before_the_disagreement(tmp_path, wbpower):
+    # the repro, mW in a W column (1000x): the reader's unit-mistake check
+    # (`validate.check_power_scale`, 30x off V x I) speaks first, with its own message
+    path = _canonical(tmp_path, _const(900.0), _const(5.0), _const(0.18))
+    with pytest.raises(LogError) as error:
+        read_log(path)
+    message = error.value.one_line()
+    assert "power column 'power_W' is 1e+03 times the voltage x current" in message, message
+    assert "disagrees" not in message
+    result = wbpower("inspect", path)
+    assert result.exit_code == 2
+    assert len(result.stderr.strip().splitlines()) == 1
+    # a unit slip after the first lines the unit check looks at is still caught, whole column
+    power_W = np.r_[np.full(100, 10.0), np.full(N - 100, 10_000.0)]
+    with pytest.raises(LogError, match="'power_W' disagrees with 'voltage_V' x 'current_A'"):
+        read_log(_canonical(tmp_path, power_W, _const(5.0), _const(2.0)))
 
 
 def test_agreeing_columns_are_read_within_the_stated_tolerance(tmp_path):
@@ -82,14 +100,14 @@ def test_naming_the_power_column_is_the_way_out(tmp_path, wbpower):
 def test_channels_and_the_analyser_export_are_checked_too(tmp_path):
     header = "time_s,power_left_W,voltage_left_V,current_left_A"
     path = tmp_path / "channels.csv"
-    path.write_text(header + "\n" + "".join(f"{k * 0.01:.2f},900,5,0.18\n" for k in range(N)))
+    path.write_text(header + "\n" + "".join(f"{k * 0.01:.2f},1.35,5,0.18\n" for k in range(N)))
     with pytest.raises(LogError, match="'power_left_W' disagrees with 'voltage_left_V'"):
         read_log(path)
     n6705 = tmp_path / "n6705.csv"
     n6705.write_text(
         'N6705C exported datalog\n\n"Sample interval: 0.001"\n\n'
         'Sample,"Curr avg 1","Volt avg 1","Power avg 1"\n'
-        + "".join(f"{k},0.18,5,900\n" for k in range(N))
+        + "".join(f"{k},0.18,5,1.35\n" for k in range(N))
     )
     with pytest.raises(LogError, match="'Power avg 1' disagrees with 'Volt avg 1'"):
         read_log(n6705)

@@ -164,12 +164,6 @@ def test_without_the_speed_column_nothing_is_silently_wrong(studies) -> None:
         assert len(s.without_speed.motions) > len(s.truth)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="left: a doubt for idles above standstill's power also fired on an idle at another "
-    "flat level and on a commanded speed's lag, dropping good runs from fit (review, fifth "
-    "session); no principled rule found yet",
-)
 @pytest.mark.parametrize("name", SIDES)
 def test_idles_where_the_motor_pushes_are_doubted(folder: Path, name: str) -> None:
     """The speed reads standstill (< 0.1 m/s) while the motor pushes at its current limit:

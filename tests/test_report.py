@@ -273,16 +273,16 @@ def test_report_keep_doubtful_uses_the_doubted_runs_in_fit_and_diagnose(
     and the diagnosis by default, and used by both with it."""
     from dataclasses import replace
 
-    from wifibot_power import fit as fit_module
+    from wifibot_power.pipeline import record
 
     doubtful = "v0.30_d10_s1_r1"
-    real = fit_module.segment_checked
+    real = record.segment_checked
 
     def doubting(run, segmenter=None):
         seg = real(run)
         return replace(seg, doubts=("a doubt",)) if run.meta.run_id == doubtful else seg
 
-    monkeypatch.setattr(fit_module, "segment_checked", doubting)
+    monkeypatch.setattr(record, "segment_checked", doubting)
     left_out = build_report([subset_dir], jobs=1)
     kept = build_report([subset_dir], jobs=1, keep_doubtful=True)
     assert any(doubtful in s.file for s in left_out.skipped)

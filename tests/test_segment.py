@@ -43,20 +43,20 @@ from wifibot_power.run import Run, RunMeta
 from wifibot_power.segment import (
     MotionParams,
     _above_off_edges,
-    _drive,
     _line,
-    _locate_step,
     _locate_steps,
     _longest_runs,
     _may_hold_two_levels,
     _mean,
     _most_within,
     _phases,
+    _search_steps,
     _stands_above,
     _start_spikes,
     _std,
     _Step,
     _time_at,
+    _Trace,
     segment_run,
 )
 from wifibot_power.simulate import EFFECTS, SimConfig, simulate_runs
@@ -816,8 +816,8 @@ def test_steps_searched_side_by_side_are_those_searched_one_by_one() -> None:
         for i, (a, b) in enumerate(coarse):
             prev_end = ends_before(i, steps)
             next_start = coarse[i + 1][0] if i + 1 < len(coarse) else y.size
-            search = _locate_step(y, block_dt, sigma_b, a, b, prev_end, next_start, params)
-            steps += _drive(y, [search])
+            trace = _Trace(y, block_dt, sigma_b, params)
+            steps += _search_steps(trace, [(a, b, prev_end, next_start)])
         return steps
 
     truth = one_by_one(lambda i, steps: steps[-1].t3 if steps else 0)
@@ -1264,7 +1264,7 @@ def test_stop_shape_by_hand():
     them: a linear fall and an exponential decay to idle + 0.6 W are stops; a flat level,
     and a flat level whose last 0.4 s fall to idle + 0.6 W (its own stop), are not; a
     phase of 20 blocks is too short to judge (kept)."""
-    from wifibot_power.segment import MotionParams, _falls_from_start
+    from wifibot_power.segment import MotionParams, _falls_from_start, _Trace
 
     n = 2000
     x = np.arange(n) / n
@@ -1284,12 +1284,9 @@ def test_stop_shape_by_hand():
         "flat, then its own stop": False,
     }
     params = MotionParams()
-
-    def blocks(seconds: float) -> int:
-        return max(1, round(seconds / 0.001))
-
     for name, shape in shapes.items():
         y = np.concatenate((shape, np.full(500, 23.3)))
-        assert _falls_from_start(y, 0.25, 0, n, blocks, params) is expected[name], name
+        trace = _Trace(y, 0.001, 0.25, params)  # 1 ms blocks, noise sd 0.25 W
+        assert _falls_from_start(trace, 0, n) is expected[name], name
     y = np.concatenate((np.full(20, top_W), np.full(500, 23.3)))
-    assert _falls_from_start(y, 0.25, 0, 20, blocks, params)
+    assert _falls_from_start(_Trace(y, 0.001, 0.25, params), 0, 20)

@@ -768,12 +768,11 @@ def test_red_noise_in_an_idle_is_not_a_stop_labelled_idle(seed: int) -> None:
 def _idle_doubts(y10: np.ndarray, spans: list, ends_moving: bool = False) -> list[str]:
     """`_hidden_stop_doubts` on 10 ms means of noise sd 0.05 W, each idle at its median."""
     from wifibot_power.segment import MotionParams, _hidden_stop_doubts
+    from wifibot_power.segment.common import _Means10
 
     levels = {k: float(np.median(y10[a:b])) for k, (a, b, n, _) in enumerate(spans) if n == "idle"}
-    when, name_of = (lambda i: i * 0.01), (lambda n, s: f"{n} {s}")
-    return _hidden_stop_doubts(
-        y10, 0.05, spans, levels, when, name_of, MotionParams(), set(), ends_moving
-    )
+    means = _Means10(y10, 0.05, 0.0, 0.01)
+    return _hidden_stop_doubts(means, spans, levels, MotionParams(), set(), ends_moving)
 
 
 def test_a_next_step_labelled_late_is_not_a_stop_labelled_idle() -> None:
@@ -796,7 +795,7 @@ def test_a_next_step_labelled_late_is_not_a_stop_labelled_idle() -> None:
     stop = y10.copy()
     stop[300:315] += 0.6
     (doubt,) = _idle_doubts(stop, spans(340))
-    assert doubt.startswith("idle 1 stands") and doubt.endswith("a stop labelled idle?")
+    assert doubt.startswith("the idle of step 1 stands") and doubt.endswith("a stop labelled idle?")
 
 
 def test_the_last_idle_of_a_run_that_ends_moving_is_not_a_stop_labelled_idle() -> None:

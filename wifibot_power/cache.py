@@ -54,11 +54,12 @@ from pathlib import Path
 from typing import Generic, TypeVar
 
 from wifibot_power.errors import UsageError
-from wifibot_power.io.options import ReadOptions, codec_of
+from wifibot_power.io.options import ReadOptions, codec_of, is_read_whole
 from wifibot_power.run import Problem, Run, RunMeta
 
-#: Version of the entry layout; part of every key (2: the speed and channel columns).
-CACHE_FORMAT = 2
+#: Version of the entry layout; part of every key (2: the speed and channel columns; 3: the
+#: rate of turn and the per-sample surface).
+CACHE_FORMAT = 3
 #: A file whose times are this close to when it was read may still change unseen [s].
 SETTLE_S = 2.0
 SETTLE_NS = int(SETTLE_S * 1e9)
@@ -315,6 +316,8 @@ class ParseCache:
         """
         path = Path(path)
         options = options or ReadOptions()
+        if is_read_whole(path):
+            return MISSING  # not cached: read by its own library (`process`)
         try:
             stat = os.stat(path)
         except OSError:
@@ -354,6 +357,8 @@ class ParseCache:
 
         path = Path(path)
         options = options or ReadOptions()
+        if is_read_whole(path):  # a bag folder has no bytes to hash, a recording too many
+            return work(read_log(path, options, overrides, origin=origin))
         try:
             stat = os.stat(path)
         except OSError:
@@ -510,6 +515,9 @@ def _load_run(entry: Path, content_sha256: str) -> Run | None:
         time_s = table["time_s"].to_numpy() if stored["time"] == "column" else None
         problems = tuple(Problem(**p) for p in stored["problems"])
         speed_mps = table["speed_mps"].to_numpy() if stored["speed"] else None
+        yaw_rate_radps = table["yaw_rate_radps"].to_numpy() if stored.get("yaw_rate") else None
+        surfaces = tuple(stored.get("surfaces") or ())
+        surface_index = table["surface_index"].to_numpy() if surfaces else None
         channels_W = {name: table[f"channel:{name}"].to_numpy() for name in stored["channels"]}
     except (OSError, KeyError, TypeError, ValueError, pa.ArrowException):
         return None
@@ -521,7 +529,10 @@ def _load_run(entry: Path, content_sha256: str) -> Run | None:
         power_W=power_W,
         problems=problems,
         speed_mps=speed_mps,
+        yaw_rate_radps=yaw_rate_radps,
         channels_W=channels_W,
+        surface_index=surface_index,
+        surface_names=surfaces,
     )
 
 
@@ -545,6 +556,8 @@ def _store(entry: Path, run: Run, validity: dict[str, object]) -> None:
         "problems": [dataclasses.asdict(p) for p in run.problems],
         "time": "arange" if regular else "column",
         "speed": run.speed_mps is not None,
+        "yaw_rate": run.yaw_rate_radps is not None,
+        "surfaces": list(run.surface_names) if run.surface_index is not None else None,
         "channels": list(run.channels_W),
     }
     columns = {"power_W": run.power_W}
@@ -552,6 +565,10 @@ def _store(entry: Path, run: Run, validity: dict[str, object]) -> None:
         columns["time_s"] = run.time_s
     if run.speed_mps is not None:
         columns["speed_mps"] = run.speed_mps
+    if run.yaw_rate_radps is not None:
+        columns["yaw_rate_radps"] = run.yaw_rate_radps
+    if run.surface_index is not None:
+        columns["surface_index"] = run.surface_index
     for name, channel_W in run.channels_W.items():
         columns[f"channel:{name}"] = channel_W
     table = pa.table(columns).replace_schema_metadata({_METADATA_KEY: json.dumps(header)})

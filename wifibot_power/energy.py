@@ -210,7 +210,12 @@ def trip_energy(
     steps = int(steps)
     t_acc = model.t_acc_s(speed_mps) if t_acc_s is None else float(t_acc_s)
     if not math.isfinite(t_acc) or t_acc < 0:
-        raise UsageError(f"acceleration time {t_acc} s", fix="give --t-acc >= 0")
+        # said by argument (a library error; the CLI's --t-acc is this argument)
+        given = "t_acc_s" if t_acc_s is not None else f"the model's t_acc({speed_mps:g} m/s)"
+        raise UsageError(
+            f"acceleration time {t_acc} s ({given})",
+            fix="give t_acc_s >= 0, or a model whose t_acc is fitted",
+        )
     extensions = {name: _extension(model, name) for name in extension_names(model)}
     if extensions:
         from wifibot_power.causes import CAUSES, TripTerms

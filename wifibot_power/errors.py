@@ -6,7 +6,12 @@ below the CLI prints. See docs/errors.md for the catalogue.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from wifibot_power.io.discover import Skipped
 
 
 class WbpowerError(Exception):
@@ -19,8 +24,12 @@ class WbpowerError(Exception):
         file: str | Path | None = None,
         where: str | None = None,
         fix: str | None = None,
+        skipped: Sequence[Skipped] = (),
     ) -> None:
         self.problem = problem
+        #: a batch that failed as a whole: every input it left out, each with its own
+        #: reason (the CLI lists them, on stderr and in `--json`'s `skipped`)
+        self.skipped: tuple[Skipped, ...] = tuple(skipped)
         self.file = str(file) if file is not None else None
         self.where = where
         self.fix = fix

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from wifibot_power.io import ReadOptions, Skipped
 from wifibot_power.io.batch import map_runs
+from wifibot_power.io.options import FORMAT_ROSBAG
 from wifibot_power.run import Run, energy_J
 
 
@@ -31,6 +32,8 @@ def summarize(run: Run) -> dict[str, object]:
             for name, channel_W in run.channels_W.items()
         ],
         "speed_column": run.speed_mps is not None,
+        # a bag's topics, with their types, message counts and rates (log-format.md section 3)
+        **({"topics": _topics(run.file)} if run.format == FORMAT_ROSBAG else {}),
         "problems": [p.message for p in run.problems],
         "problem_details": [
             {
@@ -42,6 +45,12 @@ def summarize(run: Run) -> dict[str, object]:
             for p in run.problems
         ],
     }
+
+
+def _topics(file: str) -> list[dict[str, object]]:
+    from wifibot_power.io.formats.rosbag import bag_topics
+
+    return [topic.as_dict() for topic in bag_topics(file)]
 
 
 def inspect_logs(

@@ -1,7 +1,9 @@
 """Typed result of segmentation: the phases of one run (shared by segment, fit, diagnose).
 
 Phase names: `idle`, `accel`, `cruise`, `decel` for motion runs (steps numbered from 1;
-an idle phase carries the number of the step it follows, 0 before the first step), and
+an idle phase carries the number of the step it follows, 0 before the first step), `turn`
+where a robot with a turning column turns while its linear speed is ~0 (spinning in place;
+numbered as the idle it interrupts), and
 `level` for steady segments of a log without motion metadata (step = level index from 1).
 Sample ranges are half-open `[i_start, i_end)`; phases cover every sample exactly once.
 """
@@ -15,7 +17,7 @@ if TYPE_CHECKING:  # pandas (~0.45 s to import) loads only when a table is asked
     import pandas as pd
 
 
-PHASE_NAMES = ("idle", "accel", "cruise", "decel", "level")
+PHASE_NAMES = ("idle", "accel", "cruise", "decel", "turn", "level")
 
 
 @dataclass(frozen=True)
@@ -31,6 +33,9 @@ class Phase:
     #: mean speed over the phase [m/s]: from the log's speed column, else the run's commanded
     #: speed for cruise; None where unknown (cli.md, `segment --json`)
     speed_mps: float | None = None
+    #: mean |yaw rate| over the phase [rad/s] from the log's turning column; None where the
+    #: log has none (cli.md, `segment --json`)
+    yaw_rate_radps: float | None = None
 
     @property
     def duration_s(self) -> float:
@@ -47,6 +52,7 @@ class Phase:
             "mean_power_W": self.mean_power_W,
             "energy_J": self.energy_J,
             "speed_mps": self.speed_mps,
+            "yaw_rate_radps": self.yaw_rate_radps,
         }
 
 
@@ -77,8 +83,9 @@ class Segmentation:
         the `segment` columns after the run's `run_id` and its log's `file`."""
         return [{"run_id": self.run_id, "file": file, **p.as_dict()} for p in self.phases]
 
-    def frame(self, file: str) -> pd.DataFrame:
-        """A row per phase (phases.parquet of `fit -o` and `segment -o`): `rows`."""
+    def frame(self, file: str = "") -> pd.DataFrame:
+        """A row per phase (phases.parquet of `fit -o` and `segment -o`): `rows`; `file`:
+        the run's log, for its column (empty by default)."""
         return phase_frame(self.rows(file))
 
 
@@ -95,11 +102,15 @@ PHASE_COLUMNS = (
     "mean_power_W",
     "energy_J",
     "speed_mps",
+    "yaw_rate_radps",
 )
 
 
 def phase_frame(rows: list[dict[str, object]]) -> pd.DataFrame:
-    """The phases table from `Segmentation.rows` of any number of runs."""
+    """The phases table from `Segmentation.rows` of any number of runs (`yaw_rate_radps`
+    as float64, NaN where unknown: never a column of None)."""
     import pandas as pd
 
-    return pd.DataFrame(rows, columns=list(PHASE_COLUMNS))
+    frame = pd.DataFrame(rows, columns=list(PHASE_COLUMNS))
+    frame["yaw_rate_radps"] = frame["yaw_rate_radps"].astype("float64")
+    return frame

@@ -1,10 +1,10 @@
 """`wbpower report`: read, segment, fit and diagnose logs once, then draw every figure.
 
-Each log is read and segmented once (`map_runs`, one file in memory per worker); what comes
-back per run is what `fit` keeps (its row and phases), what `diagnose` keeps (its trace
-statistics) and the trace's envelope for its figure (`figures.trace.TraceView`), never the
-samples. The fit and the diagnosis are then `fit.fit_rows` and
-`diagnose.diagnose_summaries`, the same as `wbpower fit` and `wbpower diagnose` give.
+Each log is read and segmented once (`pipeline.gather` with `REPORT_PLAN`, one file in
+memory per worker); what comes back per run is its record (`pipeline.RunRecord`: the row and
+phases `fit` keeps, the causes' and trace statistics `diagnose` keeps, the trace's envelope
+for its figure), never the samples. The fit and the diagnosis are then `fit.fit_records`
+and `diagnose.diagnose_summaries`, the same as `wbpower fit` and `wbpower diagnose` give.
 
 A log set the fit or the diagnosis cannot use (no motion metadata, too few runs) still gets
 its trace figures; the report says what it cannot draw and why.
@@ -24,16 +24,17 @@ import numpy as np
 
 from wifibot_power.errors import WbpowerError
 from wifibot_power.io import LogSource, ReadOptions, Skipped
-from wifibot_power.io.batch import ProblemHook, map_runs
 from wifibot_power.io.discover import reasons_in_brief
+from wifibot_power.pipeline import REPORT_PLAN, RunRecord, gather
+from wifibot_power.pipeline.duplicates import ProblemHook
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from wifibot_power.diagnose import Diagnosis, RunSummary
+    from wifibot_power.cache import ParseCache
+    from wifibot_power.diagnose import Diagnosis
     from wifibot_power.figures.trace import TraceView
     from wifibot_power.fit import FitResult
-    from wifibot_power.run import Run
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,34 +48,7 @@ class Report:
     fit_problem: str | None
     diagnosis: Diagnosis | None
     diagnosis_problem: str | None
-    #: run_id -> (detrended cruise power in blocks [W], block length [s]), for the spectrum
-    cruise_blocks: dict[str, tuple[np.ndarray, float]]
     skipped: tuple[Skipped, ...] = ()
-
-
-def _work(run: Run) -> tuple[dict, list[dict], RunSummary, TraceView]:
-    """One log: fit's row and phases, diagnose's summary, the trace view (one segmentation).
-
-    The rows are made exactly as `fit_logs` and `diagnose.summarize_run` make them."""
-    from wifibot_power.diagnose import RunSummary, summarize_segmented
-    from wifibot_power.figures.trace import trace_view
-    from wifibot_power.fit import segment_checked
-    from wifibot_power.phases import Segmentation
-    from wifibot_power.runtable import run_row
-    from wifibot_power.traces import EMPTY
-
-    segmentation = segment_checked(run)
-    empty = Segmentation(run.meta.run_id, ())
-    if run.meta.mode == "unknown":  # as fit: nothing to fit it to
-        row = run_row(run, empty)
-        return row, [], RunSummary(row, EMPTY), trace_view(run, segmentation)
-    phases = segmentation.rows(run.file)
-    if run.meta.mode == "motion":  # its summary with the cause columns, as diagnose's
-        summary = summarize_segmented(run, segmentation)
-        return summary.row, phases, summary, trace_view(run, segmentation)
-    row = run_row(run, segmentation)
-    summary = RunSummary(run_row(run, empty), EMPTY)
-    return row, phases, summary, trace_view(run, segmentation)
 
 
 def build_report(
@@ -83,45 +57,25 @@ def build_report(
     *,
     wrap: Callable[[list[LogSource]], Iterator[LogSource]] | None = None,
     jobs: int | None = 1,
+    cache: ParseCache | None = None,
     on_problems: ProblemHook | None = None,
     keep_doubtful: bool = False,
 ) -> Report:
-    """Read every log under `paths` once, fit and diagnose them (module docstring);
+    """Read every log under `paths` once (`pipeline.gather` with `REPORT_PLAN`), fit and
+    diagnose them (module docstring); `cache` skips parsing files parsed before;
     `keep_doubtful`: as `fit`/`diagnose --keep-doubtful`, runs whose segmentation is in
     doubt are used by both."""
-    from wifibot_power.diagnose import diagnose_summaries
-    from wifibot_power.fit import _import_work_modules, fit_gathered
+    from wifibot_power.diagnose import diagnose_summaries, summary_of
+    from wifibot_power.fit import fit_records
 
-    paths = [paths] if isinstance(paths, str | Path) else list(paths)
-    results, read_skipped = map_runs(
-        [Path(p) for p in paths],
-        options or ReadOptions(),
-        _work,
-        wrap=wrap,
-        jobs=jobs,
-        on_problems=on_problems,
-        prepare=_import_work_modules,
+    gathered = gather(
+        paths, options, REPORT_PLAN, wrap=wrap, jobs=jobs, cache=cache, on_problems=on_problems
     )
-    rows = [r[0] for r in results]
-    phase_rows = [p for r in results for p in r[1]]
-    summaries = [r[2] for r in results]
-    fit, skipped = fit_gathered(rows, phase_rows, read_skipped, keep_doubtful=keep_doubtful)
-    fit_problem = None
-    if fit is None:
-        # why, as `fit` says it (the runs' own reasons), not a guess: an F1/10 car's runs
-        # have speed, distance and steps but hold 22-25 speed levels (docs/real-logs.md)
-        unusable = skipped[len(read_skipped) :]  # fit_gathered puts the unread first
-        if not rows:
-            why = reasons_in_brief(read_skipped) if read_skipped else "no log was given"
-            fit_problem = f"no log could be read: {why}"
-        else:
-            why = (
-                reasons_in_brief(unusable)
-                if unusable
-                else "the paper's models need motion runs with speed, distance and steps in "
-                "their metadata (log-format.md)"
-            )
-            fit_problem = f"none of the {len(rows)} run(s) read can be fitted: {why}"
+    records, read_skipped = gathered.records, gathered.skipped
+    fit, skipped = fit_records(records, read_skipped, keep_doubtful=keep_doubtful)
+    fit_problem = None if fit is not None else _why_no_fit(records, read_skipped, skipped)
+    # diagnose's summaries: the causes' and trace statistics of motion runs (none for others)
+    summaries = [summary_of(r) for r in records]
     diagnosis = diagnosis_problem = None
     if fit is not None:
         try:
@@ -130,21 +84,34 @@ def build_report(
             diagnosis_problem = exc.one_line()
     else:
         diagnosis_problem = "no fit to diagnose"
-    blocks = {
-        s.row["run_id"]: (s.trace.cruise_blocks_W, s.trace.block_s)
-        for s in summaries
-        if s.trace.cruise_blocks_W.size
-    }
     return Report(
-        paths=tuple(str(p) for p in paths),
-        traces=tuple(r[3] for r in results),
+        paths=gathered.paths,
+        traces=tuple(r.view for r in records if r.view is not None),
         fit=fit,
         fit_problem=fit_problem,
         diagnosis=diagnosis,
         diagnosis_problem=diagnosis_problem,
-        cruise_blocks=blocks,
         skipped=skipped,
     )
+
+
+def _why_no_fit(
+    records: Sequence[RunRecord], read_skipped: Sequence[Skipped], skipped: Sequence[Skipped]
+) -> str:
+    """Why the fit is missing, as `fit` says it (the runs' own reasons), not a guess: an
+    F1/10 car's runs have speed, distance and steps but hold 22-25 speed levels
+    (docs/real-logs.md)."""
+    unusable = skipped[len(read_skipped) :]  # fit_records puts the unread first
+    if not records:
+        why = reasons_in_brief(list(read_skipped)) if read_skipped else "no log was given"
+        return f"no log could be read: {why}"
+    why = (
+        reasons_in_brief(list(unusable))
+        if unusable
+        else "the paper's models need motion runs with speed, distance and steps in "
+        "their metadata (log-format.md)"
+    )
+    return f"none of the {len(records)} run(s) read can be fitted: {why}"
 
 
 @dataclass(frozen=True)
@@ -159,64 +126,28 @@ class Drawn:
 
 
 def report_figures(report: Report) -> Iterator[tuple[str, str, Callable[[], Figure] | None, str]]:
-    """(name, title, draw() or None, note) of every figure of the report, in its order:
-    the model figures first, then one trace per run."""
-    from wifibot_power.figures import (
-        figure5,
-        figure7,
-        findings_figure,
-        heldout_error_figure,
-        power_speed_figure,
-        trace_figure,
-    )
+    """(name, title, draw() or None, note) of every figure of the report, in the order of the
+    figure registry (`figures.FIGURES`): each figure drawn from the report
+    (`FigureSpec.from_report`), then each per-run figure once per run (`trace_<run_id>`)."""
+    from wifibot_power.figures import FIGURES
 
-    fit, diagnosis = report.fit, report.diagnosis
-    if fit is None:
-        for name, title in (
-            ("power_speed", "P_acc(v) and P_v(v)"),
-            ("figure5", "Paper Figure 5"),
-            ("figure7", "Paper Figure 7"),
-        ):
-            yield name, title, None, f"not drawn: {report.fit_problem}"
-    else:
-        yield "power_speed", "P_acc(v) and P_v(v)", lambda: power_speed_figure(fit), ""
-        complete = fit.model_complete
-        why = f"not drawn: the model is incomplete ({'; '.join(fit.notes) or 'see fit'})"
-        yield (
-            "figure5",
-            "Paper Figure 5: stop-and-go energy against speed",
-            (lambda: figure5(fit.model, fit.stop_and_go)) if complete else None,
-            "" if complete else why,
-        )
-        yield (
-            "figure7",
-            "Paper Figure 7: relay lifetime gain",
-            (lambda: figure7(fit.model)) if complete else None,
-            "" if complete else why,
-        )
-    if diagnosis is None:
-        why = f"not drawn: {report.diagnosis_problem}"
-        yield "heldout_error", "Held-out error (diagnose)", None, why
-        yield "findings", "Findings (diagnose)", None, why
-    else:
-        yield (
-            "heldout_error",
-            "Held-out error against speed, steps, distance, session order",
-            lambda: heldout_error_figure(diagnosis),
-            "",
-        )
-        yield (
-            "findings",
-            "Each finding's evidence",
-            lambda: findings_figure(diagnosis, report.cruise_blocks),
-            "",
-        )
-    for view in report.traces:
-        yield f"trace_{_safe(view.run_id)}", f"Trace: {view.run_id}", _bind(trace_figure, view), ""
+    for spec in FIGURES.values():
+        if spec.per_run or spec.from_report is None:
+            continue
+        args = spec.from_report(report)
+        if isinstance(args, str):
+            yield spec.name, spec.title, None, f"not drawn: {args}"
+        else:
+            yield spec.name, spec.title, _bind(spec.draw, *args), ""
+    for spec in FIGURES.values():
+        if spec.per_run:
+            for view in report.traces:
+                name = f"{spec.name}_{_safe(view.run_id)}"
+                yield name, f"Trace: {view.run_id}", _bind(spec.draw, view), ""
 
 
-def _bind(function: Callable[..., Figure], value: object) -> Callable[[], Figure]:
-    return lambda: function(value)
+def _bind(function: Callable[..., Figure], *args: object) -> Callable[[], Figure]:
+    return lambda: function(*args)
 
 
 def _safe(name: str) -> str:
@@ -257,7 +188,9 @@ def write_report(report: Report, out_dir: str | Path, *, jobs: int | None = 1) -
     drawn: list[tuple[Drawn, bytes | None]] = []
     with staged_folder(out_dir) as stage:
         for (name, title, _, note), data in zip(items, images, strict=True):
-            spec = FIGURES.get("trace" if name.startswith("trace_") else name)
+            spec = FIGURES.get(name) or next(
+                (f for f in FIGURES.values() if f.per_run and name.startswith(f"{f.name}_")), None
+            )
             how = spec.how_to_read if spec else ""
             file = f"{name}.png" if data is not None else None
             if file:
@@ -342,7 +275,7 @@ def render_html(report: Report, drawn: list[tuple[Drawn, bytes | None]]) -> str:
 
 
 def _summary_html(report: Report) -> list[str]:
-    from wifibot_power.fit import format_number as num
+    from wifibot_power.models.paper_table import format_number as num
 
     e = html.escape
     out: list[str] = []

@@ -403,9 +403,14 @@ def structure_reasons(table: pd.DataFrame, alpha: float = ALPHA) -> list[str]:
     """The `unexplained_reasons` from replication: one sentence per test that is significant
     and whose structure is at least `RESOLUTION_PCT` of run energy, and one more when the
     runs' own spread cannot be measured (`unknown_spread`)."""
-    reasons = [t.where for t in found(replication_tests(table), alpha)]
-    unknown = unknown_spread(table)
+    reasons, unknown = structure(table, alpha)
     return reasons + [unknown] if unknown else reasons
+
+
+def structure(table: pd.DataFrame, alpha: float = ALPHA) -> tuple[list[str], str | None]:
+    """`structure_reasons` in two parts: the structure found (a sentence per test), and
+    why none can be ruled out when the runs' own spread cannot be measured, or None."""
+    return [t.where for t in found(replication_tests(table), alpha)], unknown_spread(table)
 
 
 #: How the reason starts when the runs' own spread cannot be measured (`unknown_spread`).

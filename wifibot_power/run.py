@@ -77,9 +77,17 @@ class Run:
     #: the robot's speed at each sample [m/s] when the log has a speed column
     #: (log-format.md, "Speed"), else None
     speed_mps: np.ndarray | None = None
+    #: the robot's rate of turn at each sample [rad/s] (counter-clockwise positive) when the log
+    #: has a turning column (log-format.md, "Turning"), else None
+    yaw_rate_radps: np.ndarray | None = None
     #: each channel's power [W] when `power_W` is the sum of several (two motors; log-format.md
     #: "Several channels"), by channel name; empty when the log has one
     channels_W: dict[str, np.ndarray] = field(default_factory=dict)
+    #: the surface under the robot at each sample, when the log has a `surface` column
+    #: (log-format.md, "Metadata keys"): an index into `surface_names` (-1 where the column is
+    #: empty), else None (then the `surface` metadata, if any, holds for the whole run)
+    surface_index: np.ndarray | None = None
+    surface_names: tuple[str, ...] = ()
 
     @property
     def samples(self) -> int:

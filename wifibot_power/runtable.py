@@ -97,9 +97,10 @@ DOUBT_REASON = "segmentation in doubt: "
 class WindowEnergy:
     """Energy [J] of windows of a run's samples (rectangle rule, Eq. 1's integral over the
     window), for any windows at once: one pass of `np.add.reduceat` over the samples at the
-    windows' sorted edges, pairwise-summed between them, shared by `run_row` and
-    `traces.trace_stats`. No array as long as the run is made (a cumulative sum of the
-    samples was one: 1.8 ms per 300 k samples, against 0.06 ms for the pass)."""
+    windows' sorted edges, pairwise-summed between them, shared by `run_row` and the
+    causes' windows (`causes.run_statistics`). No array as long as the run is made (a
+    cumulative sum of the samples was one: 1.8 ms per 300 k samples, against 0.06 ms for
+    the pass)."""
 
     def __init__(self, run: Run) -> None:
         self._power_W = run.power_W
@@ -155,7 +156,7 @@ def _cruise_speed(segmentation: Segmentation) -> tuple[float | None, int]:
     """The run's speed from its cruise phases' measured speeds (a speed column: their
     time-weighted mean), and how many speed levels they hold (`fit.speed_levels`); None
     and 0 when no cruise phase carries a speed."""
-    from wifibot_power.fit import speed_levels
+    from wifibot_power.models.paper_fit import speed_levels
 
     cruises = [p for p in segmentation.phases if p.phase == "cruise" and p.speed_mps is not None]
     if not cruises:
@@ -215,6 +216,21 @@ def run_row(
         covered_m = _path_m(run, phases)
         if covered_m > 0:
             row.update(distance_m=covered_m, distance_source="speed column")
+    row.update(_phase_columns(run, phases, energy, run_mean_W))
+    reason = cover_problem if meta.mode == "motion" else None
+    reason = reason or usability(row)
+    row["usable"] = reason is None
+    row["skip_reason"] = reason or ""
+    return row
+
+
+def _phase_columns(
+    run: Run, phases: Sequence[Phase], energy: WindowEnergy | None, run_mean_W: float
+) -> dict[str, object]:
+    """The row's columns made from the phases (`run_row`): energies and mean powers by phase
+    name, the steps found, the acceleration time; an idle run's idle columns are the whole
+    run's (`run_mean_W`)."""
+    meta = run.meta
     energies_J, durations_s = _phase_sums(run, phases, energy)
     names = np.array([p.phase for p in phases], dtype=object)
     step_numbers = np.array([p.step for p in phases], dtype=np.int64)
@@ -232,7 +248,7 @@ def run_row(
     accel_mask = names == "accel"
     accel_steps = max(int(np.unique(step_numbers[accel_mask]).size), 1)
     decel_energy_J, decel_total_s = total("decel")
-    row.update(
+    return dict(
         motion_energy_J=float(energies_J[is_motion].sum()),
         steps_found=steps_found,
         # a step's accel may be cut in pieces by a segmenter; its time is the pieces' sum
@@ -250,11 +266,6 @@ def run_row(
         idle_mean_power_W=mean_W("idle") if meta.mode != "idle" else run_mean_W,
         idle_duration_s=total("idle")[1] if meta.mode != "idle" else run.duration_s,
     )
-    reason = cover_problem if meta.mode == "motion" else None
-    reason = reason or usability(row)
-    row["usable"] = reason is None
-    row["skip_reason"] = reason or ""
-    return row
 
 
 def _path_m(run: Run, phases: Sequence[Phase]) -> float:

@@ -1,32 +1,20 @@
-"""Per-run statistics of the power trace that `diagnose` needs, computed at sample level
-while the run is in memory (so diagnosis holds only these small summaries, not traces).
-
-- Start and end windows of each step (where a start transient or a stopping phase puts
-  its energy), as sufficient statistics that are linear in the model's coefficients.
-- The spectrum of the cruise power (where a wheel-eccentricity ripple shows), with a test
-  of its strongest line against the local spectrum, and the cruise trace in 10 ms blocks.
+"""Cause-neutral tools the causes' per-run statistics are made with (`causes.base.RunView`):
+the windows of each step of a segmented run, and the test of a spectral line in a series
+(a cruise's power in blocks) against its local spectrum. Names no cause.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wifibot_power.changepoint import block_means
-from wifibot_power.phases import Segmentation
-from wifibot_power.run import Run
-from wifibot_power.runtable import WindowEnergy
-from wifibot_power.sinusoid import detrended, refined_hz, sinusoid_fit
+from wifibot_power.sinusoid import refined_hz, sinusoid_fit
 
-#: Length of the window after each acceleration start where a start transient sits [s].
-START_WINDOW_S = 0.25
-#: Length of the window after each cruise end where a stopping phase sits [s].
-END_WINDOW_S = 1.0
-#: Block length for spectra and trace comparisons [s]; ripple is at most a few Hz.
-BLOCK_S = 0.01
-#: Shortest cruise phase whose spectrum is analysed [s].
-MIN_CRUISE_S = 3.0
+if TYPE_CHECKING:
+    from wifibot_power.phases import Segmentation
+
 #: Frequencies searched for a ripple peak [Hz].
 RIPPLE_BAND_HZ = (0.1, 20.0)
 #: Periodogram bins on each side of a candidate line that estimate the spectrum under it
@@ -35,125 +23,50 @@ LINE_NEIGHBOURS = 8
 
 
 @dataclass(frozen=True, eq=False)
-class TraceStats:
-    """Window sums (J, s) over all steps of a run, and the cruise spectrum's peak."""
+class StepWindows:
+    """Sample indices of each step that has an acceleration and a cruise, in step order:
+    where its acceleration starts and ends, where its cruise ends, and where the next step's
+    motion starts (the run's end after the last). Causes take their windows from these
+    (`causes.base.RunView.steps`)."""
 
-    steps: int
-    start_measured_J: float
-    start_accel_s: float
-    start_ramp_s: float  # sum over accel samples in the window of u = (t - t_a0) / t_acc, times dt
-    start_ramp2_s: float  # the same sum of u², times dt
-    start_cruise_s: float
-    end_measured_J: float
-    end_s: float
-    ripple_hz: float
-    ripple_amplitude_W: float
-    ripple_p_value: float
-    cruise_blocks_W: np.ndarray  # detrended 10 ms block means of the longest cruise
-    block_s: float
+    accel_start: list[int]
+    accel_end: list[int]
+    cruise_end: list[int]
+    next_start: list[int]
 
-    def as_row(self) -> dict[str, float]:
-        return {
-            "start_measured_J": self.start_measured_J,
-            "start_accel_s": self.start_accel_s,
-            "start_ramp_s": self.start_ramp_s,
-            "start_ramp2_s": self.start_ramp2_s,
-            "start_cruise_s": self.start_cruise_s,
-            "end_measured_J": self.end_measured_J,
-            "end_s": self.end_s,
-            "ripple_hz": self.ripple_hz,
-            "ripple_amplitude_W": self.ripple_amplitude_W,
-            "ripple_p_value": self.ripple_p_value,
-            # how long the analysed cruise is: how many cycles of a line it can show
-            "ripple_cruise_s": self.cruise_blocks_W.size * self.block_s
-            if self.cruise_blocks_W.size
-            else np.nan,
-        }
+    def __len__(self) -> int:
+        return len(self.accel_start)
 
 
-EMPTY = TraceStats(
-    0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.nan, np.nan, np.nan, np.zeros(0), BLOCK_S
-)
+def windows_after(
+    starts: list[int], length_s: float, limits: list[int], period_s: float
+) -> tuple[list[int], list[int]]:
+    """Windows of `length_s` (at least a sample) from each of `starts`, each cut at its
+    matching `limits` (sample indices): (starts, ends)."""
+    n = max(1, round(length_s / period_s))
+    return starts, [min(i + n, limit) for i, limit in zip(starts, limits, strict=True)]
 
 
-def trace_stats(
-    run: Run, segmentation: Segmentation, energy: WindowEnergy | None = None
-) -> TraceStats:
-    """Window sums and cruise spectrum of a motion run (EMPTY for other runs); `energy`: the
-    run's `runtable.WindowEnergy` when the caller has it already."""
-    if run.meta.mode != "motion" or not segmentation.phases:
-        return EMPTY
-    dt = run.sample_period_s
-    energy = energy or WindowEnergy(run)
+def step_windows(segmentation: Segmentation, samples: int) -> StepWindows:
+    """The steps of a segmented run that have an acceleration and a cruise (`StepWindows`).
+    Each step's stop window ends where the next step's motion starts, whether or not that
+    step has a cruise (a speed column can give steps that speed up and stop), the last
+    one's at the end of the run (`samples`)."""
     by_step: dict[int, dict[str, list]] = {}
     for phase in segmentation.phases:
         if phase.phase in ("accel", "cruise", "decel") and phase.step >= 1:
             by_step.setdefault(phase.step, {}).setdefault(phase.phase, []).append(phase)
     steps = sorted(s for s, kinds in by_step.items() if "accel" in kinds and "cruise" in kinds)
-    # each step's stop window ends where the next step's motion starts, whether or not that
-    # step has a cruise (a speed column can give steps that speed up and stop), the last
-    # one's at the end of the run
     motion_starts = sorted(
         min(p.i_start for ps in kinds.values() for p in ps) for kinds in by_step.values()
     )
-    starts_next = [
-        next(
-            (i for i in motion_starts if i > min(p.i_start for p in by_step[s]["accel"])),
-            run.samples,
-        )
-        for s in steps
-    ]
-    sums = np.zeros(7)
-    windows: list[tuple[int, int]] = []  # each step's start and end windows, in turn
-    w_start = max(1, round(START_WINDOW_S / dt))
-    w_end = max(1, round(END_WINDOW_S / dt))
-    for step, next_start in zip(steps, starts_next, strict=True):
-        accel = by_step[step]["accel"]
-        ia0, ia1 = min(p.i_start for p in accel), max(p.i_end for p in accel)
-        ic1 = max(p.i_end for p in by_step[step]["cruise"])
-        i_stop = min(ia0 + w_start, ic1)
-        n_acc = min(i_stop, ia1) - ia0
-        # u at the middle of each accel sample in the window (an arithmetic series)
-        n_ramp = ia1 - ia0
-        sum_u = (n_acc * n_acc / 2.0) / n_ramp
-        # sum of ((j + 0.5) / n)² for j < m: (m³/3 - m/12) / n²
-        sum_u2 = (n_acc**3 / 3.0 - n_acc / 12.0) / n_ramp**2
-        j_stop = min(ic1 + w_end, next_start)
-        windows += [(ia0, i_stop), (ic1, j_stop)]
-        # the two windows' energies (0 and 5) are added below, in one pass over the samples
-        sums += [
-            0.0,
-            n_acc * dt,
-            sum_u * dt,
-            sum_u2 * dt,
-            max(i_stop - ia1, 0) * dt,
-            0.0,
-            (j_stop - ic1) * dt,
-        ]
-    if windows:
-        window_J = energy.between(*np.array(windows).T)
-        sums[0], sums[5] = window_J[0::2].sum(), window_J[1::2].sum()
-    hz, amplitude_W, p_value, blocks, block_s = _cruise_spectrum(run, segmentation)
-    return TraceStats(len(steps), *map(float, sums), hz, amplitude_W, p_value, blocks, block_s)
-
-
-def _cruise_spectrum(run: Run, segmentation: Segmentation):
-    dt = run.sample_period_s
-    cruises = [p for p in segmentation.phases if p.phase == "cruise"]
-    if not cruises:
-        return np.nan, np.nan, np.nan, np.zeros(0), BLOCK_S
-    longest = max(cruises, key=lambda p: p.i_end - p.i_start)
-    per_block = max(1, round(BLOCK_S / dt))
-    block_s = per_block * dt
-    n_blocks = (longest.i_end - longest.i_start) // per_block
-    if n_blocks * block_s < MIN_CRUISE_S:
-        return np.nan, np.nan, np.nan, np.zeros(0), block_s
-    x = block_means(
-        run.power_W[longest.i_start : longest.i_start + n_blocks * per_block], per_block
+    accel_start = [min(p.i_start for p in by_step[s]["accel"]) for s in steps]
+    return StepWindows(
+        accel_start,
+        [max(p.i_end for p in by_step[s]["accel"]) for s in steps],
+        [max(p.i_end for p in by_step[s]["cruise"]) for s in steps],
+        [next((i for i in motion_starts if i > ia0), samples) for ia0 in accel_start],
     )
-    x = detrended(x, block_s)  # drift within a cruise is not ripple
-    hz, amplitude_W, p_value = ripple_peak(x, block_s)
-    return hz, amplitude_W, p_value, x, block_s
 
 
 def ripple_peak(x: np.ndarray, block_s: float) -> tuple[float, float, float]:

@@ -6,7 +6,9 @@ on `sys.path` to import it (as `study_f1tenth.py` imports the converter)."""
 
 from __future__ import annotations
 
+import argparse
 import gzip
+import os
 import subprocess
 from collections.abc import Sequence
 from pathlib import Path
@@ -38,3 +40,25 @@ def write_gzip(target: Path, text: str) -> None:
     churn where the files are kept)."""
     with open(target, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as gz:
         gz.write(text.encode())
+
+
+#: where the converted free-driving logs live (issue 25, step 7): outside the repository
+REAL_DRIVE_VAR = "WBPOWER_REAL_DRIVE"
+DEFAULT_REAL_DRIVE = Path("/work/real_drive")
+
+
+def real_drive_root() -> Path:
+    """The folder of the converted free-driving sets: `$WBPOWER_REAL_DRIVE`, else
+    `DEFAULT_REAL_DRIVE` (docs/real-logs.md, "Free driving")."""
+    return Path(os.environ.get(REAL_DRIVE_VAR) or DEFAULT_REAL_DRIVE)
+
+
+def add_out_argument(parser: argparse.ArgumentParser, where: str) -> None:
+    """`--out DIR` of a free-driving converter: default `real_drive_root() / where`."""
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help=f"folder for the .csv.gz files (default: ${REAL_DRIVE_VAR}/{where}, "
+        f"else {DEFAULT_REAL_DRIVE}/{where})",
+    )

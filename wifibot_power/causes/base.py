@@ -11,16 +11,23 @@ and must not pay for pandas or scipy); the tables passed in are pandas frames.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, ClassVar
+from functools import cached_property
+from typing import TYPE_CHECKING, ClassVar, Protocol
 
 import numpy as np
 
+from wifibot_power.traces import StepWindows, step_windows
+
 if TYPE_CHECKING:
     import pandas as pd
+    from matplotlib.axes import Axes
 
     from wifibot_power.energy import StepKinematics
     from wifibot_power.model import PowerModel
+    from wifibot_power.phases import Segmentation
+    from wifibot_power.run import Run
 
 #: Significance level of every evidence test (strict: six causes are tested on every batch).
 ALPHA = 1e-3
@@ -72,12 +79,68 @@ class Evidence:
         return self.significant and self.estimate >= CAUSES[self.cause].min_size
 
 
+class WindowEnergies(Protocol):
+    """What `RunView.energy` is (`runtable.WindowEnergy`): energy [J] of windows of the run's
+    samples, ``between(starts, ends)``, any windows at once (one pass over the samples)."""
+
+    def between(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray: ...
+
+
+@dataclass(frozen=True, eq=False)
+class RunView:
+    """What a cause's per-run hooks (`Cause.run_stats`, `Cause.run_trace`) see of one
+    segmented motion run, in the worker while its samples are in memory: the run, its
+    segmentation, the energy of any windows of its samples (shared with the run's row), the
+    windows of its steps (`traces.step_windows`, made once for every cause), and the energy
+    of each window a cause asked for (`Cause.energy_windows`), by cause: all of them from
+    one `energy.between`, whose sums depend on the set of edges it is given."""
+
+    run: Run
+    segmentation: Segmentation
+    energy: WindowEnergies
+    window_J: dict[str, np.ndarray] = field(default_factory=dict)
+    #: what a cause's hooks share of this run (e.g. a spectrum both read), by cause
+    memo: dict[str, object] = field(default_factory=dict)
+
+    @cached_property
+    def steps(self) -> StepWindows:
+        return step_windows(self.segmentation, self.run.samples)
+
+    def windows_of(self, cause: Cause) -> tuple[list[int], list[int]]:
+        """The windows `cause` asks for (`Cause.energy_windows`), made once per run."""
+        key = f"{cause.name}:windows"
+        if key not in self.memo:
+            self.memo[key] = cause.energy_windows(self) or ([], [])
+        return self.memo[key]  # type: ignore[return-value]
+
+    def window_energies_J(self, cause: Cause) -> np.ndarray:
+        """The energies [J] of the windows `cause` asked for (`Cause.energy_windows`): as
+        summed with every cause's (`registry.run_statistics`), or alone."""
+        if cause.name not in self.window_J:
+            starts, ends = self.windows_of(cause)
+            self.window_J[cause.name] = self.energy.between(starts, ends) if starts else np.zeros(0)
+        return self.window_J[cause.name]
+
+
+@dataclass(frozen=True, eq=False)
+class PanelView:
+    """What a cause's figure panels (`Cause.panels`) draw from: the diagnosis's per-run
+    table (`Diagnosis.runs`, with the cause's `table_columns`), the finding's estimate
+    (`Finding.estimate`), the title every finding's panel carries, this cause's per-run
+    trace data (`Cause.run_trace`, by run_id) and the figures' colours by phase."""
+
+    runs: pd.DataFrame
+    estimate: Mapping[str, object]
+    title: str
+    traces: Mapping[str, object]
+    colours: Mapping[str, str]
+
+
 @dataclass(frozen=True, eq=False)
 class RunTable:
     """What every evidence test and check is given: the usable motion runs (one row each:
-    `runtable.run_row` columns, trace statistics, each cause's `run_columns`, and the
-    session clock `tau_before_min`/`tau_mid_min`), the model fitted with the causes already
-    found, and those causes' names."""
+    `runtable.run_row` columns, each cause's `run_stats` and `session_columns`), the model
+    fitted with the causes already found, and those causes' names."""
 
     runs: pd.DataFrame
     model: PowerModel
@@ -128,7 +191,7 @@ class Cause:
     """Base class of a named cause. Subclasses set the class attributes and override the
     hooks their physics needs; the defaults add nothing.
 
-    Fitting (`causes.extended.fit_model`) runs in three stages, given by `fit_stage`:
+    Fitting (`diagnose.extended.fit_model`) runs in three stages, given by `fit_stage`:
     ``"scale"`` causes multiply motion power above idle (`power_factor`) and are estimated
     first; ``"column"`` causes are linear in their parameter and enter the one stacked
     least-squares fit of the acceleration and cruise means (`power_terms`,
@@ -170,11 +233,46 @@ class Cause:
     #: simulate: the order effects are applied in (multiplicative ones last)
     inject_order: ClassVar[int] = 0
 
+    #: every column its `run_stats` and `session_columns` add to the run table: its own
+    #: fields, which nothing outside causes/ names (tests/test_architecture.py)
+    columns: ClassVar[tuple[str, ...]] = ()
+    #: the columns of `run_stats` and `session_columns` kept in the diagnosis's per-run
+    #: table (`Diagnosis.runs`, discrepancy.parquet): what its figure panels read
+    table_columns: ClassVar[tuple[str, ...]] = ()
+
     # -- per-run statistics --------------------------------------------------------------
-    def run_columns(self, run, segmentation) -> dict[str, float]:
-        """Extra per-run statistics this cause's tests need, computed while the run's samples
-        are in memory (`diagnose.summarize_run`); vectorised over samples."""
-        del run, segmentation
+    def energy_windows(self, view: RunView) -> tuple[list[int], list[int]] | None:
+        """Windows of the run's samples (start and end indices) whose energies `run_stats`
+        reads (``view.window_energies_J(self)``; the windows: ``view.windows_of(self)``), or
+        None."""
+        del view
+        return None
+
+    def run_stats(self, view: RunView) -> dict[str, float]:
+        """Per-run statistics this cause's tests need (columns of the run table), computed in
+        the worker while the run's samples are in memory (`diagnose.summarize_run`), for
+        motion runs; vectorised over samples. Runs of other modes have none (NaN)."""
+        del view
+        return {}
+
+    def run_trace(self, view: RunView) -> object | None:
+        """Per-run trace data its trace metric (`heldout_trace_gain_pct`) and its figure
+        panels need beyond the table's numbers (picklable, small: e.g. block means of a
+        cruise), or None."""
+        del view
+        return None
+
+    def session_columns(self, runs: pd.DataFrame) -> dict[str, np.ndarray]:
+        """Covariates of each run that depend on the batch (e.g. a session clock), added as
+        columns of the run table (`runs`: every run, with `session_order`, the run's place
+        among the timed runs by `started_at`, -1 when it has none)."""
+        del runs
+        return {}
+
+    def trip_inputs(self, runs: pd.DataFrame) -> dict[str, np.ndarray]:
+        """Keyword arguments of `energy.trip_energy` this cause's energy term reads from each
+        run when the model simulates it (arrays, a value per run of `runs`)."""
+        del runs
         return {}
 
     # -- fitting -------------------------------------------------------------------------
@@ -237,9 +335,20 @@ class Cause:
             f"({'inside' if ok else 'outside'})",
         )
 
-    def heldout_trace_gain_pct(self, runs: pd.DataFrame, folds: np.ndarray, traces) -> float:
-        """("power_trace" causes) Held-out gain on the power trace [%]."""
+    def heldout_trace_gain_pct(
+        self, runs: pd.DataFrame, folds: np.ndarray, traces: Mapping[str, object]
+    ) -> float:
+        """("power_trace" causes) Held-out gain on the power trace [%]; `traces`: run_id ->
+        the run's `run_trace`."""
         raise NotImplementedError
+
+    # -- figures -------------------------------------------------------------------------
+    def panels(self, view: PanelView) -> list[Callable[[Axes], None]] | None:
+        """The panels of the findings figure that show this cause's evidence, each drawing
+        on the axes it is given; None: the figure's default panel for an energy cause
+        (`figures.diagnosis`)."""
+        del view
+        return None
 
     # -- energy --------------------------------------------------------------------------
     def stop_time_s(self, params: dict[str, float]) -> float:

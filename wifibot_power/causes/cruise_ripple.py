@@ -7,6 +7,7 @@ gain is measured on the cruise power trace (metric ``power_trace``).
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -16,15 +17,21 @@ from wifibot_power.causes.base import (
     Cause,
     Check,
     Evidence,
+    PanelView,
     RunTable,
+    RunView,
     SimTrace,
     TripTerms,
 )
 from wifibot_power.causes.design import column
+from wifibot_power.changepoint import block_means
+from wifibot_power.sinusoid import detrended
 from wifibot_power.stats import binomial_at_least, ols, t_quantile
+from wifibot_power.traces import ripple_peak, ripple_trace_rmse_W
 
 if TYPE_CHECKING:
     import pandas as pd
+    from matplotlib.axes import Axes
 
     from wifibot_power.model import PowerModel
 
@@ -39,6 +46,12 @@ RUN_ALPHA = 0.01
 SHOWABLE_CYCLES = 4.0
 #: wheels or gear stages the frequency may come from: diameters [m]
 DIAMETER_RANGE_M = (0.02, 1.0)
+#: Block length for spectra and trace comparisons [s]; ripple is at most a few Hz.
+BLOCK_S = 0.01
+#: Shortest cruise phase whose spectrum is analysed [s].
+MIN_CRUISE_S = 3.0
+#: The per-run statistics (`run_stats`), kept in the diagnosis's table for the figure.
+STATS = ("ripple_hz", "ripple_amplitude_W", "ripple_p_value", "ripple_cruise_s")
 
 
 class CruiseRipple(Cause):
@@ -62,6 +75,38 @@ class CruiseRipple(Cause):
     realistic_range = (0.5, 2.0)
     fit_stage = "after"
     energy_stage = "lump"
+    table_columns = STATS
+    columns = STATS
+
+    def _spectrum(self, view: RunView) -> tuple[float, float, float, np.ndarray, float]:
+        """`cruise_spectrum` of the run, made once for both hooks."""
+        if self.name not in view.memo:
+            view.memo[self.name] = cruise_spectrum(view)
+        return view.memo[self.name]  # type: ignore[return-value]
+
+    def run_stats(self, view: RunView) -> dict[str, float]:
+        """The cruise spectrum's strongest line: frequency [Hz], amplitude [W], p-value
+        against the local spectrum, and how long the analysed cruise is [s] (how many
+        cycles of a line it can show)."""
+        hz, amplitude_W, p_value, blocks, block_s = self._spectrum(view)
+        return dict(
+            zip(
+                STATS,
+                (
+                    float(hz),
+                    float(amplitude_W),
+                    float(p_value),
+                    blocks.size * block_s if blocks.size else np.nan,
+                ),
+                strict=True,
+            )
+        )
+
+    def run_trace(self, view: RunView) -> tuple[np.ndarray, float] | None:
+        """The detrended 10 ms block means of the longest cruise [W] and the block length
+        [s]: what the held-out trace gain and the spectrum panel read."""
+        _, _, _, blocks, block_s = self._spectrum(view)
+        return (blocks, block_s) if blocks.size else None
 
     def evidence(self, table: RunTable) -> Evidence:
         """A spectral line in the cruise power: in how many of the cruises that can show it
@@ -165,13 +210,13 @@ class CruiseRipple(Cause):
             return {key: evidence.parameters[key] for key in (AMPLITUDE, HZ_PER_MPS)}
         return None
 
-    def heldout_trace_gain_pct(self, runs: pd.DataFrame, folds: np.ndarray, traces) -> float:
+    def heldout_trace_gain_pct(
+        self, runs: pd.DataFrame, folds: np.ndarray, traces: Mapping[str, object]
+    ) -> float:
         """Held-out gain on the cruise power trace [%]: amplitude and Hz per m/s from the
         training folds, only the phase fitted to each held-out cruise (its start time is
-        arbitrary). `traces`: run_id -> (detrended 10 ms block means of its longest cruise,
-        block length [s])."""
-        from wifibot_power.traces import ripple_trace_rmse_W
-
+        arbitrary). `traces`: run_id -> `run_trace` (detrended 10 ms block means of its
+        longest cruise, block length [s])."""
         base_sq, ext_sq, count = 0.0, 0.0, 0
         for k in np.unique(folds):
             train, test = runs[folds != k], runs[folds == k]
@@ -197,6 +242,15 @@ class CruiseRipple(Cause):
             return 0.0
         return 100.0 * (1.0 - np.sqrt(ext_sq / count) / np.sqrt(base_sq / count))
 
+    def panels(self, view: PanelView) -> list[Callable[[Axes], None]]:
+        """The cruise spectrum's peak frequency of each run against its speed, with the
+        fitted ``f = k v`` line; and, when the runs' cruise blocks are given, the spectrum of
+        the fastest run with 3 s or more of cruise."""
+        drawn = [lambda ax: _scaling_panel(ax, view)]
+        if any(r in set(view.runs["run_id"]) for r in view.traces):
+            drawn.append(lambda ax: _spectrum_panel(ax, view))
+        return drawn
+
     def energy_J(self, params: dict[str, float], trip: TripTerms) -> tuple[float, float]:
         """Zero-mean: no energy [J]."""
         return 0.0, 0.0
@@ -214,6 +268,29 @@ class CruiseRipple(Cause):
 
     def sim_parameters(self, size: float) -> dict[str, float]:
         return {AMPLITUDE: float(size)}
+
+
+def cruise_spectrum(view: RunView) -> tuple[float, float, float, np.ndarray, float]:
+    """The strongest line of the longest cruise's spectrum (`traces.ripple_peak`: frequency
+    [Hz], amplitude [W], p-value), the cruise's detrended block means [W] and the block
+    length [s]; NaN and no blocks when the run has no cruise of MIN_CRUISE_S."""
+    run, segmentation = view.run, view.segmentation
+    dt = run.sample_period_s
+    cruises = [p for p in segmentation.phases if p.phase == "cruise"]
+    if not cruises:
+        return np.nan, np.nan, np.nan, np.zeros(0), BLOCK_S
+    longest = max(cruises, key=lambda p: p.i_end - p.i_start)
+    per_block = max(1, round(BLOCK_S / dt))
+    block_s = per_block * dt
+    n_blocks = (longest.i_end - longest.i_start) // per_block
+    if n_blocks * block_s < MIN_CRUISE_S:
+        return np.nan, np.nan, np.nan, np.zeros(0), block_s
+    x = block_means(
+        run.power_W[longest.i_start : longest.i_start + n_blocks * per_block], per_block
+    )
+    x = detrended(x, block_s)  # drift within a cruise is not ripple
+    hz, amplitude_W, p_value = ripple_peak(x, block_s)
+    return hz, amplitude_W, p_value, x, block_s
 
 
 def scales(params: dict[str, float]) -> bool:
@@ -271,3 +348,64 @@ def ripple_scaling(found: pd.DataFrame) -> dict:
         "r2": r2,
         "intercept_hz": float(free.coef[0]),
     }
+
+
+def _scaling_panel(ax: Axes, view: PanelView) -> None:
+    runs = view.runs
+    speed = runs["speed_mps"].to_numpy(np.float64)
+    hz = runs["ripple_hz"].to_numpy(np.float64)
+    found = lines_found(runs)  # the lines the evidence counts
+    ax.plot(
+        speed[found],
+        hz[found],
+        "o",
+        ms=4,
+        color=view.colours["cruise"],
+        mec="#333333",
+        mew=0.5,
+        label=f"peak of a run's cruise spectrum (n = {int(found.sum())})",
+        gid="runs",
+    )
+    k = float(view.estimate.get(HZ_PER_MPS, np.nan))
+    grid = np.linspace(0.0, max(1.0, float(np.nanmax(speed)) * 1.05), 50)
+    ax.plot(grid, k * grid, color="black", lw=1.2, label=f"f = {k:.4g} Hz/(m/s) · v", gid="fit")
+    ax.set_xlim(0.0, grid[-1])
+    ax.set_ylim(bottom=0.0)
+    ax.set_xlabel("speed [m/s]")
+    ax.set_ylabel("ripple frequency [Hz]")
+    ax.set_title(view.title, fontsize=8, loc="left")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left")
+
+
+def _spectrum_panel(ax: Axes, view: PanelView) -> None:
+    # the fastest run with 3 s or more of cruise: its peak stands clear of 0 Hz
+    runs = view.runs.set_index("run_id")
+    cruise_blocks = view.traces
+    candidates = [r for r in cruise_blocks if r in runs.index]
+    long_enough = [r for r in candidates if cruise_blocks[r][0].size * cruise_blocks[r][1] >= 3]
+    run_id = max(long_enough or candidates, key=lambda r: (runs.at[r, "speed_mps"], r))
+    blocks, block_s = cruise_blocks[run_id]
+    speed = float(runs.at[run_id, "speed_mps"])
+    amplitude = np.abs(np.fft.rfft(blocks)) * 2 / max(blocks.size, 1)  # one-sided [W]
+    freq = np.fft.rfftfreq(blocks.size, block_s)
+    expected = float(view.estimate.get(HZ_PER_MPS, np.nan)) * speed
+    top = min(20.0, 5 * expected) if np.isfinite(expected) and expected > 0 else 20.0
+    band = (freq > 0) & (freq <= top)
+    ax.plot(freq[band], amplitude[band], color=view.colours["cruise"], lw=1.0, gid="spectrum")
+    ax.axvline(
+        expected,
+        color="black",
+        ls="--",
+        lw=1.0,
+        label=f"k · v = {expected:.3g} Hz at {speed:g} m/s",
+    )
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("amplitude [W]")
+    ax.set_title(
+        f"cruise power spectrum of {run_id} ({blocks.size * block_s:.1f} s of cruise)",
+        fontsize=8,
+        loc="left",
+    )
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)

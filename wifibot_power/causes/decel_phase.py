@@ -10,10 +10,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wifibot_power.causes.base import Cause, Check, Evidence, RunTable, TripTerms
+from wifibot_power.causes.base import Cause, Check, Evidence, RunTable, RunView, TripTerms
 from wifibot_power.causes.design import column
 from wifibot_power.causes.design import power_factor as factor_of
+from wifibot_power.segment.resolution import quantized_durations
 from wifibot_power.stats import ols, one_sample_p_greater, t_quantile
+from wifibot_power.traces import windows_after
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -23,8 +25,7 @@ if TYPE_CHECKING:
 T_DEC = "t_dec_s"
 P_DEC0 = "P_dec_intercept_W"
 P_DEC1 = "P_dec_slope_W_per_mps"
-#: the window after each cruise where the trace statistics sum the energy [s]
-#: (traces.END_WINDOW_S; repeated here so importing a cause loads no scipy)
+#: Length of the window after each cruise end where a stopping phase sits [s].
 END_WINDOW_S = 1.0
 #: fewest runs whose traces must show a stopping phase [fraction]
 VISIBLE_FRACTION = 0.9
@@ -52,6 +53,26 @@ class DecelPhase(Cause):
     fit_stage = "after"
     energy_stage = "power"
     energy_phase = "decel"
+    columns = ("end_measured_J", "end_s")
+
+    def energy_windows(self, view: RunView) -> tuple[list[int], list[int]]:
+        """Each step's stop window: END_WINDOW_S after its cruise ends, or up to where the
+        next step starts moving."""
+        steps = view.steps
+        period_s = view.run.sample_period_s
+        return windows_after(steps.cruise_end, END_WINDOW_S, steps.next_start, period_s)
+
+    def run_stats(self, view: RunView) -> dict[str, float]:
+        """The stop windows' measured energy [J] and time [s], summed over steps."""
+        dt = view.run.sample_period_s
+        end_s = 0.0
+        starts, ends = view.windows_of(self)
+        for ic1, j_stop in zip(starts, ends, strict=True):
+            end_s += (j_stop - ic1) * dt
+        return {
+            "end_measured_J": float(view.window_energies_J(self).sum()) if starts else 0.0,
+            "end_s": end_s,
+        }
 
     def evidence(self, table: RunTable) -> Evidence:
         """Energy above idle in the second after each cruise ends, where the paper's robot
@@ -186,9 +207,16 @@ def decel_parameters(runs: pd.DataFrame, base: PowerModel, factor: np.ndarray | 
         extra_W = float(np.nanmean(excess)) / t_dec if t_dec > 1e-3 else 0.0
         intercept, slope = base.idle_W + extra_W, 0.0
     half = t_quantile(0.975, dof) * se if dof > 0 else float("nan")
+    ci95 = (t_dec - half, t_dec + half)
+    if found.sum() >= 2 and "sample_period_s" in runs:
+        # decel phases a sample or two long are known to a sample period, however alike
+        # (issue 26: a 6.5 Hz log's every phase is one sample; segment/resolution.py)
+        coarse = quantized_durations(durations[found], column(runs, "sample_period_s")[found])
+        if coarse is not None:
+            ci95 = coarse.floor_ci95(t_dec, ci95)
     return {
         T_DEC: t_dec,
         P_DEC0: intercept,
         P_DEC1: slope,
-        "t_dec_ci95": (t_dec - half, t_dec + half),
+        "t_dec_ci95": ci95,
     }

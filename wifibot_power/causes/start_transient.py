@@ -16,6 +16,7 @@ from wifibot_power.causes.base import (
     Check,
     Evidence,
     RunTable,
+    RunView,
     SimTrace,
     TripTerms,
 )
@@ -27,7 +28,7 @@ from wifibot_power.causes.design import (
 )
 from wifibot_power.causes.design import power_factor as factor_of
 from wifibot_power.stats import ols, one_sample_p_greater
-from wifibot_power.traces import START_WINDOW_S
+from wifibot_power.traces import windows_after
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -35,6 +36,8 @@ if TYPE_CHECKING:
     from wifibot_power.model import PowerModel
 
 E_START = "E_start_J"
+#: Length of the window after each acceleration start where a start transient sits [s].
+START_WINDOW_S = 0.25
 
 
 class StartTransient(Cause):
@@ -54,6 +57,13 @@ class StartTransient(Cause):
     realistic_range = (1.5, 8.0)
     fit_stage = "column"
     energy_stage = "lump"
+    columns = (
+        "start_measured_J",
+        "start_accel_s",
+        "start_ramp_s",
+        "start_ramp2_s",
+        "start_cruise_s",
+    )
     #: Half the evidence's start window (0.25 s): a decaying transient of causes.md's "~0.2 s"
     #: has spent most of its energy by then (the simulator's inrush, τ = 50 ms cut at 0.2 s:
     #: 96%; uncut, 92%). A run that accelerates for less (0.1 m/s: 0.1 s, 8.8% of the
@@ -64,6 +74,41 @@ class StartTransient(Cause):
     #: runs, took up an unmodelled k2 v²: speed_quadratic beside it was missed on the tests'
     #: grid (docs/diagnose.md, "The same at field realism on the study's own grid")
     lump_within_s = START_WINDOW_S / 2
+
+    def energy_windows(self, view: RunView) -> tuple[list[int], list[int]]:
+        """Each step's start window: its first START_WINDOW_S of acceleration, and of the
+        cruise after it when the acceleration is shorter (ending at the cruise's end)."""
+        steps = view.steps
+        period_s = view.run.sample_period_s
+        return windows_after(steps.accel_start, START_WINDOW_S, steps.cruise_end, period_s)
+
+    def run_stats(self, view: RunView) -> dict[str, float]:
+        """The start windows' measured energy [J] and, summed over steps, their time in
+        acceleration and in cruise [s] and the sums over their acceleration samples of
+        u = (t - t_a0) / t_acc and u² times dt [s]: sufficient statistics, linear in the
+        model's coefficients, of the modelled energy in the windows
+        (`start_window_excess_J`)."""
+        dt = view.run.sample_period_s
+        accel_s = ramp_s = ramp2_s = cruise_s = 0.0
+        starts, stops = view.windows_of(self)
+        for ia0, ia1, i_stop in zip(starts, view.steps.accel_end, stops, strict=True):
+            n_acc = min(i_stop, ia1) - ia0
+            # u at the middle of each accel sample in the window (an arithmetic series)
+            n_ramp = ia1 - ia0
+            sum_u = (n_acc * n_acc / 2.0) / n_ramp
+            # sum of ((j + 0.5) / n)² for j < m: (m³/3 - m/12) / n²
+            sum_u2 = (n_acc**3 / 3.0 - n_acc / 12.0) / n_ramp**2
+            accel_s += n_acc * dt
+            ramp_s += sum_u * dt
+            ramp2_s += sum_u2 * dt
+            cruise_s += max(i_stop - ia1, 0) * dt
+        return {
+            "start_measured_J": float(view.window_energies_J(self).sum()) if starts else 0.0,
+            "start_accel_s": accel_s,
+            "start_ramp_s": ramp_s,
+            "start_ramp2_s": ramp2_s,
+            "start_cruise_s": cruise_s,
+        }
 
     def lump_J_per_step(self, runs: pd.DataFrame, value: float) -> np.ndarray:
         return np.full(len(runs), float(value))

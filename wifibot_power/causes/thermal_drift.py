@@ -16,6 +16,7 @@ from wifibot_power.causes.base import (
     Check,
     Evidence,
     RunTable,
+    RunView,
     SimTrace,
     TripTerms,
 )
@@ -38,6 +39,9 @@ BLOCK_S = 0.01
 #: probability with which the within-run creep check must be able to see the creep the
 #: between-run α implies before its absence counts against the name
 CREEP_POWER = 0.9
+#: A gap longer than this between one run's end and the next's start ends a session: the
+#: motors have cooled [s].
+SESSION_GAP_S = 30 * 60.0
 
 
 class ThermalDrift(Cause):
@@ -59,8 +63,11 @@ class ThermalDrift(Cause):
     fit_stage = "scale"
     energy_stage = "scale"
     inject_order = 1
+    columns = ("creep_s_tp", "creep_s_tt", "creep_power_W", "tau_before_min", "tau_mid_min")
+    #: the session clock's minutes before each run, beside its held-out error
+    table_columns = ("tau_before_min",)
 
-    def run_columns(self, run, segmentation) -> dict[str, float]:
+    def run_stats(self, view: RunView) -> dict[str, float]:
         """Trend of power within the run's cruises (their middle 90%), pooled over them.
 
         Each cruise, in 10 ms block means, is fitted by least squares with a level, a line
@@ -69,6 +76,7 @@ class ThermalDrift(Cause):
         creep of a warming motor, so it is fitted out. Per cruise, its slope b and the
         information I = 1 / (XᵀX)⁻¹_tt (S_tt without a sinusoid) are kept; the run's are
         ``creep_s_tp = Σ I b`` and ``creep_s_tt = Σ I``, with the cruises' mean power."""
+        run, segmentation = view.run, view.segmentation
         s_tp = s_tt = energy = seconds = 0.0
         dt = run.sample_period_s
         per_block = max(1, round(BLOCK_S / dt))
@@ -100,6 +108,46 @@ class ThermalDrift(Cause):
             "creep_s_tt": s_tt,
             "creep_power_W": energy / seconds if seconds > 0 else float("nan"),
         }
+
+    def session_columns(self, runs: pd.DataFrame) -> dict[str, np.ndarray]:
+        """The session clock: motor-on minutes accumulated in the session before each run
+        (``tau_before_min``) and at its middle (``tau_mid_min``).
+
+        Runs are taken in `session_order` (by `started_at`); a gap of over 30 min ends a
+        session (motors cool). Runs without `started_at` get NaN (thermal drift is then not
+        testable)."""
+        import pandas as pd
+
+        motion_s = pd.Series(
+            np.where(
+                runs["mode"] == "motion",
+                runs["t_acc_s"].fillna(0) * runs["steps_found"]
+                + runs["cruise_duration_s"].fillna(0)
+                + runs["decel_duration_s"].fillna(0) * runs["steps_found"],
+                0.0,
+            )
+        )
+        tau_before = np.full(len(runs), np.nan)
+        tau_mid = np.full(len(runs), np.nan)
+        rank = runs["session_order"].to_numpy()
+        timed = np.flatnonzero(rank >= 0)
+        if timed.size:
+            order = timed[np.argsort(rank[timed])]  # positions, in time order
+            start = runs["started_at"].iloc[order].reset_index(drop=True)
+            end = start + pd.to_timedelta(runs["duration_s"].iloc[order].to_numpy(), unit="s")
+            new_session = (start - end.shift()).dt.total_seconds().fillna(np.inf) > SESSION_GAP_S
+            session = new_session.cumsum()
+            motion = motion_s.iloc[order].reset_index(drop=True)
+            before = motion.groupby(session).cumsum() - motion
+            tau_before[order] = before.to_numpy() / 60.0
+            tau_mid[order] = (before + motion / 2).to_numpy() / 60.0
+        return {"tau_before_min": tau_before, "tau_mid_min": tau_mid}
+
+    def trip_inputs(self, runs: pd.DataFrame) -> dict[str, np.ndarray]:
+        """The minutes of motor-on time before each run in its session (0: from cold, and
+        where the logs do not say)."""
+        tau = column(runs, "tau_before_min")
+        return {"motor_on_before_min": np.where(np.isfinite(tau), tau, 0.0)}
 
     def power_factor(self, runs: pd.DataFrame, params: dict[str, float]) -> np.ndarray:
         return 1.0 + params[ALPHA_PER_MIN] * column(runs, "tau_mid_min")

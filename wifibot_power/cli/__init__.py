@@ -26,6 +26,7 @@ COMMANDS = {
     "diagnose": "diagnose_cmd",
     "simulate": "simulate_cmd",
     "report": "report_cmd",
+    "export": "export_cmd",
 }
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextvars
 import functools
 import inspect
 import json
@@ -9,12 +10,14 @@ import os
 import sys
 import typing
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, TypeVar
 
 import typer
 
+from wifibot_power.cli import consoles
 from wifibot_power.errors import UsageError, WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
 from wifibot_power.outputs import json_safe, probe_folder, written
@@ -32,53 +35,69 @@ EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a command stopped by Ctrl-C
 
 
-def _console(name: str) -> Console:
-    from rich.console import Console
-
-    if name == "stdout":
-        # a pipe gets wide tables (not rich's 80 columns), whatever COLUMNS the environment has
-        return Console(soft_wrap=False, width=None if sys.stdout.isatty() else 200)
-    return Console(stderr=True, soft_wrap=True)
-
-
-#: `stdout` and `stderr`: the rich consoles human output is drawn on, made (and rich
-#: imported, ~40 ms) on first use: `--json` output and one-line messages need neither.
+#: `stdout` and `stderr`: the rich consoles human output is drawn on (`cli.consoles`, made on
+#: first use: `--json` output and one-line messages need neither).
 stdout: Console
 stderr: Console
 
 
 def __getattr__(name: str) -> object:
     if name in ("stdout", "stderr"):
-        console = globals()[name] = _console(name)
-        return console
+        return getattr(consoles, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 # -- reading options: every command that reads logs takes these (cli.md) --------------
 SupplyVoltage = Annotated[
     float | None,
-    typer.Option("--supply-voltage", min=0.0, help="Supply voltage [V]: power = current x V."),
+    typer.Option(
+        "--supply-voltage", metavar="V", help="Supply voltage [V], > 0: power = current x V."
+    ),
 ]
 CurrentColumn = Annotated[
-    str | None, typer.Option("--current-column", help="Name of the current column to use.")
+    str | None,
+    typer.Option("--current-column", metavar="NAME", help="Name of the current column to use."),
 ]
 VoltageColumn = Annotated[
-    str | None, typer.Option("--voltage-column", help="Name of the voltage column to use.")
+    str | None,
+    typer.Option("--voltage-column", metavar="NAME", help="Name of the voltage column to use."),
 ]
 SpeedColumn = Annotated[
     str | None,
     typer.Option(
-        "--speed-column", help="Name of the speed column [m/s] (default: speed_mps, if any)."
+        "--speed-column",
+        metavar="NAME",
+        help="Name of the speed column [m/s] (default: speed_mps, if any).",
     ),
 ]
 PowerColumn = Annotated[
     list[str] | None,
     typer.Option(
-        "--power-column", help="Name of a power column; repeat it to sum several (two motors)."
+        "--power-column",
+        metavar="NAME",
+        help="Name of a power column; repeat it to sum several (two motors).",
+    ),
+]
+YawRateColumn = Annotated[
+    str | None,
+    typer.Option(
+        "--yaw-rate-column",
+        help="Name of the rate-of-turn column [rad/s] (default: yaw_rate_radps, if any).",
+    ),
+]
+TrackWidth = Annotated[
+    float | None,
+    typer.Option(
+        "--track-width",
+        min=0.0,
+        help="Track width [m] turning speed_left_mps/speed_right_mps into a rate of turn.",
     ),
 ]
 TimeColumn = Annotated[
-    str | None, typer.Option("--time-column", help="Name of the time column (see --time-unit).")
+    str | None,
+    typer.Option(
+        "--time-column", metavar="NAME", help="Name of the time column (see --time-unit)."
+    ),
 ]
 
 
@@ -90,22 +109,73 @@ class TimeUnit(StrEnum):
 
 TimeUnitOption = Annotated[
     TimeUnit | None,
-    typer.Option("--time-unit", help="Unit of the time column, when its name does not say."),
+    typer.Option(
+        "--time-unit",
+        metavar="s|ms|us",
+        help="Unit of the time column, when its name does not say.",
+    ),
 ]
 FlipCurrent = Annotated[
     bool,
     typer.Option("--flip-current", help="Negate the current (and power): a reversed sensor."),
 ]
+MaxPower = Annotated[
+    float | None,
+    typer.Option(
+        "--max-power",
+        metavar="W",
+        help="The most the robot can draw [W], > 0: above it a reading is an error (a unit "
+        "mistake); wins over the logs' max_power_W metadata.",
+    ),
+]
 SamplePeriod = Annotated[
     float | None,
-    typer.Option("--sample-period", min=0.0, help="Sample spacing [s] for logs without time."),
+    typer.Option(
+        "--sample-period", metavar="S", help="Sample spacing [s], > 0, for logs without time."
+    ),
+]
+PowerTopic = Annotated[
+    str | None,
+    typer.Option(
+        "--power-topic",
+        metavar="TOPIC",
+        help="A bag's power topic: BatteryState (P = V x -I), or Float32/64 in W "
+        "(default: the one BatteryState topic).",
+    ),
+]
+CurrentTopic = Annotated[
+    str | None,
+    typer.Option(
+        "--current-topic",
+        metavar="TOPIC",
+        help="A bag's current topic (Float32/64 in A, draw > 0).",
+    ),
+]
+VoltageTopic = Annotated[
+    str | None,
+    typer.Option(
+        "--voltage-topic", metavar="TOPIC", help="A bag's voltage topic (Float32/64 in V)."
+    ),
+]
+SpeedTopic = Annotated[
+    str | None,
+    typer.Option(
+        "--speed-topic",
+        metavar="TOPIC",
+        help="A bag's speed and yaw-rate topic: Odometry, or a Twist such as cmd_vel (read as "
+        "commanded) (default: the one Odometry topic).",
+    ),
 ]
 JsonFlag = Annotated[bool, typer.Option("--json", help="Print one JSON document on stdout.")]
 OutDir = Annotated[
-    Path | None, typer.Option("-o", "--out", help="Write the tables (Parquet, JSON) into DIR.")
+    Path | None,
+    typer.Option("-o", "--out", metavar="DIR", help="Write the tables (Parquet, JSON) into DIR."),
 ]
 ModelSpec = Annotated[
-    str, typer.Option("--model", help="'paper' (the paper's coefficients) or a model.json.")
+    str,
+    typer.Option(
+        "--model", metavar="paper|FILE", help="'paper' (the paper's coefficients) or a model.json."
+    ),
 ]
 
 
@@ -113,30 +183,45 @@ ModelSpec = Annotated[
 #: every command
 READING_OPTIONS = (
     ("supply_voltage", SupplyVoltage, None),
+    ("max_power", MaxPower, None),
     ("current_column", CurrentColumn, None),
     ("voltage_column", VoltageColumn, None),
     ("power_column", PowerColumn, None),
     ("time_column", TimeColumn, None),
     ("time_unit", TimeUnitOption, None),
     ("speed_column", SpeedColumn, None),
+    ("yaw_rate_column", YawRateColumn, None),
+    ("track_width", TrackWidth, None),
     ("sample_period", SamplePeriod, None),
     ("flip_current", FlipCurrent, False),
+    ("power_topic", PowerTopic, None),
+    ("current_topic", CurrentTopic, None),
+    ("voltage_topic", VoltageTopic, None),
+    ("speed_topic", SpeedTopic, None),
 )
 
 
 def read_options(
     supply_voltage: float | None = None,
+    max_power: float | None = None,
     current_column: str | None = None,
     voltage_column: str | None = None,
     power_column: list[str] | None = None,
     time_column: str | None = None,
     time_unit: TimeUnit | str | None = None,
     speed_column: str | None = None,
+    yaw_rate_column: str | None = None,
+    track_width: float | None = None,
     sample_period: float | None = None,
     flip_current: bool = False,
+    power_topic: str | None = None,
+    current_topic: str | None = None,
+    voltage_topic: str | None = None,
+    speed_topic: str | None = None,
 ) -> ReadOptions:
     return ReadOptions(
         supply_voltage_V=supply_voltage,
+        max_power_W=max_power,
         current_column=current_column,
         voltage_column=voltage_column,
         sample_period_s=sample_period,
@@ -145,6 +230,12 @@ def read_options(
         time_column=time_column,
         time_unit=TimeUnit(time_unit).value if time_unit is not None else None,
         flip_current=bool(flip_current),
+        power_topic=power_topic,
+        current_topic=current_topic,
+        voltage_topic=voltage_topic,
+        speed_topic=speed_topic,
+        yaw_rate_column=yaw_rate_column,
+        track_width_m=track_width,
     )
 
 
@@ -186,7 +277,10 @@ _CLICK_ERROR: type[Exception] = next(
 
 
 def handles_errors(command: F) -> F:
-    """Library errors become one line on stderr and exit 2; never a traceback.
+    """Library errors become one line on stderr and exit 2; never a traceback. With
+    `--json` (a `json_out` parameter), the command's one JSON document (`JsonDocument`) is
+    printed on stdout however it ends: its result, or the error, with what was skipped and
+    every warning said (cli.md).
 
     Set WBPOWER_DEBUG=1 to see the traceback of an unexpected error.
     """
@@ -194,29 +288,119 @@ def handles_errors(command: F) -> F:
     @functools.wraps(command)
     def wrapper(*args: object, **kwargs: object) -> object:
         written.clear()  # (several commands may run in one process: tests)
+        document = JsonDocument() if kwargs.get("json_out") else None
+        token = _DOCUMENT.set(document)
         try:
-            return command(*args, **kwargs)
-        except WbpowerError as exc:
-            fail(exc.one_line())
-        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (`signals.Terminated`)
-            fail(*interrupted(exc))
-        except (typer.Exit, typer.Abort, SystemExit):
-            raise
-        except _CLICK_ERROR as exc:  # e.g. typer.BadParameter from an option's parser
-            fail(exc.format_message())
-        except OSError as exc:  # an output that cannot be written (disk full, read-only, ...)
-            where = f"{exc.filename}: " if exc.filename else ""
-            fail(f"{where}cannot write: {exc.strerror or exc} (check the path and free space)")
-        except Exception as exc:  # noqa: BLE001 - the promise is: no traceback, ever
-            if os.environ.get("WBPOWER_DEBUG"):
-                raise
-            fail(
-                f"internal error: {exc.__class__.__name__}: {exc} (please report it; "
-                "WBPOWER_DEBUG=1 shows the traceback)"
-            )
-        return None
+            return _reporting_errors(command, *args, **kwargs)
+        finally:
+            _DOCUMENT.reset(token)
+            if document is not None:
+                document.emit()
 
     return wrapper  # type: ignore[return-value]
+
+
+def _reporting_errors(command: Callable[..., object], *args: object, **kwargs: object) -> object:
+    try:
+        return command(*args, **kwargs)
+    except WbpowerError as exc:
+        # a batch that failed as a whole still says why each input was left out
+        report_skipped(list(getattr(exc, "skipped", ())))
+        fail(exc.one_line())
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (`signals.Terminated`)
+        fail(*interrupted(exc))
+    except (typer.Exit, typer.Abort, SystemExit):
+        raise
+    except _CLICK_ERROR as exc:  # e.g. typer.BadParameter from an option's parser
+        fail(exc.format_message())
+    except OSError as exc:  # an output that cannot be written (disk full, read-only, ...)
+        where = f"{exc.filename}: " if exc.filename else ""
+        fail(f"{where}cannot write: {exc.strerror or exc} (check the path and free space)")
+    except Exception as exc:  # noqa: BLE001 - the promise is: no traceback, ever
+        if os.environ.get("WBPOWER_DEBUG"):
+            raise
+        fail(
+            f"internal error: {exc.__class__.__name__}: {exc} (please report it; "
+            "WBPOWER_DEBUG=1 shows the traceback)"
+        )
+    return None
+
+
+# -- --json: one document, however the command ends (cli.md) -------------------------------
+def _one_line(message: object) -> str:
+    return " ".join(str(message).split())
+
+
+@dataclass
+class JsonDocument:
+    """The one JSON document a command prints with `--json`, whatever happens (cli.md): what
+    it computed (`print_json`), `error` (the one-line message, null on success), `skipped`
+    (`[{file, reason}]`, every input left out) and `warnings` (every warning said on
+    stderr, the reader's included). `handles_errors` makes one per `--json` run and prints
+    it when the command ends, returns or fails; `fail`, `warn` and `report_skipped` fill it.
+    """
+
+    #: keys the document holds also when the command fails (`json_defaults`)
+    defaults: dict[str, object] = field(default_factory=dict)
+    #: what the command computed (`print_json`), None until it has
+    result: dict[str, object] | None = None
+    error: str | None = None
+    skipped: list[dict[str, str]] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, object]:
+        result = self.result or {}
+        skipped = list(result.get("skipped") or [])
+        skipped += [s for s in self.skipped if s not in skipped]
+        warnings = [str(w) for w in result.get("warnings") or []]
+        said = {_one_line(w) for w in warnings}
+        warnings += [w for w in self.warnings if w not in said]
+        return {
+            **self.defaults,
+            **result,
+            "error": self.error,
+            "skipped": skipped,
+            "warnings": warnings,
+        }
+
+    def emit(self) -> None:
+        _write_json(self.as_dict())
+
+
+_DOCUMENT: contextvars.ContextVar[JsonDocument | None] = contextvars.ContextVar(
+    "json_document", default=None
+)
+
+
+def json_defaults(**keys: object) -> None:
+    """Keys the `--json` document holds also if the command fails from here on (e.g.
+    `inspect`'s empty `logs`); nothing without `--json`."""
+    document = _DOCUMENT.get()
+    if document is not None:
+        document.defaults.update(keys)
+
+
+def print_json(data: dict[str, object]) -> None:
+    """The command's result as its one JSON document on stdout: printed when the command
+    ends, with `error`, `skipped` and `warnings` (`JsonDocument`); at once outside a
+    command."""
+    document = _DOCUMENT.get()
+    if document is None:
+        _write_json(data)
+    else:
+        # made JSON now, inside the command: a value JSON cannot hold is the command's
+        # error (one line, exit 2), never a traceback from printing the document at the end
+        document.result = json.loads(json.dumps(json_safe(data), allow_nan=False))
+
+
+def _write_json(data: object) -> None:
+    sys.stdout.write(json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n")
+
+
+def json_usage_error(message: str) -> None:
+    """A usage error found while parsing the command line (before the command runs), as
+    the `--json` document: `fail` prints the line on stderr."""
+    _write_json({"error": _one_line(message), "skipped": [], "warnings": []})
 
 
 def check_out_dir(out: Path | None) -> None:
@@ -241,14 +425,23 @@ def check_out_dir(out: Path | None) -> None:
 
 
 def fail(message: str, code: int = EXIT_USAGE) -> None:
-    """Print `wbpower: error: message` on stderr (one line) and exit."""
-    one_line = " ".join(str(message).split())
+    """Print `wbpower: error: message` on stderr (one line) and exit; with `--json`, the
+    message is the document's `error`."""
+    one_line = _one_line(message)
+    document = _DOCUMENT.get()
+    if document is not None:
+        document.error = one_line
     print(f"wbpower: error: {one_line}", file=sys.stderr)
     raise typer.Exit(code)
 
 
 def warn(message: str) -> None:
-    print(f"wbpower: warning: {' '.join(str(message).split())}", file=sys.stderr)
+    """A warning: one line on stderr, and in the `--json` document's `warnings`."""
+    one_line = _one_line(message)
+    document = _DOCUMENT.get()
+    if document is not None and one_line not in document.warnings:
+        document.warnings.append(one_line)
+    print(f"wbpower: warning: {one_line}", file=sys.stderr)
 
 
 def warn_problems(file: str, problems: tuple[Problem, ...]) -> None:
@@ -258,15 +451,14 @@ def warn_problems(file: str, problems: tuple[Problem, ...]) -> None:
         warn(f"{file}: {problem.message}")
 
 
-def print_json(data: object) -> None:
-    """The one JSON document on stdout."""
-    sys.stdout.write(json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n")
-
-
 def report_skipped(skipped: list[Skipped]) -> int:
-    """List skipped inputs on stderr; the exit code per cli.md."""
+    """List skipped inputs on stderr, each with its own reason, and in the `--json`
+    document's `skipped`; the exit code per cli.md."""
+    document = _DOCUMENT.get()
     for item in skipped:
-        print(f"wbpower: skipped: {' '.join(item.reason.split())}", file=sys.stderr)
+        if document is not None and item.as_dict() not in document.skipped:
+            document.skipped.append(item.as_dict())
+        print(f"wbpower: skipped: {_one_line(item.reason)}", file=sys.stderr)
     return EXIT_SKIPPED if skipped else EXIT_OK
 
 
@@ -291,6 +483,7 @@ Jobs = Annotated[
         "--jobs",
         "-j",
         min=0,
+        metavar="N",
         help="Files processed in parallel (worker processes); 0 = all cores.",
     ),
 ]
@@ -298,6 +491,7 @@ CacheDir = Annotated[
     Path | None,
     typer.Option(
         "--cache",
+        metavar="DIR",
         help="Keep parsed logs as Parquet in DIR so a second run skips parsing unchanged "
         "files (keyed by content; see docs/benchmarks.md).",
     ),

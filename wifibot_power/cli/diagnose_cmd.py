@@ -11,12 +11,14 @@ import typer
 from wifibot_power.cli.common import (
     EXIT_OK,
     EXIT_SKIPPED,
+    CacheDir,
     Jobs,
     JsonFlag,
     KeepDoubtful,
     OutDir,
     check_out_dir,
     handles_errors,
+    parse_cache,
     print_json,
     progress,
     report_skipped,
@@ -133,15 +135,10 @@ def _findings(result: Diagnosis) -> None:
             ]
         )
     if not result.findings:
-        from wifibot_power.residuals import UNKNOWN_SPREAD
-
-        # never "explains" while structure is left (cli.md): say what is known instead
-        verdict = "the paper's model explains these runs"
+        # the library's verdict: never "explains" while structure is left (cli.md)
+        verdict = result.verdict_text
         if result.unexplained:
-            verdict = "no catalogue cause explains what is left (see 'unexplained' below)"
-        reasons = result.unexplained_reasons
-        if reasons and all(r.startswith(UNKNOWN_SPREAD) for r in reasons):
-            verdict = "cannot tell: too few repeated runs to judge (see 'unexplained' below)"
+            verdict += " (see 'unexplained' below)"
         cells.append(["(none)", "", "", "", "", "", verdict])
     for f in result.findings:
         failed = [c for c in f.checks if not c.passed]
@@ -160,6 +157,7 @@ def diagnose_command(
     json_out: JsonFlag = False,
     out: OutDir = None,
     jobs: Jobs = 0,
+    cache: CacheDir = None,
     model: Annotated[
         str | None,
         typer.Option(
@@ -177,9 +175,8 @@ def diagnose_command(
     """What the paper's model gets wrong on these logs, the named cause, the held-out gain."""
     check_out_dir(out)
     # imported here: scipy.stats alone costs a second, which no other command should pay
-    from wifibot_power.diagnose import diagnose_logs, write_diagnosis
+    from wifibot_power.diagnose import KEPT_IN_DOUBT, REJECTED, diagnose_logs, write_diagnosis
     from wifibot_power.model import load_model
-    from wifibot_power.runtable import KEPT_IN_DOUBT
 
     reference = load_model(model) if model is not None else None
     check_plot(plot)
@@ -189,14 +186,15 @@ def diagnose_command(
         options,
         wrap=lambda s: progress(s, "diagnosing"),
         jobs=jobs,
+        cache=parse_cache(cache),
         on_problems=warn_problems,
         reference=reference,
         keep_doubtful=keep_doubtful,
     )
     plot_to(plot, "heldout_error", result)
     for note in result.notes:  # the doubted runs it used: a warning too (cli.md)
-        if KEPT_IN_DOUBT in note:
-            warn(note)
+        if note.kind == KEPT_IN_DOUBT:
+            warn(note.text)
     if out is not None:
         write_diagnosis(result, out)
     if json_out:
@@ -205,24 +203,15 @@ def diagnose_command(
         _by_configuration(result)
         _patterns(result)
         _findings(result)
-        stdout.print(
-            f"{result.n_runs} motion runs, K-fold held out by run. Baseline "
-            f"({result.baseline_label}): RMSE "
-            f"{result.baseline_rmse_J:.3g} J, MAPE {result.baseline_mape_pct:.3g}%. Extended "
-            f"({', '.join(f.cause for f in result.findings) or 'nothing added'}; chosen and "
-            "fitted without each held-out fold): RMSE "
-            f"{result.extended_rmse_J:.3g} J, MAPE {result.extended_mape_pct:.3g}%. "
-            f"Gain {result.gain_pct:.1f}%."
-        )
+        stdout.print(result.headline())
         for finding in result.findings:
             passed = ", ".join(c.check for c in finding.checks if c.passed)
             stdout.print(f"{finding.cause}: checks passed: {passed}")
         for reason in result.unexplained_reasons:
             stdout.print(f"[bold]unexplained:[/bold] {reason}")
-        rejected = {str(r["reason"]) for r in result.rejected}
         for note in result.notes:
-            if note not in rejected:  # already printed as a reason
-                stdout.print(f"note: {note}")
+            if note.kind != REJECTED:  # a rejected candidate is printed as a reason
+                stdout.print(f"note: {note.text}")
     code = report_skipped(list(result.skipped))
     if fail_on_discrepancy and result.findings:
         code = EXIT_SKIPPED

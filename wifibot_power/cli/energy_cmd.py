@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -35,6 +36,14 @@ TAcc = Annotated[
 ]
 Payload = Annotated[
     float, typer.Option("--payload", help="Payload carried [kg] (used by accel_inertial).")
+]
+Profile = Annotated[
+    Path | None,
+    typer.Option(
+        "--profile",
+        help="A planned route: CSV of time_s, speed_mps[, yaw_rate_radps, surface]; its energy "
+        "from the drive model of --model (docs/drive-model.md).",
+    ),
 ]
 Sweep = Annotated[
     str | None,
@@ -144,12 +153,16 @@ def energy_command(
     t_acc: TAcc = None,
     payload: Payload = 0.0,
     sweep: Sweep = None,
+    profile: Profile = None,
     json_out: JsonFlag = False,
     out: OutDir = None,
     plot: PlotFile = None,
 ) -> None:
     """Energy of a trip in N stop-and-go steps (paper Eq. 5/6), beside the one-step trip."""
     check_out_dir(out)
+    if profile is not None:
+        _route(profile, model, json_out)
+        return
     power_model = load_model(model)
     check_plot(plot)
     if sweep is not None:
@@ -183,6 +196,56 @@ def energy_command(
         print_json(summary)
     else:
         _print_report(report)
+
+
+def _route(profile: Path, model: str, json_out: bool) -> None:
+    """`--profile`: a route's energy from the drive model (drive/profile.py)."""
+    from wifibot_power.drive.profile import load_drive_model, read_profile, route_energy
+
+    if model == "paper":
+        raise UsageError(
+            "--profile needs a drive model", fix="give --model model.json from 'wbpower fit -o'"
+        )
+    drive = load_drive_model(model)
+    run = _as_log(profile)
+    if run is not None:  # a log: measured beside predicted
+        time_s, speed_mps, yaw_radps = run.time_s, run.speed_mps, run.yaw_rate_radps
+        surface = run.meta.extra.get("surface")
+    else:
+        time_s, speed_mps, yaw_radps, surface = read_profile(profile)
+    try:
+        result = route_energy(drive, time_s, speed_mps, yaw_radps, surface)
+    except ValueError as exc:
+        raise UsageError(str(exc), file=profile, fix="add a surface column naming one") from None
+    for message in result.warnings:
+        warn(message)
+    summary = result.summary()
+    if run is not None:
+        summary["measured_J"] = run.energy_J
+    if json_out:
+        print_json(summary)
+        return
+    pi = summary["pi90_J"]
+    caption = f"90% interval {pi[0]:.1f}-{pi[1]:.1f} J" if pi else "no held-out interval"
+    rows = [[name, f"{joules:.1f}"] for name, joules in result.terms_J.items()]
+    rows.append(["total", f"{result.energy_J:.1f}"])
+    title = f"{result.distance_m:.1f} m in {result.time_s:.1f} s, mean {result.mean_power_W:.2f} W"
+    if run is not None:
+        rows.append(["measured", f"{run.energy_J:.1f}"])
+    columns = (Col("term", "text", key=True), Col("energy J"))
+    print_table(stdout, title, columns, rows, caption=caption)
+
+
+def _as_log(path: Path):
+    """The route file as a log wbpower reads, with a speed column (None: a planned route)."""
+    from wifibot_power.errors import LogError
+    from wifibot_power.io.reader import read_log
+
+    try:
+        run = read_log(path)
+    except LogError:
+        return None
+    return run if run.speed_mps is not None else None
 
 
 def _frame(rows: object) -> object:

@@ -140,8 +140,8 @@ def fit_command(
         print_stop_and_go_table(result)
         if runs:
             print_runs_table(result)
-    for note in result.notes:
-        if not any(note in warning for warning in warnings):  # not twice
+    if result.model_complete:  # else the notes are the why of its warning (incomplete_warning)
+        for note in result.notes:
             warn(note)
     for warning in warnings:  # cli.md: also in `fit --json` `warnings`
         warn(warning)

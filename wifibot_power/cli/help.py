@@ -16,6 +16,7 @@ SHORT_HELP = {
     "simulate": "Write synthetic logs of a simulated robot, with truth.",
     # for branch `report` (its command registers with **command_help("report"))
     "report": "Figures and one report.html: traces, fits, diagnosis.",
+    "export": "The drive model as Open-RMF or Gazebo power parameters.",
 }
 
 #: command -> (example arguments after `wbpower COMMAND`, what it does)
@@ -23,7 +24,7 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
     "inspect": [
         ("sample_logs/", "every log in a folder"),
         ("log.csv --supply-voltage 12.6", "a log of current only, at 12.6 V"),
-        ("sample_logs/ --json", "one JSON list, for scripts"),
+        ("sample_logs/ --json", "one JSON document, for scripts"),
         ("sample_logs/ -o out/", "also out/logs.parquet, a row per log"),
     ],
     "segment": [
@@ -56,10 +57,16 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
         ("-o logs/", "the paper's grid (about 1 GB of CSV)"),
         ("-o logs/ --effect decel_phase=0.3 --seed 1", "a robot that needs 0.3 s to stop"),
         ("-o small/ --sample-period 0.001024 --compress zst", "smaller, zstd-compressed"),
+        ("-o free/ --drive free --realism field", "free driving: turns, stops, two surfaces"),
     ],
     "report": [
         ("sample_logs/ -o out/report", "out/report/report.html, opens offline"),
         ("logs/ -o out/ --jobs 2", "figures drawn by 2 workers"),
+    ],
+    "export": [
+        ("--model out/model.json --to rmf --turn-rate 0.6", "the fleet config's YAML"),
+        ("--model m.json --to gazebo --voltage 24 --capacity 20", "the battery <plugin>"),
+        ("--model m.json --to rmf --moment-of-inertia 9 --json", "JSON, for CI"),
     ],
 }
 

@@ -14,6 +14,7 @@ from wifibot_power.cli.common import (
     OutDir,
     check_out_dir,
     handles_errors,
+    json_defaults,
     print_json,
     progress,
     report_skipped,
@@ -26,19 +27,21 @@ from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.inspect import inspect_logs
 from wifibot_power.io import ReadOptions
+from wifibot_power.io.options import log_stem
 
-#: file is the key (repeated if the table is split); numbers never cut, text folds
+#: file is the key (repeated if the table is split); numbers never cut, text folds; what
+#: every log shares (one format, one period, no problem) is said once, in the caption
 COLUMNS = (
     Col("file", "text", key=True),
-    Col("format", "text"),
+    Col("format", "text", once=True),
     Col("run_id", "text"),
     Col("mode", "text"),
     Col("samples"),
-    Col("period ms"),
+    Col("period ms", once=True),
     Col("duration s"),
     Col("mean W"),
     Col("energy J"),
-    Col("problems", "text"),
+    Col("problems", "text", once=True),
 )
 
 
@@ -54,15 +57,16 @@ def inspect_command(
 ) -> None:
     """What is in each log: format, samples, period, duration, mean power, energy, metadata."""
     check_out_dir(out)  # before any work (cli.md)
+    # cli.md: {logs, skipped, warnings, error}, also on failure (`common.JsonDocument`)
+    json_defaults(logs=[])
     rows, skipped = inspect_logs(
         paths, options, wrap=lambda s: progress(s, "reading"), on_problems=warn_problems
     )
     if out is not None:
         for written in write_inspection(rows, out):
             print(f"wbpower: wrote {written}", file=sys.stderr)
-    if json_out:
-        # the JSON document stays the list of cli.md; skipped inputs go to stderr (and exit 1)
-        print_json(rows)
+    if json_out:  # skipped inputs: in `skipped` and on stderr (exit 1), as warnings are
+        print_json({"logs": rows})
     else:
         cells = [
             [
@@ -79,7 +83,13 @@ def inspect_command(
             ]
             for row in rows
         ]
-        print_table(stdout, f"{len(rows)} log(s)", COLUMNS, cells)
+        columns, caption = COLUMNS, None
+        if all(str(row["run_id"]) == log_stem(Path(str(row["file"]))) for row in rows):
+            # each run_id is its file's name: not a column of its own (issue 28: compact)
+            columns = tuple(c for c in COLUMNS if c.name != "run_id")
+            cells = [cell[:2] + cell[3:] for cell in cells]
+            caption = "run_id: the file's name"
+        print_table(stdout, f"{len(rows)} log(s)", columns, cells, caption=caption)
         for row in rows:
             if row["channels"]:
                 summed = ", ".join(
@@ -87,7 +97,27 @@ def inspect_command(
                 )
                 name = Path(str(row["file"])).name
                 stdout.print(f"{name}: power is the sum of channels {summed}", highlight=False)
+        for row in rows:
+            if row.get("topics"):
+                _print_topics(Path(str(row["file"])).name, row["topics"])
     raise typer.Exit(report_skipped(skipped))
+
+
+#: a bag's topics (log-format.md section 3)
+TOPIC_COLUMNS = (Col("topic", "text", key=True), Col("type", "text"), Col("messages"), Col("Hz"))
+
+
+def _print_topics(name: str, topics: list[dict[str, object]]) -> None:
+    cells = [
+        [
+            str(t["topic"]),
+            str(t["type"]),
+            f"{t['messages']:,}",
+            "-" if t["rate_Hz"] is None else f"{t['rate_Hz']:.4g}",
+        ]
+        for t in topics
+    ]
+    print_table(stdout, f"{name}: {len(topics)} topic(s)", TOPIC_COLUMNS, cells)
 
 
 def _problems_cell(problems: list[str], shown: int = 2) -> str:
@@ -112,9 +142,10 @@ LOG_COLUMNS = (
     "speed_column",
     "problems",
     "problem_details",
+    "topics",
 )
 #: the keys whose values nest (a dict or a list): JSON text in their column
-_NESTED = ("meta", "channels", "problems", "problem_details")
+_NESTED = ("meta", "channels", "problems", "problem_details", "topics")
 
 
 def write_inspection(rows: list[dict[str, object]], out: Path) -> list[Path]:

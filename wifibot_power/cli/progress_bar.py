@@ -20,7 +20,7 @@ from rich.progress import (
 )
 from rich.text import Text
 
-from wifibot_power.cli import common
+from wifibot_power.cli import consoles
 
 T = TypeVar("T")
 
@@ -81,7 +81,7 @@ class FileProgress:
             TextColumn("{task.fields[files]}/" + f"{len(self.items)} files"),
             _RateColumn(self.started, in_bytes=self.total_bytes > 0),
             TimeElapsedColumn(),
-            console=common.stderr,
+            console=consoles.stderr,
             transient=True,
         )
         self._bar.start()

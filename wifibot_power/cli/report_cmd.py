@@ -9,11 +9,13 @@ from typing import Annotated
 import typer
 
 from wifibot_power.cli.common import (
+    CacheDir,
     Jobs,
     JsonFlag,
     KeepDoubtful,
     check_out_dir,
     handles_errors,
+    parse_cache,
     print_json,
     progress,
     report_skipped,
@@ -37,6 +39,7 @@ def report_command(
         typer.Option("-o", "--out", help="Write DIR/report.html and DIR/figures/*.png."),
     ],
     jobs: Jobs = 0,
+    cache: CacheDir = None,
     json_out: JsonFlag = False,
     keep_doubtful: KeepDoubtful = False,
 ) -> None:
@@ -50,6 +53,7 @@ def report_command(
         options,
         wrap=lambda s: progress(s, "reading"),
         jobs=jobs,
+        cache=parse_cache(cache),
         on_problems=warn_problems,
         keep_doubtful=keep_doubtful,
     )

@@ -58,10 +58,13 @@ def segment_command(
     out: OutDir = None,
     plot: PlotFile = None,
 ) -> None:
-    """Split one log into phases: idle/accel/cruise/decel per step for a motion run, steady
-    levels otherwise. Short start-up spikes stay in the phase they start and are listed."""
+    """Split one log into phases: idle/accel/cruise/decel per step for a motion run (turn
+    where a turning column shows the robot turning while standing), steady levels
+    otherwise. Short start-up spikes stay in the phase they start and are listed."""
     check_out_dir(out)  # before any work (cli.md)
-    if path.is_dir():
+    from wifibot_power.io.options import is_bag_folder
+
+    if path.is_dir() and not is_bag_folder(path):  # a ROS 2 bag is a folder, and one log
         raise UsageError(
             f"{path}: is a folder; segment takes one file",
             fix="name one log in it, or give the folder to inspect or fit",
@@ -97,6 +100,8 @@ def segment_command(
         )
         return
     with_speed = any(p.speed_mps is not None for p in segmentation.phases)
+    # a turning column: each phase's mean |yaw rate| (a `turn` phase spins in place)
+    with_yaw = any(p.yaw_rate_radps is not None for p in segmentation.phases)
     cells = [
         [
             str(p.step),
@@ -108,6 +113,7 @@ def segment_command(
             f"{p.energy_J:.2f}",
         ]
         + (["-" if p.speed_mps is None else f"{p.speed_mps:.3f}"] if with_speed else [])
+        + (["-" if p.yaw_rate_radps is None else f"{p.yaw_rate_radps:.3f}"] if with_yaw else [])
         for p in segmentation.phases
     ]
     title = f"{segmentation.run_id} ({run.meta.mode}): {len(segmentation.phases)} phase(s)"
@@ -116,6 +122,7 @@ def segment_command(
         title += ", in doubt: see warnings"
         caption = f"segmentation in doubt: {'; '.join(segmentation.doubts)}"
     columns = _PHASE_COLUMNS + ((Col("speed m/s"),) if with_speed else ())
+    columns += (Col("|yaw rate| rad/s"),) if with_yaw else ()
     print_table(stdout, title, columns, cells, caption=caption)
     if segmentation.spikes:
         spikes = [
@@ -143,6 +150,7 @@ def write_segmentation(segmentation: Segmentation, file: str, out: Path) -> list
 
     phases = segmentation.frame(file)
     phases["speed_mps"] = phases["speed_mps"].astype("float64")  # None -> NaN, never object
+    # (yaw_rate_radps: float64 from `phase_frame` already)
     phases["doubts"] = pd.Series(["; ".join(segmentation.doubts)] * len(phases), dtype=object)
     spike_columns = list(Spike.__dataclass_fields__)
     spikes = pd.DataFrame(

@@ -9,7 +9,7 @@ import typer
 
 from wifibot_power.cli.common import JsonFlag, check_out_dir, handles_errors, print_json, stdout
 from wifibot_power.cli.help import command_help
-from wifibot_power.cli.tables import Col, print_table
+from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.simulate import (
     COLUMN_SETS,
@@ -22,6 +22,33 @@ from wifibot_power.simulate import (
     realism,
     write_simulation,
 )
+
+
+def _free(
+    out: Path,
+    surfaces: str,
+    repeats: int,
+    duration_s: float,
+    realism_name: str,
+    seed: int,
+) -> dict[str, object]:
+    """`--drive free`: `repeats` runs a surface (drive/simulate.py); what was written."""
+    from wifibot_power.drive.simulate import FreeDriveConfig, write_free
+
+    names = tuple(s.strip() for s in surfaces.split(",") if s.strip())
+    base = FreeDriveConfig()
+    known = set(base.rolling_W_per_mps)
+    if not names or not set(names) <= known:
+        raise typer.BadParameter(f"--surfaces takes some of: {', '.join(sorted(known))}")
+    config = FreeDriveConfig(
+        surfaces=names,
+        runs_per_surface=repeats,
+        run_s=duration_s,
+        realism=realism_name,
+        seed=seed,
+    )
+    config.level()  # an unknown realism is a usage error before anything is written
+    return write_free(config, out)
 
 
 def _floats(text: str, option: str) -> tuple[float, ...]:
@@ -46,12 +73,14 @@ def _trips(text: str) -> tuple[tuple[float, int], ...]:
 
 @app.command("simulate", **command_help("simulate"))
 @handles_errors
+@with_wide_option
 def simulate_command(
     out: Annotated[Path, typer.Option("-o", "--out", help="Folder to write the logs into.")],
     effect: Annotated[
         list[str] | None,
         typer.Option(
-            "--effect", help=f"NAME[=SIZE], repeatable: {', '.join(EFFECTS)} (causes.md)."
+            "--effect",
+            help=f"NAME[=SIZE], repeatable: {', '.join(EFFECTS)} (the causes diagnose names).",
         ),
     ] = None,
     seed: Annotated[int, typer.Option(help="Random seed: same seed, same logs.")] = 0,
@@ -98,10 +127,29 @@ def simulate_command(
     decimals: Annotated[
         int, typer.Option(min=1, max=9, help="Decimals written for power [W].")
     ] = 4,
+    drive: Annotated[
+        str,
+        typer.Option(
+            "--drive",
+            help="grid: the paper's experiment; free: a skid-steer robot driven freely (turns, "
+            "stops, reversing) with speed and yaw-rate columns (docs/drive-model.md).",
+        ),
+    ] = "grid",
+    surfaces: Annotated[
+        str, typer.Option(help="With --drive free: the surfaces, comma-separated.")
+    ] = "asphalt,grass",
+    duration: Annotated[
+        float, typer.Option(min=1.0, help="With --drive free: each run's duration [s].")
+    ] = 90.0,
     json_out: JsonFlag = False,
 ) -> None:
     """Write synthetic logs of a physical Wifibot model, with runs.csv and truth.json."""
     check_out_dir(out)
+    if drive not in ("grid", "free"):
+        raise typer.BadParameter("--drive takes grid or free")
+    if drive == "free":
+        _print_summary(_free(out, surfaces, repeats, duration, realism_name, seed), json_out)
+        return
     # checked before anything is simulated or written (cli.md: a usage error, exit 2)
     write = WriteOptions(columns=columns, compress=compress, decimals=decimals)
     level = realism(realism_name)
@@ -119,7 +167,10 @@ def simulate_command(
         effects=parse_effects(effect or []),
         seed=seed,
     )
-    summary = write_simulation(config, out, write)
+    _print_summary(write_simulation(config, out, write), json_out)
+
+
+def _print_summary(summary: dict[str, object], json_out: bool) -> None:
     if json_out:
         print_json(summary)
         return

@@ -6,7 +6,10 @@ table is described as columns and rows of strings, and laid out for the width at
 - a *number* column (`Col(kind="num")`, the default) is exactly as wide as its widest cell
   (and its header's longest word), so no cell wraps or is cut; its header wraps at spaces
   ("1-step / energy J");
-- a *text* column (`kind="text"`: file names, notes, evidence) folds onto more lines;
+- a *text* column (`kind="text"`: file names, notes, evidence) folds onto more lines, at
+  spaces: it is never narrower than its longest word, so a name is never broken mid-word;
+- a column marked `once` whose every row holds the same value is not drawn: it is said
+  once, in the caption ("format: wbpower-csv"), so many rows of one kind stay compact;
 - when the number columns still do not fit, the table is split: the columns that do not fit
   move, in their order, to a second table (a third, ...) that repeats the *key* columns
   (`key=True`, e.g. the run or the parameter) so each row can still be read across.
@@ -51,6 +54,9 @@ class Col:
     kind: Literal["num", "text"] = "num"
     key: bool = False
     justify: Literal["left", "right", "center"] | None = None
+    #: said once in the caption instead of drawn when every row (of two or more) holds the
+    #: same value
+    once: bool = False
 
 
 def _border_width(n_columns: int) -> int:
@@ -61,13 +67,31 @@ def _border_width(n_columns: int) -> int:
 def _natural_width(col: Col, cells: Sequence[str], whole_header: bool = False) -> int:
     """The width a column is planned at: a number column's widest cell (and its header's
     longest word, or all of its header with `whole_header`); a text column's up to
-    `TEXT_MIN_WIDTH` (it folds)."""
+    `TEXT_MIN_WIDTH` (it folds), and never below its longest word (`_longest_word`)."""
     header = [col.name] if whole_header else col.name.split()
     longest_word = max((len(w) for w in header), default=1)
     longest_line = max((len(line) for cell in cells for line in cell.splitlines()), default=1)
     if col.kind == "num":
         return max(longest_word, longest_line)
-    return max(longest_word, min(longest_line, TEXT_MIN_WIDTH))
+    return max(longest_word, _longest_word(cells), min(longest_line, TEXT_MIN_WIDTH))
+
+
+def _longest_word(cells: Sequence[str]) -> int:
+    """A text column's longest word: it folds at spaces, never inside a word (a file name)."""
+    return max((len(word) for cell in cells for word in cell.split()), default=1)
+
+
+def _said_once(cols: Sequence[Col], rows: Sequence[Sequence[str]]) -> tuple[list[int], list[str]]:
+    """The columns to draw, and what the `once` columns that hold one value say instead."""
+    drawn, said = [], []
+    for i, col in enumerate(cols):
+        values = {row[i] for row in rows}
+        if col.once and len(rows) > 1 and len(values) == 1:
+            value = values.pop()
+            said.append(f"{col.name}: {'none' if value == '-' else value}")
+        else:
+            drawn.append(i)
+    return drawn, said
 
 
 def plan(cols: Sequence[Col], rows: Sequence[Sequence[str]], width: int) -> list[list[int]]:
@@ -103,6 +127,11 @@ def tables(
     """The rich table(s) showing `rows` under `cols` in `width` columns (see the module)."""
     from rich.table import Table
 
+    drawn, said = _said_once(cols, rows)
+    if said:
+        caption = "; ".join([*said, *([caption] if caption else [])])
+        cols = [cols[i] for i in drawn]
+        rows = [[row[i] for i in drawn] for row in rows]
     parts = [list(range(len(cols)))] if wide else plan(cols, rows, width)
     out = []
     for number, part in enumerate(parts, start=1):
@@ -122,8 +151,10 @@ def tables(
                 # exactly as wide as its widest cell, so no cell wraps or is cut; the header
                 # (not no_wrap) wraps at its spaces instead
                 table.add_column(col.name, justify=justify, width=_natural_width(col, cells, whole))
-            else:
-                table.add_column(col.name, justify=justify, overflow="fold")
+            else:  # folds at spaces; never narrower than a word
+                table.add_column(
+                    col.name, justify=justify, overflow="fold", min_width=_longest_word(cells)
+                )
         for k, row in enumerate(rows):
             style = row_styles[k] if row_styles else None
             table.add_row(*(row[i] for i in part), style=style)

@@ -50,12 +50,19 @@ class OneLineUsageGroup(typer.core.TyperGroup):
         except _NO_ARGS_IS_HELP:
             raise
         except _USAGE_ERROR as exc:
-            self._fail(exc, info_name or "wbpower")
+            self._fail(exc, info_name or "wbpower", wants_json(args))
+
+    def get_command(self, ctx: Any, cmd_name: str) -> Any:
+        command = super().get_command(ctx, cmd_name)
+        if command is not None:
+            plain_metavars(command)
+        return command
 
     def resolve_command(self, ctx: Any, args: list[str]) -> Any:
         # remembered for an error raised without a context ("Option '--speed' requires an
         # argument"): the hint still names the subcommand
         ctx.meta["wbpower.command"] = f"{ctx.command_path} {args[0]}" if args else None
+        ctx.meta["wbpower.json"] = wants_json(args[1:])
         return super().resolve_command(ctx, args)
 
     def invoke(self, ctx: Any) -> Any:
@@ -71,13 +78,58 @@ class OneLineUsageGroup(typer.core.TyperGroup):
                 command = failing.command_path
             elif resolved and self.get_command(ctx, resolved.rsplit(" ", 1)[-1]) is not None:
                 command = resolved
-            self._fail(exc, command)
+            self._fail(exc, command, ctx.meta.get("wbpower.json", False))
 
     @staticmethod
-    def _fail(exc: Exception, command: str) -> None:
-        from wifibot_power.cli.common import fail  # every command loads it: no start-up cost
+    def _fail(exc: Exception, command: str, json_out: bool) -> None:
+        # every command loads common: no start-up cost
+        from wifibot_power.cli.common import fail, json_usage_error
 
-        fail(usage_line(exc, command))
+        line = usage_line(exc, command)
+        if json_out:  # cli.md: `--json` prints its one document also on a usage error
+            json_usage_error(line)
+        fail(line)
+
+
+#: click type -> the placeholder help shows for a value of it, where the option names none
+#: (typer's own are `<float range>`, `<str>`, `{paths}...`: issue 28)
+_METAVARS = {
+    "FloatParamType": "NUMBER",
+    "FloatRange": "NUMBER",
+    "IntParamType": "N",
+    "IntRange": "N",
+    "StringParamType": "TEXT",
+}
+
+
+def plain_metavars(command: Any) -> None:
+    """Give every option of `command` without a metavar a plain one (`NUMBER`, `N`, `TEXT`,
+    a choice's `a|b`; a path `DIR` or `FILE` when its help says which, else `PATH`), and its
+    arguments their name in capitals (`PATH...`), as `--plot FILE` has. Idempotent."""
+    for param in command.params:
+        if param.metavar is not None or getattr(param, "is_flag", False):
+            continue
+        kind = type(param.type).__name__
+        if param.param_type_name == "argument":
+            name = (param.name or "arg").upper().removesuffix("S")
+            text = name + ("..." if param.nargs != 1 else "")
+            param.metavar = text
+            # typer wraps a required argument's metavar in braces ("{PATH...}") in usage
+            param.make_metavar = lambda *args, _text=text, **kwargs: _text
+        elif kind.endswith("Choice"):  # click's Choice, typer's TyperChoice
+            param.metavar = "|".join(str(getattr(c, "value", c)) for c in param.type.choices)
+        elif kind.endswith("Path"):  # click's Path, typer's TyperPath
+            help_text = (param.help or "").lower()
+            param.metavar = "DIR" if "dir" in help_text or "folder" in help_text else "PATH"
+            param.metavar = "FILE" if "file" in help_text.split(".")[0] else param.metavar
+        else:
+            param.metavar = _METAVARS.get(kind, "VALUE")
+
+
+def wants_json(args: list[str]) -> bool:
+    """Whether a command line asks for `--json` (before a `--`, which ends the options)."""
+    options = args[: args.index("--")] if "--" in args else args
+    return "--json" in options
 
 
 app = typer.Typer(

@@ -11,7 +11,7 @@ from pathlib import Path
 from wifibot_power.errors import LogError
 from wifibot_power.io.manifest import MANIFEST_NAME, is_manifest, read_manifest
 from wifibot_power.io.metadata import DEFAULT_RUN_ID
-from wifibot_power.io.options import is_log_name, log_stem
+from wifibot_power.io.options import BAG_METADATA, is_bag_folder, is_log_name, log_stem
 
 
 @dataclass(frozen=True)
@@ -86,9 +86,18 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
     named_manifests: set[Path] = set()
     skipped: list[Skipped] = []
     for path in paths:
-        if path.is_dir():
-            for found in sorted(path.rglob("*")):
-                if found.is_file():
+        if is_bag_folder(path):  # a ROS 2 bag is one log, its files are not logs of their own
+            files.append(path)
+        elif path.is_dir():
+            everything = sorted(path.rglob("*"))
+            bags = {f.parent for f in everything if f.name == BAG_METADATA and f.is_file()}
+            for found in everything:
+                if found in bags:
+                    files.append(found)
+                    roots.setdefault(found, path)
+                elif bags and not bags.isdisjoint(found.parents):
+                    continue  # inside a ROS 2 bag: part of it
+                elif found.is_file():
                     (manifests if is_manifest(found) else files).append(found)
                     roots.setdefault(found, path)
                 elif is_log_name(found) or is_manifest(found):
@@ -135,7 +144,7 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
                 files.append(row.file)
                 wanted.add(row.file)
                 roots.setdefault(row.file, manifest.parent.resolve())
-            if row.file.is_file():
+            if row.file.is_file() or is_bag_folder(row.file):
                 overrides[row.file] = (row.values, f"{manifest} line {row.line}")
             elif manifest in named_manifests or not only_files or row.file in wanted:
                 # a manifest found beside a single file only matters for that file
@@ -158,7 +167,7 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
         if file in missing:
             continue  # already listed, naming the manifest row
         real = resolved.get(file) or file.resolve()
-        if not file.exists() or is_log_name(file) or real in overrides:
+        if not file.exists() or is_log_name(file) or real in overrides or is_bag_folder(file):
             values, origin = overrides.get(real, ({}, None))
             sources.append(LogSource(file, values, origin))
     return _path_run_ids(sources, roots, resolved), skipped

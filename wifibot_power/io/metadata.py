@@ -6,6 +6,7 @@ import math
 from datetime import datetime
 
 from wifibot_power.errors import LogError
+from wifibot_power.io.options import SAMPLE_PERIOD_RANGE_S
 from wifibot_power.run import MODES, PAPER_SAMPLE_PERIOD_S, RunMeta
 
 KNOWN_KEYS = (
@@ -119,6 +120,15 @@ def build_meta(
             where=at("sample_period_s"),
             fix="give the sample spacing in s (> 0)",
         )
+    low_s, high_s = SAMPLE_PERIOD_RANGE_S
+    if period is not None and not low_s <= period <= high_s:
+        # an N6705 "Sample interval: 1e300", a period typed in ms: no logger samples so
+        raise LogError(
+            f"sample_period_s is {period:g} s, outside the plausible {low_s:g}-{high_s:g} s",
+            file=file,
+            where=at("sample_period_s"),
+            fix="give the sample spacing in seconds (0.001 for 1 kHz), e.g. with --sample-period",
+        )
     started = None
     if values.get("started_at"):
         try:
@@ -142,3 +152,25 @@ def build_meta(
         sample_period_s=period or PAPER_SAMPLE_PERIOD_S,
         extra=extra,
     )
+
+
+#: The metadata key (as the readers lower-case it) of the most the robot can draw [W].
+MAX_POWER_KEY = "max_power_w"
+
+
+def max_power_W(
+    values: dict[str, str], *, file: str, origins: dict[str, str] | None = None
+) -> float | None:
+    """The `max_power_W` metadata (log-format.md, "Metadata keys") as a number [W], checked
+    (> 0), or None when unset. It stays a string in `RunMeta.extra` (shared decision): this is
+    its typed access, for the reader's plausible-power check."""
+    where = (origins or {}).get(MAX_POWER_KEY, "metadata")
+    value = _number(values, MAX_POWER_KEY, file, where)
+    if value is not None and value <= 0:
+        raise LogError(
+            f"max_power_W is {values[MAX_POWER_KEY]}",
+            file=file,
+            where=where,
+            fix="give the most this robot can draw, in W (> 0)",
+        )
+    return value

@@ -13,15 +13,23 @@ What is read where the spec is silent is described in docs/log-format.md.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 
 from wifibot_power.errors import LogError
-from wifibot_power.io.columns import PowerSource, find_column, time_unit_of, unit_scale
-from wifibot_power.io.formats import LogFormat, Preamble, TimeSource, format_of
-from wifibot_power.io.formats.base import SNIFF_LINES
-from wifibot_power.io.metadata import build_meta
+from wifibot_power.io.columns import (
+    PowerSource,
+    find_column,
+    time_unit_disagrees,
+    time_unit_of,
+    unit_scale,
+)
+from wifibot_power.io.formats import LogFormat, Preamble, TimeSource, file_format_of, format_of
+from wifibot_power.io.formats.base import SNIFF_LINES, TurningColumns
+from wifibot_power.io.formats.files import samples_to_run
+from wifibot_power.io.metadata import MAX_POWER_KEY, build_meta, max_power_W
 from wifibot_power.io.options import TIME_UNITS, ReadOptions, log_stem
 from wifibot_power.io.transport import (
     Columns,
@@ -32,14 +40,17 @@ from wifibot_power.io.transport import (
     head_lines,
     read_bytes,
     read_columns,
+    require_regular,
 )
 from wifibot_power.io.validate import (
+    PowerScale,
     check_channels,
     check_power_twice,
     check_samples,
     check_speed,
+    check_yaw_rate,
 )
-from wifibot_power.run import Problem, Run
+from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem, Run
 
 __all__ = ["read_bytes", "read_log"]
 
@@ -64,12 +75,18 @@ def read_log(
     """
     options = options or ReadOptions()
     path = Path(path)
+    file_format = file_format_of(path)
+    if file_format is not None:  # a bag or a recording: read whole by its own library
+        require_regular(path)  # (a FIFO named *.jls would block its library's open forever)
+        samples = file_format.read_samples(path, options)
+        return samples_to_run(path, file_format, samples, options, overrides, origin)
     named = tuple(
         c
         for c in (
             options.current_column,
             options.voltage_column,
             options.speed_column,
+            options.yaw_rate_column,
             options.time_column,
             *options.power_columns,
         )
@@ -80,11 +97,14 @@ def read_log(
     sources = _power_sources(path, log_format, pre, options)
     time_source, time_problems = _time_source(path, log_format, pre, options)
     speed_column = _speed_column(path, log_format, pre, options)
+    turning = _turning_columns(path, log_format, pre, options)
     # only the columns used are converted to numbers (about a third of the parse time saved
     # on the 4-column canonical log); every line's field count is still checked
     used = list(dict.fromkeys(name for source in sources for name in source.columns()))
     used += [name for name in (time_source and time_source.column, speed_column) if name]
-    columns = read_columns(path, content, pre, head, used)
+    used += [c for c in (turning.yaw_rate, turning.speed_left, turning.speed_right) if c]
+    labels = (turning.surface,) if turning.surface else ()
+    columns = read_columns(path, content, pre, head, list(dict.fromkeys(used)), labels)
     values = dict(pre.metadata)
     where = {k: f"metadata {w}" for k, w in pre.metadata_where.items()}
     for key, value in (overrides or {}).items():
@@ -95,9 +115,16 @@ def read_log(
         where["sample_period_s"] = "--sample-period"
     log_format.check_metadata(path, values)
     meta = build_meta(values, file=str(path), stem=log_stem(path), where="metadata", origins=where)
-    power_W, channels_W, measured = _power(path, columns, sources, options.flip_current)
+    scale = _power_scale(path, content, head, pre, sources, options, values, where)
+    power_W, channels_W, measured, twice = _power(path, columns, sources, options.flip_current)
+    if time_source is not None and time_source.index:
+        _check_index(path, columns, time_source.column)
     time_s = _time(path, columns, time_source, meta.sample_period_s)
     speed_mps = _column(path, columns, (speed_column, 1.0)) if speed_column else None
+    speed_mps, yaw_rate_radps, turn_problems = _turning(
+        path, columns, turning, speed_mps, values, options
+    )
+    surface_index, surface_names = columns.labels.get(turning.surface or "", (None, ()))
     columns.values.clear()  # the arrays live on in power_W, measured and time_s only
     period_s, problems = check_samples(
         str(path),
@@ -106,12 +133,19 @@ def read_log(
         line_of=columns.lines.line_of,
         default_period_s=meta.sample_period_s,
         measured=measured,
-        voltages=frozenset(source.voltage[0] for source in sources if source.voltage),
+        scale=scale,
     )
     del measured
+    for said in twice:  # after `check_samples`: a unit mistake is named as such first
+        check_power_twice(str(path), *said)
+    del twice
     check_channels(str(path), channels_W)
     if speed_mps is not None:
-        check_speed(str(path), speed_column, speed_mps, line_of=columns.lines.line_of)
+        named_speed = speed_column or f"{turning.speed_left}, {turning.speed_right}"
+        check_speed(str(path), named_speed, speed_mps, line_of=columns.lines.line_of)
+    if yaw_rate_radps is not None:
+        named_turn = turning.yaw_rate or f"{turning.speed_left}, {turning.speed_right}"
+        check_yaw_rate(str(path), named_turn, yaw_rate_radps, line_of=columns.lines.line_of)
     if time_s is not None and period_s != meta.sample_period_s:
         values["sample_period_s"] = repr(period_s)
         meta = build_meta(
@@ -123,9 +157,17 @@ def read_log(
         meta=meta,
         stamps_s=time_s,  # None without a time column: `Run.time_s` makes the axis if asked
         power_W=power_W,
-        problems=(*time_problems, *problems),
+        problems=(
+            *_assumptions(sources, time_source, options, values, power_W.size),
+            *time_problems,
+            *turn_problems,
+            *problems,
+        ),
         speed_mps=speed_mps,
+        yaw_rate_radps=yaw_rate_radps,
         channels_W=channels_W,
+        surface_index=surface_index,
+        surface_names=surface_names,
     )
 
 
@@ -190,7 +232,8 @@ def _time_source(
     if not options.time_column:
         return log_format.time_source(path, pre, options)
     found = _lookup(path, pre, options.time_column, "--time-column")
-    scale_s = TIME_UNITS[options.time_unit] if options.time_unit else time_unit_of(found)[1]
+    named_s = time_unit_of(found)[1]
+    scale_s = TIME_UNITS[options.time_unit] if options.time_unit else named_s
     if scale_s is None:
         raise LogError(
             f"the unit of time column '{found}' is unknown",
@@ -198,7 +241,7 @@ def _time_source(
             where=f"line {pre.header_line + 1}",
             fix="give --time-unit s|ms|us",
         )
-    return TimeSource(found, scale_s), []
+    return TimeSource(found, scale_s), time_unit_disagrees(found, named_s, options.time_unit)
 
 
 def _speed_column(
@@ -209,6 +252,81 @@ def _speed_column(
     if options.speed_column:
         return _lookup(path, pre, options.speed_column, "--speed-column")
     return log_format.speed_column(pre)
+
+
+def _turning_columns(
+    path: Path, log_format: LogFormat, pre: Preamble, options: ReadOptions
+) -> TurningColumns:
+    """The turning columns (log-format.md, "Turning"): `--yaw-rate-column`, which must exist,
+    else the format's own rate of turn, else its two wheel speeds; and its `surface` column."""
+    own = log_format.turning_columns(pre)
+    if options.yaw_rate_column:
+        found = _lookup(path, pre, options.yaw_rate_column, "--yaw-rate-column")
+        return TurningColumns(yaw_rate=found, surface=own.surface)
+    if own.yaw_rate or not (own.speed_left and own.speed_right):
+        return TurningColumns(yaw_rate=own.yaw_rate, surface=own.surface)
+    return own
+
+
+def _turning(
+    path: Path,
+    columns: Columns,
+    turning: TurningColumns,
+    speed_mps: np.ndarray | None,
+    values: dict[str, str],
+    options: ReadOptions,
+) -> tuple[np.ndarray | None, np.ndarray | None, list[Problem]]:
+    """The speed [m/s], rate of turn [rad/s] and what to say: the yaw-rate column, or from the
+    two wheel speeds v_l, v_r of a differential or skid-steer drive: v = (v_l + v_r)/2 (when
+    the log has no speed column) and yaw rate = (v_r - v_l)/track width (kinematics of a
+    differential drive, counter-clockwise positive; for skid steer the track width is the
+    effective one). Without a track width the rate of turn is not read: said as a problem when
+    the wheel speeds are the log's only speed (a log with its own speed column, as REGBOT's,
+    reads as before, and the drive model says its turning is unknown)."""
+    if turning.yaw_rate:
+        return speed_mps, _column(path, columns, (turning.yaw_rate, 1.0)), []
+    if not (turning.speed_left and turning.speed_right):
+        return speed_mps, None, []
+    track_m = _track_width_m(path, values, options)
+    problems = []
+    if track_m is None and speed_mps is None:
+        problems.append(
+            Problem(
+                "turning_unread",
+                f"wheel speeds {turning.speed_left}, {turning.speed_right} without a track "
+                "width: speed is their mean, the rate of turn is not read (give --track-width "
+                "M or a '# track_m: M' metadata line)",
+            )
+        )
+    left_mps = _column(path, columns, (turning.speed_left, 1.0))
+    right_mps = _column(path, columns, (turning.speed_right, 1.0))
+    if speed_mps is None:
+        speed_mps = 0.5 * (left_mps + right_mps)
+    if track_m is None:
+        return speed_mps, None, problems
+    return speed_mps, (right_mps - left_mps) / track_m, problems
+
+
+def _track_width_m(path: Path, values: dict[str, str], options: ReadOptions) -> float | None:
+    """`--track-width`, else the `track_m` metadata: what turns wheel speeds into a rate of
+    turn (None: neither given); a one-line error naming the option when `track_m` is not a
+    width > 0 m."""
+    if options.track_width_m is not None:
+        return options.track_width_m
+    text = values.get("track_m")
+    if not text:
+        return None
+    try:
+        track_m = float(text)
+    except ValueError:
+        track_m = math.nan
+    if not (math.isfinite(track_m) and track_m > 0):
+        raise LogError(
+            f"wheel speeds need a track width: track_m '{text}' is not a width > 0 m",
+            file=path,
+            fix="give --track-width M or a '# track_m: M' metadata line",
+        )
+    return track_m
 
 
 # -- samples from the columns read --------------------------------------------------------------
@@ -236,24 +354,31 @@ def _scaled(values: np.ndarray, scale: float) -> np.ndarray:
     return values * scale
 
 
+#: A power column said twice: (its name, power [W]), (current name, [A]), (voltage name, [V])
+PowerTwice = tuple[tuple[str, np.ndarray], tuple[str, np.ndarray], tuple[str, np.ndarray]]
+
+
 def _power(
     path: Path, columns: Columns, sources: list[PowerSource], flip: bool
-) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:
-    """Power [W] (the sum of the channels), each channel's power when there are several, and
-    the measured columns power comes from (checked for clipping)."""
+) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray], list[PowerTwice]]:
+    """Power [W] (the sum of the channels), each channel's power when there are several, the
+    measured columns power comes from (checked for clipping), and the power columns the log
+    says twice with the current and voltage beside them (`validate.check_power_twice`)."""
     measured: dict[str, np.ndarray] = {}
     channels: dict[str, np.ndarray] = {}
+    twice: list[PowerTwice] = []
     for source in sources:
         if source.power:
             power_W = _column(path, columns, source.power)
             measured[source.power[0]] = power_W
             if source.twice:  # the log says the power twice: the two must agree
                 current, voltage = source.twice
-                check_power_twice(
-                    str(path),
-                    (source.power[0], power_W),
-                    (current[0], _column(path, columns, current)),
-                    (voltage[0], _column(path, columns, voltage)),
+                twice.append(
+                    (
+                        (source.power[0], power_W),
+                        (current[0], _column(path, columns, current)),
+                        (voltage[0], _column(path, columns, voltage)),
+                    )
                 )
         else:
             current_A = _column(path, columns, source.current)
@@ -268,9 +393,9 @@ def _power(
             power_W = -power_W  # a new array: the measured columns stay as measured
         channels[source.name] = power_W
     if len(channels) == 1:
-        return next(iter(channels.values())), {}, measured
+        return next(iter(channels.values())), {}, measured, twice
     total_W = np.sum(list(channels.values()), axis=0)
-    return total_W, channels, measured
+    return total_W, channels, measured, twice
 
 
 def _time(
@@ -312,3 +437,150 @@ def _preamble(
         if head_ends_cut(head) and exc.where == f"line {len(lines)}":
             raise cut_line_error(path, len(lines)) from None
         raise
+
+
+# -- what the log says of its robot, and what was assumed ---------------------------------------
+
+#: Data lines of the head whose medians judge a power column against the voltage x current
+#: logged beside it (a unit mistake holds through the whole column).
+HEAD_ROWS = SNIFF_LINES
+#: The largest sample index a float64 holds exactly: beyond it `Sample` x interval cannot be
+#: a time stamp (neighbouring indices round to one value).
+MAX_SAMPLE_INDEX = 2**53
+
+
+def _power_scale(
+    path: Path,
+    content: Content,
+    head: bytes,
+    pre: Preamble,
+    sources: list[PowerSource],
+    options: ReadOptions,
+    values: dict[str, str],
+    where: dict[str, str],
+) -> PowerScale:
+    """What the log says of its robot to judge its power by (`validate.check_power_scale`):
+    `--max-power`, else the `max_power_W` metadata; its voltage and current columns; and a
+    power column's median against the voltage x current logged beside it, from the head."""
+    if options.max_power_W is not None:
+        ceiling_W, ceiling_where = options.max_power_W, "--max-power"
+    else:
+        ceiling_W = max_power_W(values, file=str(path), origins=where)
+        ceiling_where = where.get(MAX_POWER_KEY, "metadata")
+    head_medians = None
+    if (
+        len(sources) == 1
+        and sources[0].power
+        and (sources[0].logged_current or sources[0].logged_voltage)
+    ):
+        head_medians = _head_medians(path, content, head, pre, sources[0])
+    return PowerScale(
+        max_power_W=ceiling_W,
+        max_power_where=ceiling_where,
+        voltages=frozenset(source.voltage[0] for source in sources if source.voltage),
+        currents=frozenset(source.current[0] for source in sources if source.current),
+        head=head_medians,
+    )
+
+
+def _head_medians(
+    path: Path, content: Content, head: bytes, pre: Preamble, source: PowerSource
+) -> tuple[str, float, float | None, float | None] | None:
+    """(power column, median |power| [W], median |voltage x current| [W] or None, median
+    |voltage| [V] or None) over the first `HEAD_ROWS` data lines that parse; None when none
+    do (the full parse then says what is wrong)."""
+    import csv
+
+    specs = {"power": source.power, "current": source.logged_current}
+    specs["voltage"] = source.logged_voltage
+    index = {key: pre.header.index(spec[0]) for key, spec in specs.items() if spec}
+    lines = head_lines(path, content, head, limit=pre.header_line + 1 + HEAD_ROWS)
+    rows: dict[str, list[float]] = {key: [] for key in index}
+    data = (line for line in lines[pre.header_line + 1 :] if line.strip())
+    for cells in csv.reader(data, delimiter=pre.delimiter):
+        try:
+            parsed = {
+                key: float(cells[k].replace(",", ".") if pre.decimal_comma else cells[k])
+                for key, k in index.items()
+            }
+        except (ValueError, IndexError):
+            continue
+        for key, value in parsed.items():
+            rows[key].append(value * specs[key][1])
+    if not rows["power"]:
+        return None
+    arrays = {key: np.abs(np.asarray(found)) for key, found in rows.items()}
+    power = float(np.median(arrays["power"]))
+    both = "current" in arrays and "voltage" in arrays
+    vi = float(np.median(arrays["current"] * arrays["voltage"])) if both else None
+    volts = float(np.median(arrays["voltage"])) if "voltage" in arrays else None
+    return source.power[0], power, vi, volts
+
+
+def _check_index(path: Path, columns: Columns, name: str) -> None:
+    """A sample index (N6705 `Sample`) must be a count a float holds exactly."""
+    values = columns.values.get(name)
+    if values is None or not values.size or name in columns.text:
+        return
+    high = float(np.max(np.abs(values)))
+    if high > MAX_SAMPLE_INDEX:
+        at = int(np.argmax(np.abs(values) > MAX_SAMPLE_INDEX))
+        raise LogError(
+            f"sample index {values[at]:.4g} in column '{name}' is beyond 2^53: no logger "
+            "counts so many samples, and neighbouring indices would be one time stamp",
+            file=path,
+            where=f"line {columns.lines.line_of(at)}",
+            fix="the column is not a sample count (or the line is damaged); fix or cut that line",
+        )
+
+
+def _assumptions(
+    sources: list[PowerSource],
+    time_source: TimeSource | None,
+    options: ReadOptions,
+    values: dict[str, str],
+    samples: int,
+) -> list[Problem]:
+    """What the reading assumed, and options that had no effect on this log: each said
+    (log-format.md: every assumption is said; cli.md: warnings on stderr and in --json).
+    A time column with a single stamp gives no spacing either."""
+    said: list[Problem] = []
+    unspaced = time_source is None or (samples == 1 and not time_source.index)
+    if unspaced and "sample_period_s" not in values:
+        said.append(
+            Problem(
+                "assumed_period",
+                f"no time column (or a single stamp) and no sample_period_s: samples assumed "
+                f"{PAPER_SAMPLE_PERIOD_S * 1e3:g} ms apart (the reference analyser's "
+                f"{1 / PAPER_SAMPLE_PERIOD_S:g} Hz); give --sample-period S or sample_period_s "
+                "metadata (a 1 kHz logger read so gives energies ten times too small)",
+            )
+        )
+    if options.supply_voltage_V is not None and not any(
+        source.supply_voltage_V is not None for source in sources
+    ):
+        used = ", ".join(f"'{c}'" for source in sources for c in source.columns())
+        said.append(
+            Problem(
+                "ignored_option",
+                f"--supply-voltage {options.supply_voltage_V:g} has no effect: power comes from "
+                f"{used}",
+            )
+        )
+    if options.sample_period_s is not None and time_source is not None and not time_source.index:
+        said.append(
+            Problem(
+                "ignored_option",
+                f"--sample-period {options.sample_period_s:g} has no effect: time comes from "
+                f"column '{time_source.column}'",
+            )
+        )
+    if options.time_unit is not None and (time_source is None or time_source.index):
+        said.append(
+            Problem(
+                "ignored_option",
+                f"--time-unit {options.time_unit} has no effect: the log has no time column "
+                "in a unit (none, or a sample index)",
+            )
+        )
+    return said

@@ -26,7 +26,7 @@ import stat
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -577,9 +577,14 @@ class Columns:
     values: dict[str, np.ndarray]
     text: set[str]
     lines: LineMap
+    #: the label columns asked for (`read_columns(labels=...)`): per sample an index into the
+    #: column's distinct labels (-1 where empty), and those labels
+    labels: dict[str, tuple[np.ndarray, tuple[str, ...]]] = field(default_factory=dict)
 
 
-def _csv_options(pre: TextLayout, include_columns: list[str], skip: bool = True) -> dict:
+def _csv_options(
+    pre: TextLayout, include_columns: list[str], skip: bool = True, labels: tuple[str, ...] = ()
+) -> dict:
     """pyarrow's options for the data lines: the header's names, the included columns as
     float64 (no type inference, nothing else converted); `skip` the lines up to the header
     (the first piece of a stream, or the whole file); the parse's allocator (`_POOL`).
@@ -603,9 +608,12 @@ def _csv_options(pre: TextLayout, include_columns: list[str], skip: bool = True)
         ),
         "parse_options": pacsv.ParseOptions(delimiter=pre.delimiter),
         "convert_options": pacsv.ConvertOptions(
-            column_types=dict.fromkeys(include_columns, pa.float64()),
+            column_types={
+                **dict.fromkeys(include_columns, pa.float64()),
+                **dict.fromkeys(labels, pa.string()),
+            },
             decimal_point="," if pre.decimal_comma else ".",
-            include_columns=include_columns,
+            include_columns=[*include_columns, *labels],
             strings_can_be_null=False,
             quoted_strings_can_be_null=False,
         ),
@@ -613,14 +621,20 @@ def _csv_options(pre: TextLayout, include_columns: list[str], skip: bool = True)
 
 
 def read_columns(
-    path: Path, content: Content, pre: TextLayout, head: bytes, include_columns: list[str]
+    path: Path,
+    content: Content,
+    pre: TextLayout,
+    head: bytes,
+    include_columns: list[str],
+    labels: tuple[str, ...] = (),
 ) -> Columns:
     """Parse the data lines into numpy arrays of the included columns.
 
     pyarrow reads the file itself, in blocks of `_BLOCK_BYTES` parsed in turn, so neither
     the file's bytes nor more than a few blocks' parse buffers are held at once; its table
     (the included columns only) is turned into numpy arrays a column at a time, each column
-    dropped from the table once copied, so at most one column is held twice.
+    dropped from the table once copied, so at most one column is held twice. `labels` are
+    text columns (a `surface` per sample), read as an index into their distinct labels.
     """
     header_start = _line_start(head, pre.header_line)
     tail = content.tail()
@@ -639,19 +653,23 @@ def read_columns(
     parts = iter(pieces) if pieces is not None else None
     try:
         if pieces is None:
-            table = pacsv.read_csv(source, **_csv_options(pre, include_columns, skip=True))
+            table = pacsv.read_csv(source, **_csv_options(pre, include_columns, True, labels))
         else:
             tables = [
-                pacsv.read_csv(pa.BufferReader(piece), **_csv_options(pre, include_columns, k == 0))
+                pacsv.read_csv(
+                    pa.BufferReader(piece), **_csv_options(pre, include_columns, k == 0, labels)
+                )
                 for k, piece in enumerate(parts)
             ]
             if pieces.tail():  # blanks after the last line end (a cut line is never parsed)
-                options = _csv_options(pre, include_columns, not tables)
+                options = _csv_options(pre, include_columns, not tables, labels)
                 tables.append(pacsv.read_csv(pa.BufferReader(pieces.tail()), **options))
             table = (
                 pa.concat_tables(tables, memory_pool=_POOL)
                 if tables
-                else pacsv.read_csv(pa.BufferReader(b""), **_csv_options(pre, include_columns))
+                else pacsv.read_csv(
+                    pa.BufferReader(b""), **_csv_options(pre, include_columns, True, labels)
+                )
             )
             del tables
     except LineTooLongError as long:
@@ -698,8 +716,9 @@ def read_columns(
     values = {}
     pool = _POOL
     release = table.nbytes >= _RELEASE_BYTES
+    labelled = {name: _label_index(table[name]) for name in labels}
     for name in names:
-        if name not in text:
+        if name not in text and name not in labelled:
             chunks = [_numeric_values(chunk) for chunk in table[name].chunks]
             joined = np.concatenate(chunks) if len(chunks) > 1 else chunks[0].copy()
             values[name] = joined.astype(np.float64, copy=False)
@@ -712,7 +731,19 @@ def read_columns(
         if release:
             pool.release_unused()
     del table
-    return Columns(names, values, text, LineMap(content, pre.header_line))
+    return Columns(names, values, text - set(labels), LineMap(content, pre.header_line), labelled)
+
+
+def _label_index(column: pa.ChunkedArray) -> tuple[np.ndarray, tuple[str, ...]]:
+    """A text column as a per-sample index into its distinct non-empty labels (-1: empty)."""
+    import pyarrow.compute as pc
+
+    encoded = pc.dictionary_encode(pc.utf8_trim_whitespace(column.combine_chunks()))
+    found = encoded.dictionary.to_pylist()
+    kept = tuple(sorted(label for label in found if label))
+    lookup = np.array([kept.index(label) if label else -1 for label in found] or [-1])
+    codes = encoded.indices.to_numpy(zero_copy_only=False)
+    return lookup[codes].astype(np.int16), kept
 
 
 def _numeric_values(chunk: pa.Array) -> np.ndarray:

@@ -9,19 +9,38 @@ docs/log-format.md ("What wbpower checks").
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
 from wifibot_power.errors import LogError
+from wifibot_power.io.options import MAX_SUPPLY_VOLTAGE_V, SAMPLE_PERIOD_RANGE_S
 from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem
 
-#: Above this the robot cannot be drawing power: a unit or column mistake.
-ABSURD_POWER_W = 1000.0
+#: A median current above this is not in amperes (mA read as A) [A]: a battery vehicle's
+#: continuous draw stays in the hundreds (a 3 kW unicycle at 84 V: 36 A; a car's starter
+#: motor peaks at 200-400 A). Judged on the median, so a 1-3 kW vehicle's peaks never count.
+MAX_MEDIAN_CURRENT_A = 500.0
+#: A power column whose median stands further than this factor from the median of the voltage
+#: x current logged beside it is in another unit: a slip of 1000 (mW read as W) is nearer, on
+#: a log scale, to 1000 than to 1 beyond sqrt(1000) ~ 32; real losses between two measuring
+#: points (a battery and a motor) stay within a few times.
+UNIT_MISTAKE_FACTOR = 30.0
+#: A power-only log (no voltage, current or `max_power_W` to judge it by) whose peak is above
+#: this is read, with a warning that it could not be judged (a column in mW would read 1000x
+#: too high) [W]: the size of the small robots wbpower was built for, not a ceiling.
+UNJUDGED_POWER_W = 1000.0
+#: Medians for these judgements are taken on at most about this many samples (a strided
+#: subsample): a unit mistake holds through a whole column.
+_MEDIAN_SAMPLES = 4096
 #: A mostly negative channel whose mean power is under this share of another channel's mean
 #: absolute power reads almost nothing: a dead sensor with an offset, not a reversed one.
 DEAD_CHANNEL_SHARE = 0.05
 #: Above this a speed column is not in m/s (a small robot; mm/s or rpm by mistake) [m/s].
 ABSURD_SPEED_MPS = 50.0
+#: Above this a rate of turn is not in rad/s (deg/s by mistake: 60 deg/s, a slow spin, would
+#: read 60 rad/s, ten turns a second) [rad/s].
+ABSURD_YAW_RATE_RADPS = 30.0
 #: Below this a reading is negative, not an offset around zero: such samples are data
 #: (regenerative braking, current lagging a voltage reversal by a sample), read and reported.
 NEGATIVE_POWER_W = -1.0
@@ -49,6 +68,18 @@ MAX_GAP_PERIODS = 3
 MAX_GAP_PCT = 1.0
 #: A step between time stamps above this many sample periods is a gap (jitter stays below).
 GAP_FACTOR = 1.5
+#: A logger writes in bursts (`_is_bursty`) when over this share of its steps are long (over
+#: `GAP_FACTOR` median steps) ...
+BURSTY_STEP_SHARE = 0.1
+#: ... and over this share of its time passes in them: waiting is what it mostly does (a
+#: logger dropping samples is read only with under `MAX_GAP_PCT` of its time dropped).
+BURSTY_TIME_SHARE = 0.5
+#: A bursty logger's longest regular wait: this quantile of its waits (a tenth of its waits
+#: may be longer: those over `GAP_FACTOR` times it are gaps).
+BURST_WAIT_QUANTILE = 0.9
+#: ... which needs at least this many waits (1 / (1 - `BURST_WAIT_QUANTILE`)) to stand below
+#: the longest: fewer long steps are no pattern (a short log with one long pause is a gap).
+BURSTY_MIN_WAITS = 10
 #: Time stamps whose mean step (between gaps) is further than this from their median [%]
 #: are uneven (a logger stamping on arrival, e.g. ROS): the period is then their mean, so
 #: that durations and energies follow the stamps (the bar is MAX_GAP_PCT's: as much time
@@ -76,28 +107,38 @@ def check_samples(
     default_period_s: float = PAPER_SAMPLE_PERIOD_S,
     measured: dict[str, np.ndarray] | None = None,
     voltages: frozenset[str] = frozenset(),
+    scale: PowerScale | None = None,
 ) -> tuple[float, list[Problem]]:
     """Validate samples; return the sample period [s] and the problems that did not stop reading.
 
     `line_of(i)` is the file line of sample i (for messages); `measured` holds the columns the
     power was computed from (clipping shows in a current column, not always in the product),
-    `voltages` the names of those that are voltages (`SATURATION_ABOVE_MEDIAN`).
+    `voltages` the names of those that are voltages (`SATURATION_ABOVE_MEDIAN`); `scale` what
+    the log says of its robot, to judge absurd power by (`check_power_scale`).
     """
     if line_of is None:
         line_of = lambda index: first_data_line + index  # noqa: E731
     low_W, high_W = _check_power(file, power_W, line_of)
+    scale = scale or PowerScale(voltages=voltages)
+    unjudged = check_power_scale(
+        file, power_W, high_W, measured or {"power": power_W}, scale, line_of
+    )
     if time_s is None:
         period_s = default_period_s
         problems: list[Problem] = []
     else:
         period_s, problems = _check_time(file, time_s, line_of, default_period_s)
+        _check_period(file, period_s)
     negative = _negative_samples(power_W, time_s, period_s, low_W)
     if negative is not None:
         problems.insert(0, negative)
+    if unjudged is not None:
+        problems.insert(0, unjudged)
     for name, values in (measured or {"power": power_W}).items():
         # the power's maximum is known already: one pass over the samples fewer
         peak = high_W if values is power_W else None
-        _check_saturation(file, name, values, time_s, period_s, line_of, peak, name in voltages)
+        voltage = name in scale.voltages
+        _check_saturation(file, name, values, time_s, period_s, line_of, peak, voltage)
     return period_s, problems
 
 
@@ -106,17 +147,44 @@ def check_speed(
 ) -> None:
     """A speed column must hold a finite number in every sample (a gap in it would be a
     quietly wrong phase); any sign is kept (a robot may reverse)."""
-    if not speed_mps.size:
+    _check_motion(
+        file, name, speed_mps, line_of, ("speed", "m/s", ABSURD_SPEED_MPS),
+        "the speed column must be in m/s (mm/s or rpm need converting)",
+    )  # fmt: skip
+
+
+def check_yaw_rate(
+    file: str, name: str, yaw_rate_radps: np.ndarray, *, line_of: Callable[[int], int]
+) -> None:
+    """A rate-of-turn column must hold a finite number in every sample, in rad/s."""
+    _check_motion(
+        file, name, yaw_rate_radps, line_of, ("yaw rate", "rad/s", ABSURD_YAW_RATE_RADPS),
+        "the rate of turn must be in rad/s (deg/s needs converting; a wheel-speed pair "
+        "needs the track width in m)",
+    )  # fmt: skip
+
+
+def _check_motion(
+    file: str,
+    name: str,
+    values: np.ndarray,
+    line_of: Callable[[int], int],
+    quantity: tuple[str, str, float],
+    fix: str,
+) -> None:
+    """Every value finite, and none over the quantity's absurd limit (a unit mistake)."""
+    if not values.size:
         return
-    _require_finite(speed_mps, "speed", file, line_of, f", column '{name}'")
-    high = float(np.max(np.abs(speed_mps)))
-    if high > ABSURD_SPEED_MPS:
-        index = int(np.argmax(np.abs(speed_mps) > ABSURD_SPEED_MPS))
+    what, unit, limit = quantity
+    _require_finite(values, what, file, line_of, f", column '{name}'")
+    high = float(np.max(np.abs(values)))
+    if high > limit:
+        index = int(np.argmax(np.abs(values) > limit))
         raise LogError(
-            f"absurd speed ({speed_mps[index]:.4g} m/s, over {ABSURD_SPEED_MPS:g} m/s)",
+            f"absurd {what} ({values[index]:.4g} {unit}, over {limit:g} {unit})",
             file=file,
             where=f"line {line_of(index)}, column '{name}'",
-            fix="the speed column must be in m/s (mm/s or rpm need converting)",
+            fix=fix,
         )
 
 
@@ -147,6 +215,8 @@ def _check_time(
             step_s = np.diff(time_s)
             reordered = False
         gaps = np.flatnonzero(step_s > GAP_FACTOR * spacing_s)
+        if _is_bursty(time_s, step_s, gaps):
+            return _bursty(file, time_s, step_s, gaps, line_of)
     uneven: list[Problem] = []
     # the steps between gaps: their mean is within high - low of their median, so a log
     # spaced evenly to 1% (every analyser's) is not looked at again; their sum is the span
@@ -168,44 +238,129 @@ def _check_time(
                     f"{1e3 * longest_s:.3g} ms between gaps): the sample period is their "
                     f"mean, {1e3 * mean_s:.4g} ms, so that durations and energies follow the "
                     f"stamps (their median, {1e3 * spacing_s:.4g} ms, would count "
-                    f"{100 * (spacing_s / mean_s - 1):+.2g}% of both)",
+                    f"{100 * (spacing_s / mean_s - 1) if mean_s else float('inf'):+.2g}% of "
+                    "both)",
                 )
             )
     del step_s
     if not gaps.size:
         return period_s, uneven
+    return period_s, uneven + _gap_problems(file, time_s, gaps, period_s, period_s, line_of)
+
+
+def _gap_problems(
+    file: str,
+    time_s: np.ndarray,
+    gaps: np.ndarray,
+    period_s: float,
+    spacing_s: float,
+    line_of: Callable[[int], int],
+    pattern: str = "",
+) -> list[Problem]:
+    """The problems of the gaps after the samples `gaps` (each sample holds `period_s`; the
+    rest of its step is missing), or the error when they are too long for the log's own
+    `spacing_s`: its sample period, or a bursty logger's longest regular wait (`pattern`
+    names it in the messages)."""
     missing_s = (time_s[gaps + 1] - time_s[gaps]) - period_s
     longest = int(np.argmax(missing_s))
     span_s = float(time_s[-1] - time_s[0]) + period_s
     missing_pct = 100.0 * float(missing_s.sum()) / (span_s if span_s > 0 else 1.0)
     summary = (
-        f"{gaps.size} gap(s) of dropped samples, {missing_s.sum():.4g} s in all "
+        f"{gaps.size} gap(s) of dropped samples{pattern}, {missing_s.sum():.4g} s in all "
         f"({missing_pct:.2g}% of the log), longest {missing_s[longest]:.4g} s after "
         f"t = {time_s[gaps[longest]]:.6g} s"
     )
-    limit_s = max(MAX_GAP_S, MAX_GAP_PERIODS * period_s)
-    too_much = missing_pct > MAX_GAP_PCT and float(missing_s.sum()) > MAX_GAP_PERIODS * period_s
+    spacings = "sample periods" if not pattern else "of its waits"
+    limit_s = max(MAX_GAP_S, MAX_GAP_PERIODS * spacing_s)
+    too_much = missing_pct > MAX_GAP_PCT and float(missing_s.sum()) > MAX_GAP_PERIODS * spacing_s
     if missing_s[longest] > limit_s or too_much:
         raise LogError(
             summary,
             file=file,
             where=f"line {line_of(int(gaps[longest]) + 1)}",
             fix=f"a gap over {limit_s:.4g} s (the longer of {MAX_GAP_S:g} s and "
-            f"{MAX_GAP_PERIODS} sample periods), or gaps adding up to over {MAX_GAP_PCT:g}% of "
-            f"the log and over {MAX_GAP_PERIODS} sample periods, make energies wrong; "
+            f"{MAX_GAP_PERIODS} {spacings}), or gaps adding up to over {MAX_GAP_PCT:g}% of "
+            f"the log and over {MAX_GAP_PERIODS} {spacings}, make energies wrong; "
             "re-record, or cut the log at the gap",
         )
-    problems = [
+    return [
         Problem(
             "gap",
             f"line {line_of(int(index) + 1)}: {missing * 1e3:.4g} ms of samples dropped after "
-            f"t = {time_s[index]:.6g} s",
+            f"t = {time_s[index]:.6g} s{pattern}",
             float(time_s[index]) + period_s,
             float(missing),
         )
         for index, missing in zip(gaps, missing_s, strict=True)
     ]
-    return period_s, uneven + problems
+
+
+def _is_bursty(time_s: np.ndarray, step_s: np.ndarray, gaps: np.ndarray) -> bool:
+    """A logger that writes in bursts (rows a few ms apart, then seconds of nothing: phone
+    apps, ROS bridges): its long steps are its habit, not dropped samples. Told by both
+    `BURSTY_STEP_SHARE` of the steps being long (at least `BURSTY_MIN_WAITS` of them) and
+    `BURSTY_TIME_SHARE` of the time passing in them; a logger that drops samples now and
+    then (under `MAX_GAP_PCT` of its time: what is read at all) is never taken for one."""
+    if gaps.size <= BURSTY_STEP_SHARE * step_s.size or gaps.size < BURSTY_MIN_WAITS:
+        return False
+    span_s = float(time_s[-1] - time_s[0])
+    return float(np.sum(step_s[gaps])) > BURSTY_TIME_SHARE * span_s
+
+
+def _bursty(
+    file: str,
+    time_s: np.ndarray,
+    step_s: np.ndarray,
+    waits: np.ndarray,
+    line_of: Callable[[int], int],
+) -> tuple[float, list[Problem]]:
+    """A bursty log judged by its own pattern (log-format.md, "Bad input"): its waits (the
+    steps `waits`, long against the median step) are its spacing; a step over `GAP_FACTOR`
+    times its longest regular wait (the `BURST_WAIT_QUANTILE` of its waits) is a gap, and
+    its time beyond one sample is reported missing, never counted as zero power nor as
+    covered. Each sample holds the mean step over the time covered (the gaps' excess left
+    out), so the run's energy (samples x that period, additive over phases) is its mean
+    power over the time the log covers."""
+    waits_s = step_s[waits]
+    wait_s = float(np.quantile(waits_s, BURST_WAIT_QUANTILE))
+    gaps = np.flatnonzero(step_s > GAP_FACTOR * wait_s)
+    regular = step_s.size - gaps.size
+    gap_steps_s = float(np.sum(step_s[gaps]))
+    period_s = float(f"{(float(time_s[-1] - time_s[0]) - gap_steps_s) / regular:.10g}")
+    in_burst_s = np.delete(step_s, waits)
+    covered_s = period_s * time_s.size
+    missing_s = gap_steps_s - gaps.size * period_s
+    burst_ms = (
+        f"{1e3 * float(in_burst_s.min()):.3g}-{1e3 * float(in_burst_s.max()):.3g} ms"
+        if in_burst_s.size
+        else "none"
+    )
+    note = Problem(
+        "bursty",
+        f"bursty time stamps: rows in bursts (steps of {burst_ms}) with waits of "
+        f"{float(waits_s.min()):.3g}-{float(waits_s.max()):.3g} s between them ({waits.size} of "
+        f"{step_s.size} steps): judged by this pattern, not the median step; energy over the "
+        f"{covered_s:.6g} s the log covers, each sample holding the mean step, "
+        f"{1e3 * period_s:.4g} ms; {gaps.size} gap(s) beyond waits of {GAP_FACTOR:g} x "
+        f"{wait_s:.3g} s, {missing_s:.4g} s missing (not counted)",
+    )
+    if not gaps.size:
+        return period_s, [note]
+    pattern = f" (beyond this bursty logger's waits of up to {wait_s:.3g} s; not counted)"
+    return period_s, [note, *_gap_problems(file, time_s, gaps, period_s, wait_s, line_of, pattern)]
+
+
+def _check_period(file: str, period_s: float) -> None:
+    """A sample period from the time stamps outside the plausible range: the time column is
+    in another unit than read (`time_us` holding seconds, `--time-unit` wrong)."""
+    low_s, high_s = SAMPLE_PERIOD_RANGE_S
+    if not low_s <= period_s <= high_s:
+        raise LogError(
+            f"the time stamps give a sample period of {period_s:.4g} s, outside the plausible "
+            f"{low_s:g}-{high_s:g} s",
+            file=file,
+            fix="the time column is in another unit than read: check its name and --time-unit",
+        )
 
 
 def _time_error(
@@ -279,15 +434,111 @@ def _check_power(
             "the current sign looks reversed: give --flip-current (or drop it if given), or "
             "check the columns used",
         )
-    if high_W > ABSURD_POWER_W:
-        index = int(np.argmax(power_W > ABSURD_POWER_W))
-        raise LogError(
-            f"absurd power ({power_W[index]:.4g} W, over {ABSURD_POWER_W:g} W)",
-            file=file,
-            where=f"line {line_of(index)}",
-            fix="check the units (mA vs A, mW vs W) and the columns used",
-        )
     return low_W, high_W
+
+
+@dataclass(frozen=True)
+class PowerScale:
+    """What a log says of its robot, to judge its power by (log-format.md, "Bad input": never a
+    fixed ceiling). `max_power_W` and where it was set (`--max-power`, "metadata line 3");
+    the names of the measured columns that are voltages and currents; and, from the head of
+    the file, a power column's median beside the median voltage x current (or voltage alone)
+    logged next to it (`head`: power column name, median power [W], median V x I [W] or None,
+    median V [V] or None)."""
+
+    max_power_W: float | None = None
+    max_power_where: str = ""
+    voltages: frozenset[str] = frozenset()
+    currents: frozenset[str] = frozenset()
+    head: tuple[str, float, float | None, float | None] | None = None
+
+
+def check_power_scale(
+    file: str,
+    power_W: np.ndarray,
+    high_W: float | None,
+    measured: dict[str, np.ndarray],
+    scale: PowerScale,
+    line_of: Callable[[int], int],
+) -> Problem | None:
+    """Absurd power, judged against the log's own robot: over its `max_power_W` (or
+    `--max-power`); a voltage or current column whose median is not in V or A; a power column
+    orders of magnitude off the voltage x current (or the voltage) logged beside it. A
+    power-only log with none of these to judge it by is read; above `UNJUDGED_POWER_W` with a
+    warning (returned) that says so. Errors otherwise; None when nothing is to be said."""
+    if high_W is None:
+        return None
+    if scale.max_power_W is not None:
+        if high_W > scale.max_power_W:
+            index = int(np.argmax(power_W > scale.max_power_W))
+            raise LogError(
+                f"power {power_W[index]:.4g} W is over the robot's max_power_W "
+                f"{scale.max_power_W:g} W ({scale.max_power_where})",
+                file=file,
+                where=f"line {line_of(index)}",
+                fix="a unit mistake (mW read as W, mA as A) or the wrong columns; if this robot "
+                "draws more, raise max_power_W (metadata or runs.csv) or --max-power",
+            )
+    for name, values in measured.items():
+        for names, limit, quantity, unit, units in (
+            (scale.voltages, MAX_SUPPLY_VOLTAGE_V, "voltage", "V", "volts"),
+            (scale.currents, MAX_MEDIAN_CURRENT_A, "current", "A", "amperes"),
+        ):
+            if name in names and (median := _median_abs(values)) > limit:
+                raise LogError(
+                    f"{quantity} column '{name}' reads a median {median:.4g} {unit}, over "
+                    f"{limit:g} {unit}: not {units}",
+                    file=file,
+                    where=f"column '{name}'",
+                    fix=f"a unit mistake: m{unit} in a column named {unit}? name it *_m{unit}, "
+                    "or convert it",
+                )
+    if scale.head is not None:
+        name, power_median_W, vi_median_W, volts_median_V = scale.head
+        if vi_median_W is not None and vi_median_W > 0 and power_median_W > 0:
+            ratio = power_median_W / vi_median_W
+            if not 1 / UNIT_MISTAKE_FACTOR <= ratio <= UNIT_MISTAKE_FACTOR:
+                raise LogError(
+                    f"power column '{name}' is {ratio:.3g} times the voltage x current logged "
+                    f"beside it (medians {power_median_W:.4g} W and {vi_median_W:.4g} W over "
+                    "the first lines)",
+                    file=file,
+                    where=f"column '{name}'",
+                    fix="a unit mistake: mW in a column named W (or mA, mV as A, V)? fix the "
+                    "column's name, or read the power from --current-column and "
+                    "--voltage-column",
+                )
+        elif vi_median_W is None and volts_median_V:
+            amps = power_median_W / volts_median_V
+            if amps > MAX_MEDIAN_CURRENT_A:
+                raise LogError(
+                    f"power column '{name}' (median {power_median_W:.4g} W over the first "
+                    f"lines) would be {amps:.4g} A at the {volts_median_V:.4g} V logged beside "
+                    f"it, over {MAX_MEDIAN_CURRENT_A:g} A",
+                    file=file,
+                    where=f"column '{name}'",
+                    fix="a unit mistake: mW in a column named W? name it *_mW, or convert it",
+                )
+        return None
+    judged = scale.max_power_W is not None or any(
+        name in scale.voltages or name in scale.currents for name in measured
+    )
+    if judged or high_W <= UNJUDGED_POWER_W:
+        return None
+    return Problem(
+        "unjudged_power",
+        f"peak power {high_W:.4g} W with no max_power_W, voltage or current to judge it by: "
+        "read as W (a column holding mW would read 1000 times too high); give max_power_W "
+        "(metadata or runs.csv) or --max-power to have it checked",
+    )
+
+
+def _median_abs(values: np.ndarray) -> float:
+    """The median magnitude of a column, from a strided subsample of ~`_MEDIAN_SAMPLES`."""
+    if not values.size:
+        return 0.0
+    stride = max(1, values.size // _MEDIAN_SAMPLES)
+    return float(np.median(np.abs(values[::stride])))
 
 
 def _check_sign(file: str, power_W: np.ndarray, what: str, fix: str) -> None:

@@ -79,10 +79,25 @@ class LogFormat(ABC):
         """The format's own speed column, if it has one."""
         return None
 
+    def turning_columns(self, pre: Preamble) -> TurningColumns:
+        """The format's own turning columns (log-format.md, "Turning"), if it has any."""
+        return TurningColumns()
+
     def check_metadata(self, path: Path, values: dict[str, str]) -> None:
         """Raise when the metadata (the file's, the manifest's and options') lacks what this
         format needs to be read."""
         return None
+
+
+@dataclass(frozen=True)
+class TurningColumns:
+    """Where a log says how the robot turns (log-format.md, "Turning"): a rate-of-turn column,
+    or the two sides' wheel-speed columns; and a per-sample `surface` column. None: absent."""
+
+    yaw_rate: str | None = None
+    speed_left: str | None = None
+    speed_right: str | None = None
+    surface: str | None = None
 
 
 def header_cells(line: str, delimiter: str) -> list[str]:

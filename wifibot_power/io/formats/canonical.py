@@ -3,7 +3,8 @@ columns with their unit, and the data. Also the fallback for any CSV whose colum
 options name (`--power-column`, `--current-column`, ...).
 
 Its column names live here and nowhere else: `power_W`, `power_mW`, `voltage_V`,
-`voltage_mV`, `current_A`, `current_mA`, `time_s`, `time_ms`, `time_us`, `speed_mps`, and the
+`voltage_mV`, `current_A`, `current_mA`, `time_s`, `time_ms`, `time_us`, `speed_mps`, the
+turning columns `yaw_rate_radps` or `speed_left_mps` + `speed_right_mps`, `surface`, and the
 channels `power_<name>_W`, `voltage_<name>_V` + `current_<name>_A` (summed). A column whose
 name says it is time (`t`, `Time [s]`, `timestamp`; `columns.time_unit_of`) is never
 silently ignored.
@@ -16,11 +17,18 @@ from pathlib import Path
 from typing import ClassVar
 
 from wifibot_power.errors import LogError
-from wifibot_power.io.columns import PowerSource, find_column, time_unit_of
+from wifibot_power.io.columns import (
+    PowerSource,
+    column_hint,
+    find_column,
+    time_unit_disagrees,
+    time_unit_of,
+)
 from wifibot_power.io.formats.base import (
     LogFormat,
     Preamble,
     TimeSource,
+    TurningColumns,
     check_header,
     delimiter_of,
     header_cells,
@@ -45,10 +53,18 @@ COLUMNS: dict[str, tuple[str, float]] = {
     "time_ms": ("time", 1e-3),
     "time_us": ("time", 1e-6),
     "speed_mps": ("speed", 1.0),
+    "yaw_rate_radps": ("yaw_rate", 1.0),
+    "speed_left_mps": ("speed_left", 1.0),
+    "speed_right_mps": ("speed_right", 1.0),
 }
 #: Canonical time columns: these win over other time-like columns.
 TIME_COLUMNS = tuple(name for name, (quantity, _) in COLUMNS.items() if quantity == "time")
 SPEED_COLUMN = "speed_mps"
+#: log-format.md, "Turning": the rate of turn, or the two sides' wheel speeds; and the
+#: per-sample surface (text)
+YAW_RATE_COLUMN = "yaw_rate_radps"
+WHEEL_SPEED_COLUMNS = ("speed_left_mps", "speed_right_mps")
+SURFACE_COLUMN = "surface"
 
 #: Channel columns (log-format.md, "Several channels"): `power_<name>_W`,
 #: `voltage_<name>_V`, `current_<name>_A` (and their milli units).
@@ -101,10 +117,12 @@ class Canonical(LogFormat):
                     ch.isalpha() for ch in stripped
                 ):
                     raise not_a_log(path, "data but no header row", where=f"line {index + 1}")
-                raise not_a_log(
-                    path,
-                    "no header row with power_W, voltage_V x current_A or current_A",
+                raise LogError(
+                    "not a power log (no header row with power_W, voltage_V x current_A or "
+                    "current_A)",
+                    file=path,
                     where=f"line {index + 1}",
+                    fix=f"{column_hint(header)}; or give a wbpower CSV (see docs/log-format.md)",
                 )
             version = metadata.get("wbpower-log")
             if version is not None and version not in KNOWN_VERSIONS:
@@ -135,9 +153,9 @@ class Canonical(LogFormat):
         power = first("power_w", "power_mw")
         current, voltage = first("current_a", "current_ma"), first("voltage_v", "voltage_mv")
         if power:
-            return [
-                PowerSource(power=power, twice=(current, voltage) if current and voltage else None)
-            ]
+            # current and voltage logged beside it judge its unit (validate.check_power_scale)
+            # and, both there, must agree with it (validate.check_power_twice)
+            return [PowerSource(power=power, logged_current=current, logged_voltage=voltage)]
         if current and voltage:
             return [PowerSource(current=current, voltage=voltage)]
         channels = _channels(path, pre, voltage, options)
@@ -149,14 +167,14 @@ class Canonical(LogFormat):
             raise LogError(
                 "current only, no power or voltage column",
                 file=path,
-                fix="give --supply-voltage V, or name the voltage column with --voltage-column",
+                fix="give --supply-voltage V, or name the voltage column with --voltage-column "
+                f"({column_hint(pre.header)})",
             )
         raise LogError(
             "no power_W, power_mW, or voltage_V x current_A columns",
             file=path,
             where=f"line {pre.header_line + 1}",
-            fix="name the columns as in docs/log-format.md, or use --power-column, or "
-            "--current-column and --voltage-column",
+            fix=f"{column_hint(pre.header)}; or name the columns as in docs/log-format.md",
         )
 
     def time_source(
@@ -180,7 +198,8 @@ class Canonical(LogFormat):
             )
         ((name, scale_s),) = timelike
         if options.time_unit:
-            return TimeSource(name, TIME_UNITS[options.time_unit]), []
+            said = time_unit_disagrees(name, scale_s, options.time_unit)
+            return TimeSource(name, TIME_UNITS[options.time_unit]), said
         if scale_s is not None:
             return TimeSource(name, scale_s), []
         if options.sample_period_s is not None:
@@ -198,6 +217,15 @@ class Canonical(LogFormat):
 
     def speed_column(self, pre: Preamble) -> str | None:
         return find_column(pre.header, SPEED_COLUMN)
+
+    def turning_columns(self, pre: Preamble) -> TurningColumns:
+        left, right = (find_column(pre.header, name) for name in WHEEL_SPEED_COLUMNS)
+        return TurningColumns(
+            yaw_rate=find_column(pre.header, YAW_RATE_COLUMN),
+            speed_left=left,
+            speed_right=right,
+            surface=find_column(pre.header, SURFACE_COLUMN),
+        )
 
 
 def _channels(
@@ -226,10 +254,15 @@ def _channels(
     sources = []
     for channel, quantities in found.items():
         if "power" in quantities:
-            twice = (quantities.get("current"), quantities.get("voltage"))
+            # its current and voltage, both logged, say its power twice (`PowerSource.twice`)
+            current, voltage = quantities.get("current"), quantities.get("voltage")
+            both = current is not None and voltage is not None
             sources.append(
                 PowerSource(
-                    power=quantities["power"], name=channel, twice=twice if all(twice) else None
+                    power=quantities["power"],
+                    name=channel,
+                    logged_current=current if both else None,
+                    logged_voltage=voltage if both else None,
                 )
             )
         elif "current" in quantities:

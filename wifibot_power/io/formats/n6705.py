@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import ClassVar
 
 from wifibot_power.errors import LogError
-from wifibot_power.io.columns import PowerSource, find_column
+from wifibot_power.io.columns import PowerSource, column_hint, find_column
 from wifibot_power.io.formats.base import (
     LogFormat,
     Preamble,
@@ -107,7 +107,11 @@ class N6705(LogFormat):
         for candidates, build in (
             (
                 with_power,
-                lambda k: PowerSource(power=(outputs[k]["power"], 1.0), twice=_twice(outputs[k])),
+                lambda k: PowerSource(
+                    power=(outputs[k]["power"], 1.0),
+                    logged_current=_logged(outputs[k], "current"),
+                    logged_voltage=_logged(outputs[k], "voltage"),
+                ),
             ),
             (
                 with_both,
@@ -136,7 +140,8 @@ class N6705(LogFormat):
             "no 'Curr avg K' or 'Power avg K' column",
             file=path,
             where=f"line {pre.header_line + 1}",
-            fix="export the datalog with current logged",
+            fix=f"export the datalog with current logged, or name the columns: "
+            f"{column_hint(pre.header, with_time=False)}",
         )
 
     def time_source(
@@ -155,11 +160,9 @@ class N6705(LogFormat):
             )
 
 
-def _twice(output: dict[str, str]) -> tuple[tuple[str, float], tuple[str, float]] | None:
-    """An output's current and voltage columns beside its power column: its power again."""
-    if "current" in output and "voltage" in output:
-        return (output["current"], 1.0), (output["voltage"], 1.0)
-    return None
+def _logged(output: dict[str, str], quantity: str) -> tuple[str, float] | None:
+    """An output's current or voltage column logged beside its power (judges its unit)."""
+    return (output[quantity], 1.0) if quantity in output else None
 
 
 def _several_outputs_fix(outputs: list[dict[str, str]]) -> str:

@@ -1,11 +1,12 @@
 """The paper's model extended by any set of named causes, fitted on any subset of runs (the
-held-out machinery of `diagnose` calls it on training folds only), and its prediction of
-each run's motion energy. Loops over the registry; names no cause.
+held-out machinery of `diagnose` calls it on training folds only), its prediction of each
+run's motion energy, and the fits one diagnosis has made (`Fits`). Loops over the registry;
+names no cause.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
@@ -104,41 +105,102 @@ def _not_estimable(motion: pd.DataFrame, base: PowerModel, causes: list[str]) ->
     return None
 
 
-#: The columns a run's predicted motion energy is simulated from.
-PREDICT_COLUMNS = ("speed_mps", "distance_m", "steps", "payload_kg", "tau_before_min")
+#: The columns of a run its predicted motion energy is simulated from, beside what the
+#: causes' energy terms read (`Cause.trip_inputs`).
+PREDICT_COLUMNS = ("speed_mps", "distance_m", "steps", "payload_kg")
+
+
+def prediction_inputs(runs: pd.DataFrame) -> dict[str, np.ndarray]:
+    """What `predict_columns_J` reads of `runs`: the `PREDICT_COLUMNS`, and each cause's
+    keyword arguments of `energy.trip_energy` (`Cause.trip_inputs`), an array each."""
+    columns = {c: runs[c].to_numpy() for c in PREDICT_COLUMNS}
+    for cause in CAUSES.values():
+        columns.update(cause.trip_inputs(runs))
+    return columns
 
 
 def predict_motion_energy_J(model: PowerModel, runs: pd.DataFrame) -> np.ndarray:
     """Motion energy of each run as the model simulates it from (v, D, N, payload) alone:
-    paper Eq. 5/6 per step with the model's extensions (energy.trip_energy), the run starting
-    the motor-on minutes into its session that precede it (tau_before_min)."""
-    return predict_columns_J(model, {c: runs[c].to_numpy() for c in PREDICT_COLUMNS})
+    paper Eq. 5/6 per step with the model's extensions (energy.trip_energy), with what each
+    cause's term reads of the run (`Cause.trip_inputs`: e.g. the motor-on minutes into its
+    session that precede it)."""
+    return predict_columns_J(model, prediction_inputs(runs))
 
 
 def predict_columns_J(model: PowerModel, columns: dict[str, np.ndarray]) -> np.ndarray:
-    """`predict_motion_energy_J` of runs given as their `PREDICT_COLUMNS` (arrays, a run
+    """`predict_motion_energy_J` of runs given as their `prediction_inputs` (arrays, a run
     each): `diagnose` predicts each held-out fold from the columns read once."""
-    # the four columns as Python lists (itertuples boxes every column of a ~60-column table)
-    values = (columns[c].tolist() for c in ("speed_mps", "distance_m", "steps", "payload_kg"))
-    tau = np.asarray(columns["tau_before_min"], dtype=np.float64)
-    out = np.empty(len(tau))
-    for i, (speed, distance, steps, payload) in enumerate(zip(*values, strict=True)):
+    # the columns as Python lists (itertuples boxes every column of a ~60-column table)
+    values = [columns[c].tolist() for c in PREDICT_COLUMNS]
+    keywords = [k for k in columns if k not in PREDICT_COLUMNS]
+    extra = [np.asarray(columns[k], dtype=np.float64).tolist() for k in keywords]
+    out = np.empty(len(values[0]))
+    for i, (speed, distance, steps, payload, *given) in enumerate(
+        zip(*values, *extra, strict=True)
+    ):
         trip = trip_energy(  # a run per iteration, not a sample
             model,
             speed,
             distance,
             int(steps),
             payload_kg=payload,
-            motor_on_before_min=float(tau[i]) if np.isfinite(tau[i]) else 0.0,
+            **dict(zip(keywords, given, strict=True)),
         )
         out[i] = trip.energy_J
     return out
 
 
+class Fits:
+    """The fits made in one diagnosis, by what they were fitted on: forward selection, the
+    held-out folds and the nested folds fit the same rows with the same causes again and
+    again (a third to a tenth of all fits). Made per diagnosis and passed to what fits."""
+
+    def __init__(self) -> None:
+        self._made: dict[tuple, PowerModel | NotEstimable] = {}
+
+    def fit(
+        self, runs: pd.DataFrame, causes: Iterable[str] = (), *, strict: bool = False
+    ) -> PowerModel:
+        """`fit_model(runs, causes, strict=strict)`, fitted once per rows (in their order),
+        causes and `strict`: the same fit of the same rows is the same model, and a fit the
+        rows cannot identify raises `NotEstimable` each time it is asked for."""
+        causes = ordered(causes)  # a list: the key and the fit both read it (an iterator once)
+        return self.once(
+            lambda: (runs["file"].tolist(), runs["run_id"].tolist()),
+            causes,
+            strict,
+            lambda: fit_model(runs, causes, strict=strict),
+        )
+
+    def once(
+        self,
+        rows: Callable[[], tuple[list, list]],
+        causes: Iterable[str],
+        strict: bool,
+        fit: Callable[[], PowerModel],
+    ) -> PowerModel:
+        """`fit()`, or what it gave (a model or `NotEstimable`) when these fits hold the
+        same `rows` (their files and run ids, in order) fitted with the same causes and
+        `strict`."""
+        files, run_ids = rows()
+        key = (tuple(files), tuple(run_ids), tuple(ordered(causes)), strict)
+        if key not in self._made:
+            try:
+                self._made[key] = fit()
+            except NotEstimable as exc:
+                self._made[key] = exc
+        found = self._made[key]
+        if isinstance(found, NotEstimable):
+            raise NotEstimable(str(found))
+        return found
+
+
 __all__ = [
+    "Fits",
     "NotEstimable",
     "fit_model",
     "power_factor",
     "predict_columns_J",
     "predict_motion_energy_J",
+    "prediction_inputs",
 ]

@@ -1,0 +1,484 @@
+"""Held-out run energy on real free-driving logs: the plain least squares and the drive model.
+
+Issue 25, step 7 (docs/real-logs.md, "Free driving"). For each converted set (the
+converters in benchmarks/real_logs/ write them to `$WBPOWER_REAL_DRIVE`, default
+/work/real_drive; the F1/10 log is found as its tests find it), every log is read here
+with numpy (not with wbpower's reader, which refuses some of them today: docs), cut into
+**trips** and each trip's energy is predicted by models fitted on the other trips
+(K-fold by trip), so no trip is ever predicted by a fit that saw it.
+
+- **Reading**: power = `power_W`, else the sum of each `voltage_*_V` x `current_*_A`
+  pair; speed = `speed_mps`; yaw rate [rad/s] = (`speed_right_mps` - `speed_left_mps`) /
+  `track_m` where the log has both wheel speeds (log-format.md, "Turning"), else
+  `yaw_rate_radps`, else none; the surface from the `surface` metadata or a per-sample
+  `surface` column.
+- **Energy**: each sample's power held until the next stamp, E = sum P_i (t_(i+1) - t_i)
+  (the stamps as logged: the phone apps' bursty rows are not evened out).
+- **Trips**: a log is cut at every **stop**: |speed| < `STOP_SPEED_MPS` and, where the
+  log has a yaw rate, |yaw rate| < `STOP_YAW_RADPS` (a robot spinning in place is not
+  stopped), lasting at least `STOP_S`. A trip runs from the end of one stop to the start of
+  the next (the stops' standing samples belong to no trip), and is cut at any step between
+  stamps over `GAP_S` (time the log does not cover: a paused app, a ride the next day);
+  trips shorter than `MIN_TRIP_S` are dropped. A trip of a log with a per-sample surface
+  takes the surface that holds >= 80% of its time, else it is `mixed`. A trip whose
+  samples are those of a trip already taken (one source log holding another whole:
+  EUC_core's mten4/2 repeats mten4/0) is dropped and counted, so that no trip is held out
+  against its own copy.
+- **Groups**: the surface where the logs name one; for the unicycles the wheel
+  (`vehicle`: each is a different vehicle), surface unknown; else the whole set.
+- **Baseline (a)**, the plain least squares of issue 25: power on an intercept, |v|, v^2
+  and max(a*v, 0) (speeding up; braking gets no term), by least squares weighted by each
+  sample's held time; `a` is the speed's central difference over `ACCEL_WINDOW_S`
+  (interpolated, so a 6.5 Hz robot and a bursty app are treated alike). Fitted per group
+  ("per surface") and on every group of the set together ("pooled", then scored per
+  group). Where the set has a yaw rate, also with |yaw rate| as a fifth column ("+|yaw|":
+  the naive turning term).
+- **Drive model (b)**: `wifibot_power.drive.fit_drive` when it can be imported (the drive
+  lane writes it); until then the line says "drive model not available yet".
+- **Folds**: K = min(5, trips) folds of a group's trips, dealt by a seeded permutation
+  (seed 0): the same folds for every model.
+
+Columns: trips (`n`), of which `E<=0` have a net energy <= 0 (unicycles walked or pushed
+at ~0.5 m/s, reading 0 W or a small negative power: left out of the percentages, still in
+the fits), MAPE and median of |predicted - measured|
+/ measured over the held-out trips [%], wAPE = sum |predicted - measured| / sum measured
+[%] (the error on the total energy, weighted as a battery sees it), and the 90% interval
+coverage [%] where the model gives intervals ("-": the baseline gives none). numpy only;
+runs in well under a minute.
+
+    .venv/bin/python benchmarks/validate_drive_real.py               # the tables
+    .venv/bin/python benchmarks/validate_drive_real.py --write-docs  # into docs/real-logs.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import gzip
+import io
+import re
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE / "real_logs"))
+from canonical_out import real_drive_root  # noqa: E402  (the converters' shared module)
+
+#: below this |speed| [m/s] (0.36 km/h) a sample may be standing
+STOP_SPEED_MPS = 0.1
+#: below this |yaw rate| [rad/s] (3 deg/s) a sample may be standing
+STOP_YAW_RADPS = 0.05
+#: a stop lasts at least this long [s] to cut a log there
+STOP_S = 3.0
+#: a step between stamps longer than this [s] is time the log does not cover (an app paused,
+#: a ride the next day): trips are cut there too and never integrate across it
+GAP_S = 5.0
+#: trips shorter than this [s] are dropped
+MIN_TRIP_S = 10.0
+#: the speed's central difference spans this window [s]
+ACCEL_WINDOW_S = 1.0
+#: folds of K-fold by trip (fewer when a group has fewer trips)
+FOLDS = 5
+#: a group needs this many trips to be scored
+MIN_TRIPS = 3
+#: a per-sample surface holding this share of a trip's time names the trip's surface
+SURFACE_SHARE = 0.8
+SEED = 0
+
+DOCS = HERE.parent / "docs" / "real-logs.md"
+BEGIN, END = "<!-- drive validation: begin -->", "<!-- drive validation: end -->"
+
+
+@dataclass(frozen=True)
+class Trip:
+    run_id: str
+    group: str
+    time_s: np.ndarray
+    power_W: np.ndarray
+    speed_mps: np.ndarray
+    yaw_radps: np.ndarray | None
+
+    @property
+    def held_s(self) -> np.ndarray:
+        """Each sample's held time [s] (the last sample: the median step)."""
+        step = np.diff(self.time_s)
+        return np.append(step, np.median(step) if step.size else 0.0)
+
+    @property
+    def energy_J(self) -> float:
+        return float(np.sum(self.power_W * self.held_s))
+
+
+def read_log(path: Path) -> tuple[dict[str, str], dict[str, np.ndarray]]:
+    """A canonical wbpower CSV(.gz): its `#` metadata and its columns (floats; `surface` as
+    strings)."""
+    raw = gzip.open(path, "rt") if path.suffix == ".gz" else open(path)
+    with raw as f:
+        text = f.read()
+    lines = text.splitlines()
+    meta = {}
+    k = 0
+    while lines[k].startswith("#"):
+        key, _, value = lines[k][1:].partition(":")
+        meta[key.strip()] = value.strip()
+        k += 1
+    names = lines[k].split(",")
+    body = "\n".join(lines[k + 1 :])
+    numeric = [i for i, n in enumerate(names) if n != "surface"]
+    table = np.genfromtxt(io.StringIO(body), delimiter=",", usecols=numeric, ndmin=2)
+    cols = {names[i]: table[:, j] for j, i in enumerate(numeric)}
+    if "surface" in names:
+        s = names.index("surface")
+        cols["surface"] = np.array([row.split(",")[s] for row in lines[k + 1 :]])
+    return meta, cols
+
+
+def power_of(cols: dict[str, np.ndarray]) -> np.ndarray:
+    """power_W, else the sum over voltage_*_V x current_*_A pairs (log-format.md §1)."""
+    if "power_W" in cols:
+        return cols["power_W"]
+    total = None
+    for name in cols:
+        m = re.fullmatch(r"voltage(_\w+)?_V", name)
+        if m and f"current{m.group(1) or ''}_A" in cols:
+            p = cols[name] * cols[f"current{m.group(1) or ''}_A"]
+            total = p if total is None else total + p
+    if total is None:
+        raise SystemExit(f"no power or voltage/current columns in {sorted(cols)}")
+    return total
+
+
+def yaw_of(meta: dict[str, str], cols: dict[str, np.ndarray]) -> np.ndarray | None:
+    if "speed_left_mps" in cols and "speed_right_mps" in cols and "track_m" in meta:
+        return (cols["speed_right_mps"] - cols["speed_left_mps"]) / float(meta["track_m"])
+    return cols.get("yaw_rate_radps")
+
+
+def moving_stretches(
+    time_s: np.ndarray, speed: np.ndarray, yaw: np.ndarray | None
+) -> list[tuple[int, int]]:
+    """[start, end) index ranges between stops (see the docstring), at least MIN_TRIP_S."""
+    still = np.abs(speed) < STOP_SPEED_MPS
+    if yaw is not None:
+        still &= np.abs(yaw) < STOP_YAW_RADPS
+    # runs of equal `still`: their bounds
+    edges = np.flatnonzero(np.diff(still.astype(np.int8))) + 1
+    starts = np.concatenate([[0], edges])
+    ends = np.concatenate([edges, [still.size]])
+    end_time = np.append(time_s[1:], time_s[-1] + np.median(np.diff(time_s)))
+    long_stop = still[starts] & (end_time[ends - 1] - time_s[starts] >= STOP_S)
+    # cut points: the long stops; the trips lie between them
+    cuts = [(a, b) for a, b, s in zip(starts, ends, long_stop, strict=True) if s]
+    bounds, prev = [], 0
+    for a, b in cuts:
+        bounds.append((prev, a))
+        prev = b
+    bounds.append((prev, still.size))
+    # and at every gap in the stamps: [a, b) holds no step over GAP_S
+    gaps = np.flatnonzero(np.diff(time_s) > GAP_S) + 1
+    bounds = [
+        piece
+        for a, b in bounds
+        for piece in zip(
+            [a, *gaps[(gaps > a) & (gaps < b)]], [*gaps[(gaps > a) & (gaps < b)], b], strict=True
+        )
+    ]
+    return [(a, b) for a, b in bounds if b - a >= 2 and end_time[b - 1] - time_s[a] >= MIN_TRIP_S]
+
+
+def trips_of(path: Path, set_name: str) -> list[Trip]:
+    meta, cols = read_log(path)
+    t, p, v = cols["time_s"], power_of(cols), cols["speed_mps"]
+    yaw = yaw_of(meta, cols)
+    fine = np.isfinite(p) & np.isfinite(v) & np.isfinite(t)
+    if yaw is not None:
+        fine &= np.isfinite(yaw)
+    if not fine.all():
+        raise SystemExit(f"{path}: {np.count_nonzero(~fine)} sample(s) without a number")
+    group = meta.get("surface") or meta.get("vehicle") or set_name
+    out = []
+    for k, (a, b) in enumerate(moving_stretches(t, v, yaw)):
+        g = group
+        if "surface" in cols:
+            held = np.diff(t[a : b + 1]) if b < t.size else np.append(np.diff(t[a:b]), 0)
+            labels, inverse = np.unique(cols["surface"][a:b], return_inverse=True)
+            share = np.bincount(inverse, weights=held[: b - a]) / max(np.sum(held), 1e-12)
+            g = labels[np.argmax(share)] if share.max() >= SURFACE_SHARE else "mixed"
+            g = g or "unlabelled"
+        out.append(
+            Trip(
+                f"{meta.get('run_id', path.stem)}#{k}",
+                g,
+                t[a:b],
+                p[a:b],
+                v[a:b],
+                None if yaw is None else yaw[a:b],
+            )
+        )
+    return out
+
+
+def design(trip: Trip, with_yaw: bool) -> np.ndarray:
+    """Regressors of the plain least squares: 1, |v|, v^2, max(a v, 0) (and |yaw|)."""
+    t, v = trip.time_s, trip.speed_mps
+    half = ACCEL_WINDOW_S / 2
+    a = (np.interp(t + half, t, v) - np.interp(t - half, t, v)) / ACCEL_WINDOW_S
+    cols = [np.ones_like(v), np.abs(v), v * v, np.maximum(a * v, 0.0)]
+    if with_yaw:
+        cols.append(np.abs(trip.yaw_radps))
+    return np.column_stack(cols)
+
+
+def fit_ls(trips: list[Trip], with_yaw: bool) -> np.ndarray:
+    """Coefficients minimising sum held_s (P - X b)^2 over the trips' samples."""
+    x = np.vstack([design(tr, with_yaw) for tr in trips])
+    y = np.concatenate([tr.power_W for tr in trips])
+    w = np.sqrt(np.concatenate([tr.held_s for tr in trips]))
+    coef, *_ = np.linalg.lstsq(x * w[:, None], y * w, rcond=None)
+    return coef
+
+
+def predict_ls(coef: np.ndarray, trip: Trip, with_yaw: bool) -> float:
+    return float(np.sum((design(trip, with_yaw) @ coef) * trip.held_s))
+
+
+def folds_of(n: int) -> np.ndarray:
+    """The fold of each of n trips: a seeded deal into min(FOLDS, n) folds."""
+    k = min(FOLDS, n)
+    order = np.random.default_rng(SEED).permutation(n)
+    fold = np.empty(n, dtype=int)
+    fold[order] = np.arange(n) % k
+    return fold
+
+
+def heldout_ls(trips: list[Trip], with_yaw: bool) -> np.ndarray:
+    """Each trip's predicted energy from a fit on the other folds [J]."""
+    fold = folds_of(len(trips))
+    pred = np.empty(len(trips))
+    for f in np.unique(fold):
+        coef = fit_ls([tr for tr, g in zip(trips, fold, strict=True) if g != f], with_yaw)
+        for i in np.flatnonzero(fold == f):
+            pred[i] = predict_ls(coef, trips[i], with_yaw)
+    return pred
+
+
+def scores(measured: np.ndarray, predicted: np.ndarray) -> tuple[float, float, float]:
+    """MAPE, median APE and the energy-weighted error sum|P - M| / sum M [%] over the trips
+    whose measured energy is positive (a relative error of a net energy <= 0 means nothing;
+    those trips are counted apart)."""
+    ok = measured > 0
+    if not ok.any():
+        return (np.nan, np.nan, np.nan)
+    m, p = measured[ok], predicted[ok]
+    ape = np.abs(p - m) / m * 100
+    return (
+        float(np.mean(ape)),
+        float(np.median(ape)),
+        float(np.sum(np.abs(p - m)) / np.sum(m) * 100),
+    )
+
+
+def as_run(trip: Trip):
+    """The trip as a wbpower `Run` (the fields the drive model reads: stamps, power, speed,
+    and the yaw rate and surface where this version of `Run` has those fields)."""
+    from dataclasses import fields
+
+    from wifibot_power.run import Run, RunMeta
+
+    step = float(np.median(np.diff(trip.time_s)))
+    meta = RunMeta(
+        run_id=trip.run_id, mode="motion", sample_period_s=step, extra={"surface": trip.group}
+    )
+    extra = {}
+    if "yaw_rate_radps" in {f.name for f in fields(Run)} and trip.yaw_radps is not None:
+        extra["yaw_rate_radps"] = trip.yaw_radps
+    return Run(
+        file=trip.run_id,
+        format="wbpower-csv",
+        meta=meta,
+        stamps_s=trip.time_s - trip.time_s[0],
+        power_W=trip.power_W,
+        speed_mps=trip.speed_mps,
+        **extra,
+    )
+
+
+def drive_model_rows(trips: list[Trip], by_vehicle: bool) -> list[str] | None:
+    """The drive model's held-out rows (group, n, E<=0, MAPE, median, wAPE, cover90), or None
+    when `wifibot_power.drive.fit_drive` cannot be imported yet. Each trip is given to it as
+    a run (so its held-out units are these trips, as the baseline's are); its folds and any
+    further cutting are its own (K-fold by trip, seed 0). Surfaces are its own per-surface
+    terms: one fit per set; a set of different vehicles (the unicycles) gets one fit per
+    vehicle, as the baseline's "per group" does."""
+    try:
+        from wifibot_power.drive import fit_drive
+    except ImportError:
+        return None
+    fits = (
+        [[tr for tr in trips if tr.group == g] for g in sorted({tr.group for tr in trips})]
+        if by_vehicle
+        else [trips]
+    )
+    held = []
+    for members in fits:
+        model = fit_drive([as_run(tr) for tr in members])
+        if model is None or model.heldout is None:
+            continue
+        group_of = {tr.run_id: tr.group for tr in members}
+        held += [(group_of.get(r.run_id, r.surface), r) for r in model.heldout.runs]
+    if not held:
+        return [f"| all | 0 | - | no held-out accuracy from the drive model ({len(trips)} trips) |"]
+    rows = []
+    for g in [*sorted({g for g, _ in held}), "all"]:
+        mine = [r for h, r in held if g in ("all", h)]
+        m = np.array([r.measured_J for r in mine])
+        p = np.array([r.predicted_J for r in mine])
+        lo = np.array([r.pi90_J[0] for r in mine])
+        hi = np.array([r.pi90_J[1] for r in mine])
+        cover = float(np.mean((m >= lo) & (m <= hi)) * 100)
+        cells = " | ".join(fmt(c) for c in (*scores(m, p), cover))
+        rows.append(f"| {g} | {len(mine)} | {int(np.count_nonzero(m <= 0))} | {cells} |")
+    return rows
+
+
+def _meta_of(path: Path) -> dict[str, str]:
+    """A converted file's `#` metadata alone (the lines before its header)."""
+    meta = {}
+    with gzip.open(path, "rt") as fh:
+        for line in fh:
+            if not line.startswith("#"):
+                break
+            key, _, value = line[1:].partition(":")
+            meta[key.strip()] = value.strip()
+    return meta
+
+
+def sets() -> dict[str, list[Path]]:
+    """Every converted set: the free-driving folder's sets and the F1/10 log."""
+    found = {}
+    root = real_drive_root()
+    for folder in sorted(p for p in root.glob("*") if p.is_dir()):
+        files = sorted(folder.rglob("*.csv.gz"))
+        if files:
+            found[folder.name] = files
+    sys.path.insert(0, str(HERE / "real_logs"))
+    import convert_f1tenth  # noqa: PLC0415  (a module beside the converters)
+
+    f1 = convert_f1tenth.locate(HERE.parent / ".cache" / "real_logs" / "f1tenth")
+    if f1 is not None:  # the three sides of the logger's gaps (the whole log has them)
+        found["f1tenth"] = [f1 / n for n in ("ds5_a.csv.gz", "ds5_b.csv.gz", "ds5_c.csv.gz")]
+    return found
+
+
+def fmt(x: float) -> str:
+    return f"{x:.1f}"
+
+
+def report() -> str:
+    out = []
+    found = sets()
+    if not found:
+        return (
+            f"no converted logs in {real_drive_root()} (convert them: docs/real-logs.md, "
+            "'Free driving')\n"
+        )
+    out.append(
+        f"Trips: cut at stops (|speed| < {STOP_SPEED_MPS} m/s and |yaw| < {STOP_YAW_RADPS} "
+        f"rad/s) of >= {STOP_S:g} s, kept when >= {MIN_TRIP_S:g} s; "
+        f"K = {FOLDS}-fold by trip (seed {SEED}); errors of held-out trip energies [%]. In "
+        f"`all`, the per-group columns cover the groups of >= {MIN_TRIPS} trips.\n"
+    )
+    for name, files in found.items():
+        trips, seen, copies = [], set(), 0
+        for tr in (tr for f in files for tr in trips_of(f, name)):
+            key = (tr.group, tr.power_W.size, tr.power_W.tobytes(), tr.speed_mps.tobytes())
+            copies += key in seen
+            if key not in seen:
+                seen.add(key)
+                trips.append(tr)
+        has_yaw = all(tr.yaw_radps is not None for tr in trips)
+        groups = sorted({tr.group for tr in trips})
+        measured_all = np.array([tr.energy_J for tr in trips])
+        pooled = heldout_ls(trips, False) if len(trips) >= MIN_TRIPS else None
+        pooled_yaw = heldout_ls(trips, True) if has_yaw and len(trips) >= MIN_TRIPS else None
+        hours = sum(tr.time_s[-1] - tr.time_s[0] for tr in trips) / 3600
+        out.append(
+            f"#### {name}\n\n{len(files)} logs, {len(trips)} trips, {hours:.2f} h of trips, "
+            f"{measured_all.sum() / 3.6e6:.3f} kWh"
+            + (f"; {copies} trip(s) repeated in another log dropped" if copies else "")
+            + ".\n"
+        )
+        # each trip's held-out prediction: fitted within its group, and on the whole set
+        per = {False: np.full(len(trips), np.nan), True: np.full(len(trips), np.nan)}
+        for g in groups:
+            idx = [i for i, tr in enumerate(trips) if tr.group == g]
+            if len(idx) < MIN_TRIPS:
+                continue
+            for with_yaw in (False, True) if has_yaw else (False,):
+                per[with_yaw][idx] = heldout_ls([trips[i] for i in idx], with_yaw)
+        head = (
+            "| group | n | E<=0 | LS per group: MAPE | median | wAPE | cover90 "
+            "| LS pooled: MAPE | median | wAPE |"
+        )
+        if has_yaw:
+            head += (
+                " LS+abs(yaw) per group: MAPE | median | wAPE "
+                "| LS+abs(yaw) pooled: MAPE | median | wAPE |"
+            )
+        rule = "|" + "---|" * (head.count("|") - 1)
+        out += [head, rule]
+        for g in [*groups, "all"]:
+            idx = np.array([i for i, tr in enumerate(trips) if g in ("all", tr.group)])
+            m = measured_all[idx]
+            nonpos = int(np.count_nonzero(m <= 0))
+            if idx.size < MIN_TRIPS:
+                blank = " |" * (head.count("|") - 4)
+                out.append(f"| {g} | {idx.size} | {nonpos} | too few trips |{blank}")
+                continue
+            # "all" scores the per-group fits over every trip of a scored group
+            scored = idx[np.isfinite(per[False][idx])]
+            cells = [*scores(measured_all[scored], per[False][scored]), None]
+            cells += scores(m, pooled[idx])
+            if has_yaw:
+                cells += scores(measured_all[scored], per[True][scored])
+                cells += scores(m, pooled_yaw[idx])
+            text = " | ".join("-" if c is None else fmt(c) for c in cells)
+            out.append(f"| {g} | {idx.size} | {nonpos} | {text} |")
+        drive = drive_model_rows(
+            trips,
+            by_vehicle=any(tr.group != name for tr in trips)
+            and all("vehicle" in _meta_of(f) for f in files),
+        )
+        if drive is None:
+            out.append("\nDrive model: drive model not available yet\n")
+        else:
+            out += [
+                "\nDrive model (`fit_drive`, each trip a run; its own folds):\n",
+                "| group | n | E<=0 | MAPE | median | wAPE | cover90 |",
+                "|---|---|---|---|---|---|---|",
+                *drive,
+                "",
+            ]
+    return "\n".join(out) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--write-docs", action="store_true", help=f"into {DOCS.name}")
+    args = parser.parse_args(argv)
+    text = report()
+    print(text, end="")
+    if args.write_docs:
+        doc = DOCS.read_text()
+        if BEGIN not in doc or END not in doc:
+            raise SystemExit(f"{DOCS}: no {BEGIN} ... {END} markers")
+        head, _, rest = doc.partition(BEGIN)
+        _, _, tail = rest.partition(END)
+        DOCS.write_text(f"{head}{BEGIN}\n{text}{END}{tail}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,358 @@
+"""wbpower on real free-driving logs (issue 25, step 7; docs/real-logs.md, "Free driving").
+
+The converted logs (benchmarks/real_logs/convert_borealtc.py, convert_euc.py) live outside
+the repository, in `$WBPOWER_REAL_DRIVE` (default /work/real_drive); where there are none,
+these tests are skipped, saying so. The energies are checked against the **raw source
+files**, read here with this file's own code from the fetched mirrors (found from each
+converted file's `source_repo` / `source_commit` / `source_path` metadata, under
+`$WBPOWER_MIRRORS`, default /work/.mirror); without the mirror that check is skipped.
+
+What wbpower cannot read today is a strict xfail naming the points of issue 26 that
+refuse it, decided from the raw data (not from wbpower's answer; `refusals`): power over
+1000 W somewhere ("A fixed 1 kW ceiling"), stamps in bursts or with pauses ("Bursty
+loggers refused"). The phone apps' logs are also read with their current scaled by 0.1, so
+that the stamps are met apart from the ceiling. A Husky spinning in place labelled idle is
+a strict xfail naming "A standstill at motion power". When a point is fixed its xfail
+turns into a failure that asks for the mark to go.
+"""
+
+from __future__ import annotations
+
+import csv
+import gzip
+import io
+import json
+import os
+import subprocess
+from datetime import datetime
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scripts import load_script
+
+ROOT = Path(__file__).resolve().parents[1]
+out = load_script("canonical_out", ROOT / "benchmarks" / "real_logs" / "canonical_out.py")
+DRIVE = out.real_drive_root()
+FILES = sorted(DRIVE.rglob("*.csv.gz")) if DRIVE.is_dir() else []
+MIRRORS = Path(os.environ.get("WBPOWER_MIRRORS") or "/work/.mirror")
+UNAVAILABLE = (
+    f"no converted free-driving logs in {DRIVE} (set {out.REAL_DRIVE_VAR}, or convert them: "
+    "docs/real-logs.md, 'Free driving')"
+)
+#: issue 26's first point, as its message reads today
+CEILING_W = 1000.0
+CEILING = "issue 26, 'A fixed 1 kW ceiling': the raw log holds power over 1000 W"
+#: the Husky logs' assumed battery voltage [V] (the logs hold currents only; docs)
+HUSKY_V = 24.0
+
+
+def _meta(path: Path) -> dict[str, str]:
+    with gzip.open(path, "rt") as fh:
+        return dict(line[2:].rstrip("\n").split(": ", 1) for line in fh if line[:2] == "# ")
+
+
+def _git_dir(repo_url: str) -> Path | None:
+    owner, name = repo_url.rstrip("/").split("/")[-2:]
+    for candidate in (
+        MIRRORS / f"{owner}+{name}" / "repo" / ".git",
+        MIRRORS / f"{owner}+{name}" / "repo",
+    ):
+        if (candidate / "HEAD").is_file():
+            return candidate
+    return None
+
+
+def _raw_text(meta: dict[str, str], path: str) -> str:
+    git_dir = _git_dir(meta["source_repo"])
+    if git_dir is None:
+        pytest.skip(f"the fetched mirror of {meta['source_repo']} is needed (under {MIRRORS})")
+    return subprocess.run(
+        ["git", f"--git-dir={git_dir}", "show", f"{meta['source_commit']}:{path}"],
+        check=True,
+        capture_output=True,
+    ).stdout.decode()
+
+
+@cache  # each raw file is read once per session (collection and tests)
+def raw_samples(converted: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(time [s], power [W]) of the log's raw source file, read here from scratch."""
+    meta = _meta(converted)
+    path = meta["source_path"].split(",")[0].strip()
+    rows = list(csv.DictReader(io.StringIO(_raw_text(meta, path))))
+    if "norlab-ulaval/BorealTC" in meta["source_repo"]:
+        t = np.array([float(r["time"]) for r in rows])
+        amps = np.array([float(r["curL"]) + float(r["curR"]) for r in rows])
+        return t, HUSKY_V * amps
+    # phone apps: EUC World (datetime) or WheelLog (date, time); rows with a field missing
+    # or a stamp not after the last one kept are skipped, as the converter's docs say
+    times, watts, last = [], [], -np.inf
+    for r in rows:
+        stamp = r.get("datetime") or (r.get("date") and f"{r['date']}T{r['time']}")
+        if not (stamp and r["voltage"] and r["current"] and r["speed"]):
+            continue
+        s = datetime.fromisoformat(stamp).timestamp()
+        if s <= last:
+            continue
+        last = s
+        times.append(s)
+        watts.append(float(r["voltage"]) * float(r["current"]))
+    return np.array(times) - times[0], np.array(watts)
+
+
+#: a step between stamps longer than this [s] is time the log does not cover (an app
+#: paused for minutes), not power held: the phone apps write at least every 4 s otherwise
+MISSING_S = 5.0
+
+
+def stamps_energy_J(t: np.ndarray, p: np.ndarray) -> float:
+    """sum P_i (t_(i+1) - t_i) over the steps up to MISSING_S, + P_last x (the median step):
+    each sample held until the next stamp, the last one for one period (as a reader that
+    counts samples x period does for an even log)."""
+    step = np.diff(t)
+    covered = step <= MISSING_S
+    return float(np.sum(p[:-1][covered] * step[covered]) + p[-1] * np.median(step))
+
+
+def raw_energy_J(converted: Path) -> float:
+    """The energy of the raw source file over the time it covers (`stamps_energy_J`)."""
+    return stamps_energy_J(*raw_samples(converted))
+
+
+def refusals(converted: Path, scale: float = 1.0) -> list[str]:
+    """The points of issue 26 that refuse this log today, decided from its raw source file
+    (its power times `scale`): "A fixed 1 kW ceiling" where the power exceeds 1000 W, and
+    "Bursty loggers refused" where a step between stamps is longer than 3 short steps (the
+    25th percentile: rows in pairs 20-40 ms apart put the median between the pair's step
+    and the pause) and 0.05 s, which today's reader counts as dropped samples. Skips when
+    the mirror is absent."""
+    t, p = raw_samples(converted)
+    step = np.diff(t)
+    short = float(np.percentile(step, 25))
+    long = step > max(3 * short, 0.05)
+    points = []
+    if long.any():
+        points.append(
+            f"issue 26, 'Bursty loggers refused': steps {short * 1000:.0f} ms (25th pct.), "
+            f"median {np.median(step) * 1000:.0f} ms, mean {np.mean(step) * 1000:.0f} ms, "
+            f"{np.count_nonzero(long)} over 3 short steps, longest {step.max():.1f} s"
+        )
+    return points
+
+
+def _cases(select=lambda f: True, scale: float = 1.0) -> list:
+    """One case per converted log that `select` keeps: a strict xfail (on an assertion)
+    naming the issue-26 points that refuse it, where any does."""
+    cases = []
+    for f in (f for f in FILES if select(f)):
+        if _git_dir(_meta(f)["source_repo"]) is None:
+            points = []  # the test itself skips, saying which mirror it needs
+        else:
+            points = refusals(f, scale)
+        # not strict: the bursty-logger reader (issue 26) now reads the logs whose pauses are
+        # all within the logger's own waits; those with pauses beyond them adding up to over
+        # 1% of the log are still refused as gaps (docs/real-logs.md), and the raw-data rule
+        # here does not tell the two apart
+        marks = (
+            [pytest.mark.xfail(strict=False, raises=AssertionError, reason="; ".join(points))]
+            if points
+            else []
+        )
+        cases.append(pytest.param(f, marks=marks, id=str(f.relative_to(DRIVE))))
+    return cases or [pytest.param(None, marks=pytest.mark.skip(reason=UNAVAILABLE))]
+
+
+CASES = _cases()  # every converted log, read as converted
+
+
+@pytest.mark.parametrize("log", CASES)
+def test_inspect_reads_the_log_and_its_energy_is_the_raw_files(log: Path, wbpower) -> None:
+    expected = raw_energy_J(log)  # skips without the mirror
+    result = wbpower("inspect", "--json", log)
+    assert result.exit_code == 0, result.stderr
+    (entry,) = json.loads(result.stdout)["logs"]
+    # a bursty logger's samples each hold the mean step over the covered time (the reader's
+    # model, docs/log-format.md), not their own step: up to ~1% off the hold integral here
+    # (euc_core/mten4/0: 0.65%); evenly spaced logs agree to their rounding (0.5%)
+    step_s = np.diff(raw_samples(log)[0])
+    rel = 0.01 if step_s.max() > 1.5 * np.median(step_s) else 0.005
+    assert entry["energy_J"] == pytest.approx(expected, rel=rel), (expected, entry)
+
+
+@pytest.mark.parametrize(
+    "log",
+    [pytest.param(f, id=str(f.relative_to(DRIVE))) for f in FILES]
+    or [pytest.param(None, marks=pytest.mark.skip(reason=UNAVAILABLE))],
+)
+def test_the_converted_log_holds_the_raw_files_energy(log: Path) -> None:
+    """The converter, checked apart from wbpower: the converted file's energy (read with
+    this test's own parser) is the raw file's to its rounding (0.1 V, 10 mA)."""
+    with gzip.open(log, "rt") as fh:
+        lines = [line for line in fh if not line.startswith("#")]
+    rows = list(csv.DictReader(io.StringIO("".join(lines))))
+    t = np.array([float(r["time_s"]) for r in rows])
+    pairs = [
+        n[len("voltage") : -2] for n in rows[0] if n.startswith("voltage") and n.endswith("_V")
+    ]
+    p = sum(
+        np.array([float(r[f"voltage{k}_V"]) * float(r[f"current{k}_A"]) for r in rows])
+        for k in pairs
+    )
+    assert stamps_energy_J(t, p) == pytest.approx(raw_energy_J(log), rel=1e-3)
+
+
+def test_every_log_carries_its_provenance() -> None:
+    if not FILES:
+        pytest.skip(UNAVAILABLE)
+    for f in FILES:
+        meta = _meta(f)
+        for key in ("source_repo", "source_commit", "source_path", "source_licence", "robot"):
+            assert meta.get(key), (f, key)
+        assert len(meta["source_commit"]) == 40, f
+
+
+#: Husky logs that spin in place between and after their straight stretches (measured:
+#: asphalt/pro_05 spins at 0.46 rad/s and 372 W for its last 30 s; ice/pro_11 at 0.5-0.7
+#: rad/s and 140-190 W for 1-9 s)
+SPINNING = ("borealtc/asphalt/pro_05.csv.gz", "borealtc/ice/pro_11.csv.gz")
+#: a phase whose mean |yaw rate| exceeds this [rad/s] turns (the validation's stop rule is
+#: 0.05 rad/s; 0.2 rad/s is four times that and far below these logs' 0.46-0.7 rad/s)
+TURNING_RADPS = 0.2
+
+
+@pytest.mark.parametrize("name", SPINNING)
+def test_a_spinning_husky_is_never_idle(name: str, wbpower) -> None:
+    log = DRIVE / name
+    if not log.is_file():
+        pytest.skip(UNAVAILABLE)
+    meta = _meta(log)
+    with gzip.open(log, "rt") as fh:
+        rows = list(csv.DictReader(line for line in fh if not line.startswith("#")))
+    t = np.array([float(r["time_s"]) for r in rows])
+    yaw = np.array(
+        [(float(r["speed_right_mps"]) - float(r["speed_left_mps"])) for r in rows]
+    ) / float(meta["track_m"])
+    result = wbpower("segment", "--json", log)
+    assert result.exit_code == 0, result.stderr
+    run = json.loads(result.stdout)  # one file: its object
+    spinning_idles = [
+        ph
+        for ph in run["phases"]
+        if ph["phase"] == "idle"
+        and np.mean(np.abs(yaw[(t >= ph["t_start_s"] - 1e-9) & (t < ph["t_end_s"] - 1e-9)]))
+        > TURNING_RADPS
+    ]
+    assert not spinning_idles, spinning_idles
+    # and the spin is a turn (issues 25/26: read from the two wheel speeds and track_m)
+    assert any(ph["phase"] == "turn" for ph in run["phases"]), run["phases"]
+
+
+#: the phone-app logs' current is scaled by this to stay under the 1 kW ceiling, so that
+#: their time stamps are met on their own
+UNDER_CEILING = 0.1
+
+
+def _header(path: Path) -> list[str]:
+    with gzip.open(path, "rt") as fh:
+        return next(line for line in fh if not line.startswith("#")).strip().split(",")
+
+
+@pytest.mark.parametrize("log", _cases(lambda f: "voltage_V" in _header(f), scale=UNDER_CEILING))
+def test_a_phone_apps_log_under_the_ceiling_is_read_over_its_stamps(
+    log: Path, wbpower, tmp_path: Path
+) -> None:
+    """The app's log with its current scaled by UNDER_CEILING (so the 1 kW ceiling is not
+    what is met): read, its energy that of the raw stamps (scaled) within 1%."""
+    expected = UNDER_CEILING * raw_energy_J(log)  # skips without the mirror
+    with gzip.open(log, "rt") as fh:
+        lines = fh.readlines()
+    k = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    names = lines[k].strip().split(",")
+    c = names.index("current_A")
+    body = []
+    for line in lines[k + 1 :]:
+        fields = line.rstrip("\n").split(",")
+        fields[c] = f"{float(fields[c]) * UNDER_CEILING:.4f}"
+        body.append(",".join(fields) + "\n")
+    scaled = tmp_path / log.name.replace(".gz", "")
+    scaled.write_text("".join(lines[: k + 1] + body))
+    result = wbpower("inspect", "--json", scaled)
+    assert result.exit_code == 0, result.stderr
+    (entry,) = json.loads(result.stdout)["logs"]
+    assert entry["energy_J"] == pytest.approx(expected, rel=0.01)
+
+
+# --- the validation script's own parts, on made-up data (no logs needed) ---------------
+
+validate = load_script("validate_drive_real", ROOT / "benchmarks" / "validate_drive_real.py")
+
+
+def _trip(t: np.ndarray, v: np.ndarray, coef: tuple[float, ...], group: str = "g"):
+    """A Trip whose power is exactly the baseline's terms with `coef`."""
+    a = (np.interp(t + 0.5, t, v) - np.interp(t - 0.5, t, v)) / 1.0
+    p = coef[0] + coef[1] * np.abs(v) + coef[2] * v * v + coef[3] * np.maximum(a * v, 0)
+    return validate.Trip(f"{group}#{t[0]:.0f}", group, t, p, v, None)
+
+
+def test_the_baseline_predicts_a_held_out_trip_whose_power_is_its_terms() -> None:
+    rng = np.random.default_rng(3)
+    coef = (28.0, 120.0, 40.0, 55.0)  # W, W/(m/s), W/(m/s)^2, kg-like W/(m^2/s^3)
+    trips = []
+    for k in range(8):
+        t = np.arange(0, 60, 0.2)
+        v = np.clip(np.cumsum(rng.normal(0, 0.05, t.size)) + 0.5 + 0.1 * k, 0, None)
+        trips.append(_trip(t, v, coef))
+    pred = validate.heldout_ls(trips, with_yaw=False)
+    measured = np.array([tr.energy_J for tr in trips])
+    assert np.max(np.abs(pred - measured) / measured) < 1e-6
+    # and a trip of another robot (twice the rolling power) is missed by the same fit
+    other = _trip(trips[0].time_s, trips[0].speed_mps, (28.0, 240.0, 40.0, 55.0))
+    coef_fit = validate.fit_ls(trips, with_yaw=False)
+    assert validate.predict_ls(coef_fit, other, False) < 0.9 * other.energy_J
+
+
+def test_trips_are_cut_at_long_stops_and_at_gaps_not_at_short_stops() -> None:
+    t = np.concatenate([np.arange(0, 100, 0.5), np.arange(110, 140, 0.5)])  # a 10 s gap
+    v = np.full(t.size, 1.0)
+    v[(t >= 20) & (t < 21)] = 0.0  # a 1 s stop: not a cut
+    v[(t >= 50) & (t < 55)] = 0.0  # a 5 s stop: a cut
+    stretches = validate.moving_stretches(t, v, None)
+    spans = [(t[a], t[b - 1]) for a, b in stretches]
+    assert spans == [(0.0, 49.5), (55.0, 99.5), (110.0, 139.5)]
+    # a robot spinning in place (yaw rate) during the 5 s "stop" is not stopped
+    yaw = np.where((t >= 50) & (t < 55), 0.5, 0.0)
+    assert len(validate.moving_stretches(t, v, yaw)) == 2
+
+
+def test_the_converters_write_the_logs_found_byte_for_byte(tmp_path: Path) -> None:
+    """The converted logs in WBPOWER_REAL_DRIVE are what the committed converters write from
+    the fetched mirrors (gzip without a time stamp: the same input, the same bytes)."""
+    bt = load_script("convert_borealtc", ROOT / "benchmarks" / "real_logs" / "convert_borealtc.py")
+    euc = load_script("convert_euc", ROOT / "benchmarks" / "real_logs" / "convert_euc.py")
+    jobs = {
+        "borealtc": (f"https://github.com/{bt.REPO}", lambda m, o: bt.convert(m, o, "borealtc")),
+        "vulpi": (f"https://github.com/{bt.REPO}", lambda m, o: bt.convert(m, o, "vulpi")),
+        **{
+            name: (
+                f"https://github.com/{src.repo}",
+                lambda m, o, name=name: euc.convert(name, m, o)[0],
+            )
+            for name, src in euc.SOURCES.items()
+        },
+    }
+    compared = 0
+    for name, (repo, convert) in jobs.items():
+        found = DRIVE / name
+        mirror = _git_dir(repo)
+        if not found.is_dir() or mirror is None:
+            continue
+        written = convert(mirror, tmp_path / name)
+        assert sorted(p.relative_to(tmp_path / name) for p in written) == sorted(
+            p.relative_to(found) for p in found.rglob("*.csv.gz")
+        ), name
+        for p in written:
+            assert p.read_bytes() == (found / p.relative_to(tmp_path / name)).read_bytes(), p
+        compared += 1
+    if not compared:
+        pytest.skip(f"{UNAVAILABLE}; or no fetched mirror under {MIRRORS}")

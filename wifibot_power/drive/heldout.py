@@ -1,0 +1,160 @@
+"""Held-out accuracy of the drive model: K-fold by trip (a run, or a long log cut at its stops:
+windows.py, `STOP_S`). Each fold's model is identified afresh (its own lag) from the other
+folds' runs, and predicts the energy of each held-out trip: the sum over the trip's windows of
+the predicted mean power times the window's duration, beside the measured sum over the same
+windows (a window across a drop-out is in neither: the energy of a drop-out is unknown).
+
+The 90% prediction interval of a held-out trip's energy comes from the run-to-run spread of
+held-out errors: the root mean square of the relative held-out errors of the *other* trips
+(its own error never sets its interval), times Student's t (0.95, n - 2 degrees of freedom)
+and sqrt(1 + 1/(n - 1)) for the spread being estimated from n - 1 trips. The relative error is
+used because what varies from run to run (battery voltage, temperature, a surface's
+unevenness, a lag mis-set) scales with the energy. `coverage_pi90_pct` is how often these
+intervals hold the measured energy: the check that they mean what they say.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from wifibot_power.drive.identify import identify, lag_search
+from wifibot_power.drive.windows import RunWindows, assemble
+from wifibot_power.stats import t_quantile
+
+#: Folds of the K-fold (fewer when there are fewer trips).
+FOLDS = 10
+#: Fewest trips for held-out accuracy (two folds of at least two trips).
+MIN_TRIPS = 4
+
+
+@dataclass(frozen=True)
+class HeldOutRun:
+    """One held-out trip: measured and predicted energy [J] and the 90% interval."""
+
+    run_id: str
+    surface: str
+    measured_J: float
+    predicted_J: float
+    pi90_J: tuple[float, float]
+
+    def as_dict(self) -> dict[str, object]:
+        return {
+            "run_id": self.run_id,
+            "surface": self.surface,
+            "measured_J": self.measured_J,
+            "predicted_J": self.predicted_J,
+            "pi90_J": list(self.pi90_J),
+        }
+
+
+@dataclass(frozen=True)
+class HeldOut:
+    runs: tuple[HeldOutRun, ...]
+    mape_pct: float
+    median_ape_pct: float
+    coverage_pi90_pct: float
+    #: root mean square of the relative held-out errors, and its degrees of freedom: the
+    #: spread a new route's interval is made from (profile.py)
+    relative_rms: float
+    dof: int
+
+    def as_dict(self) -> dict[str, object]:
+        return {
+            "runs": [run.as_dict() for run in self.runs],
+            "mape_pct": None if math.isnan(self.mape_pct) else self.mape_pct,
+            "median_ape_pct": None if math.isnan(self.median_ape_pct) else self.median_ape_pct,
+            "coverage_pi90_pct": self.coverage_pi90_pct,
+        }
+
+
+def heldout_accuracy(
+    runs: list[RunWindows],
+    surfaces: tuple[str, ...],
+    clusters_by_run: bool,
+    folds: int = FOLDS,
+    seed: int = 0,
+) -> HeldOut | None:
+    """K-fold by trip (module docstring); None with fewer than `MIN_TRIPS` trips."""
+    whole = assemble(runs, 0, surfaces)
+    trips = np.unique(whole.trip)
+    if trips.size < MIN_TRIPS:
+        return None
+    k = min(folds, trips.size)
+    trip_base = np.concatenate(([0], np.cumsum([int(rw.trip[-1]) + 1 for rw in runs])))
+    fold_of_trip = np.full(int(trip_base[-1]), -1)
+    fold_of_trip[np.random.default_rng(seed).permutation(trips)] = np.arange(trips.size) % k
+    measured, predicted, trip_ids, trip_surface = [], [], [], []
+    for fold in range(k):
+        bases = trip_base[:-1]
+        train = [fold_of_trip[rw.trip + base] != fold for rw, base in zip(runs, bases, strict=True)]
+        test = [~mask for mask in train]
+        if not any(mask.any() for mask in train) or not any(mask.any() for mask in test):
+            continue
+        lag_bins, _ = lag_search(runs, surfaces, train)
+        fitted_on = assemble(runs, lag_bins, surfaces, only=train)
+        clusters = fitted_on.run if clusters_by_run else fitted_on.trip
+        model = identify(fitted_on, lag_bins, clusters)
+        held = assemble(runs, lag_bins, surfaces, only=test)
+        power_W = model.predict_W(held.design)
+        for trip in np.unique(held.trip):
+            rows = held.trip == trip
+            measured.append(float(held.power_W[rows].sum()) * held.window_s)
+            predicted.append(float(power_W[rows].sum()) * held.window_s)
+            trip_ids.append(int(trip))
+            values, counts = np.unique(held.surface[rows], return_counts=True)
+            trip_surface.append(surfaces[int(values[np.argmax(counts)])])
+    if len(measured) < MIN_TRIPS:
+        return None
+    return _accuracy(runs, trip_base, measured, predicted, trip_ids, trip_surface)
+
+
+def _accuracy(
+    runs: list[RunWindows],
+    trip_base: np.ndarray,
+    measured: list[float],
+    predicted: list[float],
+    trip_ids: list[int],
+    trip_surface: list[str],
+) -> HeldOut:
+    measured_J = np.array(measured)
+    predicted_J = np.array(predicted)
+    relative = (measured_J - predicted_J) / predicted_J
+    n = relative.size
+    squares = np.square(relative)
+    # each trip's interval from the other trips' errors (leave its own out)
+    others_rms = np.sqrt((squares.sum() - squares) / (n - 1))
+    t95 = t_quantile(0.95, n - 2) if n > 2 else float("inf")
+    half = t95 * others_rms * np.sqrt(1.0 + 1.0 / (n - 1)) * np.abs(predicted_J)
+    low, high = predicted_J - half, predicted_J + half
+    inside = (measured_J >= low) & (measured_J <= high)
+    # a trip of zero net energy has no relative error: left out of the percentages
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ape = np.abs(measured_J - predicted_J) / np.abs(measured_J) * 100.0
+    ape = ape[np.isfinite(ape)]
+    rows = []
+    for j, trip in enumerate(trip_ids):
+        r = int(np.searchsorted(trip_base, trip, side="right") - 1)
+        local = trip - int(trip_base[r])
+        run_id = runs[r].stats.run_id
+        several = int(runs[r].trip[-1]) > 0
+        rows.append(
+            HeldOutRun(
+                run_id=f"{run_id}#{local + 1}" if several else run_id,
+                surface=trip_surface[j],
+                measured_J=float(measured_J[j]),
+                predicted_J=float(predicted_J[j]),
+                pi90_J=(float(low[j]), float(high[j])),
+            )
+        )
+    rows.sort(key=lambda row: row.run_id)
+    return HeldOut(
+        runs=tuple(rows),
+        mape_pct=float(np.mean(ape)) if ape.size else float("nan"),
+        median_ape_pct=float(np.median(ape)) if ape.size else float("nan"),
+        coverage_pi90_pct=float(np.mean(inside) * 100.0),
+        relative_rms=float(np.sqrt(np.mean(squares))),
+        dof=n - 1,
+    )

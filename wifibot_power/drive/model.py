@@ -1,0 +1,268 @@
+"""The fitted drive model (`DriveModel`) and how it is fitted: `fit_drive(runs)` from runs (a
+notebook), `fit_drive_stats(stats)` from the per-run statistics a pipeline's workers computed
+(`stats.drive_stats`). `summary()` is cli.md's `drive` object of `fit --json`; `to_json()` and
+`from_json()` its section of model.json.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+
+from wifibot_power.drive.heldout import HeldOut, HeldOutRun, heldout_accuracy
+from wifibot_power.drive.identify import identify, lag_search
+from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
+from wifibot_power.drive.terms import TERM_BY_NAME, TERMS
+from wifibot_power.drive.windows import WINDOW_S, assemble, run_windows
+
+if TYPE_CHECKING:
+    from wifibot_power.phases import Segmentation
+    from wifibot_power.run import Run
+
+#: model.json's drive section format
+FORMAT_VERSION = 1
+#: With fewer runs than this, the clusters of the covariance are trips, not runs (a trip
+#: count of clusters is needed for the sandwich to be of full rank; trips of one log share its
+#: slow drifts, so the intervals may be too narrow: said in `warnings`).
+MIN_RUN_CLUSTERS = 10
+
+
+@dataclass(frozen=True)
+class TermValue:
+    value: float
+    ci95: tuple[float, float]
+    unit: str
+
+    def as_dict(self) -> dict[str, object]:
+        """JSON-safe: an interval that could not be made (one cluster) is null, not NaN."""
+        ci95 = [None if math.isnan(x) else x for x in self.ci95]
+        return {"value": self.value, "ci95": ci95, "unit": self.unit}
+
+
+@dataclass(frozen=True)
+class DriveModel:
+    """The drive model: each term's value with its 95% interval (per surface for the
+    per-surface terms), the lag, held-out accuracy, and what the data could not determine."""
+
+    terms: dict[str, TermValue]
+    surfaces: dict[str, dict[str, TermValue]]
+    lag_s: float
+    n_runs: int
+    heldout: HeldOut | None
+    not_determined: tuple[str, ...]
+    warnings: tuple[str, ...]
+    #: for predictions: the design's columns, their coefficients (NaN: not determined), the
+    #: covariance of the determined ones, and the window the model was fitted on [s]
+    columns: tuple[str, ...] = ()
+    coef: tuple[float, ...] = ()
+    cov: tuple[tuple[float, ...], ...] = ()
+    window_s: float = WINDOW_S
+    surface_names: tuple[str, ...] = field(default=())
+    #: degrees of freedom of the intervals (clusters - 1)
+    dof: int = 0
+    #: the model family's name (`models.base.FittedModel.family`)
+    family: ClassVar[str] = "drive"
+
+    def predict_energy_J(self, record: object) -> float:
+        """A run's energy as the model predicts it [J], over the windows of its statistics
+        (`record.models["drive"]`, or a `DriveStats`); NaN for a run without them."""
+        return self.run_energy_J(record)[1]
+
+    def run_energy_J(self, record: object) -> tuple[float, float]:
+        """(measured, predicted) energy [J] of a run over its windows, the lag applied (a
+        drop-out's windows in neither); NaN for a run without drive statistics."""
+        stats = record if isinstance(record, DriveStats) else None
+        if stats is None:
+            stats = getattr(record, "models", {}).get(self.family)
+        if stats is None:
+            return math.nan, math.nan
+        rw = run_windows(stats, self.window_s)
+        windows = assemble([rw], self.lag_s / stats.bin_s, self.surface_names)
+        coef = np.array(self.coef)
+        kept = np.isfinite(coef)
+        predicted_W = windows.design[:, kept] @ coef[kept]
+        return (
+            float(np.sum(windows.power_W) * windows.window_s),
+            float(np.sum(predicted_W) * windows.window_s),
+        )
+
+    def summary(self) -> dict[str, object]:
+        """cli.md's `drive` object (JSON-safe)."""
+        return {
+            "terms": {name: term.as_dict() for name, term in self.terms.items()},
+            "surfaces": {
+                surface: {name: term.as_dict() for name, term in named.items()}
+                for surface, named in self.surfaces.items()
+            },
+            "lag_s": self.lag_s,
+            "n_runs": self.n_runs,
+            "heldout": self.heldout.as_dict() if self.heldout is not None else None,
+            "not_determined": list(self.not_determined),
+            "warnings": list(self.warnings),
+        }
+
+    def coefficient(self, name: str, surface: str | None = None) -> float:
+        """A term's value (NaN when not determined); per-surface terms need `surface`."""
+        column = f"{name}[{surface}]" if TERM_BY_NAME[name].per_surface else name
+        if column not in self.columns:
+            return math.nan
+        return self.coef[self.columns.index(column)]
+
+    def to_json(self) -> dict[str, object]:
+        """model.json's `drive` section: the summary and what predictions need."""
+        heldout = self.heldout
+        return {
+            "format": FORMAT_VERSION,
+            **self.summary(),
+            "columns": list(self.columns),
+            "coef": [None if math.isnan(c) else c for c in self.coef],
+            "cov": [[None if math.isnan(v) else v for v in row] for row in self.cov],
+            "window_s": self.window_s,
+            "surface_names": list(self.surface_names),
+            "dof": self.dof,
+            "relative_rms": heldout.relative_rms if heldout else None,
+            "relative_dof": heldout.dof if heldout else None,
+        }
+
+    @classmethod
+    def from_json(cls, data: dict) -> DriveModel:
+        def terms_of(named: dict) -> dict[str, TermValue]:
+            return {
+                name: TermValue(
+                    float(t["value"]),
+                    tuple(math.nan if x is None else float(x) for x in t["ci95"]),
+                    t["unit"],
+                )
+                for name, t in named.items()
+            }
+
+        held = data.get("heldout")
+        heldout = None
+        if held is not None:
+            heldout = HeldOut(
+                runs=tuple(
+                    HeldOutRun(
+                        r["run_id"],
+                        r["surface"],
+                        r["measured_J"],
+                        r["predicted_J"],
+                        tuple(r["pi90_J"]),
+                    )
+                    for r in held["runs"]
+                ),
+                mape_pct=math.nan if held["mape_pct"] is None else held["mape_pct"],
+                median_ape_pct=(
+                    math.nan if held["median_ape_pct"] is None else held["median_ape_pct"]
+                ),
+                coverage_pi90_pct=held["coverage_pi90_pct"],
+                relative_rms=data["relative_rms"],
+                dof=data["relative_dof"],
+            )
+        return cls(
+            terms=terms_of(data["terms"]),
+            surfaces={s: terms_of(named) for s, named in data["surfaces"].items()},
+            lag_s=float(data["lag_s"]),
+            n_runs=int(data["n_runs"]),
+            heldout=heldout,
+            not_determined=tuple(data["not_determined"]),
+            warnings=tuple(data["warnings"]),
+            columns=tuple(data["columns"]),
+            coef=tuple(math.nan if c is None else float(c) for c in data["coef"]),
+            cov=tuple(
+                tuple(math.nan if v is None else float(v) for v in row) for row in data["cov"]
+            ),
+            window_s=float(data["window_s"]),
+            surface_names=tuple(data["surface_names"]),
+            dof=int(data["dof"]),
+        )
+
+
+def fit_drive(
+    runs: Sequence[Run],
+    segmentations: Sequence[Segmentation | None] | None = None,
+    **options: object,
+) -> DriveModel | None:
+    """The drive model of `runs` (None when no run has a speed). `segmentations` (one per run)
+    let a step run without a speed column take the speed of its phases."""
+    segs = list(segmentations) if segmentations is not None else [None] * len(runs)
+    return fit_drive_stats([drive_stats(run, seg) for run, seg in zip(runs, segs, strict=True)])
+
+
+def fit_drive_stats(
+    stats_list: Sequence[DriveStats | None], *, window_s: float = WINDOW_S, seed: int = 0
+) -> DriveModel | None:
+    """The drive model from per-run statistics (`stats.drive_stats`); None when none has a
+    speed. See identify.py and heldout.py for the method."""
+    stats = [s for s in stats_list if s is not None]
+    if not stats:
+        return None
+    warnings: list[str] = []
+    runs = [run_windows(s, window_s) for s in stats]
+    runs = [rw for rw in runs if rw.count]
+    if not runs:
+        return None
+    surfaces = tuple(sorted({s for rw in runs for s in rw.stats.surfaces}))
+    lag_bins, _ = lag_search(runs, surfaces)
+    windows = assemble(runs, lag_bins, surfaces)
+    by_run = len(runs) >= MIN_RUN_CLUSTERS
+    if not by_run:
+        warnings.append(
+            f"only {len(runs)} run(s): the intervals are robust by trip (the runs cut at their "
+            f"stops), not by run (>= {MIN_RUN_CLUSTERS} runs); trips of one log share its slow "
+            "drifts, so the intervals may be too narrow"
+        )
+    clusters = windows.run if by_run else windows.trip
+    fitted = identify(windows, lag_bins, clusters)
+    if any(not s.has_turning for s in stats) and any(s.has_turning for s in stats):
+        warnings.append(
+            "some logs have no turning column: their windows count as driving straight, which "
+            "biases the turning and rolling terms if those robots turned"
+        )
+    if any(s.speed_from_phases for s in stats):
+        warnings.append(
+            "the speed of step runs without a speed column is the trapezoid of their phases "
+            "(constant acceleration, the paper's experiment), not a measurement"
+        )
+    heldout = heldout_accuracy(runs, surfaces, by_run, seed=seed)
+    if heldout is None:
+        warnings.append("fewer than 4 trips: no held-out accuracy")
+    ci = fitted.ci95()
+    named_surfaces = surfaces != (UNKNOWN_SURFACE,)
+    terms: dict[str, TermValue] = {}
+    per_surface: dict[str, dict[str, TermValue]] = {}
+    for j, column in enumerate(fitted.columns):
+        if not fitted.kept[j]:
+            continue
+        name, _, rest = column.partition("[")
+        value = TermValue(float(fitted.coef[j]), (float(ci[j, 0]), float(ci[j, 1])), _unit(name))
+        if rest and named_surfaces:
+            per_surface.setdefault(rest[:-1], {})[name] = value
+        else:
+            terms[name] = value
+    k = np.flatnonzero(fitted.kept)
+    return DriveModel(
+        terms=terms,
+        surfaces=per_surface,
+        lag_s=lag_bins * runs[0].stats.bin_s,
+        n_runs=len(runs),
+        heldout=heldout,
+        not_determined=tuple(reason for _, reason in fitted.not_determined),
+        warnings=tuple(warnings),
+        columns=fitted.columns,
+        coef=tuple(float(c) for c in fitted.coef),
+        cov=tuple(tuple(float(v) for v in row) for row in fitted.cov) if k.size else (),
+        window_s=windows.window_s,
+        surface_names=surfaces,
+        dof=fitted.dof,
+    )
+
+
+def _unit(name: str) -> str:
+    return TERM_BY_NAME[name].unit
+
+
+__all__ = ["TERMS", "DriveModel", "TermValue", "fit_drive", "fit_drive_stats"]

@@ -1,0 +1,242 @@
+"""The energy of a planned motion from a fitted drive model (cli.md, `energy --profile`): a
+route's time, speed and optionally rate of turn and surface go through the same bins and
+windows as a log (stats.py, windows.py), and the model's terms give each window's power.
+
+- `energy_J`: the sum over windows of the predicted mean power times the window's duration;
+- `terms_J`: how much of it each term accounts for (its coefficient times its regressor,
+  summed: the terms add up to `energy_J`);
+- `pi90_J`: a 90% prediction interval for the energy a run of this route would measure, from
+  the run-to-run spread of held-out errors (heldout.py): energy x (1 +- t(0.95, n-1) x rms x
+  sqrt(1 + 1/n)); none when the model has no held-out accuracy;
+- `mean_ci95_W`: the 95% interval of the mean power the model predicts (the coefficients'
+  uncertainty only: what to compare with another model's mean power, not a run's).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from wifibot_power.drive.model import DriveModel
+from wifibot_power.drive.stats import UNKNOWN_SURFACE, drive_stats
+from wifibot_power.drive.terms import TERM_BY_NAME
+from wifibot_power.drive.windows import assemble, run_windows
+from wifibot_power.run import Run, RunMeta
+from wifibot_power.stats import t_quantile
+
+
+@dataclass(frozen=True)
+class RouteEnergy:
+    energy_J: float
+    pi90_J: tuple[float, float] | None
+    time_s: float
+    distance_m: float
+    mean_power_W: float
+    mean_ci95_W: tuple[float, float]
+    terms_J: dict[str, float]
+    warnings: tuple[str, ...] = ()
+
+    def summary(self) -> dict[str, object]:
+        """cli.md's `energy --profile --json` object."""
+        return {
+            "energy_J": self.energy_J,
+            "pi90_J": list(self.pi90_J) if self.pi90_J is not None else None,
+            "time_s": self.time_s,
+            "distance_m": self.distance_m,
+            "mean_power_W": self.mean_power_W,
+            "terms_J": dict(self.terms_J),
+        }
+
+
+def route_energy(
+    model: DriveModel,
+    time_s: np.ndarray,
+    speed_mps: np.ndarray,
+    yaw_rate_radps: np.ndarray | None = None,
+    surface: str | None = None,
+) -> RouteEnergy:
+    """The energy of a route (module docstring). Its samples are what the robot should do at
+    each time (a planner's profile, evenly spaced or not); `surface` names the model's
+    surface it drives on (the model's only one when None)."""
+    time_s = np.asarray(time_s, dtype=np.float64)
+    speed_mps = np.asarray(speed_mps, dtype=np.float64)
+    surfaces = [s for s in model.surface_names if s]
+    warnings: list[str] = []
+    if surface is None:
+        surface = surfaces[0] if len(surfaces) == 1 else UNKNOWN_SURFACE
+        if len(surfaces) > 1:
+            raise ValueError(f"the model has several surfaces ({', '.join(surfaces)}): name one")
+    if surface not in model.surface_names:
+        raise ValueError(f"surface '{surface}' is not one the model was fitted on")
+    period_s = float(np.median(np.diff(time_s))) if time_s.size > 1 else model.window_s
+    meta = RunMeta(run_id="route", sample_period_s=period_s, extra={"surface": surface})
+    run = Run(
+        file="route",
+        format="profile",
+        meta=meta,
+        stamps_s=time_s - time_s[0],
+        power_W=np.zeros(time_s.size),
+        speed_mps=speed_mps,
+        yaw_rate_radps=None if yaw_rate_radps is None else np.asarray(yaw_rate_radps, float),
+    )
+    stats = drive_stats(run)
+    windows = assemble([run_windows(stats, model.window_s)], 0, model.surface_names)
+    coef = np.array(model.coef)
+    kept = np.isfinite(coef)
+    contributions_J = windows.design[:, kept] * coef[kept] * windows.window_s
+    energy_J = float(contributions_J.sum())
+    terms_J: dict[str, float] = {}
+    for column, joules in zip(
+        np.array(model.columns)[kept], contributions_J.sum(axis=0), strict=True
+    ):
+        name = str(column).split("[", 1)[0]
+        terms_J[name] = terms_J.get(name, 0.0) + float(joules)
+    used = np.any(windows.design[:, ~kept] != 0, axis=0)
+    for column in np.array(model.columns)[~kept][used]:
+        warnings.append(f"the route needs {column}, which the logs did not determine: left out")
+    duration_s = windows.size * windows.window_s
+    mean_W = energy_J / duration_s if duration_s > 0 else math.nan
+    summed = windows.design[:, kept].sum(axis=0) * windows.window_s / max(duration_s, 1e-12)
+    cov = np.array(model.cov) if model.cov else np.zeros((kept.sum(), kept.sum()))
+    half_W = t_quantile(0.975, max(model.dof, 1)) * math.sqrt(max(summed @ cov @ summed, 0.0))
+    pi90 = None
+    held = model.heldout
+    if held is not None and held.dof >= 1:
+        spread = t_quantile(0.95, held.dof) * held.relative_rms * math.sqrt(1 + 1 / held.dof)
+        pi90 = (energy_J * (1 - spread), energy_J * (1 + spread))
+    distance_m = float(np.sum(np.abs(stats.speed_mps[np.isfinite(stats.speed_mps)])) * stats.bin_s)
+    return RouteEnergy(
+        energy_J=energy_J,
+        pi90_J=pi90,
+        time_s=duration_s,
+        distance_m=distance_m,
+        mean_power_W=mean_W,
+        mean_ci95_W=(mean_W - half_W, mean_W + half_W),
+        terms_J=terms_J,
+        warnings=tuple(warnings),
+    )
+
+
+def step_phase_powers(
+    model: DriveModel, speed_mps: float, t_acc_s: float, surface: str | None = None
+) -> dict[str, tuple[float, tuple[float, float]]]:
+    """The drive model's mean power [W] with its 95% interval over the paper's acceleration
+    phase (a linear ramp from 0 to v in t_acc: the mean of |v| is v/2, of v^2 v^2/3, of a v
+    v^2/(2 t_acc)) and over a cruise at v (|v| = v, v^2): to set beside P_acc(v) and P_v(v)
+    (paper Eq. 1-4). Keys `accel`, `cruise`."""
+    surface = surface or next(iter(model.surface_names), UNKNOWN_SURFACE)
+    v = float(speed_mps)
+    means = {
+        "accel": {
+            "1": 1.0,
+            "moving": 1.0,
+            "|v|": v / 2,
+            "v^2": v * v / 3,
+            "(a v)+": v * v / (2 * t_acc_s),
+        },
+        "cruise": {"1": 1.0, "moving": 1.0, "|v|": v, "v^2": v * v},
+    }
+    coef = np.array(model.coef)
+    kept = np.isfinite(coef)
+    cov = np.array(model.cov) if model.cov else np.zeros((kept.sum(), kept.sum()))
+    t95 = t_quantile(0.975, max(model.dof, 1))
+    out = {}
+    for phase, regressors in means.items():
+        gradient = np.zeros(coef.size)
+        for j, column in enumerate(model.columns):
+            name, _, rest = column.partition("[")
+            if rest and rest[:-1] != surface:
+                continue
+            gradient[j] = regressors.get(TERM_BY_NAME[name].regressor, 0.0)
+        power_W = float(gradient[kept] @ coef[kept])
+        half = t95 * math.sqrt(max(gradient[kept] @ cov @ gradient[kept], 0.0))
+        out[phase] = (power_W, (power_W - half, power_W + half))
+    return out
+
+
+def read_profile(
+    path: str | Path,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, str | None]:
+    """A planned route (cli.md, `energy --profile`): a CSV of `time_s`, `speed_mps`, and
+    optionally `yaw_rate_radps` and `surface` (one surface a route). Returns time [s], speed
+    [m/s], rate of turn [rad/s] or None, and the surface or None; a one-line `LogError`
+    naming the file for anything else."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    from wifibot_power.errors import LogError
+
+    path = Path(path)
+    try:
+        table = pacsv.read_csv(path)
+    except (OSError, pa.ArrowException) as exc:
+        raise LogError(
+            f"cannot read the route ({str(exc).splitlines()[0][:80]})",
+            file=path,
+            fix="give a CSV with time_s and speed_mps columns",
+        ) from None
+    names = {name.strip().lower(): name for name in table.column_names}
+    missing = [c for c in ("time_s", "speed_mps") if c not in names]
+    if missing:
+        raise LogError(
+            f"the route has no {' or '.join(missing)} column",
+            file=path,
+            fix="give a CSV with time_s and speed_mps (and optionally yaw_rate_radps, surface)",
+        )
+
+    def numbers(name: str) -> np.ndarray:
+        try:
+            values = table[names[name]].to_numpy(zero_copy_only=False).astype(np.float64)
+        except (ValueError, TypeError, pa.ArrowException):
+            values = np.array([np.nan])
+        if not np.isfinite(values).all():
+            raise LogError(
+                f"column '{name}' holds a value that is not a number",
+                file=path,
+                fix="every cell of time_s, speed_mps and yaw_rate_radps must be a number",
+            )
+        return values
+
+    time_s, speed_mps = numbers("time_s"), numbers("speed_mps")
+    if time_s.size < 2 or not np.all(np.diff(time_s) > 0):
+        raise LogError(
+            "the route's time_s does not go forwards", file=path, fix="sort it, 2 rows or more"
+        )
+    yaw = numbers("yaw_rate_radps") if "yaw_rate_radps" in names else None
+    surface = None
+    if "surface" in names:
+        found = {str(s).strip() for s in table[names["surface"]].to_pylist() if s}
+        if len(found) > 1:
+            raise LogError(
+                f"the route crosses surfaces ({', '.join(sorted(found))})",
+                file=path,
+                fix="split it into one route per surface and add their energies",
+            )
+        surface = next(iter(found), None)
+    return time_s, speed_mps, yaw, surface
+
+
+def load_drive_model(path: str | Path) -> DriveModel:
+    """The drive model of a model.json (`fit -o`: its `drive` section) or of a drive section
+    saved alone (`DriveModel.to_json`); a one-line `UsageError` naming the file otherwise."""
+    import json
+
+    from wifibot_power.errors import UsageError
+
+    path = Path(path)
+    fix = "give a model.json from 'wbpower fit -o' on logs with a speed column"
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        message = f"cannot read the model ({exc.__class__.__name__})"
+        raise UsageError(message, file=path, fix=fix) from None
+    section = data.get("drive", data) if isinstance(data, dict) else None
+    if not isinstance(section, dict) or "coef" not in section:
+        raise UsageError("the model has no drive model", file=path, fix=fix)
+    try:
+        return DriveModel.from_json(section)
+    except (KeyError, TypeError, ValueError):
+        raise UsageError("the drive model is damaged", file=path, fix=fix) from None

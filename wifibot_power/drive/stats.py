@@ -1,0 +1,275 @@
+"""Per-run statistics of the drive model: a run's samples reduced to short bins of a fixed
+duration (`BIN_S`), whatever its logger's rate, so that the fit (`identify.py`) works alike on
+a 10 kHz analyser log and a 6 Hz robot log, and a worker sends back kilobytes, not the samples.
+
+`drive_stats(run, segmentation)` is what the pipeline calls in its workers (the model family's
+`run_stats`); `DriveStats` is small, frozen and picklable.
+
+How a run becomes bins (docs/drive-model.md, "Identification"):
+- a logger faster than a quarter of a bin (an analyser): each bin holds the mean of its
+  samples (power, speed, rate of turn); a bin without a sample is a drop-out;
+- a slower logger (a robot's 6 Hz log): power is held over each sample's period (a sample is
+  the mean power over its period: the rectangle rule, run.py), speed and rate of turn are
+  interpolated linearly between the middles of their samples' periods (taken as means over
+  the period too, as an encoder's count over it is); bins inside a gap (a step over
+  `GAP_FACTOR` sample periods) are drop-outs;
+- a run without a speed column but with motion phases (the paper's step runs) gets the
+  speed of its phases (`speed_from_phases`): a trapezoid per step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from wifibot_power.phases import Segmentation
+    from wifibot_power.run import Run
+
+#: The bin the samples are reduced to [s]: 20 per second, finer than any lag or acceleration
+#: the drive model resolves (windows are `identify.WINDOW_S`), coarse enough that an hour of
+#: a 10 kHz log is 72,000 numbers a channel.
+BIN_S = 0.05
+#: A step between time stamps over this many median sample periods is a drop-out: no bin
+#: inside it is filled (and so no window crosses it).
+GAP_FACTOR = 2.5
+#: The surface of a run (or a stretch of it) whose log names none.
+UNKNOWN_SURFACE = "unknown"
+
+
+@dataclass(frozen=True, eq=False)
+class DriveStats:
+    """A run reduced to bins of `bin_s` seconds: each bin's mean power [W], speed [m/s] and
+    rate of turn [rad/s] (NaN in a drop-out), and its surface (an index into `surfaces`)."""
+
+    run_id: str
+    file: str
+    bin_s: float
+    power_W: np.ndarray
+    speed_mps: np.ndarray
+    #: zeros when the log has no turning column (`has_turning` False: turning not observed)
+    yaw_rate_radps: np.ndarray
+    surface_index: np.ndarray
+    surfaces: tuple[str, ...]
+    has_turning: bool
+    #: the run's measured energy, all samples [J], and its duration [s]
+    energy_J: float
+    duration_s: float
+    #: the noise of one window's mean speed [m/s] and rate of turn [rad/s] per sample (from
+    #: successive differences: `_sample_noise`), and the samples a bin holds (< 1: slow logger)
+    speed_noise_mps: float = 0.0
+    yaw_noise_radps: float = 0.0
+    samples_per_bin: float = 1.0
+    #: the speed is the phases' trapezoid, not a measured column (`speed_from_phases`)
+    speed_from_phases: bool = False
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def bins(self) -> int:
+        return int(self.power_W.size)
+
+    def to_json(self) -> dict[str, object]:
+        """JSON values (the parse cache keeps a run's statistics): arrays as lists, NaN (a
+        drop-out's bin) as null; `from_json` gives back the same floats."""
+
+        def values(array: np.ndarray) -> list[float | None]:
+            return [None if v != v else v for v in array.tolist()]  # v != v: NaN
+
+        return {
+            **{k: getattr(self, k) for k in _SCALARS},
+            "power_W": values(self.power_W),
+            "speed_mps": values(self.speed_mps),
+            "yaw_rate_radps": values(self.yaw_rate_radps),
+            "surface_index": self.surface_index.tolist(),
+            "surfaces": list(self.surfaces),
+            "notes": list(self.notes),
+        }
+
+    @classmethod
+    def from_json(cls, data: dict) -> DriveStats:
+        def array(values: list) -> np.ndarray:
+            return np.array([np.nan if v is None else v for v in values], dtype=np.float64)
+
+        return cls(
+            **{k: data[k] for k in _SCALARS},
+            power_W=array(data["power_W"]),
+            speed_mps=array(data["speed_mps"]),
+            yaw_rate_radps=array(data["yaw_rate_radps"]),
+            surface_index=np.array(data["surface_index"], dtype=np.int16),
+            surfaces=tuple(data["surfaces"]),
+            notes=tuple(data["notes"]),
+        )
+
+
+#: `DriveStats` fields that are plain values (JSON as they are)
+_SCALARS = (
+    "run_id",
+    "file",
+    "bin_s",
+    "has_turning",
+    "energy_J",
+    "duration_s",
+    "speed_noise_mps",
+    "yaw_noise_radps",
+    "samples_per_bin",
+    "speed_from_phases",
+)
+
+
+def drive_stats(run: Run, segmentation: Segmentation | None = None) -> DriveStats | None:
+    """The drive model's statistics of one run, or None when it has no speed (neither a speed
+    column nor motion phases to reconstruct one from)."""
+    speed_mps = run.speed_mps
+    from_phases = False
+    if speed_mps is None:
+        if segmentation is None or not any(p.phase == "cruise" for p in segmentation.phases):
+            return None
+        speed_mps = speed_from_phases(run, segmentation)
+        from_phases = True
+    time_s = run.time_s
+    yaw_radps = run.yaw_rate_radps
+    surface_index, surfaces = _surfaces(run)
+    period_s = run.sample_period_s
+    n_bins = max(int(np.floor((time_s[-1] + period_s - time_s[0]) / BIN_S + 1e-9)), 1)
+    if period_s <= BIN_S / 4:
+        binned = _bin_means(time_s - time_s[0], n_bins, run.power_W, speed_mps, yaw_radps)
+        first = _first_sample(time_s - time_s[0], n_bins)
+        bin_surface = np.where(first >= 0, surface_index[np.maximum(first, 0)], 0)
+    else:
+        binned = _held(time_s - time_s[0], n_bins, period_s, run.power_W, speed_mps, yaw_radps)
+        centre_s = (np.arange(n_bins) + 0.5) * BIN_S
+        at = np.clip(np.searchsorted(time_s - time_s[0], centre_s, "right") - 1, 0, None)
+        bin_surface = surface_index[at]
+    power_W, bin_speed_mps, bin_yaw_radps = binned
+    energy_J, _ = run.energy_and_mean()
+    return DriveStats(
+        run_id=run.meta.run_id,
+        file=run.file,
+        bin_s=BIN_S,
+        power_W=power_W,
+        speed_mps=bin_speed_mps,
+        yaw_rate_radps=bin_yaw_radps if yaw_radps is not None else np.zeros(n_bins),
+        surface_index=bin_surface.astype(np.int16),
+        surfaces=surfaces,
+        has_turning=yaw_radps is not None,
+        energy_J=energy_J,
+        duration_s=run.duration_s,
+        speed_noise_mps=0.0 if from_phases else _sample_noise(speed_mps),
+        yaw_noise_radps=_sample_noise(yaw_radps) if yaw_radps is not None else 0.0,
+        samples_per_bin=BIN_S / period_s,
+        speed_from_phases=from_phases,
+    )
+
+
+def _sample_noise(values: np.ndarray) -> float:
+    """The noise of one sample: the median absolute successive difference over 0.6745 and
+    sqrt(2) (robust to the minority of differences that are real motion: a MAD estimate of
+    white noise's standard deviation)."""
+    if values.size < 3:
+        return 0.0
+    return float(np.median(np.abs(np.diff(values))) / 0.6745 / np.sqrt(2.0))
+
+
+def _surfaces(run: Run) -> tuple[np.ndarray, tuple[str, ...]]:
+    """Each sample's surface as an index into the returned names: the log's `surface` column
+    where it names one, else the `surface` metadata, else `UNKNOWN_SURFACE`."""
+    default = (run.meta.extra.get("surface") or "").strip() or UNKNOWN_SURFACE
+    if run.surface_index is None:
+        return np.zeros(run.samples, dtype=np.int16), (default,)
+    names = (*run.surface_names, default)
+    index = np.where(run.surface_index >= 0, run.surface_index, len(names) - 1)
+    return index.astype(np.int16), names
+
+
+def _bin_means(
+    offset_s: np.ndarray,
+    n_bins: int,
+    power_W: np.ndarray,
+    speed_mps: np.ndarray,
+    yaw_radps: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mean of the samples in each bin (NaN in a bin without one: a drop-out)."""
+    which = _bin_of(offset_s, n_bins)
+    count = np.bincount(which, minlength=n_bins).astype(np.float64)
+    empty = count == 0
+    count[empty] = np.nan
+    out = []
+    for values in (power_W, speed_mps, yaw_radps):
+        if values is None:
+            out.append(np.zeros(n_bins))
+            continue
+        out.append(np.bincount(which, weights=values, minlength=n_bins) / count)
+    return out[0], out[1], out[2]
+
+
+def _first_sample(offset_s: np.ndarray, n_bins: int) -> np.ndarray:
+    """The index of each bin's first sample (-1: none)."""
+    which = _bin_of(offset_s, n_bins)
+    first = np.full(n_bins, -1, dtype=np.intp)
+    starts = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
+    first[which[starts]] = starts
+    return first
+
+
+def _held(
+    offset_s: np.ndarray,
+    n_bins: int,
+    period_s: float,
+    power_W: np.ndarray,
+    speed_mps: np.ndarray,
+    yaw_radps: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A slow logger's samples on the bins: power held over each sample's period (the
+    rectangle rule), speed and rate of turn interpolated; NaN inside a gap."""
+    centre_s = (np.arange(n_bins) + 0.5) * BIN_S
+    at = np.clip(np.searchsorted(offset_s, centre_s, "right") - 1, 0, offset_s.size - 1)
+    step_s = np.diff(offset_s, append=offset_s[-1] + period_s)
+    gap = (step_s[at] > GAP_FACTOR * period_s) & (centre_s - offset_s[at] > period_s)
+    # a sample is the mean over its period (as power's, run.py): placed at the period's middle;
+    # power is interpolated as speed is, so that both are seen through the same filter
+    middle_s = offset_s + period_s / 2
+    power = np.interp(centre_s, middle_s, power_W)
+    power[gap] = np.nan
+    speed = np.interp(centre_s, middle_s, speed_mps)
+    speed[gap] = np.nan
+    yaw = np.interp(centre_s, middle_s, yaw_radps) if yaw_radps is not None else np.zeros(n_bins)
+    yaw[gap] = np.nan
+    return power, speed, yaw
+
+
+def speed_from_phases(run: Run, segmentation: Segmentation) -> np.ndarray:
+    """The speed [m/s] of a step run without a speed column, from its phases: in each step a
+    trapezoid, rising linearly from 0 over its `accel` phase to its cruise speed, holding it
+    over `cruise`, falling linearly to 0 over `decel`; 0 elsewhere (idle). The cruise speed is
+    the cruise phase's `speed_mps` (the measured or commanded speed, segment.py). The paper's
+    experiment: constant acceleration to a set speed, then a stop (Sec. 3)."""
+    speed_mps = np.zeros(run.samples)
+    by_step: dict[int, dict[str, tuple[int, int, float | None]]] = {}
+    for phase in segmentation.phases:
+        by_step.setdefault(phase.step, {})[phase.phase] = (
+            phase.i_start,
+            phase.i_end,
+            phase.speed_mps,
+        )
+    for phases in by_step.values():
+        if "cruise" not in phases or phases["cruise"][2] is None:
+            continue
+        c_start, c_end, cruise_mps = phases["cruise"]
+        speed_mps[c_start:c_end] = abs(float(cruise_mps))
+        if "accel" in phases:
+            a_start, a_end, _ = phases["accel"]
+            speed_mps[a_start:a_end] = np.linspace(0.0, cruise_mps, a_end - a_start + 1)[1:]
+        if "decel" in phases:
+            d_start, d_end, _ = phases["decel"]
+            speed_mps[d_start:d_end] = np.linspace(cruise_mps, 0.0, d_end - d_start + 1)[1:]
+    return speed_mps
+
+
+def _bin_of(offset_s: np.ndarray, n_bins: int) -> np.ndarray:
+    """Each sample's bin. A sample stamped on a bin's start belongs to it: the quotient is
+    nudged by 1e-7 of a bin, or 0.15 s / 0.05 s = 2.9999999999999996 would put every such
+    sample in the bin before (a jitter of samples between bins that biased the inertial terms
+    by ~1% on 100 Hz logs)."""
+    return np.minimum(np.floor(offset_s / BIN_S + 1e-7).astype(np.intp), n_bins - 1)

@@ -1,0 +1,351 @@
+"""Windows: what the drive model is fitted on. Each run's bins (`stats.py`) are grouped into
+windows of `WINDOW_S` seconds; a window's row of the design holds the window means of each
+term's regressor (terms.py), its response the window's mean power `lag` later.
+
+- Speed terms: the means over the window's bins of |v|, v^2 and |yaw rate| (bins already
+  average a fast logger's samples).
+- The inertial terms need a v, and a differentiated quantized speed is mostly noise. The
+  window mean of a v is exactly the change of v^2/2 over the window divided by its duration
+  (d(v^2/2)/dt = a v), so only the speed at the window's two edges is needed: each the mean of
+  the `EDGE_BINS` bins around the edge (smoothing before differentiating: an encoder's one-
+  count jitter averages out). Its sign splits speeding up (a v > 0) from braking (a v < 0),
+  reversing included (v^2 does not care about the direction).
+- A window is kept only when all its power bins and the bins its speeds are taken from hold
+  samples: no window spans a drop-out.
+- Trips: a run is cut at its stops (the robot standing, not turning, for at least `STOP_S`),
+  in the middle of each stop; a trip is the unit held out (heldout.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from wifibot_power.drive.stats import DriveStats
+from wifibot_power.drive.terms import TERM_BY_NAME, TERMS
+
+#: The window the model is fitted on [s]. The inertial terms are exact window means whatever
+#: its length (d(v^2/2)/dt), so it need only be short enough that a window seldom holds both
+#: speeding up and braking, and long enough that a 6.5 Hz logger puts 3 samples in it (their
+#: noise averages before |v| and |yaw rate| are taken).
+WINDOW_S = 0.5
+#: The speed at a window's edge is the mean of the bins within `EDGE_BINS` of it, or over
+#: at least `EDGE_SAMPLES` samples on each side for a slower logger (20 Hz: 2 bins a side,
+#: 6.5 Hz: 7): one sample's noise on each edge is the noise of the speeding-up and braking
+#: regressors, which biases their coefficients towards 0 (errors in variables: 3% on the
+#: simulator's braking term at 20 Hz with one sample, 1% with two); wider, corners of the
+#: speed profile are smeared (the effective mass 2-3% high at 6.5 Hz).
+EDGE_BINS = 1
+EDGE_SAMPLES = 2.0
+#: Standing: slower than this [m/s] and turning slower than `STANDING_RADPS`.
+STANDING_MPS = 0.02
+STANDING_RADPS = 0.05
+#: Below these a window's mean speed [m/s] and rate of turn [rad/s] are 0 whatever the noise
+#: estimate (a resolution: 1 mm/s, 1 mrad/s).
+NOISE_FLOOR_MPS = 1e-3
+NOISE_FLOOR_RADPS = 1e-3
+#: A stop at least this long [s] cuts a run into trips.
+STOP_S = 3.0
+
+
+#: Each term's regressor (`RunWindows.regressors`; None: the constant 1).
+REGRESSOR_OF = {
+    "idle_W": None,
+    "drive_on_W": "moving",
+    "rolling_W_per_mps": "abs_speed",
+    "quadratic_W_per_mps2": "speed2",
+    "effective_mass_kg": "av_up",
+    "braking_mass_kg": "av_down",
+    "turning_Nm": "abs_yaw",
+}
+
+
+@dataclass(frozen=True, eq=False)
+class Windows:
+    """The windows of one or more runs: a row per window."""
+
+    #: the regressors, by column name (`columns`): what each term multiplies
+    design: np.ndarray
+    #: their rate of change from window to window [1/s]: how the fit moves with the lag
+    design_rate: np.ndarray
+    columns: tuple[str, ...]
+    power_W: np.ndarray
+    #: per window: its run's index (into `run_ids`), its trip's global number, its surface
+    run: np.ndarray
+    trip: np.ndarray
+    surface: np.ndarray
+    run_ids: tuple[str, ...]
+    surfaces: tuple[str, ...]
+    window_s: float
+
+    @property
+    def size(self) -> int:
+        return int(self.power_W.size)
+
+    def take(self, keep: np.ndarray) -> Windows:
+        return Windows(
+            self.design[keep],
+            self.design_rate[keep],
+            self.columns,
+            self.power_W[keep],
+            self.run[keep],
+            self.trip[keep],
+            self.surface[keep],
+            self.run_ids,
+            self.surfaces,
+            self.window_s,
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class RunWindows:
+    """One run's windows before the response is chosen: the regressors and, for any lag, the
+    power (`power_at`)."""
+
+    stats: DriveStats
+    n: int  # bins a window
+    abs_speed_mps: np.ndarray
+    speed2_mps2: np.ndarray
+    av_up_m2ps3: np.ndarray  # window mean of (a v)+, speeding up [m^2/s^3]
+    av_down_m2ps3: np.ndarray  # window mean of (a v)-, braking [m^2/s^3]
+    abs_yaw_radps: np.ndarray
+    moving: np.ndarray  # share of the window's bins spent moving or turning
+    ok: np.ndarray  # the regressors are defined (no drop-out in their bins)
+    trip: np.ndarray  # trip number within the run
+    standing: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return int(self.ok.size)
+
+    def regressors(self) -> dict[str, np.ndarray]:
+        """Each window's regressors, by the names `REGRESSOR_OF` gives the terms."""
+        return {
+            "abs_speed": self.abs_speed_mps,
+            "speed2": self.speed2_mps2,
+            "av_up": self.av_up_m2ps3,
+            "av_down": self.av_down_m2ps3,
+            "abs_yaw": self.abs_yaw_radps,
+            "moving": self.moving,
+        }
+
+    def power_at(self, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
+        """Each window's mean power `lag_bins` bins later [W] (a fraction of a bin: linear
+        between the two whole bins), and whether it is defined."""
+        whole = int(np.floor(lag_bins))
+        part = lag_bins - whole
+        if part <= 1e-9:
+            return self._power_at(whole)
+        low, low_ok = self._power_at(whole)
+        high, high_ok = self._power_at(whole + 1)
+        return (1 - part) * low + part * high, low_ok & high_ok
+
+    def _power_at(self, lag_bins: int) -> tuple[np.ndarray, np.ndarray]:
+        power = self.stats.power_W
+        start = np.arange(self.count) * self.n + lag_bins
+        inside = start + self.n <= power.size
+        bad = np.concatenate(([0], np.cumsum(~np.isfinite(power))))
+        total = np.concatenate(([0.0], np.cumsum(np.nan_to_num(power))))
+        end = np.minimum(start + self.n, power.size)
+        start = np.minimum(start, power.size)
+        ok = inside & (bad[end] - bad[start] == 0)
+        mean = (total[end] - total[start]) / self.n
+        return np.where(ok, mean, np.nan), ok
+
+
+def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
+    """A run's windows and their regressors (module docstring)."""
+    n = max(int(round(window_s / stats.bin_s)), 1)
+    count = stats.bins // n
+    used = count * n
+    speed = stats.speed_mps
+    shape = (count, n)
+    # |mean| rather than mean |.|: noise around a true 0 (a gyro's, an encoder's jitter)
+    # averages out before the absolute value, and what is left of it is taken out of the
+    # square (`_denoised_abs`) instead of adding its mean |noise| to the regressor
+    samples = max(n * stats.samples_per_bin, 1.0)
+    mean_speed = speed[:used].reshape(shape).mean(axis=1)
+    mean_yaw = stats.yaw_rate_radps[:used].reshape(shape).mean(axis=1)
+    speed_noise = stats.speed_noise_mps / np.sqrt(samples)
+    yaw_noise = stats.yaw_noise_radps / np.sqrt(samples)
+    abs_speed = _window_abs(speed[:used].reshape(shape), mean_speed, speed_noise, samples)
+    abs_yaw = _window_abs(stats.yaw_rate_radps[:used].reshape(shape), mean_yaw, yaw_noise, samples)
+    speed2 = np.square(speed[:used]).reshape(shape).mean(axis=1)
+    edges = np.arange(count + 1) * n
+    edge_bins = max(EDGE_BINS, int(np.ceil(EDGE_SAMPLES / stats.samples_per_bin)))
+    edge_speed = _edge_means(speed, edges, edge_bins)
+    av_up, av_down = _speeding_and_braking(edge_speed, mean_speed, n * stats.bin_s)
+    ok = np.isfinite(abs_speed) & np.isfinite(abs_yaw) & np.isfinite(av_up + av_down)
+    standing = (np.abs(mean_speed) < STANDING_MPS) & (np.abs(mean_yaw) < STANDING_RADPS)
+    # a robot standing still is not moving a little: where speed and rate of turn are both
+    # within 3 noise deviations of 0 (and slow), its speed terms are 0, not noise
+    still = (
+        standing
+        & (np.abs(mean_speed) < 3.0 * max(speed_noise, NOISE_FLOOR_MPS))
+        & (np.abs(mean_yaw) < 3.0 * max(yaw_noise, NOISE_FLOOR_RADPS))
+    )
+    # moving: a bin whose speed or rate of turn is beyond 3 deviations of its own noise (and
+    # the resolution floor): a ramp starting is moving from its first mm/s on an exact log,
+    # from its first few encoder steps on a noisy one
+    bin_samples = max(stats.samples_per_bin, 1.0)
+    speed_floor = max(NOISE_FLOOR_MPS, 3.0 * stats.speed_noise_mps / np.sqrt(bin_samples))
+    yaw_floor = max(NOISE_FLOOR_RADPS, 3.0 * stats.yaw_noise_radps / np.sqrt(bin_samples))
+    moving_bins = (np.abs(speed[:used]) > speed_floor) | (
+        np.abs(stats.yaw_rate_radps[:used]) > yaw_floor
+    )
+    moving = moving_bins.reshape(shape).mean(axis=1)
+    # (not the speeding-up and braking terms: a window standing still may end where a step
+    # in speed begins, and its edge speeds say so; at a true standstill they are ~0 anyway)
+    for regressor in (abs_speed, speed2, abs_yaw, moving):
+        regressor[still] = 0.0
+    trip = _trips(standing, max(int(round(STOP_S / (n * stats.bin_s))), 1))
+    return RunWindows(
+        stats, n, abs_speed, speed2, av_up, av_down, abs_yaw, moving, ok, trip, standing
+    )
+
+
+def _window_abs(bins: np.ndarray, mean: np.ndarray, noise: float, samples: float) -> np.ndarray:
+    """A window's mean |x| from its bins (a row each): |mean| denoised (`_denoised_abs`), except
+    in a window where x changes sign (reversing, a spin turned the other way: its bins reach
+    beyond 3 bin-noise deviations on both sides of 0), where |mean| would cancel the two
+    directions: there the mean of the bins' own denoised |x|."""
+    bin_noise = noise * np.sqrt(samples / bins.shape[1]) if bins.size else noise
+    reach = 3.0 * max(bin_noise, 1e-12)
+    flips = (bins.max(axis=1) > reach) & (bins.min(axis=1) < -reach)
+    out = _denoised_abs(mean, noise)
+    if flips.any():
+        out[flips] = _denoised_abs(bins[flips], bin_noise).mean(axis=1)
+    return out
+
+
+def _denoised_abs(mean: np.ndarray, noise: float) -> np.ndarray:
+    """|x| of a window mean x whose noise has standard deviation `noise`: sqrt(max(x^2 - s^2,
+    0)), since E[x^2] = |true|^2 + s^2 (a moment correction; a true 0 then reads ~0.4 s on
+    average instead of 0.8 s, a true |x| >> s reads |x|)."""
+    return np.sqrt(np.maximum(np.square(mean) - noise * noise, 0.0))
+
+
+def _speeding_and_braking(
+    edge_speed: np.ndarray, mean_speed: np.ndarray, window_s: float
+) -> tuple[np.ndarray, ...]:
+    """Each window's mean of (a v)+ and (a v)- [m^2/s^3]. Its size is the change of v^2/2
+    between the speeds at its edges over its duration (d(v^2/2)/dt = a v, exact whatever
+    happens inside), all speeding up or all braking when the speed keeps its sign; a window
+    where the speed changes sign (reversing through 0) brakes from v_start^2/2 to 0 and
+    speeds up from 0 to v_end^2/2. Whether a window speeds up or brakes is read from its
+    neighbours' mean speeds (v^2 after against before), not from the sign of its own noisy
+    change: split by its own sign, the edges' noise in a cruise would be rectified into both
+    columns, biasing both coefficients (seen on the simulator at 6.5 Hz: braking 10% low)."""
+    start, end = edge_speed[:-1], edge_speed[1:]
+    half_change = (np.square(end) - np.square(start)) / 2.0
+    crosses = start * end < 0
+    square = np.square(mean_speed)
+    after = np.concatenate((square[1:], square[-1:]))
+    before = np.concatenate((square[:1], square[:-1]))
+    rising = np.where(np.isfinite(after - before), after - before, half_change) > 0
+    up = np.where(crosses, np.square(end) / 2.0, np.where(rising, half_change, 0.0))
+    down = np.where(crosses, -np.square(start) / 2.0, np.where(rising, 0.0, half_change))
+    return up / window_s, down / window_s
+
+
+def _edge_means(speed: np.ndarray, edges: np.ndarray, half: int) -> np.ndarray:
+    """The speed at each edge: the mean of the `half` bins on either side (fewer at a run's
+    ends); NaN when one of them is a drop-out."""
+    total = np.concatenate(([0.0], np.cumsum(np.nan_to_num(speed))))
+    bad = np.concatenate(([0], np.cumsum(~np.isfinite(speed))))
+    low = np.clip(edges - half, 0, speed.size)
+    high = np.clip(edges + half, 0, speed.size)
+    mean = (total[high] - total[low]) / np.maximum(high - low, 1)
+    return np.where(bad[high] - bad[low] == 0, mean, np.nan)
+
+
+def _trips(standing: np.ndarray, stop_windows: int) -> np.ndarray:
+    """Each window's trip number: a new trip starts in the middle of every stretch of at least
+    `stop_windows` standing windows that has motion on both sides."""
+    if not standing.size:
+        return np.zeros(0, dtype=np.intp)
+    change = np.flatnonzero(np.diff(standing.astype(np.int8))) + 1
+    bounds = np.concatenate(([0], change, [standing.size]))
+    cuts = np.zeros(standing.size, dtype=np.intp)
+    for start, end in zip(bounds[:-1], bounds[1:], strict=True):  # a loop over stops, not samples
+        if standing[start] and end - start >= stop_windows and start > 0 and end < standing.size:
+            cuts[(start + end) // 2] = 1
+    return np.cumsum(cuts)
+
+
+def design_columns(surfaces: tuple[str, ...]) -> tuple[str, ...]:
+    """The design's column names: each term, per-surface ones as `NAME[surface]`."""
+    return tuple(
+        f"{term.name}[{surface}]" if term.per_surface else term.name
+        for term in TERMS
+        for surface in (surfaces if term.per_surface else (None,))
+    )
+
+
+def assemble(
+    runs: list[RunWindows],
+    lag_bins: float,
+    surfaces: tuple[str, ...] | None = None,
+    only: list[np.ndarray] | None = None,
+) -> Windows:
+    """The windows of `runs` with the power `lag_bins` later: rows of every window whose
+    regressors and power are defined (and, with `only`, that its run's mask keeps), columns
+    `design_columns(surfaces)`."""
+    if surfaces is None:
+        surfaces = tuple(sorted({s for r in runs for s in r.stats.surfaces}))
+    columns = design_columns(surfaces)
+    position = {name: k for k, name in enumerate(surfaces)}
+    parts = []
+    trip_base = 0
+    for number, rw in enumerate(runs):
+        power, power_ok = rw.power_at(lag_bins)
+        keep = rw.ok & power_ok
+        if only is not None:
+            keep &= only[number]
+        first_bin = np.arange(rw.count) * rw.n
+        local = rw.stats.surface_index[first_bin]
+        mapping = np.array([position[s] for s in rw.stats.surfaces], dtype=np.intp)
+        surface = mapping[local]
+        regressors = rw.regressors()
+        rates = {
+            name: np.gradient(values, rw.n * rw.stats.bin_s) if values.size > 1 else 0 * values
+            for name, values in regressors.items()
+        }
+        parts.append(
+            {
+                **{name: values[keep] for name, values in regressors.items()},
+                **{f"rate:{name}": values[keep] for name, values in rates.items()},
+                "surface": surface[keep],
+                "power": power[keep],
+                "run": np.full(int(keep.sum()), number),
+                "trip": rw.trip[keep] + trip_base,
+            }
+        )
+        trip_base += int(rw.trip[-1]) + 1 if rw.count else 0
+    keys = parts[0].keys() if parts else ()
+    joined = {key: np.concatenate([part[key] for part in parts]) for key in keys}
+    power = joined.get("power", np.zeros(0))
+    surface = joined.get("surface", np.zeros(0)).astype(np.intp)
+    one_hot = surface[:, None] == np.arange(len(surfaces))[None, :]
+
+    def block(term_name: str, prefix: str) -> np.ndarray:
+        regressor = REGRESSOR_OF[term_name]
+        if regressor is None:
+            return np.ones((power.size, 1)) if not prefix else np.zeros((power.size, 1))
+        values = np.nan_to_num(joined[prefix + regressor])[:, None]
+        return one_hot * values if TERM_BY_NAME[term_name].per_surface else values
+
+    design = np.hstack([block(term.name, "") for term in TERMS])
+    return Windows(
+        design=design,
+        design_rate=np.hstack([block(term.name, "rate:") for term in TERMS]),
+        columns=columns,
+        power_W=power,
+        run=joined.get("run", np.zeros(0)).astype(np.intp),
+        trip=joined.get("trip", np.zeros(0)).astype(np.intp),
+        surface=surface,
+        run_ids=tuple(rw.stats.run_id for rw in runs),
+        surfaces=surfaces,
+        window_s=runs[0].n * runs[0].stats.bin_s if runs else WINDOW_S,
+    )
