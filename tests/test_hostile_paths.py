@@ -9,6 +9,7 @@ blocking the suite.
 from __future__ import annotations
 
 import gzip
+import json
 import os
 import subprocess
 import sys
@@ -106,7 +107,9 @@ def test_manifest_rows_outside_its_folder_are_refused_and_said(tmp_path, named):
     assert all("outside the manifest's folder: not read" in s.reason for s in skipped)
     result = _run("inspect", manifest if named == "manifest" else folder, "--json")
     assert result.returncode == 1
-    assert result.stdout.count('"file": ') == 1  # one log read
+    document = json.loads(result.stdout)  # one document (cli.md): the logs and the skipped
+    assert len(document["logs"]) == 1  # one log read
+    assert sum("outside the manifest's folder" in s["reason"] for s in document["skipped"]) == 3
     assert result.stderr.count("outside the manifest's folder") == 3
 
 

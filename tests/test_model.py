@@ -117,7 +117,10 @@ def test_hostile_model_values_are_one_line_errors(tmp_path, wbpower, what, chang
     ):
         result = wbpower(*command, "--model", path)
         assert result.exit_code == 2, (command, result.stdout)
-        assert result.stdout == ""
+        # --json: one document whose `error` is the one line, and no number computed (cli.md)
+        document = json.loads(result.stdout)
+        assert set(document) == {"error", "skipped", "warnings"}, document
+        assert message in document["error"]
         assert len(result.stderr.strip().splitlines()) == 1, result.stderr
 
 
