@@ -12,6 +12,7 @@ import pytest
 
 from wifibot_power.energy import energy_report
 from wifibot_power.model import load_model, paper_model
+from wifibot_power.outputs import json_safe
 from wifibot_power.simulate import SimConfig, WriteOptions, write_simulation
 
 WARNING = "outside the 0.1-0.9 m/s the model (paper) was fitted on"
@@ -100,7 +101,8 @@ def test_a_model_json_carries_the_fits_warnings_to_energy_and_lifetime(
 def test_a_model_json_without_speeds_still_loads(tmp_path):
     data = paper_model().to_json()
     del data["speed_range_mps"]  # written before wbpower recorded the range
-    (tmp_path / "m.json").write_text(json.dumps(data))
+    # as wbpower writes it (NaN as null: a model.json with NaN is refused, issue 29)
+    (tmp_path / "m.json").write_text(json.dumps(json_safe(data)))
     model = load_model(tmp_path / "m.json")
     assert model.speed_range_mps is None and model.extrapolation_warnings(5.0) == []
 

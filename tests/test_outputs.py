@@ -313,3 +313,159 @@ def test_write_set_with_a_folder_in_a_target_s_place_replaces_nothing(tmp_path):
     assert error.value.filename == str(folder / "b.json")
     assert {p.name for p in folder.iterdir()} == {*old, "b.json"}  # no temporary file left
     assert {n: (folder / n).read_text() for n in old} == old
+
+
+# -- issue 29: one writer per folder, what a killed writer left, errors naming the file ---
+
+
+def test_a_second_writer_on_a_locked_folder_is_refused_and_changes_nothing(tmp_path):
+    import fcntl
+
+    from wifibot_power.errors import UsageError
+    from wifibot_power.outputs import json_file, write_set
+
+    folder = tmp_path / "out"
+    old = _old_set(folder)
+    held = os.open(folder, os.O_RDONLY)  # another writer, in the middle of its set
+    try:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        with pytest.raises(UsageError, match="another wbpower is writing into this folder"):
+            write_set(folder, {"a.json": json_file("new a")}, remove=["model.json"])
+        assert _contents(folder) == old
+    finally:
+        os.close(held)
+    write_set(folder, {"a.json": json_file("new a")})  # released: written
+    assert _contents(folder)["a.json"] == '"new a"\n'
+
+
+def test_two_fits_on_one_folder_at_once_never_mix_their_sets(tmp_path):
+    """Two writers racing on one folder (the issue's repro, in-process): each set is written
+    whole under the lock or refused; the folder holds one writer's complete set."""
+    import threading
+
+    from wifibot_power.errors import UsageError
+    from wifibot_power.outputs import write_set
+
+    folder = tmp_path / "out"
+    folder.mkdir()
+    barrier = threading.Barrier(2)
+    outcome: dict[str, str] = {}
+
+    def slow(text: str):
+        def write(path: Path) -> None:
+            path.write_text(text)
+            time.sleep(0.05)  # both writers are writing at once
+
+        return write
+
+    def writer(tag: str) -> None:
+        barrier.wait()
+        try:
+            write_set(folder, {"model.json": slow(tag), "runs.parquet": slow(tag)})
+            outcome[tag] = "written"
+        except UsageError:
+            outcome[tag] = "refused"
+
+    threads = [threading.Thread(target=writer, args=(tag,)) for tag in "AB"]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert sorted(outcome.values()) == ["refused", "written"], outcome
+    winner = next(tag for tag, what in outcome.items() if what == "written")
+    assert _contents(folder) == {"model.json": winner, "runs.parquet": winner}
+
+
+def test_temporary_files_a_killed_writer_left_are_removed_by_the_next(tmp_path):
+    from wifibot_power.outputs import json_file, write_set
+
+    folder = tmp_path / "out"
+    old = _old_set(folder)
+    (folder / ".a.json.k3j9x.tmp").write_text("")  # SIGKILL mid-write left it
+    (folder / ".other.txt.zz.tmp").write_text("not ours")
+    write_set(folder, {"a.json": json_file("new a")})
+    assert _contents(folder) == {**old, "a.json": '"new a"\n', ".other.txt.zz.tmp": "not ours"}
+
+
+def test_a_file_too_large_or_disk_full_error_names_the_file(tmp_path):
+    """`ulimit -f` as a full disk: the error names the output that could not be written
+    (pyarrow's own error names none)."""
+    import resource
+
+    out = tmp_path / "out"
+    logs = Path(__file__).resolve().parents[1] / "sample_logs"
+
+    def small_files() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (8 << 10, 8 << 10))
+
+    result = subprocess.run(
+        [sys.executable, "-m", "wifibot_power.cli", "fit", str(logs), "-o", str(out)],
+        capture_output=True,
+        text=True,
+        preexec_fn=small_files,
+    )
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "File too large" in lines[0], result.stderr
+    assert lines[0].startswith(f"wbpower: error: {out}/") and ".parquet: cannot write" in lines[0]
+    assert not out.exists()
+
+
+def test_ctrl_c_in_the_renames_exits_3_saying_the_set_was_written(tmp_path, wbpower, monkeypatch):
+    """A Ctrl-C (or SIGTERM) that comes during the final renames is acted on after them: the
+    new set is complete, and the exit code says so (3), not 130 ("nothing written")."""
+    import wifibot_power.outputs as outputs
+
+    real = outputs._fsync_dir
+
+    def signal_in_the_renames(folder: Path) -> None:
+        signal.raise_signal(signal.SIGINT)  # held until the renames are done
+        real(folder)
+
+    monkeypatch.setattr(outputs, "_fsync_dir", signal_in_the_renames)
+    out = tmp_path / "out"
+    logs = Path(__file__).resolve().parents[1] / "sample_logs"
+    result = wbpower("inspect", logs, "-o", out)
+    assert result.exit_code == 3, result.stderr
+    assert result.stderr.strip().endswith(f"interrupted after writing {out}/logs.parquet in full")
+    assert (out / "logs.parquet").is_file()
+    # before the renames: nothing written, 130
+    monkeypatch.setattr(outputs, "_fsync_dir", real)
+    monkeypatch.setattr(outputs, "_lock_folder", lambda folder: signal.raise_signal(2))
+    result = wbpower("inspect", logs, "-o", tmp_path / "other")
+    assert result.exit_code == 130, result.stderr
+    assert not (tmp_path / "other").exists()
+
+
+def test_sigterm_while_writing_leaves_no_temporary_file(tmp_path):
+    """SIGTERM in the middle of a write (the issue: a 0-byte `.runs.parquet.*.tmp` was left
+    in a new folder): handled as Ctrl-C, the temporary file and the new folder removed."""
+    from wifibot_power import signals
+    from wifibot_power.outputs import json_file, write_set
+
+    def terminated(path: Path) -> None:
+        signal.raise_signal(signal.SIGTERM)
+
+    previous = signal.getsignal(signal.SIGTERM)
+    signals.install()
+    try:
+        with pytest.raises(signals.Terminated):
+            write_set(tmp_path / "new", {"a.json": json_file(1), "runs.parquet": terminated})
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(not Path("/proc/self").exists(), reason="needs Linux's /proc")
+def test_an_output_folder_that_cannot_be_made_is_refused_before_the_work(wbpower, monkeypatch):
+    """`-o /proc/out`: access(2) lets root write /proc, mkdir does not; refused before any log
+    is read (fit_logs is never called), naming the folder."""
+    import wifibot_power.fit as fit
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the work was done before the output folder was checked")
+
+    monkeypatch.setattr(fit, "fit_logs", no_work)
+    result = wbpower("fit", Path(__file__).resolve().parents[1] / "sample_logs", "-o", "/proc/out")
+    assert result.exit_code == 2
+    assert result.stderr.startswith("wbpower: error: -o /proc/out: cannot create anything in /proc")

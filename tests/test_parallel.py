@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import signal
 import time
 from pathlib import Path
 
@@ -308,3 +309,96 @@ def test_the_bar_rate_counts_from_the_start_of_the_work(corpus: Path, monkeypatc
     done_bytes = items[0].stat().st_size + items[1].stat().st_size
     assert str(rate.render(task)) == progress_bar.rate_text(done_bytes, 4.0) != ""
     bar.close()
+
+
+def _death_signal(_: int) -> int:
+    """In a worker: the signal the kernel sends it when its parent dies (prctl(2))."""
+    import ctypes
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    value = ctypes.c_int(-1)
+    libc.prctl(2, ctypes.byref(value), 0, 0, 0)  # PR_GET_PDEATHSIG
+    return value.value
+
+
+@pytest.mark.skipif(not parallel.can_fork(), reason="workers are forked on Linux only")
+def test_every_worker_ends_when_its_parent_dies():
+    """Each forked worker asks for SIGKILL when its parent dies (PR_SET_PDEATHSIG): a parent
+    killed by SIGKILL leaves no worker blocked on the pool's queue holding its stdout (issue
+    29). The end-to-end check: tests/test_interrupt.py, a real SIGKILL."""
+    assert parallel.map_ordered(list(range(4)), _death_signal, jobs=2) == [signal.SIGKILL] * 4
+
+
+def _threads() -> set[str]:
+    return {task.name for task in Path("/proc/self/task").iterdir()}
+
+
+def _blocked_in_new_threads(before: set[str]) -> list[int]:
+    """SigBlk of each thread of this process not in `before` (/proc)."""
+    masks = []
+    for task in Path("/proc/self/task").iterdir():
+        if task.name in before:
+            continue
+        status = (task / "status").read_text()
+        masks.append(int(status.split("SigBlk:")[1].split()[0], 16))
+    return masks
+
+
+@pytest.mark.skipif(not parallel.can_fork(), reason="workers are forked on Linux only")
+def test_the_parents_other_threads_leave_ctrl_c_and_sigterm_to_the_main_thread():
+    """The kernel gives a process's signal to any thread that does not block it; one taken
+    by the pool's manager thread or the `beside` thread does not interrupt the main thread's
+    wait, which then acts on it only when the next file is done. Both block SIGINT and
+    SIGTERM (as pyarrow's threads would, started from them)."""
+    seen: list[list[int]] = []
+    before = _threads()  # (threads earlier tests left: pyarrow's pools, ...)
+    parallel.map_ordered(
+        list(range(4)),
+        lambda k: time.sleep(0.2) or k,
+        jobs=2,
+        beside=lambda: seen.append(_blocked_in_new_threads(before)),
+    )
+    wanted = (1 << (signal.SIGINT - 1)) | (1 << (signal.SIGTERM - 1))
+    assert seen and len(seen[0]) >= 2  # the manager thread and `beside` at least
+    assert all(mask & wanted == wanted for mask in seen[0]), [hex(m) for m in seen[0]]
+
+
+@pytest.mark.skipif(not parallel.can_fork(), reason="workers are forked on Linux only")
+def test_an_interrupt_after_the_forks_but_before_the_pool_knows_them_stops_them(monkeypatch):
+    """A Ctrl-C that lands inside the first submit, once the workers are forked but before
+    the pool's manager thread starts (soak_fit.py: the parent then waited at exit for its
+    idle workers forever): every forked worker is stopped all the same."""
+    from concurrent.futures import process
+
+    forked: list[int] = []
+
+    def interrupted_start(self):
+        self._launch_processes()
+        forked.extend(self._processes)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(
+        process.ProcessPoolExecutor, "_start_executor_manager_thread", interrupted_start
+    )
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            parallel.map_ordered(list(range(4)), lambda k: k, jobs=2)
+        assert len(forked) == 2
+        deadline = time.monotonic() + 5
+        alive = forked
+        while alive and time.monotonic() < deadline:
+            alive = [pid for pid in forked if _alive(pid)]
+            time.sleep(0.05)
+        assert alive == [], "forked workers left running"
+    finally:
+        for pid in forked:
+            if _alive(pid):
+                os.kill(pid, signal.SIGKILL)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"

@@ -221,26 +221,171 @@ def paper_model() -> PowerModel:
 
 
 def load_model(spec: str | Path) -> PowerModel:
-    """`paper` -> the paper's model; otherwise a model.json path."""
+    """`paper` -> the paper's model; otherwise a model.json path, validated as a log is
+    (`read_model_document`, `check_model_values`) before anything is computed from it."""
     if str(spec) == "paper":
         return paper_model()
     path = Path(spec)
+    data = read_model_document(path)
+    if not isinstance(data, dict):
+        raise UsageError(
+            "not a wbpower model file", file=path, fix="give a model.json from 'wbpower fit -o'"
+        )
+    if data.get("format") == MODEL_FORMAT and data.get("format_version") == MODEL_FORMAT_VERSION:
+        check_model_values(data, file=str(path))
+    return PowerModel.from_json(data, file=str(path))
+
+
+# -- a model file is input: validated like a log (issue 29) ------------------------------
+
+#: Largest model.json read [bytes]: a fitted model is ~1.5 kB, one extended by every cause
+#: a few kB; anything near this is not a model.
+MODEL_MAX_BYTES = 1 << 20
+#: Deepest nesting of lists and objects a model.json may have: the model's own is 3
+#: (document > line > interval); JSON nested deeper is not a model (and 100,000 nested
+#: `[` would exhaust Python's recursion).
+MODEL_MAX_DEPTH = 8
+#: The plausible range of each coefficient, by its unit: a power no robot of this kind
+#: draws (`validate.ABSURD_POWER_W`: 1 kW), a time over an hour to reach cruise speed, a
+#: speed over `validate.ABSURD_SPEED_MPS` (50 m/s) is no model's. Intervals may be wider
+#: than the values (two runs give a t-interval of 12.7 standard errors): finite and within
+#: `_CI_LIMIT`. Extension parameters (causes.md) are in their causes' own units: finite and
+#: within `_CI_LIMIT`, each cause checks its own (`energy._extension`).
+_POWER_LIMIT_W = 1000.0
+_TIME_LIMIT_S = 3600.0
+_SPEED_LIMIT_MPS = 50.0
+_CI_LIMIT = 1e6
+_MODEL_FIX = "give 'paper' or a model.json from 'wbpower fit -o' (re-run it to remake the file)"
+
+
+def read_model_document(path: Path) -> object:
+    """The JSON document of a model file, read as hostile input: a regular file (a FIFO
+    would block forever), at most `MODEL_MAX_BYTES`, UTF-8, numbers finite (`NaN`,
+    `Infinity` and `1e400` are refused: JSON has no such numbers, Python's reader accepts
+    them), at most `MODEL_MAX_DEPTH` levels deep. Each failure is one `UsageError` line."""
+
+    def refuse(why: str) -> UsageError:
+        return UsageError(why, file=path, fix=_MODEL_FIX)
+
+    def constant(name: str) -> float:
+        raise ValueError(f"{name} is not a JSON number")
+
+    def finite(text: str) -> float:
+        value = float(text)
+        if not math.isfinite(value):
+            raise ValueError(f"{text} is beyond a float")
+        return value
+
+    import stat
+
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        info = path.stat()
     except FileNotFoundError:
         raise UsageError(
             "no such model file",
             file=path,
             fix="give 'paper' or a model.json from 'wbpower fit -o'",
         ) from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise UsageError(
-            f"cannot read the model ({exc.__class__.__name__})",
-            file=path,
-            fix="give 'paper' or a model.json from 'wbpower fit -o'",
+    except OSError as exc:
+        raise refuse(f"cannot read the model ({exc.__class__.__name__})") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise refuse("cannot read the model (not a regular file: a folder, FIFO or device)")
+    if info.st_size > MODEL_MAX_BYTES:
+        raise refuse(f"not a model file ({info.st_size} bytes, over {MODEL_MAX_BYTES})")
+    try:
+        with open(path, "rb") as handle:
+            raw = handle.read(MODEL_MAX_BYTES + 1)
+        if len(raw) > MODEL_MAX_BYTES:
+            raise refuse(f"not a model file (over {MODEL_MAX_BYTES} bytes)")
+        text = raw.decode("utf-8")
+        depth = _nesting_depth(text)
+        if depth > MODEL_MAX_DEPTH:
+            raise refuse(
+                f"not a model file (nested {depth} deep, a model at most {MODEL_MAX_DEPTH})"
+            )
+        return json.loads(text, parse_constant=constant, parse_float=finite)
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
+        what = str(exc).splitlines()[0][:80] if isinstance(exc, ValueError) else ""
+        raise refuse(
+            f"cannot read the model ({exc.__class__.__name__}{': ' + what if what else ''})"
         ) from None
-    if not isinstance(data, dict):
-        raise UsageError(
-            "not a wbpower model file", file=path, fix="give a model.json from 'wbpower fit -o'"
-        )
-    return PowerModel.from_json(data, file=str(path))
+
+
+def _nesting_depth(text: str) -> int:
+    """How deep `[` and `{` nest in JSON `text` (brackets inside strings do not count),
+    without recursion: counted on the text with its strings removed."""
+    import re
+
+    import numpy as np
+
+    bare = re.sub(r'"(?:[^"\\]|\\.)*"', '""', text).encode()
+    codes = np.frombuffer(bare, dtype=np.uint8)
+    steps = (codes == ord("[")).astype(np.int64) + (codes == ord("{"))
+    steps -= (codes == ord("]")).astype(np.int64) + (codes == ord("}"))
+    return int(np.cumsum(steps).max(initial=0))
+
+
+def check_model_values(data: dict[str, object], *, file: str) -> None:
+    """Every coefficient of a model document (format version 1) of the right type and within
+    its plausible range (`_POWER_LIMIT_W`, ...): a number (not `true`, not a string),
+    finite, within range; an interval or R² may be null (NaN, "not fitted"). Else one line
+    naming the key, so nothing is computed on a NaN or an absurd value."""
+
+    def refuse(key: str, value: object, why: str) -> UsageError:
+        shown = json.dumps(value)[:40]
+        return UsageError(f"model value {key} = {shown}: {why}", file=file, fix=_MODEL_FIX)
+
+    def number(key: str, value: object, limit: float, *, nullable: bool = False) -> None:
+        if value is None and nullable:
+            return
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise refuse(key, value, "not a number")
+        if not -limit <= value <= limit:
+            raise refuse(key, value, f"outside the plausible -{limit:g}..{limit:g}")
+
+    def pair(key: str, value: object, limit: float) -> None:
+        if value is None:
+            return
+        if not isinstance(value, list) or len(value) != 2:
+            raise refuse(key, value, "not a pair [low, high]")
+        for k, item in enumerate(value):
+            number(f"{key}[{k}]", item, limit, nullable=True)
+
+    for line, limit in (
+        ("accel", _POWER_LIMIT_W),
+        ("cruise", _POWER_LIMIT_W),
+        ("t_acc", _TIME_LIMIT_S),
+    ):
+        if line not in data:
+            continue  # missing: `from_json` says the file is incomplete
+        fit = data[line]
+        if not isinstance(fit, dict):
+            raise refuse(line, fit, "not a fitted line {intercept, slope, ...}")
+        for key in ("intercept", "slope"):
+            if key in fit:
+                number(f"{line}.{key}", fit[key], limit)
+        pair(f"{line}.intercept_ci95", fit.get("intercept_ci95"), _CI_LIMIT)
+        pair(f"{line}.slope_ci95", fit.get("slope_ci95"), _CI_LIMIT)
+        number(f"{line}.r2", fit.get("r2"), 1.0, nullable=True)
+        runs = fit.get("n_runs", 0)
+        if runs is not None and (isinstance(runs, bool) or not isinstance(runs, int) or runs < 0):
+            raise refuse(f"{line}.n_runs", runs, "not a count of runs")
+    if "idle_W" in data:
+        number("idle_W", data["idle_W"], _POWER_LIMIT_W)
+        if data["idle_W"] < 0:  # (a number by now)
+            raise refuse("idle_W", data["idle_W"], "a negative idle power")
+    for key, kind in (("components_W", dict), ("extensions", dict), ("fit_warnings", list)):
+        if data.get(key) is not None and not isinstance(data.get(key), kind):
+            raise refuse(key, data.get(key), f"not a{'n object' if kind is dict else ' list'}")
+    for name, value in (data.get("components_W") or {}).items():
+        number(f"components_W.{name}", value, _POWER_LIMIT_W, nullable=True)
+    for cause, params in (data.get("extensions") or {}).items():
+        if not isinstance(params, dict):
+            raise refuse(f"extensions.{cause}", params, "not an object of parameters")
+        for name, value in params.items():
+            number(f"extensions.{cause}.{name}", value, _CI_LIMIT)
+    speeds = data.get("speed_range_mps")
+    if speeds is not None:
+        pair("speed_range_mps", speeds, _SPEED_LIMIT_MPS)
+        if None in speeds or not 0 <= speeds[0] <= speeds[1]:
+            raise refuse("speed_range_mps", speeds, "not 0 <= lowest <= highest")

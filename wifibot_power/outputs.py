@@ -15,6 +15,8 @@ from datetime import date, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wifibot_power.errors import UsageError
+
 if TYPE_CHECKING:
     import pandas as pd
 
@@ -110,6 +112,14 @@ def write_text(path: Path, text: str) -> Path:
     return write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
+#: What this process has written in full so far (`write_set`, `staged_folder`): a command
+#: stopped by Ctrl-C or SIGTERM after it wrote its outputs says so (`signals.interrupted`).
+written: list[Path] = []
+
+#: the name a stale temporary file of ours has beside `NAME` (`_temporary`)
+_TEMPORARY = ".{name}.*.tmp"
+
+
 def write_set(
     out_dir: Path,
     files: Mapping[str, Callable[[Path], None]],
@@ -120,46 +130,115 @@ def write_set(
     each to a temporary file beside its target first; only once all are written (and
     flushed to disk) are they renamed over their targets, and the names in `remove` (what
     an earlier run left there that this one does not make, e.g. fit's `model.json`) deleted,
-    with Ctrl-C held off for those renames (`hold_ctrl_c`).
+    with Ctrl-C and SIGTERM held off for those renames (`signals.held`).
 
-    A failure or Ctrl-C while writing leaves DIR as it was (the temporary files removed,
-    folders this call created removed again), so a command writes nothing partial (cli.md);
-    only a SIGKILL or power loss during the renames themselves can leave some new, some old.
-    Returns the files written, in the order of `files`.
+    One writer at a time per folder: an advisory lock on DIR itself (flock(2) on the
+    folder, so no lock file is left behind) is taken first; held by another process, this
+    one stops with a one-line error before it writes anything (two `fit -o DIR` at once
+    could otherwise leave model.json of one beside runs.parquet of the other). Under the
+    lock, temporary files of these names that a killed writer left (`.NAME.*.tmp`) are
+    removed.
+
+    A failure, Ctrl-C or SIGTERM while writing leaves DIR as it was (the temporary files
+    removed, folders this call created removed again), so a command writes nothing partial
+    (cli.md); only a SIGKILL or power loss during the renames themselves can leave some new,
+    some old. An error writing a file names it. Returns the files written, in the order of
+    `files`.
     """
     out_dir = Path(out_dir)
     made: list[Path] = []
     staged: list[tuple[Path, Path]] = []
+    lock: int | None = None
     try:
-        with hold_ctrl_c():
-            made = make_dirs(out_dir)
-        for name, write in files.items():
-            target = out_dir / name
-            with hold_ctrl_c():  # a Ctrl-C comes once the file is known, to be removed
-                staged.append((_temporary(target), target))
-            _write_flushed(staged[-1][0], write)
-    except BaseException:
-        for tmp, _ in staged:
-            tmp.unlink(missing_ok=True)
-        remove_made_dirs(made)
-        raise
-    with hold_ctrl_c():
         try:
-            # a target that is a folder would fail its rename after the ones before it
-            # were done: refused first, nothing replaced
-            for _, target in staged:
-                if target.is_dir() and not target.is_symlink():
-                    raise IsADirectoryError(21, "a folder is in the way", str(target))
-            for tmp, target in staged:
-                os.replace(tmp, target)
+            with hold_ctrl_c():
+                made = make_dirs(out_dir)
+            try:
+                lock = _lock_folder(out_dir)
+            except FolderLockedError:
+                made = []  # the folder is another writer's now: left as it is
+                raise
+            _remove_stale(out_dir, [*files, *remove])
+            for name, write in files.items():
+                target = out_dir / name
+                with hold_ctrl_c():  # a signal comes once the file is known, to be removed
+                    staged.append((_temporary(target), target))
+                with _naming(target):
+                    _write_flushed(staged[-1][0], write)
         except BaseException:
             for tmp, _ in staged:
                 tmp.unlink(missing_ok=True)
+            remove_made_dirs(made)
             raise
-        for name in remove:
-            (out_dir / name).unlink(missing_ok=True)
-    _fsync_dir(out_dir)
+        with hold_ctrl_c():
+            try:
+                # a target that is a folder would fail its rename after the ones before it
+                # were done: refused first, nothing replaced
+                for _, target in staged:
+                    if target.is_dir() and not target.is_symlink():
+                        raise IsADirectoryError(21, "a folder is in the way", str(target))
+                for tmp, target in staged:
+                    os.replace(tmp, target)
+            except BaseException:
+                for tmp, _ in staged:
+                    tmp.unlink(missing_ok=True)
+                raise
+            for name in remove:
+                (out_dir / name).unlink(missing_ok=True)
+            _fsync_dir(out_dir)
+            written.extend(target for _, target in staged)
+    finally:
+        if lock is not None:
+            os.close(lock)  # the lock goes with it
     return [target for _, target in staged]
+
+
+class FolderLockedError(UsageError):
+    """Another process holds an output folder's lock (`write_set`)."""
+
+
+def _lock_folder(folder: Path) -> int:
+    """An exclusive advisory lock (flock(2)) on `folder` itself, held until the descriptor
+    returned is closed; a one-line error when another process holds it."""
+    import fcntl
+
+    fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        raise FolderLockedError(
+            "another wbpower is writing into this folder now",
+            file=folder,
+            fix="wait for it to finish, or write into another folder",
+        ) from None
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+def _remove_stale(folder: Path, names: Iterable[str]) -> None:
+    """Remove the temporary files (`.NAME.*.tmp`) of `names` that a writer killed by
+    SIGKILL left in `folder`: called under the folder's lock, so no live writer owns one."""
+    import glob
+
+    for name in names:
+        for stale in folder.glob(_TEMPORARY.format(name=glob.escape(name))):
+            stale.unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def _naming(target: Path) -> Iterator[None]:
+    """An OSError writing `target`'s temporary file that names no file (pyarrow's "No space
+    left on device") names `target`: the message then says which file could not be
+    written."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is not None:
+            raise
+        raise OSError(exc.errno, exc.strerror or str(exc), str(target)) from exc
 
 
 def _temporary(path: Path) -> Path:
@@ -179,6 +258,22 @@ def _write_flushed(tmp: Path, write: Callable[[Path], None]) -> None:
     os.chmod(tmp, 0o666 & ~_umask())
     with open(tmp, "rb") as handle:
         os.fsync(handle.fileno())
+
+
+def probe_folder(out: Path, existing: Path) -> None:
+    """Whether `-o out` can be written, tried before any work (`cli.common.check_out_dir`):
+    a folder made and removed at once in `existing`, the nearest folder of `out` that
+    exists. Root's access(2) says yes to /proc and /sys, which refuse; the error naming
+    them came only after the work was done (issue 29)."""
+    import tempfile
+
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".wbpower-probe.", dir=existing))
+    except OSError as exc:
+        raise UsageError(
+            f"-o {out}: cannot create anything in {existing} ({exc.strerror or exc})",
+            fix="give a folder you can write to",
+        ) from None
 
 
 def make_dirs(folder: Path) -> list[Path]:
@@ -201,25 +296,12 @@ def remove_made_dirs(made: list[Path]) -> None:
             return
 
 
-@contextlib.contextmanager
-def hold_ctrl_c() -> Iterator[None]:
-    """Hold a Ctrl-C (SIGINT) back until the block ends, then act on it: for a few renames
-    that must happen all or not at all. Outside the main thread (where Python cannot set a
-    handler) the block just runs."""
-    import signal
-    import threading
+def hold_ctrl_c() -> contextlib.AbstractContextManager[None]:
+    """Hold Ctrl-C (SIGINT) and SIGTERM back until the block ends, then act on them: for a
+    few renames that must happen all or not at all (`signals.held`)."""
+    from wifibot_power.signals import held
 
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-        if caught:  # delivered again, now to the usual handler (KeyboardInterrupt)
-            signal.raise_signal(signal.SIGINT)
+    return held()
 
 
 @contextlib.contextmanager
@@ -269,6 +351,7 @@ def staged_folder(out_dir: Path) -> Iterator[Path]:
                 os.rename(stage, out_dir)  # one rename: the whole new folder at once
             else:
                 _swap_entries(stage, out_dir)
+            written.append(out_dir)
     except BaseException:
         if stage is not None:  # (after the renames: what is left of it, the old entries)
             shutil.rmtree(stage, ignore_errors=True)

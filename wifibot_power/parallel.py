@@ -14,18 +14,19 @@ time.
 
 from __future__ import annotations
 
-import contextlib
+import ctypes
 import multiprocessing
 import os
 import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import TypeVar
 
+from wifibot_power import signals
 from wifibot_power.errors import WbpowerError
 
 T = TypeVar("T")
@@ -58,27 +59,60 @@ def can_fork() -> bool:
 
 #: In a worker: set when the parent asked it to stop (SIGTERM).
 _STOPPING = False
+#: In a worker: whether it is running a task (then SIGTERM unwinds it first).
+_IN_TASK = False
 #: Seconds a stopped worker has to finish its cleanup before it is killed.
 STOP_GRACE_S = 1.5
+#: Linux's prctl(2) option: the signal a process gets when the thread that forked it ends.
+_PR_SET_PDEATHSIG = 1
 
 
-def _start_worker(threads: int) -> None:
+def _start_worker(threads: int, parent: int) -> None:
     """A worker's start: Ctrl-C is the parent's to handle, SIGTERM stops the worker cleanly,
-    and pyarrow gets the worker's share of the cores."""
+    the worker stops when its parent dies, and pyarrow gets the worker's share of the
+    cores."""
     # The terminal sends SIGINT to the whole process group; a worker ignores it (no
     # KeyboardInterrupt traceback from the middle of a task), and the parent stops it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _stop)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    _stop_with_parent(parent)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, set(signals.STOP_SIGNALS))
     _share_cores(threads)
+
+
+def _stop_with_parent(parent: int) -> None:
+    """SIGKILL to this worker when its parent dies without stopping it (SIGKILL, a crash):
+    no worker is left re-parented to init, blocked forever on the pool's queue and holding
+    the parent's stdout open (issue 29: `timeout ... wbpower fit | cat` then never ended).
+    Linux's PR_SET_PDEATHSIG (prctl(2)), set by the worker itself; a parent that died before
+    it was set is seen by its pid (the worker's parent is then init or a subreaper).
+
+    SIGKILL, not SIGTERM: a SIGTERM handled in Python runs only once the main thread gets
+    back to Python, and the kernel may hand a process's signal to any of its threads. Seen
+    (once in 200 runs of benchmarks/soak_fit.py, and again in 1 of 60 kills 0.15-0.45 s into
+    `fit`): an orphaned worker with SIGTERM caught (/proc SigCgt) and nothing pending, both
+    of its threads blocked reading a pipe, the signal taken by the other thread, the main
+    thread's read never interrupted, stdout held forever. A parent that stops normally (Ctrl-C,
+    SIGTERM, an error) still stops its workers with SIGTERM first (`_stop_workers`), so
+    that they remove what they were writing; only an abnormal death of the parent, which
+    leaves its own temporary files too, leaves theirs."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    except (OSError, AttributeError):  # pragma: no cover - not Linux: never forked there
+        pass
+    if os.getppid() != parent:
+        os._exit(128 + signal.SIGTERM)
 
 
 def _stop(signum: int, frame: object) -> None:
     """SIGTERM in a worker: unwind the task (its `finally`/`except` blocks remove temporary
-    files, e.g. a cache entry half written), then exit."""
+    files, e.g. a cache entry half written), then exit; between tasks, exit now."""
     global _STOPPING
     _STOPPING = True
-    raise SystemExit(130)
+    if not _IN_TASK:
+        os._exit(128 + signal.SIGTERM)
+    raise SystemExit(128 + signal.SIGTERM)
 
 
 def _share_cores(threads: int) -> None:
@@ -92,24 +126,29 @@ def _share_cores(threads: int) -> None:
 
 
 def _run_task(index: int) -> object:
+    global _IN_TASK
     assert _TASK is not None, "worker started without a task"
+    _IN_TASK = True
     try:
         return _TASK(index)
     except BaseException:
         if _STOPPING:  # cleaned up while unwinding: leave now, not back to the pool's loop
-            os._exit(130)
+            os._exit(128 + signal.SIGTERM)
         raise
-
-
-@contextlib.contextmanager
-def _sigint_blocked() -> Iterator[None]:
-    """SIGINT held pending (delivered on leaving) while workers are forked: each is forked
-    with it blocked and installs its own handling before unblocking it."""
-    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
     finally:
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        _IN_TASK = False
+
+
+def _forked(
+    pool: ProcessPoolExecutor, known: list[multiprocessing.process.BaseProcess]
+) -> list[multiprocessing.process.BaseProcess]:
+    """Every worker the pool has forked, also when the first submit (which forks them all)
+    was interrupted before they were known: stopped, or idle workers would be waited for
+    at exit forever (the pool's manager thread, which tells them to end, may not have been
+    started; seen in benchmarks/soak_fit.py)."""
+    forked = dict.fromkeys(known)
+    forked.update(dict.fromkeys((pool._processes or {}).values()))  # noqa: SLF001
+    return list(forked)
 
 
 def _stop_workers(processes: list[multiprocessing.process.BaseProcess]) -> None:
@@ -167,7 +206,10 @@ def map_ordered(
     context = multiprocessing.get_context("fork")
     threads = max(available_cores() // workers, 1)
     pool = ProcessPoolExecutor(
-        max_workers=workers, mp_context=context, initializer=_start_worker, initargs=(threads,)
+        max_workers=workers,
+        mp_context=context,
+        initializer=_start_worker,
+        initargs=(threads, os.getpid()),
     )
     processes: list[multiprocessing.process.BaseProcess] = []
     try:
@@ -180,14 +222,19 @@ def map_ordered(
         # parent holds a few futures, not one per file
         for index in queue:
             if not processes:
-                # the first submit forks every worker: SIGINT is held back meanwhile, so a
-                # Ctrl-C lands here, once the workers are known and can be stopped
-                with _sigint_blocked():
+                # the first submit forks every worker: SIGINT and SIGTERM are held back
+                # meanwhile, so they land here, once the workers are known and can be stopped
+                with signals.blocked():
                     pending[pool.submit(_run_task, index)] = index
                     processes = list(pool._processes.values())  # noqa: SLF001
                 if beside is not None:  # every worker is forked by now (fork: all at once)
                     meanwhile = threading.Thread(target=beside, name="beside", daemon=True)
-                    meanwhile.start()
+                    # started with Ctrl-C and SIGTERM blocked, which it keeps (as the pool's
+                    # manager thread, started by the first submit above): the kernel gives
+                    # them to the main thread, whose wait they interrupt; one taken by
+                    # another thread would wait for the next file to finish
+                    with signals.blocked():
+                        meanwhile.start()
             else:
                 pending[pool.submit(_run_task, index)] = index
             if len(pending) >= 2 * workers:
@@ -203,14 +250,15 @@ def map_ordered(
                 if next_index is not None:
                     pending[pool.submit(_run_task, next_index)] = next_index
     except BrokenProcessPool:
-        _stop_workers(processes)
+        _stop_workers(_forked(pool, processes))
         raise WbpowerError(
             "a worker process died (killed for lack of memory?)",
             fix="run again with --jobs 1, or with fewer jobs",
         ) from None
     except BaseException:
-        # Ctrl-C (KeyboardInterrupt), or an error a task raised: no worker is left behind
-        _stop_workers(processes)
+        # Ctrl-C (KeyboardInterrupt), SIGTERM (`signals.Terminated`), or an error a task
+        # raised: no worker is left behind
+        _stop_workers(_forked(pool, processes))
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)

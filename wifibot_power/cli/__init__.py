@@ -46,10 +46,25 @@ def __getattr__(name: str) -> object:
 
 
 def main() -> None:
+    from wifibot_power import signals
+
     try:
+        signals.install()  # SIGTERM stops a command as Ctrl-C does (exit 143)
         wanted = [arg for arg in sys.argv[1:2] if arg in COMMANDS]
-        load_commands(wanted or None)()
-    except KeyboardInterrupt:
-        # Ctrl-C outside a command's own handling (while loading, or parsing options)
-        print("wbpower: error: interrupted", file=sys.stderr)
-        raise SystemExit(130) from None
+        # held while modules load: a KeyboardInterrupt raised inside an import's weakref
+        # callback is printed and swallowed by Python ("Exception ignored in"), and the
+        # command would go on as if no Ctrl-C came; here it comes once they are loaded
+        with signals.held():
+            app = load_commands(wanted or None)
+        app()
+    except KeyboardInterrupt as exc:
+        # Ctrl-C or SIGTERM outside a command's own handling (loading, parsing options)
+        message, code = signals.interrupted(exc)
+        print(f"wbpower: error: {message}", file=sys.stderr)
+        raise SystemExit(code) from None
+    finally:
+        # the command is done and its exit code decided: a signal now, while Python shuts
+        # down (which puts the default handlers back), would end the process as "killed by
+        # SIGTERM" (143) or SIGINT (130), which says "nothing written", after its outputs
+        # were written. Ignored: the process exits with the code it has.
+        signals.ignore()

@@ -20,8 +20,9 @@ import typer
 from wifibot_power.cli import consoles
 from wifibot_power.errors import UsageError, WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
-from wifibot_power.outputs import json_safe
+from wifibot_power.outputs import json_safe, probe_folder, written
 from wifibot_power.run import Problem
+from wifibot_power.signals import interrupted
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -286,6 +287,7 @@ def handles_errors(command: F) -> F:
 
     @functools.wraps(command)
     def wrapper(*args: object, **kwargs: object) -> object:
+        written.clear()  # (several commands may run in one process: tests)
         document = JsonDocument() if kwargs.get("json_out") else None
         token = _DOCUMENT.set(document)
         try:
@@ -305,8 +307,8 @@ def _reporting_errors(command: Callable[..., object], *args: object, **kwargs: o
         # a batch that failed as a whole still says why each input was left out
         report_skipped(list(getattr(exc, "skipped", ())))
         fail(exc.one_line())
-    except KeyboardInterrupt:
-        fail("interrupted", EXIT_INTERRUPTED)
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (`signals.Terminated`)
+        fail(*interrupted(exc))
     except (typer.Exit, typer.Abort, SystemExit):
         raise
     except _CLICK_ERROR as exc:  # e.g. typer.BadParameter from an option's parser
@@ -419,6 +421,7 @@ def check_out_dir(out: Path | None) -> None:
         raise UsageError(
             f"-o {out}: {existing} is not writable", fix="give a folder you can write to"
         )
+    probe_folder(out, existing)  # what access() cannot tell (/proc, /sys, a full inode table)
 
 
 def fail(message: str, code: int = EXIT_USAGE) -> None:

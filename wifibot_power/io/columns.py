@@ -39,12 +39,22 @@ class PowerSource:
     supply_voltage_V: float | None = None
     name: str = ""
     #: a current and a voltage column logged beside a `power` column: not read as power, but
-    #: their first lines judge the power column's unit (`validate.check_power_scale`)
+    #: their first lines judge the power column's unit (`validate.check_power_scale`) and,
+    #: when both are there, the whole column must agree with them (`twice`)
     logged_current: tuple[str, float] | None = None
     logged_voltage: tuple[str, float] | None = None
 
+    @property
+    def twice(self) -> tuple[tuple[str, float], tuple[str, float]] | None:
+        """(current, voltage) when both are logged beside a `power` column: the log says the
+        power twice, and the two must agree (`validate.check_power_twice`)."""
+        if self.power and self.logged_current and self.logged_voltage:
+            return self.logged_current, self.logged_voltage
+        return None
+
     def columns(self) -> list[str]:
-        return [spec[0] for spec in (self.power, self.current, self.voltage) if spec]
+        twice = self.twice or ()
+        return [spec[0] for spec in (self.power, self.current, self.voltage, *twice) if spec]
 
 
 def time_unit_of(name: str) -> tuple[bool, float | None]:

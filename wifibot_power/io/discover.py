@@ -4,6 +4,7 @@ run_id of each log whose run_id would otherwise be a file name another log of th
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -99,6 +100,14 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
                 elif found.is_file():
                     (manifests if is_manifest(found) else files).append(found)
                     roots.setdefault(found, path)
+                elif is_log_name(found) or is_manifest(found):
+                    odd = not_a_regular_file(found)  # a FIFO, a device, a link to nothing
+                    if odd is not None:
+                        skipped.append(Skipped(str(found), f"{found}: {odd}"))
+        elif (odd := not_a_regular_file(path)) is not None:
+            if len(paths) == 1 and not is_manifest(path):  # a single input: exit 2 (cli.md)
+                raise LogError(odd.removeprefix("not a log: "), file=path)
+            skipped.append(Skipped(str(path), f"{path}: {odd}"))
         elif is_manifest(path) and path.is_file():
             manifests.append(path)
             named_manifests.add(path)
@@ -120,6 +129,17 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
             skipped.append(Skipped(str(manifest), exc.one_line()))
             continue
         for row in rows:
+            if row.outside:
+                if manifest in named_manifests or not only_files:
+                    skipped.append(
+                        Skipped(
+                            str(row.file),
+                            f"{manifest}: line {row.line}: names '{row.name}', outside the "
+                            "manifest's folder: not read (a runs.csv names logs in its folder "
+                            "or below it; move the log there, or name it on the command line)",
+                        )
+                    )
+                continue
             if manifest in named_manifests and row.file not in wanted:
                 files.append(row.file)
                 wanted.add(row.file)
@@ -128,11 +148,17 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
                 overrides[row.file] = (row.values, f"{manifest} line {row.line}")
             elif manifest in named_manifests or not only_files or row.file in wanted:
                 # a manifest found beside a single file only matters for that file
+                odd = not_a_regular_file(row.file)
+                if row.file.is_dir():
+                    what = "which is a folder, not a log (name a log file in it)"
+                elif odd is None:
+                    what = "which does not exist (fix the row or restore the file)"
+                else:
+                    what = f"which is {odd.removeprefix('not a log: ')}"
                 skipped.append(
                     Skipped(
                         str(row.file),
-                        f"{manifest}: line {row.line}: names '{row.file.name}', which does not "
-                        "exist (fix the row or restore the file)",
+                        f"{manifest}: line {row.line}: names '{row.name}', {what}",
                     )
                 )
     sources = []
@@ -145,6 +171,32 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
             values, origin = overrides.get(real, ({}, None))
             sources.append(LogSource(file, values, origin))
     return _path_run_ids(sources, roots, resolved), skipped
+
+
+def not_a_regular_file(path: Path) -> str | None:
+    """Why `path` cannot be read as a log although something is there, or None (a regular
+    file, or nothing at all): a FIFO would block `open()` forever, a device never ends, a
+    link to nothing is no file. Said with a reason, never skipped in silence (issue 29)."""
+    import stat
+
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        if path.is_symlink():
+            return f"not a log: a link to nothing ({os.readlink(path)}) (fix the link or remove it)"
+        return None
+    except OSError:
+        return None  # (the reader says why: permission denied, ...)
+    kinds = (
+        (stat.S_ISFIFO, "a FIFO (named pipe)"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    )
+    for test, kind in kinds:
+        if test(mode):
+            return f"not a log: {kind}, not a regular file (give a file; copy a stream first)"
+    return None
 
 
 def _path_run_ids(

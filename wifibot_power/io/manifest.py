@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -44,6 +45,25 @@ class ManifestRow:
     line: int
     file: Path
     values: dict[str, str]
+    #: the file as the row names it
+    name: str = ""
+
+    @property
+    def outside(self) -> bool:
+        """Whether the row names a file outside the manifest's folder (an absolute path, or
+        `..` out of it): such rows are refused (`find_logs`), so that a runs.csv cannot make
+        wbpower read `/etc/shadow` or `../../elsewhere.csv`. Decided on the name as written:
+        a symbolic link placed in the folder is the folder owner's choice and is followed."""
+        return outside_folder(self.name)
+
+
+def outside_folder(name: str) -> bool:
+    """Whether a manifest's `file` cell leaves the manifest's folder: absolute, or `..`
+    beyond it once the path is normalised (`a/../b.csv` stays inside)."""
+    if not name or os.path.isabs(name) or name.startswith(("\\", "/")):
+        return True
+    normal = os.path.normpath(name.replace("\\", "/"))
+    return normal == ".." or normal.startswith("../")
 
 
 def is_manifest(path: Path) -> bool:
@@ -99,7 +119,7 @@ def read_manifest(path: Path) -> list[ManifestRow]:
                 fix="keep one row per file",
             )
         seen[file] = line_no
-        rows.append(ManifestRow(path, line_no, file, values))
+        rows.append(ManifestRow(path, line_no, file, values, name))
     return rows
 
 

@@ -40,10 +40,12 @@ from wifibot_power.io.transport import (
     head_lines,
     read_bytes,
     read_columns,
+    require_regular,
 )
 from wifibot_power.io.validate import (
     PowerScale,
     check_channels,
+    check_power_twice,
     check_samples,
     check_speed,
     check_yaw_rate,
@@ -75,6 +77,7 @@ def read_log(
     path = Path(path)
     file_format = file_format_of(path)
     if file_format is not None:  # a bag or a recording: read whole by its own library
+        require_regular(path)  # (a FIFO named *.jls would block its library's open forever)
         samples = file_format.read_samples(path, options)
         return samples_to_run(path, file_format, samples, options, overrides, origin)
     named = tuple(
@@ -113,7 +116,7 @@ def read_log(
     log_format.check_metadata(path, values)
     meta = build_meta(values, file=str(path), stem=log_stem(path), where="metadata", origins=where)
     scale = _power_scale(path, content, head, pre, sources, options, values, where)
-    power_W, channels_W, measured = _power(path, columns, sources, options.flip_current)
+    power_W, channels_W, measured, twice = _power(path, columns, sources, options.flip_current)
     if time_source is not None and time_source.index:
         _check_index(path, columns, time_source.column)
     time_s = _time(path, columns, time_source, meta.sample_period_s)
@@ -133,6 +136,9 @@ def read_log(
         scale=scale,
     )
     del measured
+    for said in twice:  # after `check_samples`: a unit mistake is named as such first
+        check_power_twice(str(path), *said)
+    del twice
     check_channels(str(path), channels_W)
     if speed_mps is not None:
         named_speed = speed_column or f"{turning.speed_left}, {turning.speed_right}"
@@ -348,17 +354,32 @@ def _scaled(values: np.ndarray, scale: float) -> np.ndarray:
     return values * scale
 
 
+#: A power column said twice: (its name, power [W]), (current name, [A]), (voltage name, [V])
+PowerTwice = tuple[tuple[str, np.ndarray], tuple[str, np.ndarray], tuple[str, np.ndarray]]
+
+
 def _power(
     path: Path, columns: Columns, sources: list[PowerSource], flip: bool
-) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:
-    """Power [W] (the sum of the channels), each channel's power when there are several, and
-    the measured columns power comes from (checked for clipping)."""
+) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray], list[PowerTwice]]:
+    """Power [W] (the sum of the channels), each channel's power when there are several, the
+    measured columns power comes from (checked for clipping), and the power columns the log
+    says twice with the current and voltage beside them (`validate.check_power_twice`)."""
     measured: dict[str, np.ndarray] = {}
     channels: dict[str, np.ndarray] = {}
+    twice: list[PowerTwice] = []
     for source in sources:
         if source.power:
             power_W = _column(path, columns, source.power)
             measured[source.power[0]] = power_W
+            if source.twice:  # the log says the power twice: the two must agree
+                current, voltage = source.twice
+                twice.append(
+                    (
+                        (source.power[0], power_W),
+                        (current[0], _column(path, columns, current)),
+                        (voltage[0], _column(path, columns, voltage)),
+                    )
+                )
         else:
             current_A = _column(path, columns, source.current)
             measured[source.current[0]] = current_A
@@ -372,9 +393,9 @@ def _power(
             power_W = -power_W  # a new array: the measured columns stay as measured
         channels[source.name] = power_W
     if len(channels) == 1:
-        return next(iter(channels.values())), {}, measured
+        return next(iter(channels.values())), {}, measured, twice
     total_W = np.sum(list(channels.values()), axis=0)
-    return total_W, channels, measured
+    return total_W, channels, measured, twice
 
 
 def _time(

@@ -22,6 +22,7 @@ import contextlib
 import csv
 import os
 import re
+import stat
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
@@ -99,8 +100,25 @@ def read_errors(path: Path) -> Iterator[None]:
         ) from None
 
 
+def require_regular(path: Path) -> None:
+    """Refuse what is not a regular file before it is opened: a FIFO blocks `open()` forever
+    (and Ctrl-C cannot end a wait inside pyarrow), a device never ends. A missing file is
+    left to `open()` (its own error)."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return
+    if not stat.S_ISREG(mode) and not stat.S_ISDIR(mode):
+        raise LogError(
+            "not a regular file (a FIFO, device or socket)",
+            file=path,
+            fix="give a file; copy a stream to a file first",
+        )
+
+
 def read_bytes(path: Path) -> bytes:
     """The file's bytes, decompressed by extension (.gz, .zst)."""
+    require_regular(path)
     with read_errors(path):
         codec = codec_of(path)
         if codec is not None:
@@ -121,6 +139,7 @@ class Content:
         """A stream of the bytes from the start (errors surface as they are read)."""
         if self.data is not None:
             return pa.BufferReader(self.data)
+        require_regular(self.path)
         return pa.input_stream(str(self.path), compression=codec_of(self.path))
 
     def head(self) -> bytes:
@@ -341,6 +360,49 @@ def _line_start(head: bytes, index: int) -> int:
     return len(head)
 
 
+#: The longest line read [bytes]: a log's line is a few dozen bytes (a few hundred with many
+#: channels); pyarrow parses in blocks of `_BLOCK_BYTES` and cannot parse a line longer than
+#: one. A longer line is an error naming it (`LineTooLongError`), found in time linear in its
+#: length (issue 29: a 200 MB line took 16.5 s, 1 GB over 300 s).
+MAX_LINE_BYTES = _BLOCK_BYTES
+
+
+class LineTooLongError(Exception):
+    """A line longer than `MAX_LINE_BYTES` starts at byte `start` of the content."""
+
+    def __init__(self, start: int) -> None:
+        super().__init__(start)
+        self.start = start
+
+
+def _long_line_error(path: Path, content: Content, pre: TextLayout, start: int) -> LogError:
+    line = LineMap(content, pre.header_line, start).line_count() + 1
+    return LogError(
+        f"line longer than {MAX_LINE_BYTES >> 20} MiB (a log's line is a few dozen bytes)",
+        file=path,
+        where=f"line {line}",
+        fix="the file is not a log, or its line ends are missing or not \\n, \\r\\n or \\r; "
+        "fix or delete that line",
+    )
+
+
+def _find_long_line(content: Content) -> int | None:
+    """Where the first line longer than `MAX_LINE_BYTES` starts, by one pass over the
+    content (vectorised per read), or None."""
+    offset = 0  # of the chunk in the content
+    line_start = 0
+    for chunk in content.chunks():
+        data = np.frombuffer(chunk, dtype=np.uint8)
+        ends = np.flatnonzero((data == 10) | (data == 13)) + offset
+        starts = np.concatenate(([line_start], ends + 1))
+        lengths = np.append(ends, offset + len(chunk)) - starts
+        if lengths.size and int(lengths.max()) > MAX_LINE_BYTES:
+            return int(starts[int(np.argmax(lengths > MAX_LINE_BYTES))])
+        line_start = int(starts[-1])
+        offset += len(chunk)
+    return None
+
+
 #: Bytes read at a time when the stream is watched for a cut last line (`_Pieces`): the
 #: parse's block size, so memory is as when pyarrow reads the file itself.
 _PIECE_BYTES = _BLOCK_BYTES
@@ -396,6 +458,10 @@ class _Pieces:
         self._header_start = header_start
         self._consumed = 0  # bytes taken from `stream` and looked at
         self._carry = b""  # the bytes after the last line end seen (part of a line)
+        #: more of that line, read since: joined once its end comes (`_carried`), so a long
+        #: line costs time linear in its length, not quadratic
+        self._more: list[bytes] = []
+        self._more_bytes = 0
         self._coming: Future[pa.Buffer] | None = None  # the read under way
         self._ended = False
         self.cut_at: int | None = None
@@ -420,14 +486,15 @@ class _Pieces:
                 if not chunk.size:
                     break
                 self._coming = ahead.submit(self._read)
-                carry, start = self._carry, self._consumed - len(self._carry)
+                start = self._consumed - len(self._carry) - self._more_bytes
                 self._consumed += chunk.size
                 last = _last_line_end(chunk)
                 # the first piece holds the whole header line (pyarrow skips up to it)
-                header_in = start + len(carry) + last >= self._header_start
+                header_in = self._consumed - chunk.size + last >= self._header_start
                 if last < 0 or not (header_done or header_in):
-                    self._carry += chunk.to_pybytes()  # a line longer than a read: read on
+                    self._read_on(chunk, start)  # a line longer than a read
                     continue
+                carry = self._carried()
                 self._carry = chunk.slice(last + 1).to_pybytes()
                 if not header_done:  # lines up to the header may span reads: one piece, once
                     header_done = True
@@ -443,7 +510,23 @@ class _Pieces:
             ahead.shutdown(wait=True)  # no read left under way: the stream may be closed
         self._end()
 
+    def _read_on(self, chunk: pa.Buffer, start: int) -> None:
+        """`chunk` holds no line end: more of the line that starts at `start`, kept until
+        its end comes; a line longer than `MAX_LINE_BYTES` stops the read (`LineTooLongError`)."""
+        self._more.append(chunk.to_pybytes())
+        self._more_bytes += chunk.size
+        if len(self._carry) + self._more_bytes > MAX_LINE_BYTES and start >= self._header_start:
+            raise LineTooLongError(start)
+
+    def _carried(self) -> bytes:
+        """The part-line carried over, whole (`_read_on`)."""
+        if self._more:
+            self._carry = b"".join([self._carry, *self._more])
+            self._more, self._more_bytes = [], 0
+        return self._carry
+
     def _end(self) -> None:
+        self._carried()
         self._ended = True
         tail_start = self._consumed - len(self._carry)
         if self._carry.strip() and tail_start > self._header_start:
@@ -462,11 +545,13 @@ class _Pieces:
         with contextlib.suppress(OSError, pa.ArrowException):
             chunk = self._coming.result() if self._coming is not None else self._read()
             while chunk.size:
+                start = self._consumed - len(self._carry) - self._more_bytes
                 self._consumed += chunk.size
                 last = _last_line_end(chunk)
                 if last < 0:
-                    self._carry += chunk.to_pybytes()
+                    self._read_on(chunk, start)
                 else:
+                    self._more, self._more_bytes = [], 0
                     self._carry = chunk.slice(last + 1).to_pybytes()
                 chunk = self._read()
             self._end()
@@ -587,7 +672,13 @@ def read_columns(
                 )
             )
             del tables
+    except LineTooLongError as long:
+        raise _long_line_error(path, content, pre, long.start) from None
     except (OSError, pa.ArrowException) as exc:
+        if "straddling object" in str(exc):  # pyarrow met a line longer than a block
+            start = _find_long_line(content)
+            if start is not None:
+                raise _long_line_error(path, content, pre, start) from None
         if pieces is not None:
             parts.close()  # the read under way is done: what it read is looked at next
             pieces.drain()

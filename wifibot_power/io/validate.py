@@ -692,3 +692,70 @@ def _require_finite(
             fix="fix or delete that line",
         )
     return float(low), float(high)
+
+
+#: How far a power column and the product of the voltage and current columns beside it
+#: may disagree, as a share of their energy, before the log is refused
+#: (`check_power_twice`). Each of voltage and current is good to about 1% on the loggers
+#: seen (INA219/INA226-class sensors 0.5-1%, a Keysight N6705 0.1%), so their product to
+#: about 2%; an instrument's power averaged over a sample interval (mean of V x I) differs
+#: from the product of the averaged V and I by the covariance within the interval, a few
+#: percent at most for a PWM motor load. 5% leaves room for both; a mW column in a W
+#: column (1000x) or a wrong scale of 1.5x is far outside.
+POWER_TWICE_TOLERANCE = 0.05
+
+
+def _written_step(values: np.ndarray, sample: int = 10_000) -> float:
+    """The step of the decimals a column is written with (0.01 for "12.61"), read off its
+    first `sample` finite values: the largest 10^-d of which they are all multiples (to
+    1e-6 of a step); 0 where they carry more than 9 decimals."""
+    head = values[:sample]
+    head = head[np.isfinite(head)]
+    for decimals in range(10):
+        scaled = head * 10.0**decimals
+        if np.all(np.abs(scaled - np.rint(scaled)) <= 1e-6 + 1e-12 * np.abs(scaled)):
+            return 10.0**-decimals
+    return 0.0
+
+
+def check_power_twice(
+    file: str,
+    power: tuple[str, np.ndarray],
+    current: tuple[str, np.ndarray],
+    voltage: tuple[str, np.ndarray],
+) -> None:
+    """A log that says its power twice (a power column, and voltage and current columns
+    of the same channel) must agree with itself: the energy of the power column and that of
+    voltage x current, sample by sample, within `POWER_TWICE_TOLERANCE` of the larger plus
+    what rounding the numbers as written can make (half a step of the decimals of each
+    column, `_written_step`), over the samples where all three are finite numbers. Else a
+    one-line error naming the columns: the power column would otherwise be trusted
+    whatever it holds (issue 29).
+
+    P = V x I (Joule's law for the electrical power a DC load draws)."""
+    (power_name, power_W), (current_name, current_A), (voltage_name, voltage_V) = (
+        power,
+        current,
+        voltage,
+    )
+    product_W = current_A * voltage_V
+    both = np.isfinite(power_W) & np.isfinite(product_W)
+    column_J = float(np.sum(power_W, where=both))  # per sample: energy / sample period
+    product_J = float(np.sum(product_W, where=both))
+    scale_J = max(
+        float(np.sum(np.abs(power_W), where=both)), float(np.sum(np.abs(product_W), where=both))
+    )
+    # the numbers as written are rounded: V x I is off by up to half a step of each
+    step_V, step_A, step_W = (_written_step(x) for x in (voltage_V, current_A, power_W))
+    rounding_W = 0.5 * (np.abs(voltage_V) * step_A + np.abs(current_A) * step_V + step_W)
+    rounding_J = float(np.sum(rounding_W, where=both)) + 0.5 * step_V * step_A * both.sum()
+    if abs(column_J - product_J) <= POWER_TWICE_TOLERANCE * scale_J + rounding_J:
+        return
+    ratio = f"{column_J / product_J:.4g}x" if product_J else "not 0 where they give 0"
+    raise LogError(
+        f"column '{power_name}' disagrees with '{voltage_name}' x '{current_name}' (its energy "
+        f"is {ratio} theirs, over {POWER_TWICE_TOLERANCE:.0%} apart)",
+        file=file,
+        fix="check the units of the columns (a power in mW in a W column?), or name the ones "
+        "to use with --power-column, or --current-column and --voltage-column",
+    )

@@ -154,6 +154,7 @@ class Canonical(LogFormat):
         current, voltage = first("current_a", "current_ma"), first("voltage_v", "voltage_mv")
         if power:
             # current and voltage logged beside it judge its unit (validate.check_power_scale)
+            # and, both there, must agree with it (validate.check_power_twice)
             return [PowerSource(power=power, logged_current=current, logged_voltage=voltage)]
         if current and voltage:
             return [PowerSource(current=current, voltage=voltage)]
@@ -253,7 +254,17 @@ def _channels(
     sources = []
     for channel, quantities in found.items():
         if "power" in quantities:
-            sources.append(PowerSource(power=quantities["power"], name=channel))
+            # its current and voltage, both logged, say its power twice (`PowerSource.twice`)
+            current, voltage = quantities.get("current"), quantities.get("voltage")
+            both = current is not None and voltage is not None
+            sources.append(
+                PowerSource(
+                    power=quantities["power"],
+                    name=channel,
+                    logged_current=current if both else None,
+                    logged_voltage=voltage if both else None,
+                )
+            )
         elif "current" in quantities:
             voltage = quantities.get("voltage", shared_voltage)
             if voltage is None and options.supply_voltage_V is None:

@@ -1,0 +1,113 @@
+"""A log that says its power twice (a power column and voltage x current) must agree with
+itself (issue 29): the power column is not trusted when its own voltage and current say
+otherwise. Tolerance: `validate.POWER_TWICE_TOLERANCE` (5% of the energy)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wifibot_power.errors import LogError
+from wifibot_power.io import read_log
+from wifibot_power.io.validate import POWER_TWICE_TOLERANCE
+
+N = 500
+
+
+def _canonical(tmp_path: Path, power_W, voltage_V, current_A, header=None) -> Path:
+    header = header or "time_s,voltage_V,current_A,power_W"
+    path = tmp_path / "twice.csv"
+    lines = [
+        f"{k * 0.01:.2f},{v:.5f},{i:.5f},{p:.5f}"
+        for k, (v, i, p) in enumerate(zip(voltage_V, current_A, power_W, strict=True))
+    ]
+    path.write_text(f"{header}\n" + "\n".join(lines) + "\n")
+    return path
+
+
+def _const(value: float) -> np.ndarray:
+    return np.full(N, value)
+
+
+@pytest.mark.parametrize(
+    ("power_W", "volts", "amps", "ratio"),
+    [
+        (36.0, 12.0, 2.0, "1.5x"),  # a 1.5x mismatch
+        (240.0, 12.0, 2.0, "10x"),  # 10x: within the unit-mistake check's 30x, caught here
+        (24.0, 12.0, -2.0, "-1x"),  # the current's sign against the power's
+    ],
+)
+def test_a_power_column_that_disagrees_with_voltage_x_current_is_refused(
+    tmp_path, wbpower, power_W, volts, amps, ratio
+):
+    path = _canonical(tmp_path, _const(power_W), _const(volts), _const(amps))
+    with pytest.raises(LogError) as error:
+        read_log(path)
+    message = error.value.one_line()
+    for needle in ("'power_W'", "'voltage_V'", "'current_A'", ratio, str(path)):
+        assert needle in message, (needle, message)
+    result = wbpower("inspect", path)
+    assert result.exit_code == 2
+    assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_a_unit_mistake_is_named_as_such_before_the_disagreement(tmp_path, wbpower):
+    # the issue's repro, mW in a W column (1000x): the reader's unit-mistake check
+    # (`validate.check_power_scale`, 30x off V x I) speaks first, with its own message
+    path = _canonical(tmp_path, _const(900.0), _const(5.0), _const(0.18))
+    with pytest.raises(LogError) as error:
+        read_log(path)
+    message = error.value.one_line()
+    assert "power column 'power_W' is 1e+03 times the voltage x current" in message, message
+    assert "disagrees" not in message
+    result = wbpower("inspect", path)
+    assert result.exit_code == 2
+    assert len(result.stderr.strip().splitlines()) == 1
+    # a unit slip after the first lines the unit check looks at is still caught, whole column
+    power_W = np.r_[np.full(100, 10.0), np.full(N - 100, 10_000.0)]
+    with pytest.raises(LogError, match="'power_W' disagrees with 'voltage_V' x 'current_A'"):
+        read_log(_canonical(tmp_path, power_W, _const(5.0), _const(2.0)))
+
+
+def test_agreeing_columns_are_read_within_the_stated_tolerance(tmp_path):
+    rng = np.random.default_rng(0)
+    volts = 12.0 + 0.2 * rng.standard_normal(N)
+    amps = 2.0 + 0.5 * rng.standard_normal(N)
+    # 1% noise per sample and 3% less overall (an instrument's mean of V x I): read
+    power_W = 0.97 * volts * amps * (1 + 0.01 * rng.standard_normal(N))
+    run = read_log(_canonical(tmp_path, power_W, volts, amps))
+    np.testing.assert_allclose(run.power_W, np.round(power_W, 5))  # the power column itself
+    # just past the tolerance: refused
+    over = (1 + 1.2 * POWER_TWICE_TOLERANCE) * volts * amps
+    with pytest.raises(LogError, match="disagrees"):
+        read_log(_canonical(tmp_path, over, volts, amps))
+
+
+def test_naming_the_power_column_is_the_way_out(tmp_path, wbpower):
+    path = _canonical(tmp_path, _const(0.9), _const(5.0), _const(0.18 * 1000))
+    assert wbpower("inspect", path).exit_code == 2
+    # the user says which one is right: read as named
+    result = wbpower("inspect", "--json", "--power-column", "power_W", path)
+    assert result.exit_code == 0, result.stderr
+    result = wbpower(
+        "inspect", "--json", "--current-column", "current_A", "--voltage-column", "voltage_V", path
+    )
+    assert result.exit_code == 0, result.stderr
+
+
+def test_channels_and_the_analyser_export_are_checked_too(tmp_path):
+    header = "time_s,power_left_W,voltage_left_V,current_left_A"
+    path = tmp_path / "channels.csv"
+    path.write_text(header + "\n" + "".join(f"{k * 0.01:.2f},1.35,5,0.18\n" for k in range(N)))
+    with pytest.raises(LogError, match="'power_left_W' disagrees with 'voltage_left_V'"):
+        read_log(path)
+    n6705 = tmp_path / "n6705.csv"
+    n6705.write_text(
+        'N6705C exported datalog\n\n"Sample interval: 0.001"\n\n'
+        'Sample,"Curr avg 1","Volt avg 1","Power avg 1"\n'
+        + "".join(f"{k},0.18,5,1.35\n" for k in range(N))
+    )
+    with pytest.raises(LogError, match="'Power avg 1' disagrees with 'Volt avg 1'"):
+        read_log(n6705)
