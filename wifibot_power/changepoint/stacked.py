@@ -89,66 +89,13 @@ def _stacked_splits(
     max_deg = max(deg_left, deg_right)
     if max_deg > 3:
         raise ValueError(f"polynomial pieces up to degree 3, not {max_deg}")
-    count = len(rows)
-    lows = np.array([r[1] for r in rows], dtype=np.int64)
+    terms, offsets = _stacked_prefix_sums(y, rows, max_deg)
     sizes = np.array([r[2] for r in rows], dtype=np.int64)
     leasts = np.array([r[3] for r in rows], dtype=np.int64)
-    longest = int(sizes.max())
-    # each window's mean as `_PolyCost` takes it: its own pairwise sum over its own count
-    offsets = np.array([float(np.add.reduce(y[lo : lo + n]) / n) for _, lo, n, _ in rows])
-    column = np.arange(longest + 1)
-    inside = column[None, 1:] <= sizes[:, None]
-    gathered = y[np.minimum(lows[:, None] + column[None, :-1], y.size - 1)]
-    # u of each window (`_window_positions`), and the prefix sums of u^q y and y^2 per row;
-    # a split s's left piece sums prefix[s], and every s = 0..longest is a column (the
-    # splits a window does not allow are masked at the end): whole rows, no strided views
-    scale = sizes.astype(np.float64)[:, None]
-    position = column[:-1].astype(np.float64)
-    u = (position[None, :] - ((sizes - 1) / 2.0)[:, None]) / scale
-    terms = np.empty((max_deg + 2, count, longest + 1))
-    terms[:, :, 0] = 0.0
-    yc = terms[0, :, 1:]
-    np.subtract(gathered, offsets[:, None], out=yc)
-    yc[~inside] = 0.0  # past a window's end: nothing added to its sums
-    for q in range(1, max_deg + 1):
-        np.multiply(terms[q - 1, :, 1:], u, out=terms[q, :, 1:])
-    np.multiply(yc, yc, out=terms[-1, :, 1:])
-    terms.cumsum(axis=2, out=terms)
-    totals = terms[:, np.arange(count), sizes][:, :, None]  # over each whole window
+    column = np.arange(int(sizes.max()) + 1)
     valid = (column[None, :] >= leasts[:, None]) & (column[None, :] <= (sizes - leasts)[:, None])
-
-    def fit(deg: int, left: bool) -> tuple[np.ndarray, list[np.ndarray]]:
-        # `_PolyCost.fit_splits` and `_PieceShape` on every row at once; masked splits get
-        # a piece length the G⁻¹ table holds (valid ones are >= deg + 2)
-        m = deg + 1
-        if left:
-            sums = [terms[q] for q in range(m)]
-            y2 = terms[-1]
-            length = np.maximum(column, deg + 1)[None, :]
-        else:
-            sums = [totals[q] - terms[q] for q in range(m)]
-            y2 = totals[-1] - terms[-1]
-            length = np.maximum(sizes[:, None] - column[None, :], deg + 1)
-        shift_pow: list[np.ndarray] = []
-        ratio_pow: list[np.ndarray] = []
-        pair_terms: dict[tuple[int, int], np.ndarray] = {}
-        if m > 1:
-            shift = (((sizes[:, None] - column) if left else (-column[None, :])) * 0.5) / scale
-            ratio = scale / length
-            shift_pow, ratio_pow = [None, shift], [None, ratio]  # type: ignore[list-item]
-            for _ in range(2, m):
-                shift_pow.append(shift_pow[-1] * shift)
-                ratio_pow.append(ratio_pow[-1] * ratio)
-            for p in range(1, m):
-                for q in range(1, p):
-                    pair_terms[p, q] = math.comb(p, q) * shift_pow[p - q]
-        table = _gram_inverse(deg, longest)  # no piece is longer than the longest window
-        rhs = _own_basis_rhs(sums, shift_pow, pair_terms, ratio_pow)
-        coef, explained = _solve(rhs, {key: row[length] for key, row in table.items()})
-        return np.maximum(y2 - explained, 0.0), coef
-
-    sse_left, coef_left = fit(deg_left, left=True)
-    sse_right, coef_right = fit(deg_right, left=False)
+    sse_left, coef_left = _stacked_fit(terms, sizes, deg_left, left=True)
+    sse_right, coef_right = _stacked_fit(terms, sizes, deg_right, left=False)
     total = sse_left + sse_right
     total[~valid] = np.inf
     if jump_sign:
@@ -159,7 +106,7 @@ def _stacked_splits(
         total[~allowed] = np.inf
     # each window's best split and its pieces, as Python floats (the same doubles: the
     # pieces' values by the same float operations as `best_split`'s on numpy scalars)
-    row, best = np.arange(count), total.argmin(axis=1)
+    row, best = np.arange(len(rows)), total.argmin(axis=1)
     lefts = list(zip(*(c[row, best].tolist() for c in coef_left), strict=True))
     rights = list(zip(*(c[row, best].tolist() for c in coef_right), strict=True))
     return [
@@ -181,3 +128,75 @@ def _stacked_splits(
             strict=True,
         )
     ]
+
+
+def _stacked_prefix_sums(
+    y: np.ndarray, rows: list[tuple[int, int, int, int]], max_deg: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """`_PolyCost`'s prefix sums for every window (index, lo, length, min_len) at once:
+    `terms[q]` holds each window's prefix sums of u^q y (q = 0..max_deg) and `terms[-1]` of
+    y^2, a window a row padded to the longest; and each window's mean (`offsets`)."""
+    count = len(rows)
+    lows = np.array([r[1] for r in rows], dtype=np.int64)
+    sizes = np.array([r[2] for r in rows], dtype=np.int64)
+    longest = int(sizes.max())
+    # each window's mean as `_PolyCost` takes it: its own pairwise sum over its own count
+    offsets = np.array([float(np.add.reduce(y[lo : lo + n]) / n) for _, lo, n, _ in rows])
+    column = np.arange(longest + 1)
+    inside = column[None, 1:] <= sizes[:, None]
+    gathered = y[np.minimum(lows[:, None] + column[None, :-1], y.size - 1)]
+    # u of each window (`_window_positions`), and the prefix sums of u^q y and y^2 per row;
+    # a split s's left piece sums prefix[s], and every s = 0..longest is a column (the
+    # splits a window does not allow are masked at the end): whole rows, no strided views
+    scale = sizes.astype(np.float64)[:, None]
+    position = column[:-1].astype(np.float64)
+    u = (position[None, :] - ((sizes - 1) / 2.0)[:, None]) / scale
+    terms = np.empty((max_deg + 2, count, longest + 1))
+    terms[:, :, 0] = 0.0
+    yc = terms[0, :, 1:]
+    np.subtract(gathered, offsets[:, None], out=yc)
+    yc[~inside] = 0.0  # past a window's end: nothing added to its sums
+    for q in range(1, max_deg + 1):
+        np.multiply(terms[q - 1, :, 1:], u, out=terms[q, :, 1:])
+    np.multiply(yc, yc, out=terms[-1, :, 1:])
+    terms.cumsum(axis=2, out=terms)
+    return terms, offsets
+
+
+def _stacked_fit(
+    terms: np.ndarray, sizes: np.ndarray, deg: int, left: bool
+) -> tuple[np.ndarray, list[np.ndarray]]:
+    """`_PolyCost.fit_splits` and `_PieceShape` on every row of `_stacked_prefix_sums` at
+    once: the SSE of the degree-`deg` piece left (or right) of every split s = 0..longest,
+    and its coefficients by power. Masked splits get a piece length the G⁻¹ table holds
+    (valid ones are >= deg + 2)."""
+    m = deg + 1
+    longest = terms.shape[2] - 1
+    column = np.arange(longest + 1)
+    scale = sizes.astype(np.float64)[:, None]
+    if left:
+        sums = [terms[q] for q in range(m)]
+        y2 = terms[-1]
+        length = np.maximum(column, deg + 1)[None, :]
+    else:
+        totals = terms[:, np.arange(sizes.size), sizes][:, :, None]  # over each whole window
+        sums = [totals[q] - terms[q] for q in range(m)]
+        y2 = totals[-1] - terms[-1]
+        length = np.maximum(sizes[:, None] - column[None, :], deg + 1)
+    shift_pow: list[np.ndarray] = []
+    ratio_pow: list[np.ndarray] = []
+    pair_terms: dict[tuple[int, int], np.ndarray] = {}
+    if m > 1:
+        shift = (((sizes[:, None] - column) if left else (-column[None, :])) * 0.5) / scale
+        ratio = scale / length
+        shift_pow, ratio_pow = [None, shift], [None, ratio]  # type: ignore[list-item]
+        for _ in range(2, m):
+            shift_pow.append(shift_pow[-1] * shift)
+            ratio_pow.append(ratio_pow[-1] * ratio)
+        for p in range(1, m):
+            for q in range(1, p):
+                pair_terms[p, q] = math.comb(p, q) * shift_pow[p - q]
+    table = _gram_inverse(deg, longest)  # no piece is longer than the longest window
+    rhs = _own_basis_rhs(sums, shift_pow, pair_terms, ratio_pow)
+    coef, explained = _solve(rhs, {key: row[length] for key, row in table.items()})
+    return np.maximum(y2 - explained, 0.0), coef
