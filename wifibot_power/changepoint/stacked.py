@@ -89,13 +89,14 @@ def _stacked_splits(
     max_deg = max(deg_left, deg_right)
     if max_deg > 3:
         raise ValueError(f"polynomial pieces up to degree 3, not {max_deg}")
-    terms, offsets = _stacked_prefix_sums(y, rows, max_deg)
     sizes = np.array([r[2] for r in rows], dtype=np.int64)
     leasts = np.array([r[3] for r in rows], dtype=np.int64)
     column = np.arange(int(sizes.max()) + 1)
+    scale = sizes.astype(np.float64)[:, None]
+    terms, offsets = _stacked_prefix_sums(y, rows, sizes, column, scale, max_deg)
     valid = (column[None, :] >= leasts[:, None]) & (column[None, :] <= (sizes - leasts)[:, None])
-    sse_left, coef_left = _stacked_fit(terms, sizes, deg_left, left=True)
-    sse_right, coef_right = _stacked_fit(terms, sizes, deg_right, left=False)
+    sse_left, coef_left = _stacked_fit(terms, sizes, column, scale, deg_left, left=True)
+    sse_right, coef_right = _stacked_fit(terms, sizes, column, scale, deg_right, left=False)
     total = sse_left + sse_right
     total[~valid] = np.inf
     if jump_sign:
@@ -131,24 +132,27 @@ def _stacked_splits(
 
 
 def _stacked_prefix_sums(
-    y: np.ndarray, rows: list[tuple[int, int, int, int]], max_deg: int
+    y: np.ndarray,
+    rows: list[tuple[int, int, int, int]],
+    sizes: np.ndarray,
+    column: np.ndarray,
+    scale: np.ndarray,
+    max_deg: int,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """`_PolyCost`'s prefix sums for every window (index, lo, length, min_len) at once:
+    """`_PolyCost`'s prefix sums for every window (index, lo, length, min_len) at once
+    (`sizes`: the lengths; `column`: 0..longest; `scale`: the lengths as floats, a column):
     `terms[q]` holds each window's prefix sums of u^q y (q = 0..max_deg) and `terms[-1]` of
     y^2, a window a row padded to the longest; and each window's mean (`offsets`)."""
     count = len(rows)
     lows = np.array([r[1] for r in rows], dtype=np.int64)
-    sizes = np.array([r[2] for r in rows], dtype=np.int64)
-    longest = int(sizes.max())
+    longest = column.size - 1
     # each window's mean as `_PolyCost` takes it: its own pairwise sum over its own count
     offsets = np.array([float(np.add.reduce(y[lo : lo + n]) / n) for _, lo, n, _ in rows])
-    column = np.arange(longest + 1)
     inside = column[None, 1:] <= sizes[:, None]
     gathered = y[np.minimum(lows[:, None] + column[None, :-1], y.size - 1)]
     # u of each window (`_window_positions`), and the prefix sums of u^q y and y^2 per row;
     # a split s's left piece sums prefix[s], and every s = 0..longest is a column (the
     # splits a window does not allow are masked at the end): whole rows, no strided views
-    scale = sizes.astype(np.float64)[:, None]
     position = column[:-1].astype(np.float64)
     u = (position[None, :] - ((sizes - 1) / 2.0)[:, None]) / scale
     terms = np.empty((max_deg + 2, count, longest + 1))
@@ -164,16 +168,18 @@ def _stacked_prefix_sums(
 
 
 def _stacked_fit(
-    terms: np.ndarray, sizes: np.ndarray, deg: int, left: bool
+    terms: np.ndarray,
+    sizes: np.ndarray,
+    column: np.ndarray,
+    scale: np.ndarray,
+    deg: int,
+    left: bool,
 ) -> tuple[np.ndarray, list[np.ndarray]]:
     """`_PolyCost.fit_splits` and `_PieceShape` on every row of `_stacked_prefix_sums` at
-    once: the SSE of the degree-`deg` piece left (or right) of every split s = 0..longest,
-    and its coefficients by power. Masked splits get a piece length the G⁻¹ table holds
-    (valid ones are >= deg + 2)."""
+    once (its `sizes`, `column`, `scale`): the SSE of the degree-`deg` piece left (or right)
+    of every split s = 0..longest, and its coefficients by power. Masked splits get a piece
+    length the G⁻¹ table holds (valid ones are >= deg + 2)."""
     m = deg + 1
-    longest = terms.shape[2] - 1
-    column = np.arange(longest + 1)
-    scale = sizes.astype(np.float64)[:, None]
     if left:
         sums = [terms[q] for q in range(m)]
         y2 = terms[-1]
@@ -196,7 +202,7 @@ def _stacked_fit(
         for p in range(1, m):
             for q in range(1, p):
                 pair_terms[p, q] = math.comb(p, q) * shift_pow[p - q]
-    table = _gram_inverse(deg, longest)  # no piece is longer than the longest window
+    table = _gram_inverse(deg, column.size - 1)  # no piece is longer than the longest window
     rhs = _own_basis_rhs(sums, shift_pow, pair_terms, ratio_pow)
     coef, explained = _solve(rhs, {key: row[length] for key, row in table.items()})
     return np.maximum(y2 - explained, 0.0), coef
