@@ -18,7 +18,6 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
-from wifibot_power import changepoint
 from wifibot_power.changepoint import (
     LevelParams,
     _centred_power_sum,
@@ -35,6 +34,8 @@ from wifibot_power.changepoint import (
     robust_sigma_W,
     sliding_max,
 )
+from wifibot_power.changepoint import splits as changepoint_splits
+from wifibot_power.changepoint import stacked as changepoint_stacked
 from wifibot_power.cli import app
 from wifibot_power.errors import LogError
 from wifibot_power.io.writer import format_log, write_log
@@ -686,7 +687,7 @@ def test_best_split_is_the_least_squares_split(
 
 
 def test_best_split_same_whether_its_window_shapes_are_kept_or_not(monkeypatch) -> None:
-    """`best_split` keeps what depends on a window's shape alone (`changepoint._piece_shape`,
+    """`best_split` keeps what depends on a window's shape alone (`_piece_shape`,
     `_window_positions`) for later calls: each split is the same, bit for bit, made with
     nothing kept, with everything kept, and with a store so small it is emptied every few
     calls (the same shape under another degree, side or range must not be taken for it,
@@ -705,21 +706,21 @@ def test_best_split_same_whether_its_window_shapes_are_kept_or_not(monkeypatch) 
         found = []
         for y, deg_left, deg_right, min_len, sign in cases:
             if clear_each:
-                changepoint._SHAPES.clear()
-                changepoint._SHAPES_SIZE[0] = 0
-                changepoint._POSITIONS.clear()
+                changepoint_splits._SHAPES.clear()
+                changepoint_splits._SHAPES_SIZE[0] = 0
+                changepoint_splits._POSITIONS.clear()
             found.append(best_split(y, 0, y.size, deg_left, deg_right, min_len, jump_sign=sign))
-            assert changepoint._SHAPES_SIZE[0] <= changepoint._SHAPES_MAX_SIZE
+            assert changepoint_splits._SHAPES_SIZE[0] <= changepoint_splits._SHAPES_MAX_SIZE
         return found
 
     cold = splits(clear_each=True)
     assert splits(clear_each=False) == cold
     assert splits(clear_each=False) == cold  # every shape kept by now
-    monkeypatch.setattr(changepoint, "_SHAPES_MAX_SIZE", 4000)  # emptied every dozen shapes
-    changepoint._SHAPES.clear()
-    changepoint._SHAPES_SIZE[0] = 0
+    monkeypatch.setattr(changepoint_splits, "_SHAPES_MAX_SIZE", 4000)  # emptied every dozen shapes
+    changepoint_splits._SHAPES.clear()
+    changepoint_splits._SHAPES_SIZE[0] = 0
     assert splits(clear_each=False) == cold
-    assert 0 < len(changepoint._SHAPES) < 40  # some were kept, and some let go
+    assert 0 < len(changepoint_splits._SHAPES) < 40  # some were kept, and some let go
     for (y, deg_left, deg_right, min_len, sign), split in zip(cases, cold, strict=True):
         if sign == 0:
             brute = _brute_best_split(y, deg_left, deg_right, max(min_len, 5))
@@ -789,7 +790,7 @@ def test_best_splits_are_best_split_bit_for_bit() -> None:
             own = window[2] if len(window) > 2 else min_len
             assert split == best_split(y, window[0], window[1], deg_left, deg_right, own, sign)
             compared += 1
-            stacked += min(window[1], n) - max(window[0], 0) <= changepoint._STACKED_MAX
+            stacked += min(window[1], n) - max(window[0], 0) <= changepoint_stacked._STACKED_MAX
     assert compared > 150 and stacked > 100  # both ways taken, many times
 
 

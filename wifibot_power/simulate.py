@@ -289,21 +289,7 @@ def _simulate_one(
         return _finish(spec, config, rng, clean_W, phases, truth, started_at, order, None)
 
     plan, t_acc_s, t_dec_s = _profile(spec, config)
-    counts = np.array([p[2] for p in plan])
-    n = int(counts.sum())
-    bounds = np.concatenate(([0], np.cumsum(counts)))
-    speed = np.zeros(n)
-    accel = np.zeros(n)
-    kind = np.zeros(n, dtype=np.int8)  # 0 idle, 1 accel, 2 cruise, 3 decel
-    codes = {"idle": 0, "accel": 1, "cruise": 2, "decel": 3}
-    for (name, _, count, v0, v1), start in zip(plan, bounds[:-1], strict=True):
-        if count == 0:
-            continue
-        # speed at the middle of each sample of a linear ramp from v0 to v1
-        frac = (np.arange(count) + 0.5) / count
-        speed[start : start + count] = v0 + (v1 - v0) * frac
-        accel[start : start + count] = (v1 - v0) / (count * dt)
-        kind[start : start + count] = codes[name]
+    speed, accel, kind, bounds = _plan_samples(plan, dt)
     moving = kind > 0
     accelerating = kind == 1
     mass_kg = robot.mass_kg
@@ -335,16 +321,7 @@ def _simulate_one(
     motion_W = trace.motion_W
     clean_W = robot.idle_W + motion_W
 
-    phases = [
-        {
-            "step": step,
-            "phase": name,
-            "t_start_s": float(start * dt),
-            "t_end_s": float((start + count) * dt),
-        }
-        for (name, step, count, _, _), start in zip(plan, bounds[:-1], strict=True)
-        if count
-    ]
+    phases = _plan_phases(plan, bounds, dt)
     moving_energy_J = float(clean_W[moving].sum() * dt)
     truth = {
         "t_acc_s": t_acc_s,
@@ -359,6 +336,47 @@ def _simulate_one(
     }
     truth.update(effect_truth)
     return _finish(spec, config, rng, clean_W, phases, truth, started_at, order, moving)
+
+
+def _plan_samples(
+    plan: list[tuple[str, int, int, float, float]], dt: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A run's plan (`_profile`: name, step, sample count, v0, v1 per stretch) sampled
+    every `dt` [s]: speed [m/s] at the middle of each sample of each linear ramp, its
+    acceleration [m/s^2], its kind (0 idle, 1 accel, 2 cruise, 3 decel) and the stretches'
+    sample bounds."""
+    counts = np.array([p[2] for p in plan])
+    n = int(counts.sum())
+    bounds = np.concatenate(([0], np.cumsum(counts)))
+    speed = np.zeros(n)
+    accel = np.zeros(n)
+    kind = np.zeros(n, dtype=np.int8)  # 0 idle, 1 accel, 2 cruise, 3 decel
+    codes = {"idle": 0, "accel": 1, "cruise": 2, "decel": 3}
+    for (name, _, count, v0, v1), start in zip(plan, bounds[:-1], strict=True):
+        if count == 0:
+            continue
+        # speed at the middle of each sample of a linear ramp from v0 to v1
+        frac = (np.arange(count) + 0.5) / count
+        speed[start : start + count] = v0 + (v1 - v0) * frac
+        accel[start : start + count] = (v1 - v0) / (count * dt)
+        kind[start : start + count] = codes[name]
+    return speed, accel, kind, bounds
+
+
+def _plan_phases(
+    plan: list[tuple[str, int, int, float, float]], bounds: np.ndarray, dt: float
+) -> list[dict]:
+    """The true phases of a run's plan (its non-empty stretches), times in [s]."""
+    return [
+        {
+            "step": step,
+            "phase": name,
+            "t_start_s": float(start * dt),
+            "t_end_s": float((start + count) * dt),
+        }
+        for (name, step, count, _, _), start in zip(plan, bounds[:-1], strict=True)
+        if count
+    ]
 
 
 def _finish(

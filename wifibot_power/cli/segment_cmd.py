@@ -29,6 +29,7 @@ from wifibot_power.io import ReadOptions
 
 if TYPE_CHECKING:
     from wifibot_power.phases import Segmentation
+    from wifibot_power.run import Run
 
 _PHASE_COLUMNS = (
     Col("step", key=True),
@@ -99,6 +100,13 @@ def segment_command(
             }
         )
         return
+    _print_segmentation(run, segmentation)
+
+
+def _print_segmentation(run: Run, segmentation: Segmentation) -> None:
+    """`segment`'s tables on stdout: the phases (speed and |yaw rate| columns when a phase
+    has them; a title and caption that say when the segmentation is in doubt), then the
+    start-up spikes."""
     with_speed = any(p.speed_mps is not None for p in segmentation.phases)
     # a turning column: each phase's mean |yaw rate| (a `turn` phase spins in place)
     with_yaw = any(p.yaw_rate_radps is not None for p in segmentation.phases)

@@ -144,6 +144,8 @@ def simulate_command(
     json_out: JsonFlag = False,
 ) -> None:
     """Write synthetic logs of a physical Wifibot model, with runs.csv and truth.json."""
+    # long only by its signature: typer reads the command's 18 options from it (issue 24
+    # allows it); the body is short and the simulation lives in `wifibot_power.simulate`
     check_out_dir(out)
     if drive not in ("grid", "free"):
         raise typer.BadParameter("--drive takes grid or free")

@@ -23,6 +23,7 @@ from wifibot_power.figures.style import (
 )
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
     from wifibot_power.model import PowerModel
@@ -60,20 +61,10 @@ def figure5(
     same trips, and of each measured trip, with the measured overheads as points with 95%
     interval bars. Without `stop_and_go` (None: no logs, e.g. `energy --plot`), models only;
     with an empty one, the figure says the logs hold no trip in both 1 and N steps."""
-    from wifibot_power.energy import energy_report
     from wifibot_power.model import paper_model
 
     paper = paper or paper_model()
-    if speeds_mps is None:
-        # the paper's 0.1-0.9 m/s, widened to the speeds the model was fitted on (another
-        # robot's runs may be faster)
-        top_mps = max(0.9, (model.speed_range_mps or (0.1, 0.9))[1])
-        if top_mps <= 0.9:
-            speeds = np.linspace(0.1, 0.9, 33)
-        else:  # the paper's last speed kept, so its curves end where it stopped measuring
-            speeds = np.union1d(np.linspace(0.1, top_mps, 49), [0.9])
-    else:
-        speeds = np.asarray(speeds_mps, float)
+    speeds = _figure5_speeds(model, speeds_mps)
     figure = new_figure(11.0, 4.4)
     ax_energy, ax_over = figure.subplots(1, 2)
     # the trips drawn: Figure 5's, plus every measured (distance, steps) pair
@@ -82,6 +73,52 @@ def figure5(
         if (row.distance_m, row.steps) not in trips:
             trips.append((row.distance_m, row.steps))
     models = [(model, "-")] + ([(paper, "--")] if model != paper else [])
+    peak_J = _draw_trip_models(ax_energy, ax_over, trips, models, speeds, t_acc_s)
+    _draw_measured(ax_energy, ax_over, stop_and_go)
+    # another robot's trips can cost a hundredth of the Wifibot's: on a linear scale they
+    # lie flat under the paper's curves, so the scale is logarithmic when the two models'
+    # largest energies differ tenfold or more
+    if len(models) == 2 and min(peak_J) > 0 and max(peak_J) >= 10 * min(peak_J):
+        ax_energy.set_yscale("log")
+    ax_energy.set_xlabel("speed [m/s]")
+    ax_energy.set_ylabel("trip energy [J]")
+    ax_energy.set_title("Figure 5: trip energy against speed (Eq. 5/6)", fontsize=10, loc="left")
+    ax_over.set_xlabel("speed [m/s]")
+    ax_over.set_ylabel("stop-and-go overhead [%]")
+    ax_over.set_title("overhead of N steps over one step", fontsize=10, loc="left")
+    for ax in (ax_energy, ax_over):
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7, loc="upper right" if ax is ax_energy else "upper left")
+    return figure
+
+
+def _figure5_speeds(model: PowerModel, speeds_mps: Sequence[float] | None) -> np.ndarray:
+    """The speeds [m/s] Figure 5's curves are drawn at: `speeds_mps`, else the paper's."""
+    if speeds_mps is None:
+        # the paper's 0.1-0.9 m/s, widened to the speeds the model was fitted on (another
+        # robot's runs may be faster)
+        top_mps = max(0.9, (model.speed_range_mps or (0.1, 0.9))[1])
+        if top_mps <= 0.9:
+            return np.linspace(0.1, 0.9, 33)
+        else:  # the paper's last speed kept, so its curves end where it stopped measuring
+            return np.union1d(np.linspace(0.1, top_mps, 49), [0.9])
+    else:
+        return np.asarray(speeds_mps, float)
+
+
+def _draw_trip_models(
+    ax_energy: Axes,
+    ax_over: Axes,
+    trips: list[tuple[float, int]],
+    models: list[tuple[PowerModel, str]],
+    speeds: np.ndarray,
+    t_acc_s: float | None,
+) -> list[float]:
+    """Each model's trip energy [J] (and, in steps, its overhead [%]) of each trip
+    (distance [m], steps) against speed, where the model holds; returns each model's largest
+    energy drawn [J]."""
+    from wifibot_power.energy import energy_report
+
     peak_J = [0.0] * len(models)  # each model's largest energy drawn
     for i, (distance, steps) in enumerate(trips):
         # a distance Figure 5 does not have: a pair of colours of its own
@@ -134,6 +171,12 @@ def figure5(
                     label=f"{distance:g} m in {steps} steps ({tag})",
                     gid=f"model:{which}",
                 )
+    return peak_J
+
+
+def _draw_measured(ax_energy: Axes, ax_over: Axes, stop_and_go: Sequence[StopAndGo] | None) -> None:
+    """The measured trips of the logs: mean energies [J] as points, overheads [%] with 95%
+    interval bars; with none measured (an empty `stop_and_go`), a note that says so."""
     if stop_and_go:
         for row in stop_and_go:
             n_colour = TRIP_COLOURS.get((row.distance_m, True), "#009e73")
@@ -189,21 +232,6 @@ def figure5(
             fontsize=8,
             color="#555555",
         )
-    # another robot's trips can cost a hundredth of the Wifibot's: on a linear scale they
-    # lie flat under the paper's curves, so the scale is logarithmic when the two models'
-    # largest energies differ tenfold or more
-    if len(models) == 2 and min(peak_J) > 0 and max(peak_J) >= 10 * min(peak_J):
-        ax_energy.set_yscale("log")
-    ax_energy.set_xlabel("speed [m/s]")
-    ax_energy.set_ylabel("trip energy [J]")
-    ax_energy.set_title("Figure 5: trip energy against speed (Eq. 5/6)", fontsize=10, loc="left")
-    ax_over.set_xlabel("speed [m/s]")
-    ax_over.set_ylabel("stop-and-go overhead [%]")
-    ax_over.set_title("overhead of N steps over one step", fontsize=10, loc="left")
-    for ax in (ax_energy, ax_over):
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7, loc="upper right" if ax is ax_energy else "upper left")
-    return figure
 
 
 #: sweep name -> (axis label, scale of the x values for the axis)

@@ -23,6 +23,7 @@ from wifibot_power.figures.style import (
 )
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
     from wifibot_power.phases import Segmentation
@@ -162,17 +163,7 @@ def trace_figure(
     ax = figure.add_subplot()
     env = view.power
     t_end = view.duration_s if view.duration_s > 0 else float(env.time_s[-1])
-    levels = 0
-    for i, p in enumerate(view.phases):
-        alpha = 0.28
-        if p.phase == "level":  # adjacent levels share a colour: alternate its strength
-            alpha = 0.18 if levels % 2 == 0 else 0.36
-            levels += 1
-        span = ax.axvspan(
-            p.t_start_s, p.t_end_s, color=PHASE_COLOURS.get(p.phase, "#dddddd"), alpha=alpha, lw=0
-        )
-        span.set_gid(f"phase:{p.phase}:{i}")
-        ax.hlines(p.mean_power_W, p.t_start_s, p.t_end_s, colors="#444444", lw=0.8, alpha=0.8)
+    _shade_phases(ax, view)
     ax.fill_between(
         env.time_s, env.low, env.high, step="post", color=POWER_COLOUR, lw=0.6, alpha=0.9
     )
@@ -182,20 +173,7 @@ def trace_figure(
     high = float(np.nanmax(env.high)) if env.high.size else 1.0
     pad = 0.08 * (high - low or 1.0)
     ax.set_ylim(low - pad, high + 3 * pad)  # headroom for the phase labels
-    for p in view.phases:
-        if (p.t_end_s - p.t_start_s) >= LABEL_MIN_FRACTION * t_end:
-            label = p.phase if p.phase != "level" else f"level {p.step}"
-            if p.phase in ("accel", "cruise", "decel") and (view.steps or 1) > 1:
-                label = f"{p.phase} {p.step}"
-            ax.text(
-                (p.t_start_s + p.t_end_s) / 2,
-                high + 1.6 * pad,
-                label,
-                ha="center",
-                va="center",
-                fontsize=8,
-                clip_on=True,
-            )
+    _label_phases(ax, view, t_end, high + 1.6 * pad)
     if view.spikes:
         ax.plot(
             [s.t_start_s for s in view.spikes],
@@ -213,12 +191,7 @@ def trace_figure(
     if view.spikes:
         handles.append(Line2D([], [], ls="", marker="v", color="#d62728", label="start-up spike"))
     if view.speed is not None:
-        ax2 = ax.twinx()
-        ax2.plot(
-            view.speed.time_s, view.speed.mean, color=SPEED_COLOUR, lw=1.0, drawstyle="steps-post"
-        )
-        ax2.set_ylabel("speed [m/s]", color=SPEED_COLOUR)
-        ax2.set_ylim(bottom=min(0.0, float(np.nanmin(view.speed.low))))
+        _speed_axis(ax, view)
         handles.append(Line2D([], [], color=SPEED_COLOUR, label="speed"))
     figure.legend(handles=handles, loc="lower center", fontsize=8, ncol=len(handles), frameon=False)
     title = _title(view)
@@ -228,6 +201,48 @@ def trace_figure(
         title += "\n" + "\n".join(textwrap.wrap("in doubt: " + "; ".join(view.doubts), 150))
     ax.set_title(title, fontsize=9, loc="left", color="#b00000" if view.doubts else "black")
     return figure
+
+
+def _shade_phases(ax: Axes, view: TraceView) -> None:
+    """One shaded span per phase (colour by phase name; adjacent levels alternate their
+    strength) and each phase's mean power [W] as a line across it."""
+    levels = 0
+    for i, p in enumerate(view.phases):
+        alpha = 0.28
+        if p.phase == "level":  # adjacent levels share a colour: alternate its strength
+            alpha = 0.18 if levels % 2 == 0 else 0.36
+            levels += 1
+        span = ax.axvspan(
+            p.t_start_s, p.t_end_s, color=PHASE_COLOURS.get(p.phase, "#dddddd"), alpha=alpha, lw=0
+        )
+        span.set_gid(f"phase:{p.phase}:{i}")
+        ax.hlines(p.mean_power_W, p.t_start_s, p.t_end_s, colors="#444444", lw=0.8, alpha=0.8)
+
+
+def _label_phases(ax: Axes, view: TraceView, t_end: float, y_W: float) -> None:
+    """Each phase's name at height `y_W` [W] over the phases wide enough to hold one."""
+    for p in view.phases:
+        if (p.t_end_s - p.t_start_s) >= LABEL_MIN_FRACTION * t_end:
+            label = p.phase if p.phase != "level" else f"level {p.step}"
+            if p.phase in ("accel", "cruise", "decel") and (view.steps or 1) > 1:
+                label = f"{p.phase} {p.step}"
+            ax.text(
+                (p.t_start_s + p.t_end_s) / 2,
+                y_W,
+                label,
+                ha="center",
+                va="center",
+                fontsize=8,
+                clip_on=True,
+            )
+
+
+def _speed_axis(ax: Axes, view: TraceView) -> None:
+    """The speed [m/s] on a right-hand axis (the log has a speed column)."""
+    ax2 = ax.twinx()
+    ax2.plot(view.speed.time_s, view.speed.mean, color=SPEED_COLOUR, lw=1.0, drawstyle="steps-post")
+    ax2.set_ylabel("speed [m/s]", color=SPEED_COLOUR)
+    ax2.set_ylim(bottom=min(0.0, float(np.nanmin(view.speed.low))))
 
 
 def _names(view: TraceView) -> list[str]:

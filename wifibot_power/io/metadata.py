@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from datetime import datetime
 
 from wifibot_power.errors import LogError
@@ -76,6 +77,26 @@ def build_meta(
     payload = _number(values, "payload_kg", file, at("payload_kg"))
     period = _number(values, "sample_period_s", file, at("sample_period_s"))
 
+    mode = _mode(values, speed, file, at)
+    _check_values(values, mode, speed, distance, steps_f, payload, file, at)
+    _check_period(period, file, at)
+    started = _started_at(values, file, at)
+    extra = {k: v for k, v in values.items() if k not in KNOWN_KEYS and k != DEFAULT_RUN_ID}
+    return RunMeta(
+        run_id=values.get("run_id") or values.get(DEFAULT_RUN_ID) or stem,
+        mode=mode,
+        speed_mps=speed,
+        distance_m=distance,
+        steps=int(steps_f) if steps_f is not None else 1,
+        payload_kg=payload or 0.0,
+        started_at=started,
+        sample_period_s=period or PAPER_SAMPLE_PERIOD_S,
+        extra=extra,
+    )
+
+
+def _mode(values: dict[str, str], speed: float | None, file: str, at: Callable[..., str]) -> str:
+    """The run's mode (`motion` when a speed is given and no mode), one of `MODES`."""
     mode = values.get("mode", "").strip().lower() or ("motion" if speed is not None else "unknown")
     if mode not in MODES:
         raise LogError(
@@ -84,6 +105,21 @@ def build_meta(
             where=at("mode"),
             fix=f"use one of: {', '.join(MODES)}",
         )
+    return mode
+
+
+def _check_values(
+    values: dict[str, str],
+    mode: str,
+    speed: float | None,
+    distance: float | None,
+    steps_f: float | None,
+    payload: float | None,
+    file: str,
+    at: Callable[..., str],
+) -> None:
+    """A `LogError` for a step count, a motion run's speed or distance, or a payload out of
+    range (`at(key)`: where the key was set)."""
     if steps_f is not None and (steps_f < 1 or steps_f != int(steps_f)):
         raise LogError(
             f"steps is {values.get('steps')}",
@@ -113,6 +149,10 @@ def build_meta(
             where=at("payload_kg"),
             fix="payload must be >= 0",
         )
+
+
+def _check_period(period: float | None, file: str, at: Callable[..., str]) -> None:
+    """A `LogError` for a sample period [s] <= 0 or outside `SAMPLE_PERIOD_RANGE_S`."""
     if period is not None and period <= 0:
         raise LogError(
             f"sample_period_s is {period}",
@@ -129,29 +169,21 @@ def build_meta(
             where=at("sample_period_s"),
             fix="give the sample spacing in seconds (0.001 for 1 kHz), e.g. with --sample-period",
         )
-    started = None
-    if values.get("started_at"):
-        try:
-            started = datetime.fromisoformat(values["started_at"].replace("Z", "+00:00"))
-        except ValueError:
-            raise LogError(
-                f"started_at '{values['started_at']}' is not an ISO 8601 time",
-                file=file,
-                where=at("started_at"),
-                fix="write e.g. 2015-06-01T10:00:00Z",
-            ) from None
-    extra = {k: v for k, v in values.items() if k not in KNOWN_KEYS and k != DEFAULT_RUN_ID}
-    return RunMeta(
-        run_id=values.get("run_id") or values.get(DEFAULT_RUN_ID) or stem,
-        mode=mode,
-        speed_mps=speed,
-        distance_m=distance,
-        steps=int(steps_f) if steps_f is not None else 1,
-        payload_kg=payload or 0.0,
-        started_at=started,
-        sample_period_s=period or PAPER_SAMPLE_PERIOD_S,
-        extra=extra,
-    )
+
+
+def _started_at(values: dict[str, str], file: str, at: Callable[..., str]) -> datetime | None:
+    """The run's start time from its ISO 8601 `started_at`, or None when not given."""
+    if not values.get("started_at"):
+        return None
+    try:
+        return datetime.fromisoformat(values["started_at"].replace("Z", "+00:00"))
+    except ValueError:
+        raise LogError(
+            f"started_at '{values['started_at']}' is not an ISO 8601 time",
+            file=file,
+            where=at("started_at"),
+            fix="write e.g. 2015-06-01T10:00:00Z",
+        ) from None
 
 
 #: The metadata key (as the readers lower-case it) of the most the robot can draw [W].
