@@ -1,6 +1,5 @@
-"""The drive model as a model family (`wifibot_power.models.base.ModelFamily` on main): the
-thin adapter `fit` registers (`models.registry.register(DriveFamily())`, or a line in
-`FAMILIES`). Nothing here computes; it names what the pipeline calls:
+"""The drive model as a model family (`wifibot_power.models.base.ModelFamily`), the second of
+`models.registry.FAMILIES`. Nothing here computes; it names what the pipeline calls:
 
 - `name`: its section of `fit --json` and model.json, "drive";
 - `run_stats(run, segmentation)`: in the worker, the run reduced to bins (stats.drive_stats:
@@ -11,9 +10,8 @@ thin adapter `fit` registers (`models.registry.register(DriveFamily())`, or a li
 - the fitted `DriveModel` has `family`, `summary()`, `to_json()` and
   `predict_energy_J(record)`.
 
-To make it the registry's subclass, the lead changes `class DriveFamily:` into
-`class DriveFamily(ModelFamily):` (imports from `wifibot_power.models.base`); the method
-names and signatures are that interface's.
+`fit` with a drive model and no paper model (free driving only) is a success: `fit.fit_records`
+says why the paper's models are missing (they need step runs) instead of failing.
 """
 
 from __future__ import annotations
@@ -23,13 +21,14 @@ from typing import TYPE_CHECKING, ClassVar
 
 from wifibot_power.drive.model import DriveModel, fit_drive_stats
 from wifibot_power.drive.stats import DriveStats, drive_stats
+from wifibot_power.models.base import FitOptions, ModelFamily
 
 if TYPE_CHECKING:
     from wifibot_power.phases import Segmentation
     from wifibot_power.run import Run
 
 
-class DriveFamily:
+class DriveFamily(ModelFamily):
     """The drive model family (cli.md, "The drive model")."""
 
     name: ClassVar[str] = "drive"
@@ -45,7 +44,7 @@ class DriveFamily:
     def stats_from_json(self, kept: object) -> DriveStats | None:
         return None if kept is None else DriveStats.from_json(kept)  # type: ignore[arg-type]
 
-    def fit(self, records: Sequence[object], options: object = None) -> DriveModel | None:
+    def fit(self, records: Sequence[object], options: FitOptions | None = None) -> DriveModel | None:
         """From the records' `models["drive"]` (or the statistics themselves)."""
         del options  # nothing of the paper's options applies to the drive model
         return fit_drive_stats([_stats_of(record) for record in records])

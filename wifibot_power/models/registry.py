@@ -4,11 +4,14 @@ line here."""
 
 from __future__ import annotations
 
+from wifibot_power.drive.family import DriveFamily
 from wifibot_power.models.base import ModelFamily
 from wifibot_power.models.paper import PaperFamily
 
 #: name -> family; the paper's phase model first (its section is model.json's top level)
-FAMILIES: dict[str, ModelFamily] = {family.name: family for family in (PaperFamily(),)}
+FAMILIES: dict[str, ModelFamily] = {
+    family.name: family for family in (PaperFamily(), DriveFamily())
+}
 
 
 def register(family: ModelFamily) -> ModelFamily:
