@@ -19,11 +19,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, ClassVar
 
-from wifibot_power.drive.model import DriveModel, fit_drive_stats
 from wifibot_power.drive.stats import DriveStats, drive_stats
 from wifibot_power.models.base import FitOptions, ModelFamily
 
 if TYPE_CHECKING:
+    from wifibot_power.drive.model import DriveModel
     from wifibot_power.phases import Segmentation
     from wifibot_power.run import Run
 
@@ -46,10 +46,14 @@ class DriveFamily(ModelFamily):
 
     def fit(self, records: Sequence[object], options: FitOptions | None = None) -> DriveModel | None:
         """From the records' `models["drive"]` (or the statistics themselves)."""
+        from wifibot_power.drive.model import fit_drive_stats  # models.base <- drive.model
+
         del options  # nothing of the paper's options applies to the drive model
         return fit_drive_stats([_stats_of(record) for record in records])
 
     def load(self, data: dict, *, file: str = "model.json") -> DriveModel:
+        from wifibot_power.drive.model import DriveModel
+
         del file  # errors of a damaged section: drive.profile.load_drive_model names it
         return DriveModel.from_json(data)
 

@@ -18,6 +18,7 @@ from wifibot_power.drive.identify import identify, lag_search
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
 from wifibot_power.drive.terms import TERM_BY_NAME, TERMS
 from wifibot_power.drive.windows import WINDOW_S, assemble, run_windows
+from wifibot_power.models.base import FittedModel
 
 if TYPE_CHECKING:
     from wifibot_power.phases import Segmentation
@@ -44,7 +45,7 @@ class TermValue:
 
 
 @dataclass(frozen=True)
-class DriveModel:
+class DriveModel(FittedModel):
     """The drive model: each term's value with its 95% interval (per surface for the
     per-surface terms), the lag, held-out accuracy, and what the data could not determine."""
 

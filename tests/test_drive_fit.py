@@ -1,0 +1,149 @@
+"""The drive model end to end through `fit` (issue 25; cli.md "The drive model"): a registered
+model family, `fit --json`'s `drive` key, a free-driving batch as a success, the human tables
+in 80 columns, model.json read back by `energy --profile` and `export`, the warm cache."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from test_export import check_gazebo_schema, check_rmf_schema, load_yaml
+from typer.testing import CliRunner
+
+from wifibot_power.cli import app
+from wifibot_power.model import paper_model
+from wifibot_power.models import FAMILIES, ModelFamily
+from wifibot_power.models.paper import PaperFamily, PaperFit
+
+
+def _wbpower(*args: object, width: int = 200):
+    result = CliRunner().invoke(app, [str(a) for a in args], env={"COLUMNS": str(width)})
+    if result.exception is not None and not isinstance(result.exception, SystemExit):
+        raise AssertionError(f"wbpower raised {result.exception!r}") from result.exception
+    return result
+
+
+@pytest.fixture(scope="module")
+def free(tmp_path_factory):
+    """Free-driving logs (2 runs a surface, 40 s, asphalt and grass) and `fit -o` of them."""
+    root = tmp_path_factory.mktemp("drivefit")
+    logs, out = root / "free", root / "fit"
+    made = _wbpower(
+        "simulate", "-o", logs, "--drive", "free", "--repeats", 2, "--duration", 40, "--seed", 1
+    )
+    assert made.exit_code == 0, made.output
+    fitted = _wbpower("fit", logs, "-o", out, "--json")
+    return logs, out, fitted
+
+
+def test_drive_is_a_registered_family():
+    family = FAMILIES["drive"]
+    assert isinstance(family, ModelFamily) and list(FAMILIES)[:2] == ["paper", "drive"]
+
+
+def test_free_driving_fits_the_drive_model_alone_with_exit_0(free):
+    logs, _, fitted = free
+    assert fitted.exit_code == 0, fitted.output
+    doc = json.loads(fitted.stdout)
+    assert doc["error"] is None if "error" in doc else True
+    assert doc["skipped"] == []
+    # the paper's keys null (no step run), with a note saying why
+    assert doc["n_runs"] == 0 and doc["accel"] is None and doc["cruise"] is None
+    assert doc["idle_W"] is None and doc["model_complete"] is False
+    assert any("need step runs" in note for note in doc["notes"])
+    drive = doc["drive"]
+    assert drive["n_runs"] == 4
+    assert set(drive["surfaces"]) == {"asphalt", "grass"}
+    truth = json.loads((logs / "truth.json").read_text())
+    for surface in ("asphalt", "grass"):
+        term = drive["surfaces"][surface]["turning_Nm"]
+        assert term["unit"] == "N m"
+        # the simulator's true friction moment, within 5% (the interval is checked for
+        # coverage over seeds in test_drive_model)
+        true_Nm = truth["surfaces"][surface]["turning_Nm"]
+        assert abs(term["value"] - true_Nm) < 0.05 * true_Nm
+    assert set(drive["heldout"]) >= {"runs", "mape_pct", "median_ape_pct", "coverage_pi90_pct"}
+
+
+def test_null_paper_section_has_the_fitted_sections_keys():
+    fitted = PaperFamily().load(paper_model().to_json()).summary()
+    assert set(PaperFit.null_summary()) == set(fitted)
+
+
+def test_no_speed_gives_a_null_drive_and_an_unchanged_paper_fit(tmp_path):
+    logs = tmp_path / "grid"
+    made = _wbpower(
+        "simulate", "-o", logs, "--speeds", "0.2,0.5,0.8", "--trips", "2x1", "--repeats", 2,
+        "--modes", "", "--sample-period", 0.01, "--columns", "power",
+    )  # fmt: skip
+    assert made.exit_code == 0, made.output
+    # the grid has no speed column: the drive model comes from the phases' trapezoid
+    doc = json.loads(_wbpower("fit", logs, "--json").stdout)
+    assert doc["accel"] is not None and "drive" in doc
+    assert doc["drive"] is not None
+    assert any("trapezoid" in w for w in doc["drive"]["warnings"])
+
+
+def test_mode_logs_alone_give_a_null_drive(tmp_path):
+    logs = tmp_path / "modes"
+    made = _wbpower(
+        "simulate", "-o", logs, "--speeds", "0.5", "--trips", "2x1", "--repeats", 1,
+        "--modes", "idle", "--mode-repeats", 2, "--sample-period", 0.01,
+    )  # fmt: skip
+    assert made.exit_code == 0, made.output
+    for path in logs.glob("v*"):
+        path.unlink()  # mode logs only: no motion, no speed
+    manifest = logs / "runs.csv"
+    lines = manifest.read_text().splitlines()
+    manifest.write_text("\n".join(line for line in lines if not line.startswith("v")) + "\n")
+    doc = json.loads(_wbpower("fit", logs, "--json").stdout)
+    assert "drive" in doc and doc["drive"] is None
+
+
+def test_model_json_carries_the_drive_model_and_the_cache_keeps_it(free, tmp_path):
+    logs, out, fitted = free
+    model = json.loads((out / "model.json").read_text())
+    assert model["drive"]["terms"] == json.loads(fitted.stdout)["drive"]["terms"]
+    cache = tmp_path / "cache"
+    cold = _wbpower("fit", logs, "--json", "--cache", cache)
+    warm = _wbpower("fit", logs, "--json", "--cache", cache)
+    assert warm.exit_code == cold.exit_code == 0
+    assert json.loads(warm.stdout) == json.loads(cold.stdout)
+    assert json.loads(warm.stdout)["drive"]["terms"] == model["drive"]["terms"]
+
+
+def test_human_fit_shows_the_drive_terms_in_80_columns(free):
+    logs, _, _ = free
+    result = _wbpower("fit", logs, width=80)
+    assert result.exit_code == 0, result.output
+    text = result.stdout
+    assert max(len(line) for line in text.splitlines()) <= 80
+    assert "Drive model over 4 run(s)" in text and "lags speed by 0.20 s" in text
+    for cell in ("turning_Nm", "rolling_W_per_mps", "asphalt", "grass", "N m", "kg"):
+        assert cell in text
+    assert "held-out runs" in text and "MAPE %" in text and "in 90% PI %" in text
+    assert "not determined: none" in text
+    assert "need step runs" in result.stderr
+
+
+def test_energy_profile_of_a_fitted_log_is_within_its_interval(free):
+    logs, out, _ = free
+    log = sorted(logs.glob("free_*.csv"))[0]
+    result = _wbpower("energy", "--profile", log, "--model", out / "model.json", "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    low, high = doc["pi90_J"]
+    assert low < doc["measured_J"] < high
+    assert abs(sum(doc["terms_J"].values()) - doc["energy_J"]) < 1e-6 * doc["energy_J"]
+
+
+def test_export_of_fit_o_model_loads_in_each_tools_schema(free):
+    _, out, _ = free
+    model = out / "model.json"
+    rmf = _wbpower("export", "--model", model, "--to", "rmf", "--turn-rate", 0.5)
+    assert rmf.exit_code == 0, rmf.output
+    fleet = check_rmf_schema(load_yaml(rmf.stdout))
+    assert fleet["mechanical_system"]["mass"] > 0
+    gz = _wbpower("export", "--model", model, "--to", "gazebo", "--voltage", 24, "--capacity", 10)
+    assert gz.exit_code == 0, gz.output
+    assert check_gazebo_schema(gz.stdout)["power_load"] > 0
