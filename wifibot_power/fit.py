@@ -196,10 +196,10 @@ def fit_records(
                 f"(log-format.md); none of the {len(records)} run(s) is one, so only the drive "
                 f"model was fitted, from the {used} with a speed",
             )
-    skipped = (
-        *read_skipped,
-        *(Skipped(str(r.row["file"]), f"{r.row['file']}: {r.row['skip_reason']}") for r in unusable),
+    reasons = (
+        Skipped(str(r.row["file"]), f"{r.row['file']}: {r.row['skip_reason']}") for r in unusable
     )
+    skipped = (*read_skipped, *reasons)
     if not fits:
         return None, skipped
     return (

@@ -44,7 +44,9 @@ class DriveFamily(ModelFamily):
     def stats_from_json(self, kept: object) -> DriveStats | None:
         return None if kept is None else DriveStats.from_json(kept)  # type: ignore[arg-type]
 
-    def fit(self, records: Sequence[object], options: FitOptions | None = None) -> DriveModel | None:
+    def fit(
+        self, records: Sequence[object], options: FitOptions | None = None
+    ) -> DriveModel | None:
         """From the records' `models["drive"]` (or the statistics themselves)."""
         from wifibot_power.drive.model import fit_drive_stats  # models.base <- drive.model
 
