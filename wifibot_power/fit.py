@@ -183,19 +183,17 @@ def fit_records(
     fits = {name: family.fit(records, options) for name, family in FAMILIES.items()}
     fits = {name: fitted for name, fitted in fits.items() if fitted is not None}
     notes: tuple[str, ...] = ()
-    if PAPER in fits:
-        unusable = [r for r in records if not r.row["usable"]]
-    else:
+    unusable = [r for r in records if not r.row["usable"]]
+    if PAPER not in fits and DRIVE in fits:
         # free driving: a run the drive model used is used, whatever the paper's reason
-        unusable = [r for r in records if not r.row["usable"] and not r.models.get(DRIVE)]
+        unusable = [r for r in unusable if not r.models.get(DRIVE)]
         used = len(records) - len(unusable)
-        if DRIVE in fits:
-            notes = (
-                "the paper's models (P_acc, P_v, t_acc, idle) need step runs: straight runs "
-                "at set speeds, each accelerate / cruise / stop, named by mode and speed_mps "
-                f"(log-format.md); none of the {len(records)} run(s) is one, so only the drive "
-                f"model was fitted, from the {used} with a speed",
-            )
+        notes = (
+            "the paper's models (P_acc, P_v, t_acc, idle) need step runs: straight runs at set "
+            "speeds, each accelerate / cruise / stop, named by mode and speed_mps "
+            f"(log-format.md); no usable step run among the {len(records)} run(s), so only the "
+            f"drive model was fitted, from the {used} with a speed",
+        )
     reasons = (
         Skipped(str(r.row["file"]), f"{r.row['file']}: {r.row['skip_reason']}") for r in unusable
     )

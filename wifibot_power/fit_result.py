@@ -18,7 +18,6 @@ other family's under its name (`drive`: null when no family of that name fitted)
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -72,26 +71,6 @@ class DriveVsPaper:
         return overlap(self.paper_accel_ci95, self.accel_ci95) and overlap(
             self.paper_cruise_ci95, self.cruise_ci95
         )
-
-
-def _mean_response_ci(speed_mps: np.ndarray, power_W: object, v: float) -> tuple[float, float]:
-    """95% interval of a fitted line's mean at `v` [W] (Montgomery & Runger Eq. 11-31:
-    y0 +- t(0.975, n-2) s sqrt(1/n + (v - mean x)^2 / Sxx)); NaN with fewer than 3 points."""
-    from wifibot_power.stats import t_quantile
-
-    y = np.asarray(power_W, dtype=np.float64)
-    keep = np.isfinite(speed_mps) & np.isfinite(y)
-    x, y = speed_mps[keep], y[keep]
-    n = x.size
-    sxx = float(np.sum((x - x.mean()) ** 2)) if n else 0.0
-    if n < 3 or sxx <= 0:
-        return (math.nan, math.nan)
-    slope = float(np.sum((x - x.mean()) * (y - y.mean())) / sxx)
-    intercept = float(y.mean() - slope * x.mean())
-    s = math.sqrt(float(np.sum((y - intercept - slope * x) ** 2)) / (n - 2))
-    half = t_quantile(0.975, n - 2) * s * math.sqrt(1 / n + (v - x.mean()) ** 2 / sxx)
-    y0 = intercept + slope * v
-    return (y0 - half, y0 + half)
 
 
 @dataclass(frozen=True, eq=False)
@@ -244,6 +223,11 @@ class FitResult:
         if drive is None or not self.model_complete:
             return ()
         from wifibot_power.drive.profile import step_phase_powers
+        from wifibot_power.figures.power_speed import mean_band
+
+        def _band_at(x: np.ndarray, y: object, line: object, v: float) -> tuple[float, float]:
+            low, high = mean_band(x, np.asarray(y, dtype=np.float64), line, np.array([v]))
+            return (float(low[0]), float(high[0]))
 
         runs = self.runs
         motion = runs[(runs["mode"] == "motion") & runs["usable"].astype(bool)]
@@ -254,8 +238,8 @@ class FitResult:
             if not (t_acc_s > 0):
                 continue
             powers = step_phase_powers(drive, v, t_acc_s)
-            acc = _mean_response_ci(speeds, motion["accel_mean_power_W"], v)
-            cruise = _mean_response_ci(speeds, motion["cruise_mean_power_W"], v)
+            acc = _band_at(speeds, motion["accel_mean_power_W"], self.model.accel, v)
+            cruise = _band_at(speeds, motion["cruise_mean_power_W"], self.model.cruise, v)
             out.append(
                 DriveVsPaper(
                     speed_mps=v,

@@ -113,7 +113,10 @@ def fit_command(
         on_problems=warn_problems,
         keep_doubtful=keep_doubtful,
     )
-    plot_to(plot, "power_speed" if result.has_paper else "drive_energy", result)
+    if result.has_paper or result.drive is None:
+        plot_to(plot, "power_speed", result)
+    else:  # free driving: the drive model's held-out energies are fit's one figure
+        plot_to(plot, "drive_energy", result.drive)
     warnings = list(result.warnings)
     if out is not None:
         stale = out / "model.json"
