@@ -147,3 +147,78 @@ def test_export_of_fit_o_model_loads_in_each_tools_schema(free):
     gz = _wbpower("export", "--model", model, "--to", "gazebo", "--voltage", 24, "--capacity", 10)
     assert gz.exit_code == 0, gz.output
     assert check_gazebo_schema(gz.stdout)["power_load"] > 0
+
+
+# -- figures (cli.md, "Figures": the drive model) -------------------------------------------
+@pytest.fixture(scope="module")
+def free_fit(free):
+    from wifibot_power.fit import fit_logs
+
+    logs, _, _ = free
+    return fit_logs(logs)
+
+
+def test_drive_energy_figure_draws_each_heldout_run_with_its_interval(free_fit):
+    from wifibot_power.figures import FIGURES
+
+    drive = free_fit.drive
+    figure = FIGURES["drive_energy"].draw(drive)
+    ax = figure.axes[0]
+    assert ax.get_xlabel() == "measured energy [J]" and "[J]" in ax.get_ylabel()
+    # one errorbar container per surface, a point per held-out run, bars = the pi90
+    containers = ax.containers
+    assert {c.get_label() for c in containers} == {"asphalt", "grass"}
+    points = sum(len(c.lines[0].get_xdata()) for c in containers)
+    assert points == len(drive.heldout.runs)
+    for container in containers:
+        x = container.lines[0].get_xdata()
+        for run in (r for r in drive.heldout.runs if r.surface == container.get_label()):
+            assert run.measured_J in list(x)
+        segments = container.lines[2][0].get_segments()
+        spans = sorted(v for s in segments for v in (float(s[0][1]), float(s[1][1])))
+        label = container.get_label()
+        wanted = sorted(v for r in drive.heldout.runs if r.surface == label for v in r.pi90_J)
+        assert spans == pytest.approx(wanted)
+
+
+def test_drive_terms_figure_has_a_panel_per_term_with_its_unit(free_fit):
+    from wifibot_power.figures import FIGURES
+
+    drive = free_fit.drive
+    figure = FIGURES["drive_terms"].draw(drive)
+    visible = [ax for ax in figure.axes if ax.get_visible()]
+    names = set(drive.terms) | {n for terms in drive.surfaces.values() for n in terms}
+    assert len(visible) == len(names)
+    by_label = {ax.get_ylabel().split(" [")[0]: ax for ax in visible}
+    assert set(by_label) == names
+    turning = by_label["turning_Nm"]
+    assert turning.get_ylabel() == "turning_Nm [N m]"
+    assert [t.get_text() for t in turning.get_xticklabels()] == ["asphalt", "grass"]
+    # the points are the fitted values
+    y = list(turning.containers[0].lines[0].get_ydata())
+    assert y == [drive.surfaces[s]["turning_Nm"].value for s in ("asphalt", "grass")]
+
+
+def test_drive_power_figure_and_report_on_free_driving(free, tmp_path):
+    from wifibot_power.figures import FIGURES
+    from wifibot_power.report import build_report
+
+    logs, _, _ = free
+    report = build_report(logs)
+    traces = report.drive_traces
+    assert 2 <= len(traces) <= 3 and {t.surface for t in traces} == {"asphalt", "grass"}
+    figure = FIGURES["drive_power"].draw(traces)
+    assert len(figure.axes) == len(traces)
+    for ax, trace in zip(figure.axes, traces, strict=True):
+        assert ax.get_ylabel() == "power [W]" and trace.run_id in ax.get_title()
+        measured, predicted = ax.get_lines()
+        assert list(measured.get_ydata()) == list(trace.measured_W)
+        assert list(predicted.get_ydata()) == list(trace.predicted_W)
+    assert figure.axes[-1].get_xlabel() == "time [s]"
+    out = tmp_path / "report"
+    result = _wbpower("report", logs, "-o", out)
+    assert result.exit_code == 0, result.output
+    drawn = {p.stem for p in (out / "figures").iterdir()}
+    assert {"drive_power", "drive_energy", "drive_terms"} <= drawn
+    assert "power_speed" not in drawn
+    assert "no step run" in result.stderr
