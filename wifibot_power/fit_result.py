@@ -22,8 +22,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from wifibot_power.io import Skipped
 from wifibot_power.model import PowerModel
 from wifibot_power.models.paper_table import format_number, table_rows, to_markdown
@@ -34,6 +32,7 @@ if TYPE_CHECKING:
 
     from wifibot_power.drive.model import DriveModel
     from wifibot_power.models.base import FittedModel
+    from wifibot_power.models.drive import KeptDrive
     from wifibot_power.models.paper import PaperFit
     from wifibot_power.models.paper_fit import MeanEstimate
     from wifibot_power.overhead import StopAndGo
@@ -98,7 +97,7 @@ class FitResult:
         return self.fits[PAPER]  # type: ignore[return-value]
 
     @property
-    def drive(self) -> DriveModel | None:
+    def drive(self) -> DriveModel | KeptDrive | None:
         """The drive model (cli.md, "The drive model"); None when no run had a speed."""
         return self.fits.get(DRIVE)  # type: ignore[return-value]
 
@@ -222,6 +221,8 @@ class FitResult:
         drive = self.drive
         if drive is None or not self.model_complete:
             return ()
+        import numpy as np
+
         from wifibot_power.drive.profile import step_phase_powers
         from wifibot_power.figures.power_speed import mean_band
 

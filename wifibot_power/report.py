@@ -90,8 +90,9 @@ def build_report(
     drive_traces = ()
     if fit is not None and fit.drive is not None:
         from wifibot_power.drive.traces import heldout_traces
+        from wifibot_power.models.drive import drive_stats_of
 
-        drive_traces = heldout_traces([r.models.get("drive") for r in records])
+        drive_traces = heldout_traces([drive_stats_of(r) for r in records])
     return Report(
         paths=gathered.paths,
         traces=tuple(r.view for r in records if r.view is not None),

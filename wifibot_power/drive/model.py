@@ -18,7 +18,6 @@ from wifibot_power.drive.identify import identify, lag_search
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
 from wifibot_power.drive.terms import TERM_BY_NAME, TERMS
 from wifibot_power.drive.windows import WINDOW_S, assemble, run_windows
-from wifibot_power.models.base import FittedModel
 
 if TYPE_CHECKING:
     from wifibot_power.phases import Segmentation
@@ -45,7 +44,7 @@ class TermValue:
 
 
 @dataclass(frozen=True)
-class DriveModel(FittedModel):
+class DriveModel:
     """The drive model: each term's value with its 95% interval (per surface for the
     per-surface terms), the lag, held-out accuracy, and what the data could not determine."""
 
@@ -79,6 +78,7 @@ class DriveModel(FittedModel):
         stats = record if isinstance(record, DriveStats) else None
         if stats is None:
             stats = getattr(record, "models", {}).get(self.family)
+            stats = getattr(stats, "stats", stats)  # as a warm cache kept it (KeptStats)
         if stats is None:
             return math.nan, math.nan
         rw = run_windows(stats, self.window_s)
@@ -90,6 +90,11 @@ class DriveModel(FittedModel):
             float(np.sum(windows.power_W) * windows.window_s),
             float(np.sum(predicted_W) * windows.window_s),
         )
+
+    def to_cache(self) -> dict[str, object]:
+        """What `fit --cache` keeps (`models.base.FittedModel.to_cache`): model.json's section
+        (`models.drive.KeptDrive` reads it back)."""
+        return self.to_json()
 
     def summary(self) -> dict[str, object]:
         """cli.md's `drive` object (JSON-safe)."""

@@ -4,8 +4,8 @@ line here."""
 
 from __future__ import annotations
 
-from wifibot_power.drive.family import DriveFamily
 from wifibot_power.models.base import ModelFamily
+from wifibot_power.models.drive import DriveFamily
 from wifibot_power.models.paper import PaperFamily
 
 #: name -> family; the paper's phase model first (its section is model.json's top level)
