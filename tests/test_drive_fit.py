@@ -222,3 +222,39 @@ def test_drive_power_figure_and_report_on_free_driving(free, tmp_path):
     assert {"drive_power", "drive_energy", "drive_terms"} <= drawn
     assert "power_speed" not in drawn
     assert "no step run" in result.stderr
+
+
+# -- the paper's step runs (sample_logs): the drive model beside P_acc(v) and P_v(v) --------
+def test_step_runs_drive_model_beside_the_papers_lines(tmp_path):
+    import shutil
+    from pathlib import Path
+
+    from wifibot_power.fit import fit_logs
+
+    sample = Path(__file__).resolve().parents[1] / "sample_logs"
+    logs = tmp_path / "steps"
+    logs.mkdir()
+    for speed in ("0.20", "0.50", "0.80"):
+        for r in (1, 2, 3):
+            name = f"v{speed}_d10_s1_r{r}.csv.gz"
+            shutil.copy(sample / name, logs / name)
+    shutil.copy(sample / "idle_r1.csv.gz", logs / "idle_r1.csv.gz")
+    result = fit_logs(logs)
+    drive = result.drive
+    assert drive is not None and result.has_paper
+    # no speed column: the speed is the phases' trapezoid, and that is said
+    assert any("trapezoid" in w for w in drive.summary()["warnings"])
+    rows = result.drive_vs_paper()
+    assert [r.speed_mps for r in rows] == [0.2, 0.5, 0.8]
+    for row in rows:
+        assert row.accel_agree and row.cruise_agree, row
+        # the paper's own lines (23.9 + 14.8 v, 23.9 + 11.2 v), which sample_logs follow
+        assert abs(row.cruise_W - (23.9 + 11.2 * row.speed_mps)) < 0.3
+        assert abs(row.accel_W - (23.9 + 14.8 * row.speed_mps)) < 0.5
+    shown = _wbpower("fit", logs, width=80)
+    assert shown.exit_code == 0, shown.output
+    assert "beside the" in shown.stdout and "P_acc(v) and P_v(v)" in shown.stdout
+    drive_part = shown.stdout[shown.stdout.index("Drive model over") :]
+    assert max(len(line) for line in drive_part.splitlines()) <= 80
+    table = shown.stdout[shown.stdout.index("paper's step runs") :]
+    assert table.count(" yes ") == 6

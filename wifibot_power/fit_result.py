@@ -61,15 +61,18 @@ class DriveVsPaper:
     cruise_ci95: tuple[float, float]
 
     @property
-    def agree(self) -> bool:
-        """Whether the intervals overlap, for acceleration and for cruise."""
+    def accel_agree(self) -> bool:
+        """Whether the two intervals of the acceleration phase overlap."""
+        return _overlap(self.paper_accel_ci95, self.accel_ci95)
 
-        def overlap(a: tuple[float, float], b: tuple[float, float]) -> bool:
-            return a[0] <= b[1] and b[0] <= a[1]
+    @property
+    def cruise_agree(self) -> bool:
+        """Whether the two intervals of the cruise overlap."""
+        return _overlap(self.paper_cruise_ci95, self.cruise_ci95)
 
-        return overlap(self.paper_accel_ci95, self.accel_ci95) and overlap(
-            self.paper_cruise_ci95, self.cruise_ci95
-        )
+
+def _overlap(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    return a[0] <= b[1] and b[0] <= a[1]
 
 
 @dataclass(frozen=True, eq=False)

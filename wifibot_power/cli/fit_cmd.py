@@ -155,9 +155,6 @@ def fit_command(
             warn(note)
     for warning in warnings:  # cli.md: also in `fit --json` `warnings`
         warn(warning)
-    if result.drive is not None:  # also in `fit --json` `drive.warnings`
-        for warning in result.drive.summary()["warnings"]:  # type: ignore[union-attr]
-            warn(f"drive model: {warning}")
     # an incomplete model (e.g. one speed: no slope) is in `warnings`, not the exit code:
     # cli.md's exit 1 is for skipped inputs and --fail-on-* checks (docs/fit.md)
     raise typer.Exit(report_skipped(list(result.skipped)))

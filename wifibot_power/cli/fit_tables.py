@@ -114,10 +114,11 @@ _DRIVE_HELDOUT_COLUMNS = (
 )
 _DRIVE_PAPER_COLUMNS = (
     Col("v m/s", key=True),
-    Col("P_acc W"),
-    Col("drive accel W"),
-    Col("P_v W"),
-    Col("drive cruise W"),
+    Col("phase", "text", key=True),
+    Col("paper fit W"),
+    Col("± 95% W"),
+    Col("drive W"),
+    Col("± 95% W"),
     Col("agree", "text"),
 )
 
@@ -151,13 +152,15 @@ def print_drive_tables(result: FitResult) -> None:
             for name, t in named.items()
         ]
     not_determined = "; ".join(summary["not_determined"]) or "none"
+    # the drive model's assumptions, said under its table (and in `fit --json` drive.warnings)
+    said = "".join(f"\nwarning: {w}" for w in summary["warnings"])
     print_table(
         stdout,
         f"Drive model over {summary['n_runs']} run(s), power lags speed by "
         f"{summary['lag_s']:.2f} s (95% CI: cluster-robust, by run or trip)",
         _DRIVE_TERM_COLUMNS,
         cells,
-        caption=f"not determined: {not_determined}",
+        caption=f"not determined: {not_determined}{said}",
     )
     held = summary["heldout"]
     if held is not None:
@@ -179,21 +182,33 @@ def print_drive_tables(result: FitResult) -> None:
         )
     rows = result.drive_vs_paper()
     if rows:
+        cells = []
+        for row in rows:
+            phases = (
+                ("accel", row.paper_accel_W, row.paper_accel_ci95, row.accel_W, row.accel_ci95,
+                 row.accel_agree),
+                ("cruise", row.paper_cruise_W, row.paper_cruise_ci95, row.cruise_W,
+                 row.cruise_ci95, row.cruise_agree),
+            )  # fmt: skip
+            for phase, paper, paper_ci, power, ci, agree in phases:
+                cells.append(
+                    [
+                        f"{row.speed_mps:g}",
+                        phase,
+                        format_number(paper, 2),
+                        format_number((paper_ci[1] - paper_ci[0]) / 2, 3),
+                        format_number(power, 2),
+                        format_number((ci[1] - ci[0]) / 2, 3),
+                        "yes" if agree else "no",
+                    ]
+                )
         print_table(
             stdout,
-            "Drive model on the paper's step runs: mean phase powers beside P_acc(v), P_v(v)",
+            "Drive model on the paper's step runs: its mean phase powers beside the fitted "
+            "P_acc(v) and P_v(v)",
             _DRIVE_PAPER_COLUMNS,
-            [
-                [
-                    f"{row.speed_mps:g}",
-                    f"{format_number(row.paper_accel_W, 2)} {_interval(row.paper_accel_ci95)}",
-                    f"{format_number(row.accel_W, 2)} {_interval(row.accel_ci95)}",
-                    f"{format_number(row.paper_cruise_W, 2)} {_interval(row.paper_cruise_ci95)}",
-                    f"{format_number(row.cruise_W, 2)} {_interval(row.cruise_ci95)}",
-                    "yes" if row.agree else "no",
-                ]
-                for row in rows
-            ],
-            caption="agree: both intervals overlap, for acceleration and cruise; P_acc, P_v: "
-            "the fitted paper lines at v with their 95% intervals",
+            cells,
+            caption="paper fit: the fitted line at v, ± the 95% interval of its mean; drive: "
+            "the drive model's mean power over an acceleration ramp of t_acc(v) or a cruise at "
+            "v, ± its 95% interval; agree: the intervals overlap",
         )
