@@ -112,9 +112,12 @@ def test_model_json_carries_the_drive_model_and_the_cache_keeps_it(free, tmp_pat
     assert json.loads(warm.stdout)["drive"]["terms"] == model["drive"]["terms"]
 
 
-def test_human_fit_shows_the_drive_terms_in_80_columns(free):
-    logs, _, _ = free
-    result = _wbpower("fit", logs, width=80)
+def test_human_fit_shows_the_drive_terms_in_80_columns(free, monkeypatch):
+    from wifibot_power.cli import common
+
+    logs, _, fitted = free
+    monkeypatch.setattr(common.stdout, "width", 80)  # a terminal of 80 columns
+    result = _wbpower("fit", logs)
     assert result.exit_code == 0, result.output
     text = result.stdout
     assert max(len(line) for line in text.splitlines()) <= 80
@@ -124,6 +127,12 @@ def test_human_fit_shows_the_drive_terms_in_80_columns(free):
     assert "held-out runs" in text and "MAPE %" in text and "in 90% PI %" in text
     assert "not determined: none" in text
     assert "need step runs" in result.stderr
+    # every term's value and interval, to the digits shown
+    drive = json.loads(fitted.stdout)["drive"]
+    terms = [*drive["terms"].values(), *(t for s in drive["surfaces"].values() for t in s.values())]
+    for term in terms:
+        assert f"{term['value']:.3f}" in text
+        assert f"[{term['ci95'][0]:.3f}, {term['ci95'][1]:.3f}]" in text
 
 
 def test_energy_profile_of_a_fitted_log_is_within_its_interval(free):
@@ -225,7 +234,7 @@ def test_drive_power_figure_and_report_on_free_driving(free, tmp_path):
 
 
 # -- the paper's step runs (sample_logs): the drive model beside P_acc(v) and P_v(v) --------
-def test_step_runs_drive_model_beside_the_papers_lines(tmp_path):
+def test_step_runs_drive_model_beside_the_papers_lines(tmp_path, monkeypatch):
     import shutil
     from pathlib import Path
 
@@ -251,10 +260,12 @@ def test_step_runs_drive_model_beside_the_papers_lines(tmp_path):
         # the paper's own lines (23.9 + 14.8 v, 23.9 + 11.2 v), which sample_logs follow
         assert abs(row.cruise_W - (23.9 + 11.2 * row.speed_mps)) < 0.3
         assert abs(row.accel_W - (23.9 + 14.8 * row.speed_mps)) < 0.5
-    shown = _wbpower("fit", logs, width=80)
+    from wifibot_power.cli import common
+
+    monkeypatch.setattr(common.stdout, "width", 80)
+    shown = _wbpower("fit", logs)
     assert shown.exit_code == 0, shown.output
     assert "beside the" in shown.stdout and "P_acc(v) and P_v(v)" in shown.stdout
-    drive_part = shown.stdout[shown.stdout.index("Drive model over") :]
-    assert max(len(line) for line in drive_part.splitlines()) <= 80
+    assert max(len(line) for line in shown.stdout.splitlines()) <= 80
     table = shown.stdout[shown.stdout.index("paper's step runs") :]
     assert table.count(" yes ") == 6
