@@ -224,6 +224,23 @@ def test_drive_power_figure_and_report_on_free_driving(free, tmp_path):
         assert list(measured.get_ydata()) == list(trace.measured_W)
         assert list(predicted.get_ydata()) == list(trace.predicted_W)
     assert figure.axes[-1].get_xlabel() == "time [s]"
+    # the traces are the runs' own windows, predicted by a model that did not see the run:
+    # their measured energy is the run's, their predicted energy is not the in-sample one
+    import numpy as np
+
+    from wifibot_power.drive.stats import drive_stats
+    from wifibot_power.io import read_log
+
+    drive = report.fit.drive
+    for trace in traces:
+        stats = drive_stats(read_log(logs / f"{trace.run_id}.csv"))
+        measured_J, in_sample_J = drive.run_energy_J(stats)
+        window_s = float(np.diff(trace.time_s).min())
+        assert abs(trace.measured_W.sum() * window_s - measured_J) < 1e-6 * measured_J
+        heldout_J = trace.predicted_W.sum() * window_s
+        assert abs(heldout_J - in_sample_J) > 1e-3 * measured_J
+        assert not np.allclose(trace.predicted_W, trace.measured_W)
+        assert abs(heldout_J - measured_J) < 0.5 * measured_J
     out = tmp_path / "report"
     result = _wbpower("report", logs, "-o", out)
     assert result.exit_code == 0, result.output
