@@ -247,7 +247,7 @@ def test_drive_power_figure_and_report_on_free_driving(free, tmp_path):
     drawn = {p.stem for p in (out / "figures").iterdir()}
     assert {"drive_power", "drive_energy", "drive_terms"} <= drawn
     assert "power_speed" not in drawn
-    assert "no step run" in result.stderr
+    assert "power_speed: not drawn: the paper's models" in result.stderr
 
 
 # -- the paper's step runs (sample_logs): the drive model beside P_acc(v) and P_v(v) --------

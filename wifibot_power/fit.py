@@ -186,18 +186,17 @@ def fit_records(
     unusable = [r for r in records if not r.row["usable"]]
     if PAPER not in fits and DRIVE in fits:
         # free driving: a run the drive model used is used, whatever the paper's reason
+        drive_only = [r for r in unusable if r.models.get(DRIVE)]
         unusable = [r for r in unusable if not r.models.get(DRIVE)]
-        used = len(records) - len(unusable)
+        why = reasons_in_brief([_skipped(r) for r in drive_only]) if drive_only else ""
         notes = (
             "the paper's models (P_acc, P_v, t_acc, idle) need step runs: straight runs at set "
             "speeds, each accelerate / cruise / stop, named by mode and speed_mps "
             f"(log-format.md); no usable step run among the {len(records)} run(s), so only the "
-            f"drive model was fitted, from the {used} with a speed",
+            f"drive model was fitted, from the {len(drive_only)} with a speed"
+            + (f" (the paper's reasons: {why})" if why else ""),
         )
-    reasons = (
-        Skipped(str(r.row["file"]), f"{r.row['file']}: {r.row['skip_reason']}") for r in unusable
-    )
-    skipped = (*read_skipped, *reasons)
+    skipped = (*read_skipped, *(_skipped(r) for r in unusable))
     if not fits:
         return None, skipped
     return (
@@ -210,6 +209,11 @@ def fit_records(
         ),
         skipped,
     )
+
+
+def _skipped(record: RunRecord) -> Skipped:
+    """A run the paper's fit cannot use, with its reason."""
+    return Skipped(str(record.row["file"]), f"{record.row['file']}: {record.row['skip_reason']}")
 
 
 def admitted(records: Sequence[RunRecord], keep_doubtful: bool) -> list[RunRecord]:

@@ -19,8 +19,9 @@ def write_fit(result: FitResult, out_dir: Path) -> list[Path]:
 
     model.json (`FitResult.model_json`) is written only when the paper's model is complete
     (`FitResult.model_complete`: a model with unfitted coefficients would only fail later, in
-    `energy --model`) or another family fitted (the drive model: then model.json holds that
-    family's section alone, `energy --profile` and `export` read it). Else a model.json an
+    `energy --model`), or when no run was a step run and another family fitted
+    (`FitResult.writes_model`: the drive model of free driving; model.json then holds its
+    section alone, `energy --profile` and `export` read it). Else a model.json an
     earlier fit left in DIR is removed with the same set: beside this fit's tables it would be
     read by `energy --model DIR/model.json` as this fit's model.
     """

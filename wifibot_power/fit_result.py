@@ -146,9 +146,10 @@ class FitResult:
 
     @property
     def writes_model(self) -> bool:
-        """Whether `fit -o` writes model.json: the paper's model complete, or another
-        family's model fitted (the drive model of free driving)."""
-        return self.model_complete or any(name != PAPER for name in self.fits)
+        """Whether `fit -o` writes model.json: the paper's model complete, or, without the
+        paper's fit (free driving), another family's model fitted. A paper model fitted but
+        incomplete writes none (its notes say why), the drive model's too."""
+        return self.model_complete or (not self.has_paper and bool(self.fits))
 
     @property
     def warnings(self) -> tuple[str, ...]:

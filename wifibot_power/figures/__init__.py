@@ -51,7 +51,7 @@ def _fit(report: Report) -> tuple[object, ...] | str:
     if report.fit is None:
         return str(report.fit_problem)
     if not report.fit.has_paper:
-        return "no step run: the paper's models were not fitted"
+        return "; ".join(report.fit.notes)  # why the paper's models were not fitted
     return (report.fit,)
 
 
