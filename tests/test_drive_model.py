@@ -194,7 +194,7 @@ def test_stats_are_small_and_fit_from_them():
 def test_family_adapter(field_model):
     from types import SimpleNamespace
 
-    from wifibot_power.drive.family import FAMILY
+    from wifibot_power.models.drive import FAMILY
 
     runs = [as_run(r) for r in simulate_free(SMALL)]
     stats = [FAMILY.run_stats(run, None) for run in runs]

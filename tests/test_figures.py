@@ -288,6 +288,9 @@ def test_registry_lists_every_figure_function() -> None:
         "findings",
         "figure5",
         "figure7",
+        "drive_power",
+        "drive_energy",
+        "drive_terms",
     }
     assert all(spec.how_to_read and spec.title for spec in FIGURES.values())
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import gzip
 import io
+import json
 import re
 from pathlib import Path
 
@@ -193,11 +194,29 @@ def test_idles_where_the_motor_pushes_are_doubted(folder: Path, name: str) -> No
 
 def test_fit_and_diagnose_refuse_a_hand_driven_run_with_the_reason(folder: Path) -> None:
     """A run driven by hand holds 22-25 speed levels; the paper's model takes one speed a
-    run: both commands stop with that reason (exit 2), not a number."""
+    run: diagnose stops with that reason (exit 2), not a number. fit gives the drive model
+    of these runs instead (cli.md, "The drive model": free driving is a success) and says
+    the paper's reason in its note."""
     said = study.batch(folder)
-    for command in ("fit", "diagnose"):
-        assert said[command].startswith("exit 2: "), said[command]
-        assert "speed levels; fit takes one speed per run" in said[command]
+    assert said["diagnose"].startswith("exit 2: "), said["diagnose"]
+    assert "speed levels; fit takes one speed per run" in said["diagnose"]
+    assert said["fit"].startswith("Drive model over 3 run(s)"), said["fit"]
+    import subprocess
+    import sys
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as scratch:
+        for name in SIDES:
+            (Path(scratch) / name).write_bytes((folder / name).read_bytes())
+        done = subprocess.run(
+            [sys.executable, "-m", "wifibot_power", "fit", scratch, "--json"],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+    doc = json.loads(done.stdout)
+    assert doc["accel"] is None and doc["drive"]["n_runs"] == 3
+    assert any("speed levels; fit takes one speed per run" in note for note in doc["notes"])
 
 
 def test_the_report_says_why_nothing_is_fitted_as_fit_does(folder: Path, tmp_path: Path) -> None:
@@ -209,6 +228,11 @@ def test_the_report_says_why_nothing_is_fitted_as_fit_does(folder: Path, tmp_pat
     for name in SIDES:
         (tmp_path / name).write_bytes((folder / name).read_bytes())
     built = build_report(tmp_path)
-    assert built.fit is None
-    assert "speed levels; fit takes one speed per run" in built.fit_problem
-    assert "in their metadata" not in built.fit_problem
+    # the drive model fits (free driving is a success); the paper's figures say why not,
+    # with fit's reasons
+    assert built.fit is not None and not built.fit.has_paper
+    from wifibot_power.figures import FIGURES
+
+    why = FIGURES["power_speed"].from_report(built)
+    assert isinstance(why, str) and "speed levels; fit takes one speed per run" in why
+    assert "in their metadata" not in why

@@ -147,7 +147,11 @@ def test_report_command_on_too_few_runs_to_diagnose(wbpower, tmp_path: Path) -> 
     assert result.exit_code == 0, result.stderr
     assert result.stdout.strip() == f"report: {tmp_path / 'out' / 'report.html'}"
     names = sorted(p.stem for p in (tmp_path / "out" / "figures").glob("*.png"))
+    # the drive model from the step runs' phases: its terms and held-out power (two runs:
+    # too few trips for held-out energies)
     assert names == [
+        "drive_power",
+        "drive_terms",
         "figure5",
         "figure7",
         "power_speed",

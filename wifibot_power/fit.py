@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 from wifibot_power.cache import MISSING, ParseCache
 from wifibot_power.errors import LogError, WbpowerError
 from wifibot_power.fit_outputs import stop_and_go_frame, write_fit
-from wifibot_power.fit_result import PAPER, FitResult, format_number
+from wifibot_power.fit_result import DRIVE, PAPER, FitResult, format_number
 from wifibot_power.io import ReadOptions, Skipped
 from wifibot_power.io.discover import reasons_in_brief
 from wifibot_power.models.paper_fit import (
@@ -167,33 +167,53 @@ def fit_records(
 ) -> tuple[FitResult | None, tuple[Skipped, ...]]:
     """Every model family fitted over the records of a batch (`fit_logs`, `report`), and
     every input left out: the unreadable ones, then the runs the fit cannot use (with
-    their reason). None when the paper's family cannot fit (no usable run). Runs in doubt
-    are made usable with `keep_doubtful`, and then named in the result's warnings
-    (`runtable.kept_in_doubt`)."""
+    their reason). None when no family can fit (no usable run). Runs in doubt are made
+    usable with `keep_doubtful`, and then named in the result's warnings
+    (`runtable.kept_in_doubt`).
+
+    Without a single step run the paper's family does not fit; a batch that gives the drive
+    model is then a success (cli.md, "The drive model"): the runs the drive model used are
+    not skipped, and a note says the paper's models need step runs."""
     from wifibot_power.models import FAMILIES, FitOptions
     from wifibot_power.runtable import kept_in_doubt
 
     in_doubt = kept_in_doubt([r.row for r in records]) if keep_doubtful else None
     records = admitted(records, keep_doubtful)
-    unusable = [
-        Skipped(str(r.row["file"]), f"{r.row['file']}: {r.row['skip_reason']}")
-        for r in records
-        if not r.row["usable"]
-    ]
-    skipped = (*read_skipped, *unusable)
     options = FitOptions(keep_doubtful=keep_doubtful)
     fits = {name: family.fit(records, options) for name, family in FAMILIES.items()}
-    if fits.get(PAPER) is None:
+    fits = {name: fitted for name, fitted in fits.items() if fitted is not None}
+    notes: tuple[str, ...] = ()
+    unusable = [r for r in records if not r.row["usable"]]
+    if PAPER not in fits and DRIVE in fits:
+        # free driving: a run the drive model used is used, whatever the paper's reason
+        drive_only = [r for r in unusable if r.models.get(DRIVE)]
+        unusable = [r for r in unusable if not r.models.get(DRIVE)]
+        why = reasons_in_brief([_skipped(r) for r in drive_only]) if drive_only else ""
+        notes = (
+            "the paper's models (P_acc, P_v, t_acc, idle) need step runs: straight runs at set "
+            "speeds, each accelerate / cruise / stop, named by mode and speed_mps "
+            f"(log-format.md); no usable step run among the {len(records)} run(s), so only the "
+            f"drive model was fitted, from the {len(drive_only)} with a speed"
+            + (f" (the paper's reasons: {why})" if why else ""),
+        )
+    skipped = (*read_skipped, *(_skipped(r) for r in unusable))
+    if not fits:
         return None, skipped
     return (
         FitResult(
-            {name: fitted for name, fitted in fits.items() if fitted is not None},
+            fits,
             lambda: record_tables(records),
             skipped,
             (in_doubt,) if in_doubt else (),
+            notes,
         ),
         skipped,
     )
+
+
+def _skipped(record: RunRecord) -> Skipped:
+    """A run the paper's fit cannot use, with its reason."""
+    return Skipped(str(record.row["file"]), f"{record.row['file']}: {record.row['skip_reason']}")
 
 
 def admitted(records: Sequence[RunRecord], keep_doubtful: bool) -> list[RunRecord]:

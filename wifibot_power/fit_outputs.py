@@ -17,20 +17,22 @@ if TYPE_CHECKING:
 def write_fit(result: FitResult, out_dir: Path) -> list[Path]:
     """Write the fit's files as one set (`outputs.write_set`: all new, or all as they were).
 
-    model.json (`FitResult.model_json`) is written only when the model is complete
-    (`FitResult.model_complete`): a model with unfitted coefficients would only fail later,
-    in `energy --model`. Then a model.json an earlier fit left in DIR is removed with the
-    same set: beside this fit's tables it would be read by `energy --model DIR/model.json`
-    as this fit's model.
+    model.json (`FitResult.model_json`) is written only when the paper's model is complete
+    (`FitResult.model_complete`: a model with unfitted coefficients would only fail later, in
+    `energy --model`), or when no run was a step run and another family fitted
+    (`FitResult.writes_model`: the drive model of free driving; model.json then holds its
+    section alone, `energy --profile` and `export` read it). Else a model.json an
+    earlier fit left in DIR is removed with the same set: beside this fit's tables it would be
+    read by `energy --model DIR/model.json` as this fit's model.
     """
     files = {
         "runs.parquet": parquet_file(result.runs),
         "phases.parquet": parquet_file(result.phases),
         "stop_and_go.parquet": parquet_file(stop_and_go_frame(result)),
     }
-    if result.model_complete:
+    if result.writes_model:
         files["model.json"] = json_file(result.model_json())
-    stale = () if result.model_complete else ("model.json",)
+    stale = () if result.writes_model else ("model.json",)
     return write_set(Path(out_dir), files, remove=stale)
 
 

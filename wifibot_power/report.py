@@ -33,6 +33,7 @@ if TYPE_CHECKING:
 
     from wifibot_power.cache import ParseCache
     from wifibot_power.diagnose import Diagnosis
+    from wifibot_power.drive.traces import HeldOutTrace
     from wifibot_power.figures.trace import TraceView
     from wifibot_power.fit import FitResult
 
@@ -49,6 +50,8 @@ class Report:
     diagnosis: Diagnosis | None
     diagnosis_problem: str | None
     skipped: tuple[Skipped, ...] = ()
+    #: a few runs' held-out drive-model power (`drive.traces.heldout_traces`)
+    drive_traces: tuple[HeldOutTrace, ...] = ()
 
 
 def build_report(
@@ -84,6 +87,12 @@ def build_report(
             diagnosis_problem = exc.one_line()
     else:
         diagnosis_problem = "no fit to diagnose"
+    drive_traces = ()
+    if fit is not None and fit.drive is not None:
+        from wifibot_power.drive.traces import heldout_traces
+        from wifibot_power.models.drive import drive_stats_of
+
+        drive_traces = heldout_traces([drive_stats_of(r) for r in records])
     return Report(
         paths=gathered.paths,
         traces=tuple(r.view for r in records if r.view is not None),
@@ -92,6 +101,7 @@ def build_report(
         diagnosis=diagnosis,
         diagnosis_problem=diagnosis_problem,
         skipped=skipped,
+        drive_traces=drive_traces,
     )
 
 

@@ -113,11 +113,14 @@ def fit_command(
         on_problems=warn_problems,
         keep_doubtful=keep_doubtful,
     )
-    plot_to(plot, "power_speed", result)
+    if result.has_paper or result.drive is None:
+        plot_to(plot, "power_speed", result)
+    else:  # free driving: the drive model's held-out energies are fit's one figure
+        plot_to(plot, "drive_energy", result.drive)
     warnings = list(result.warnings)
     if out is not None:
         stale = out / "model.json"
-        if not result.model_complete and stale.is_file():
+        if not result.writes_model and stale.is_file():
             # written with the tables, as one set: a model.json of an earlier fit beside
             # these tables would be read by `energy --model` as this fit's
             warnings.append(
@@ -134,13 +137,20 @@ def fit_command(
 
         stdout.print(result.to_markdown(), markup=False, highlight=False, end="")
     else:
-        print_fit_table(result)
-        from wifibot_power.cli.fit_tables import print_runs_table, print_stop_and_go_table
+        from wifibot_power.cli.fit_tables import (
+            print_drive_tables,
+            print_runs_table,
+            print_stop_and_go_table,
+        )
 
+        if result.has_paper:
+            print_fit_table(result)
         print_stop_and_go_table(result)
+        print_drive_tables(result)
         if runs:
             print_runs_table(result)
-    if result.model_complete:  # else the notes are the why of its warning (incomplete_warning)
+    # an incomplete paper model: its notes are the why of its warning (incomplete_warning)
+    if result.model_complete or not result.has_paper:
         for note in result.notes:
             warn(note)
     for warning in warnings:  # cli.md: also in `fit --json` `warnings`

@@ -7,6 +7,7 @@ Both go through `tables.print_table`, so no width cuts a number (docs/cli-output
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from wifibot_power.cli.common import stdout
@@ -96,3 +97,118 @@ def print_runs_table(result: FitResult) -> None:
         for row in runs.itertuples(index=False)
     ]
     print_table(stdout, f"Energy of each of {len(runs)} run(s)", _RUN_COLUMNS, cells)
+
+
+_DRIVE_TERM_COLUMNS = (
+    Col("term", "text", key=True),
+    Col("surface", "text", key=True),
+    Col("value"),
+    Col("95% CI", justify="center"),
+    Col("unit", "text"),
+)
+_DRIVE_HELDOUT_COLUMNS = (
+    Col("held-out runs", key=True),
+    Col("MAPE %"),
+    Col("median %"),
+    Col("in 90% PI %"),
+)
+_DRIVE_PAPER_COLUMNS = (
+    Col("v m/s", key=True),
+    Col("phase", "text", key=True),
+    Col("paper fit W"),
+    Col("± 95% W"),
+    Col("drive W"),
+    Col("± 95% W"),
+    Col("agree", "text"),
+)
+
+
+def _interval(ci95: Sequence[float | None]) -> str:
+    from wifibot_power.fit import format_number
+
+    low, high = ci95
+    if low is None or high is None or not (math.isfinite(low) and math.isfinite(high)):
+        return "-"
+    return f"[{format_number(low)}, {format_number(high)}]"
+
+
+def print_drive_tables(result: FitResult) -> None:
+    """The drive model (cli.md, "The drive model"): each term with its 95% interval and unit
+    (per surface), the lag, the terms not determined, held-out accuracy and, on step runs,
+    its phase powers beside P_acc(v) and P_v(v); nothing when no run had a speed."""
+    from wifibot_power.fit import format_number
+
+    drive = result.drive
+    if drive is None:
+        return
+    summary = drive.summary()
+    cells = [
+        [name, "all", format_number(t["value"]), _interval(t["ci95"]), t["unit"]]
+        for name, t in summary["terms"].items()
+    ]
+    for surface, named in summary["surfaces"].items():
+        cells += [
+            [name, surface, format_number(t["value"]), _interval(t["ci95"]), t["unit"]]
+            for name, t in named.items()
+        ]
+    not_determined = "; ".join(summary["not_determined"]) or "none"
+    # the drive model's assumptions, said under its table (and in `fit --json` drive.warnings)
+    said = "".join(f"\nwarning: {w}" for w in summary["warnings"])
+    print_table(
+        stdout,
+        f"Drive model over {summary['n_runs']} run(s), power lags speed by "
+        f"{summary['lag_s']:.2f} s (95% CI: cluster-robust, by run or trip)",
+        _DRIVE_TERM_COLUMNS,
+        cells,
+        caption=f"not determined: {not_determined}{said}",
+    )
+    held = summary["heldout"]
+    if held is not None:
+        print_table(
+            stdout,
+            "Drive model, held-out accuracy (K-fold by run): each run's energy predicted by "
+            "a model fitted without it",
+            _DRIVE_HELDOUT_COLUMNS,
+            [
+                [
+                    str(len(held["runs"])),
+                    _num(held["mape_pct"], ".2f"),
+                    _num(held["median_ape_pct"], ".2f"),
+                    _num(held["coverage_pi90_pct"], ".1f"),
+                ]
+            ],
+            caption="MAPE: mean absolute % error of run energy; in 90% PI: how often the "
+            "90% prediction interval held the measured energy",
+        )
+    rows = result.drive_vs_paper()
+    if rows:
+        cells = []
+        for row in rows:
+            phases = (
+                ("accel", row.paper_accel_W, row.paper_accel_ci95, row.accel_W, row.accel_ci95,
+                 row.accel_agree),
+                ("cruise", row.paper_cruise_W, row.paper_cruise_ci95, row.cruise_W,
+                 row.cruise_ci95, row.cruise_agree),
+            )  # fmt: skip
+            for phase, paper, paper_ci, power, ci, agree in phases:
+                cells.append(
+                    [
+                        f"{row.speed_mps:g}",
+                        phase,
+                        format_number(paper, 2),
+                        format_number((paper_ci[1] - paper_ci[0]) / 2, 3),
+                        format_number(power, 2),
+                        format_number((ci[1] - ci[0]) / 2, 3),
+                        "yes" if agree else "no",
+                    ]
+                )
+        print_table(
+            stdout,
+            "Drive model on the paper's step runs: its mean phase powers beside the fitted "
+            "P_acc(v) and P_v(v)",
+            _DRIVE_PAPER_COLUMNS,
+            cells,
+            caption="paper fit: the fitted line at v, ± the 95% interval of its mean; drive: "
+            "the drive model's mean power over an acceleration ramp of t_acc(v) or a cruise at "
+            "v, ± its 95% interval; agree: the intervals overlap",
+        )

@@ -78,6 +78,7 @@ class DriveModel:
         stats = record if isinstance(record, DriveStats) else None
         if stats is None:
             stats = getattr(record, "models", {}).get(self.family)
+            stats = getattr(stats, "stats", stats)  # as a warm cache kept it (KeptStats)
         if stats is None:
             return math.nan, math.nan
         rw = run_windows(stats, self.window_s)
@@ -89,6 +90,11 @@ class DriveModel:
             float(np.sum(windows.power_W) * windows.window_s),
             float(np.sum(predicted_W) * windows.window_s),
         )
+
+    def to_cache(self) -> dict[str, object]:
+        """What `fit --cache` keeps (`models.base.FittedModel.to_cache`): model.json's section
+        (`models.drive.KeptDrive` reads it back)."""
+        return self.to_json()
 
     def summary(self) -> dict[str, object]:
         """cli.md's `drive` object (JSON-safe)."""

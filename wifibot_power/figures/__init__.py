@@ -16,6 +16,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from wifibot_power.figures.diagnosis import findings_figure, heldout_error_figure
+from wifibot_power.figures.drive_energy import drive_energy_figure
+from wifibot_power.figures.drive_power import drive_power_figure
+from wifibot_power.figures.drive_terms import drive_terms_figure
 from wifibot_power.figures.paper_figures import figure5, figure7
 from wifibot_power.figures.power_speed import power_speed_figure
 from wifibot_power.figures.style import PHASE_COLOURS, save_figure
@@ -45,7 +48,34 @@ class FigureSpec:
 
 
 def _fit(report: Report) -> tuple[object, ...] | str:
-    return (report.fit,) if report.fit is not None else str(report.fit_problem)
+    if report.fit is None:
+        return str(report.fit_problem)
+    if not report.fit.has_paper:
+        return "; ".join(report.fit.notes)  # why the paper's models were not fitted
+    return (report.fit,)
+
+
+def _drive(report: Report) -> tuple[object, ...] | str:
+    if report.fit is None:
+        return str(report.fit_problem)
+    drive = report.fit.drive
+    return (drive,) if drive is not None else "no drive model (no log has a speed)"
+
+
+def _drive_heldout(report: Report) -> tuple[object, ...] | str:
+    drive = _drive(report)
+    if isinstance(drive, str):
+        return drive
+    if drive[0].heldout is None:  # type: ignore[attr-defined]
+        return "no held-out accuracy (fewer than 4 trips)"
+    return drive
+
+
+def _drive_traces(report: Report) -> tuple[object, ...] | str:
+    drive = _drive(report)
+    if isinstance(drive, str):
+        return drive
+    return (report.drive_traces,) if report.drive_traces else "fewer than two runs to hold out"
 
 
 def _complete_model(report: Report) -> FitResult | str:
@@ -135,6 +165,36 @@ FIGURES: dict[str, FigureSpec] = {
             from_report=_findings,
         ),
         FigureSpec(
+            "drive_power",
+            "Drive model: held-out runs' power over time",
+            "held-out traces (drive.traces.HeldOutTrace), from the runs' drive statistics",
+            drive_power_figure,
+            "For a few runs (one per surface first), each window's measured mean power (dark) "
+            "and the drive model's prediction (blue) when identified without that run. Where "
+            "blue misses dark at turns, stops or on one surface, a term is missing or wrong.",
+            from_report=_drive_traces,
+        ),
+        FigureSpec(
+            "drive_energy",
+            "Drive model: held-out run energy, predicted against measured",
+            "a drive model (DriveModel.heldout)",
+            drive_energy_figure,
+            "A point per run (or trip) held out of the fit: predicted against measured "
+            "energy, the 90% prediction interval as a bar, a colour per surface. Points on the "
+            "dashed line are exact; about 9 bars in 10 should cross it.",
+            from_report=_drive_heldout,
+        ),
+        FigureSpec(
+            "drive_terms",
+            "Drive model: the terms per surface",
+            "a drive model (DriveModel)",
+            drive_terms_figure,
+            "A panel per term, its unit on the axis: the value at each surface (or 'all' for "
+            "a shared term) with its 95% interval. Surfaces whose intervals do not overlap "
+            "differ in that term.",
+            from_report=_drive,
+        ),
+        FigureSpec(
             "trace",
             "Power trace and phases",
             "a run's samples and segmentation (TraceView)",
@@ -154,6 +214,9 @@ __all__ = [
     "PHASE_COLOURS",
     "FigureSpec",
     "TraceView",
+    "drive_energy_figure",
+    "drive_power_figure",
+    "drive_terms_figure",
     "figure5",
     "figure7",
     "findings_figure",

@@ -102,6 +102,32 @@ class PaperFit(FittedModel):
         del out["t_acc"]["paper"]
         return json_safe(out)  # type: ignore[return-value]
 
+    @staticmethod
+    def null_summary() -> dict[str, object]:
+        """`summary()`'s keys when no run is a step run (free driving only, cli.md "The drive
+        model"): every fitted value null, no runs, the paper's own values as always."""
+        paper = paper_model()
+        nulls = dict.fromkeys(COMPONENT_MODES)
+        return {
+            "n_runs": 0,
+            "accel": None,
+            "cruise": None,
+            "t_acc": None,
+            "idle_W": None,
+            "idle_ci95": None,
+            "idle_n_runs": 0,
+            "idle_source": None,
+            "model_complete": False,
+            "speed_range_mps": None,
+            "components_W": dict(nulls),
+            "components_ci95": dict(nulls),
+            "components_n_runs": dict.fromkeys(COMPONENT_MODES, 0),
+            "paper": {"idle_W": paper.idle_W, "components_W": dict(paper.components_W)},
+            "stop_and_go": [],
+            "notes": [],
+            "warnings": [],
+        }
+
     def to_json(self) -> dict[str, object]:
         """model.json's top level: the fitted `PowerModel`."""
         return self.model.to_json()

@@ -5,10 +5,13 @@ line here."""
 from __future__ import annotations
 
 from wifibot_power.models.base import ModelFamily
+from wifibot_power.models.drive import DriveFamily
 from wifibot_power.models.paper import PaperFamily
 
 #: name -> family; the paper's phase model first (its section is model.json's top level)
-FAMILIES: dict[str, ModelFamily] = {family.name: family for family in (PaperFamily(),)}
+FAMILIES: dict[str, ModelFamily] = {
+    family.name: family for family in (PaperFamily(), DriveFamily())
+}
 
 
 def register(family: ModelFamily) -> ModelFamily:

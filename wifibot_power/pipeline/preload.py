@@ -28,6 +28,7 @@ def preload_work(plan: RunPlan | None = None) -> None:
     import numpy.fft  # noqa: F401
     import numpy.ma  # noqa: F401
 
+    import wifibot_power.drive  # noqa: F401  (the drive family's statistics: models/drive.py)
     import wifibot_power.models  # noqa: F401
     import wifibot_power.runtable  # noqa: F401
     import wifibot_power.segment  # noqa: F401

@@ -1,0 +1,138 @@
+"""The drive model as a model family (cli.md, "The drive model"), the second of
+`models.registry.FAMILIES`: the thin adapter between the pipeline and `wifibot_power.drive`.
+Nothing here computes; it names what the pipeline calls:
+
+- `name`: its section of `fit --json` and model.json, "drive";
+- `run_stats(run, segmentation)`: in the worker, the run reduced to bins
+  (`drive.stats.drive_stats`: small, picklable; None without a speed, or a step run's speed
+  from its phases); `stats_to_json`/`stats_from_json` for the cache;
+- `fit(records, options)`: the model from every run's statistics (each record's
+  `models["drive"]`; `drive.model.fit_drive_stats`; None when no run had a speed);
+- `load(section, file=)`: model.json's section back to the model (`DriveModel.from_json`).
+
+What a warm `fit --cache` reads back stays JSON until it is used (`KeptStats`, `KeptDrive`):
+a warm `fit --json` prints the kept summary without importing numpy (docs/benchmarks.md).
+The fitted `DriveModel` lives in `drive/` and imports nothing of `models` (the package would
+import itself through this registry): it has `FittedModel`'s methods without subclassing it.
+
+A batch of free driving alone (no step run) fits this family and not the paper's: `fit`
+is then a success, with a note that the paper's models need step runs (`fit.fit_records`).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, ClassVar
+
+from wifibot_power.models.base import FitOptions, FittedModel, ModelFamily
+
+if TYPE_CHECKING:
+    from wifibot_power.drive.model import DriveModel
+    from wifibot_power.drive.stats import DriveStats
+    from wifibot_power.phases import Segmentation
+    from wifibot_power.run import Run
+
+
+class KeptStats:
+    """A run's drive statistics as the cache kept them (`DriveStats.to_json`), made a
+    `DriveStats` at the first attribute asked for."""
+
+    def __init__(self, kept: dict) -> None:
+        self.kept = kept
+
+    @functools.cached_property
+    def stats(self) -> DriveStats:
+        from wifibot_power.drive.stats import DriveStats
+
+        return DriveStats.from_json(self.kept)
+
+    def __getattr__(self, name: str) -> object:
+        if name.startswith("__") or name in ("kept", "stats"):
+            raise AttributeError(name)
+        return getattr(self.stats, name)
+
+
+class KeptDrive(FittedModel):
+    """A fitted drive model as the cache kept it (`DriveModel.to_json`): its summary and
+    model.json section straight from the kept values; anything else from the `DriveModel`
+    made at first use."""
+
+    family: ClassVar[str] = "drive"
+
+    def __init__(self, kept: dict) -> None:
+        self.kept = kept
+
+    @functools.cached_property
+    def model(self) -> DriveModel:
+        from wifibot_power.drive.model import DriveModel
+
+        return DriveModel.from_json(self.kept)
+
+    def summary(self) -> dict[str, object]:
+        keys = ("terms", "surfaces", "lag_s", "n_runs", "heldout", "not_determined", "warnings")
+        return {key: self.kept[key] for key in keys}
+
+    def to_json(self) -> dict[str, object]:
+        return self.kept
+
+    def predict_energy_J(self, record: object) -> float:
+        return self.model.predict_energy_J(record)
+
+    def __getattr__(self, name: str) -> object:
+        if name.startswith("__") or name in ("kept", "model"):
+            raise AttributeError(name)
+        return getattr(self.model, name)
+
+
+class DriveFamily(ModelFamily):
+    """The drive model family (module docstring)."""
+
+    name: ClassVar[str] = "drive"
+
+    def run_stats(self, run: Run, segmentation: Segmentation | None) -> DriveStats | None:
+        from wifibot_power.drive.stats import drive_stats
+
+        # an empty segmentation (a run of unknown mode the pipeline did not segment) has no
+        # phases to reconstruct a speed from: the run's own speed column, if any, is used
+        return drive_stats(run, segmentation if segmentation and segmentation.phases else None)
+
+    def stats_to_json(self, stats: DriveStats | KeptStats | None) -> object:
+        if stats is None:
+            return None
+        return stats.kept if isinstance(stats, KeptStats) else stats.to_json()
+
+    def stats_from_json(self, kept: object) -> KeptStats | None:
+        return None if kept is None else KeptStats(kept)  # type: ignore[arg-type]
+
+    def fit(
+        self, records: Sequence[object], options: FitOptions | None = None
+    ) -> DriveModel | None:
+        """From the records' `models["drive"]` (or the statistics themselves)."""
+        from wifibot_power.drive.model import fit_drive_stats
+
+        del options  # nothing of the paper's options applies to the drive model
+        return fit_drive_stats([drive_stats_of(record) for record in records])
+
+    def load(self, data: dict, *, file: str = "model.json") -> DriveModel:
+        from wifibot_power.drive.model import DriveModel
+
+        del file  # errors of a damaged section: drive.profile.load_drive_model names it
+        return DriveModel.from_json(data)
+
+    def from_cache(self, kept: object) -> KeptDrive:
+        if not isinstance(kept, dict) or "coef" not in kept:
+            raise KeyError("drive")
+        return KeptDrive(kept)
+
+
+def drive_stats_of(record: object) -> DriveStats | None:
+    """A record's drive statistics (`record.models["drive"]`, as computed or as kept), or the
+    statistics themselves; None for a run without them."""
+    stats = record if record is None or hasattr(record, "bin_s") else None
+    if stats is None:
+        stats = getattr(record, "models", {}).get(DriveFamily.name)
+    return stats.stats if isinstance(stats, KeptStats) else stats
+
+
+FAMILY = DriveFamily()
