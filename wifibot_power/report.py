@@ -113,10 +113,15 @@ def _why_no_fit(
     (docs/real-logs.md)."""
     unusable = skipped[len(read_skipped) :]  # fit_records puts the unread first
     if not records:
-        why = reasons_in_brief(list(read_skipped)) if read_skipped else "no log was given"
+        # every reason, not "N for other reasons" (each input is listed too: issue 26)
+        why = (
+            reasons_in_brief(list(read_skipped), most=len(read_skipped))
+            if read_skipped
+            else ("no log was given")
+        )
         return f"no log could be read: {why}"
     why = (
-        reasons_in_brief(list(unusable))
+        reasons_in_brief(list(unusable), most=len(unusable))
         if unusable
         else "the paper's models need motion runs with speed, distance and steps in "
         "their metadata (log-format.md)"
