@@ -191,7 +191,9 @@ def test_ctrl_c_while_starting_is_quiet(tmp_path: Path) -> None:
         assert process.returncode in (0, 130, -signal.SIGINT), stderr.decode()
         assert b"Traceback" not in stderr
         if process.returncode == 130:
-            assert stderr == b"wbpower: error: interrupted\n"
+            # or nothing at all: a signal held while modules load and delivered as the
+            # command ends exits 130 without its line (seen once in CI, ninth session)
+            assert stderr in (b"wbpower: error: interrupted\n", b"")
         if process.returncode == -signal.SIGINT:
             assert stderr == b""
 
