@@ -20,15 +20,12 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from wifibot_power.simulate import EFFECTS as _SIM_EFFECTS  # noqa: E402
+
 SHARED = Path(os.environ.get("WBPOWER_REAL_LOGS", ROOT.parent / "shared" / "real_logs")).resolve()
-EFFECTS = (
-    "speed_quadratic",
-    "start_transient",
-    "decel_phase",
-    "accel_inertial",
-    "thermal_drift",
-    "cruise_ripple",
-)
+#: every catalogue effect, as the simulator lists them (the order makes the field set)
+EFFECTS = tuple(_SIM_EFFECTS)
 
 
 def wbpower(out: Path, name: str, *args: str) -> None:
