@@ -167,6 +167,12 @@ ERRORS: list[tuple[str, str | bytes, tuple[str, ...]]] = [
         "# mode: motion\n# speed_mps: 0.5\n# steps: 2.5\ntime_s,power_W\n0,23.3\n",
         ("metadata line 3", "steps is 2.5"),
     ),
+    (
+        # any negative payload, not only below -1 kg (a break of the check to `< -1` passed)
+        "payload_negative",
+        "# payload_kg: -0.25\ntime_s,power_W\n0,23.3\n",
+        ("metadata line 1", "payload_kg is -0.25", ">= 0"),
+    ),
     ("unknown_mode", "# mode: flying\ntime_s,power_W\n0,23.3\n", ("metadata line 1", "'flying'")),
     ("speed_text", "# speed_mps: fast\ntime_s,power_W\n0,23.3\n", ("metadata line 1", "'fast'")),
     (

@@ -192,3 +192,21 @@ def test_bad_effect_spec_is_a_usage_error(spec):
 
     with pytest.raises(UsageError):
         parse_effects([spec])
+
+
+def test_ramp_speed_is_taken_at_the_middle_of_each_sample():
+    """Each sample of a linear ramp carries the speed at its middle, so the samples' sum times
+    dt is the ramp's exact distance v1 * t / 2 (a midpoint moved by 0.01 sample fails this)."""
+    from wifibot_power.simulate import _plan_samples
+
+    dt = 0.5
+    plan = [("accel", 1, 4, 0.0, 1.0), ("cruise", 1, 2, 1.0, 1.0), ("decel", 1, 4, 1.0, 0.0)]
+    speed, accel, kind, bounds = _plan_samples(plan, dt)
+    assert_allclose(speed[:4], [0.125, 0.375, 0.625, 0.875], rtol=0, atol=1e-15)
+    assert_allclose(speed[4:6], 1.0, rtol=0, atol=1e-15)
+    assert_allclose(speed[6:], [0.875, 0.625, 0.375, 0.125], rtol=0, atol=1e-15)
+    # distance of each ramp: 1 m/s * (4 * 0.5 s) / 2 = 1 m
+    assert_allclose(speed[:4].sum() * dt, 1.0, rtol=0, atol=1e-15)
+    assert_allclose(accel, [0.5] * 4 + [0.0] * 2 + [-0.5] * 4, rtol=0, atol=1e-15)
+    assert kind.tolist() == [1] * 4 + [2] * 2 + [3] * 4
+    assert bounds.tolist() == [0, 4, 6, 10]
