@@ -55,7 +55,8 @@ class Skipped:
 def reasons_in_brief(skipped: list[Skipped], most: int = 2) -> str:
     """Why inputs were left out, for a one-line error: the `most` commonest reasons with
     how many inputs each left out and the first file it names, then how many inputs were
-    left out for other reasons ("15 x motion run without a distance (...; first: a.csv)")."""
+    left out for how many other reasons ("15 x motion run without a distance (...; first: a.csv);
+    3 for 2 other reasons (each listed with its file)"): every input is listed in `skipped`."""
     by_why: dict[str, list[Skipped]] = {}
     for skip in skipped:
         by_why.setdefault(skip.why, []).append(skip)
@@ -63,7 +64,9 @@ def reasons_in_brief(skipped: list[Skipped], most: int = 2) -> str:
     parts = [f"{len(s)} x {why} (first: {s[0].file})" for why, s in common[:most]]
     others = sum(len(s) for _, s in common[most:])
     if others:
-        parts.append(f"{others} for other reasons")
+        kinds = len(common) - most
+        plural = "s" if kinds > 1 else ""
+        parts.append(f"{others} for {kinds} other reason{plural} (each listed with its file)")
     return "; ".join(parts)
 
 
