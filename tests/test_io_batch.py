@@ -182,11 +182,8 @@ def test_reasons_in_brief_counts_each_reason_and_names_its_first_file():
         Skipped("e.csv", "e.csv: too short"),
     ]
     assert reasons_in_brief(skipped) == (
-        "2 x no distance (first: b.csv); 1 x bad header (first: a.csv); "
-        "2 for 2 other reasons (each listed with its file)"
+        "2 x no distance (first: b.csv); 1 x bad header (first: a.csv); 2 for 2 other reasons"
     )
-    assert reasons_in_brief(skipped[:4]).endswith(
-        "; 1 for 1 other reason (each listed with its file)"
-    )
+    assert reasons_in_brief(skipped[:4]).endswith("; 1 for 1 other reason")
     assert reasons_in_brief(skipped, most=5).endswith("1 x too short (first: e.csv)")
     assert "1 x odd (first: d.csv)" in reasons_in_brief(skipped, most=5)

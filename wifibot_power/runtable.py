@@ -43,6 +43,7 @@ import numpy as np
 
 from wifibot_power.phases import Phase, Segmentation
 from wifibot_power.run import Run
+from wifibot_power.segment.common import speed_across_gaps
 
 if TYPE_CHECKING:  # pandas (~0.45 s to import) loads only when the table is asked for
     import pandas as pd
@@ -271,8 +272,9 @@ def _phase_columns(
 def _path_m(run: Run, phases: Sequence[Phase]) -> float:
     """Path the run's motion phases cover by its speed column [m]: sum of |v|·dt over their
     samples (rectangle rule, as the energies; idle samples, whose speed is noise around 0 on
-    an encoder, are left out)."""
-    speed = np.abs(run.speed_mps)
+    an encoder, are left out). Unknown (NaN) speeds are filled as `segment` fills them (a
+    straight line across, `speed_across_gaps`; its doubt says so), never summed as NaN."""
+    speed = np.abs(speed_across_gaps(run.speed_mps)[0])
     total = sum(float(speed[p.i_start : p.i_end].sum()) for p in phases if p.phase in MOTION_PHASES)
     return total * run.sample_period_s
 

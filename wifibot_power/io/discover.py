@@ -56,7 +56,7 @@ def reasons_in_brief(skipped: list[Skipped], most: int = 2) -> str:
     """Why inputs were left out, for a one-line error: the `most` commonest reasons with
     how many inputs each left out and the first file it names, then how many inputs were
     left out for how many other reasons ("15 x motion run without a distance (...; first: a.csv);
-    3 for 2 other reasons (each listed with its file)"): every input is listed in `skipped`."""
+    3 for 2 other reasons"); the callers list every input with its reason (`skipped`)."""
     by_why: dict[str, list[Skipped]] = {}
     for skip in skipped:
         by_why.setdefault(skip.why, []).append(skip)
@@ -66,7 +66,7 @@ def reasons_in_brief(skipped: list[Skipped], most: int = 2) -> str:
     if others:
         kinds = len(common) - most
         plural = "s" if kinds > 1 else ""
-        parts.append(f"{others} for {kinds} other reason{plural} (each listed with its file)")
+        parts.append(f"{others} for {kinds} other reason{plural}")
     return "; ".join(parts)
 
 

@@ -64,6 +64,27 @@ def _phases(run: Run, pieces: list[Piece]) -> list[Phase]:
     return phases
 
 
+def speed_across_gaps(speed_mps: np.ndarray) -> tuple[np.ndarray, list[tuple[int, int]]]:
+    """The speed column [m/s] with each stretch of unknown (NaN) samples filled by a straight
+    line between the known samples either side (held at the log's ends), and those stretches
+    as [i, j) sample ranges. A reader leaves the speed NaN where it has none (an odometry
+    topic's drop-out in a bag, log-format.md "ROS bags"); read as 0 it would cut a motion in
+    two with a stop that never happened. The filling is an assumption: `segment` says so
+    where a stop could hide in a stretch (`kinematic._gap_doubts`)."""
+    speed = np.asarray(speed_mps, dtype=np.float64)
+    known = np.isfinite(speed)
+    if known.all() or not known.any():
+        return (speed if known.all() else np.zeros_like(speed)), (
+            [] if known.all() else [(0, speed.size)]
+        )
+    index = np.arange(speed.size)
+    filled = np.interp(index, index[known], speed[known])
+    edges = np.diff(np.concatenate(([0], (~known).astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()
+    gaps = list(zip(starts, ends, strict=True))
+    return filled, gaps
+
+
 def _yaw_prefix(run: Run) -> tuple[np.ndarray | None, np.ndarray | None]:
     """Prefix sums of |yaw rate| over the finite samples and of their count (None, None
     without a turning column): each phase's mean |yaw rate| from two differences."""

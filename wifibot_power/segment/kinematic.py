@@ -13,7 +13,13 @@ from wifibot_power.changepoint import best_split, block_means, median, percentil
 from wifibot_power.errors import LogError
 from wifibot_power.phases import Segmentation
 from wifibot_power.run import Run
-from wifibot_power.segment.common import Piece, _centred_mean, _merge_stretches, _phases
+from wifibot_power.segment.common import (
+    Piece,
+    _centred_mean,
+    _merge_stretches,
+    _phases,
+    speed_across_gaps,
+)
 from wifibot_power.segment.params import SpeedParams
 from wifibot_power.segment.turning import standstill_doubts, track_m, turning_blocks, with_turns
 
@@ -38,7 +44,8 @@ class _SpeedTrace:
     [W], the signed speed `signed` and its magnitude `v` [m/s], the magnitude smoothed over
     `smooth_s` (`smoothed`, a centred mean over 2 `half` + 1 blocks), the noise sd of the
     signed speed `sigma_v`, the top speed (99th percentile of `smoothed`) and the
-    threshold above which a block is `moving`."""
+    threshold above which a block is `moving`; `speed_mps` is the full-rate speed with its
+    unknown stretches `gaps` filled (`speed_across_gaps`)."""
 
     y: np.ndarray
     signed: np.ndarray
@@ -52,6 +59,8 @@ class _SpeedTrace:
     smooth_sd: float
     threshold: float
     moving: np.ndarray
+    speed_mps: np.ndarray
+    gaps: list[tuple[int, int]]
 
     def blocks(self, seconds: float) -> int:
         """The number of blocks (at least one) that last `seconds`."""
@@ -66,7 +75,8 @@ def _speed_trace(run: Run, params: SpeedParams) -> _SpeedTrace:
     # signed speed averaged first, |.| after: the noise of a standing speed estimate
     # averages to 0 (its absolute value would average to 0.8 sd above 0), and so does a
     # vibration of the wheels back and forth in place
-    signed = block_means(np.nan_to_num(run.speed_mps, nan=0.0), block)
+    speed_mps, gaps = speed_across_gaps(run.speed_mps)
+    signed = block_means(speed_mps, block)
     block_dt = block * dt
     half = max(1, round(params.smooth_s / block_dt)) // 2
     smoothed = np.abs(_centred_mean(signed, half))
@@ -76,7 +86,7 @@ def _speed_trace(run: Run, params: SpeedParams) -> _SpeedTrace:
     threshold = max(params.moving_fraction * top, params.moving_z * smooth_sd)
     return _SpeedTrace(
         y, signed, np.abs(signed), smoothed, block, block_dt, half, sigma_v, top, smooth_sd,
-        threshold, smoothed > threshold,
+        threshold, smoothed > threshold, speed_mps, gaps,
     )  # fmt: skip
 
 
@@ -118,7 +128,7 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     pieces: list[Piece] = []
     # the magnitude of each phase's mean signed speed (a standing robot's speed noise
     # averages to ~0; the mean of |v| would give it a speed of ~0.8 sigma)
-    speed_sum = np.concatenate(([0.0], np.cumsum(np.nan_to_num(run.speed_mps))))
+    speed_sum = np.concatenate(([0.0], np.cumsum(trace.speed_mps)))
     block = trace.block
     for k, (_, name, number) in enumerate(cuts):
         i_start = starts[k] * block
@@ -138,6 +148,7 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     moving_floor = max(floor, params.moving_fraction * trace.top)
     edge_ms = 1000.0 * ends * trace.block_dt
     doubts = _kinematic_doubts(run, end_speeds, edge_ms, moving_floor, motions)
+    doubts += _gap_doubts(run, trace.gaps, params.still_s)
     doubts += standstill_doubts(run, phases, turning is not None, trace.y, trace.block)
     return Segmentation(run.meta.run_id, tuple(phases), (), tuple(doubts))
 
@@ -291,6 +302,25 @@ def _kinematic_doubts(
             f"metadata says {run.meta.steps} step(s)"
         )
     return doubts
+
+
+def _gap_doubts(run: Run, gaps: list[tuple[int, int]], still_s: float) -> list[str]:
+    """A doubt when the speed is unknown (NaN) for `still_s` [s] or longer somewhere: the
+    speed is filled across by a straight line (`speed_across_gaps`), so a stop (which needs
+    `still_s` of standing) or a start inside such a stretch is not seen. Shorter stretches
+    cannot hide a stop and are said by the reader that left them."""
+    dt = run.sample_period_s
+    long = [(i, j) for i, j in gaps if (j - i) * dt >= still_s]
+    if not long:
+        return []
+    i, j = max(long, key=lambda g: g[1] - g[0])
+    total_s = sum(b - a for a, b in long) * dt
+    return [
+        f"the speed is unknown for {len(long)} stretch(es) of {still_s:g} s or longer "
+        f"({total_s:.3g} s in all; the longest {(j - i) * dt:.3g} s from t = "
+        f"{float(run.time_s[i]):.6g} s): filled by a straight line across, so a stop or a "
+        "start inside is not seen"
+    ]
 
 
 def _held(mask: np.ndarray, hold: int) -> int | None:
