@@ -447,3 +447,50 @@ def test_a_worker_stopped_while_it_sends_a_large_result_does_not_hang_the_parent
     assert b"Traceback" not in stderr
     time.sleep(0.1)
     assert _group(done.pid) == [], "a worker outlived the command"
+
+
+_KILLED_MID_MESSAGE = """
+import os, signal, struct
+from multiprocessing import connection
+from wifibot_power import parallel
+from wifibot_power.errors import WbpowerError
+
+
+def dies_mid_message(k):
+    def half_then_killed(self, buf):
+        # the result's length and half of it sent, then killed, as by the OOM killer
+        self._send(struct.pack("!i", len(buf)) + bytes(buf[: len(buf) // 2]))
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    connection.Connection._send_bytes = half_then_killed  # (in the worker only)
+    return b"x" * 1_000_000
+
+
+try:
+    parallel.map_ordered([1, 2, 3], dies_mid_message, jobs=2)
+except WbpowerError as exc:
+    print(exc.one_line())
+"""
+
+
+def test_a_worker_killed_while_it_sends_a_result_is_a_one_line_error_not_a_hang() -> None:
+    """A worker killed (the OOM killer: no signal to catch) half-way through sending its
+    result: the pool's thread waited forever for the rest of the message, so it never saw
+    the worker's death, and the parent waited forever for a result. The parent watches its
+    workers while it waits."""
+    done = subprocess.Popen(
+        [sys.executable, "-c", _KILLED_MID_MESSAGE],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+    )
+    try:
+        stdout, stderr = done.communicate(timeout=30)
+    finally:
+        if done.poll() is None:
+            os.killpg(done.pid, signal.SIGKILL)
+            done.communicate()
+    assert "a worker process died" in stdout.decode(), stderr.decode()
+    assert done.returncode == 0 and b"Traceback" not in stderr, stderr.decode()
+    time.sleep(0.1)
+    assert _group(done.pid) == [], "a worker outlived the command"

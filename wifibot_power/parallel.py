@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import ctypes
 import multiprocessing
+import multiprocessing.connection
 import os
 import signal
 import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import TypeVar
 
@@ -246,7 +247,7 @@ def _map_forked(
             pending[pool.submit(_run_task, index)] = index
             if len(pending) >= 2 * workers:
                 break
-        results = _collect(pool, pending, queue, on_done)
+        results = _collect(pool, pending, queue, on_done, processes)
     except BrokenProcessPool:
         _stop_pool(pool, processes)
         raise WbpowerError(
@@ -292,12 +293,13 @@ def _collect(
     pending: dict[Future, int],
     queue: Iterator[int],
     on_done: Callable[[int], object],
+    processes: list[multiprocessing.process.BaseProcess],
 ) -> dict[int, object]:
-    """The results of `pending` as they finish, each replaced by the next index of `queue`."""
+    """The results of `pending` as they finish, each replaced by the next index of `queue`;
+    every `_WATCH_S` without one, a check that no worker has died (`_check_alive`)."""
     results: dict[int, object] = {}
     while pending:
-        done, _ = wait(pending, return_when=FIRST_COMPLETED)
-        for future in done:
+        for future in _finished(pending, processes):
             index = pending.pop(future)
             results[index] = future.result()
             on_done(index)
@@ -305,6 +307,45 @@ def _collect(
             if next_index is not None:
                 pending[pool.submit(_run_task, next_index)] = next_index
     return results
+
+
+#: seconds between two looks at the results in flight
+_POLL_S = 0.005
+#: seconds between two checks that every worker is alive while no result comes
+_WATCH_S = 0.5
+
+
+def _finished(
+    pending: dict[Future, int], processes: list[multiprocessing.process.BaseProcess]
+) -> list[Future]:
+    """The futures of `pending` that are done, waiting for one: polled every `_POLL_S`, with
+    a check that no worker has died every `_WATCH_S` (`_check_alive`).
+
+    Polled, not `concurrent.futures.wait`: its `Condition.wait`, when a Ctrl-C or SIGTERM
+    interrupts it while it takes its lock back (held by the pool's thread, marking a result
+    done), raises without that lock and then releases it from under the pool's thread,
+    which dies ("Exception in thread ... RuntimeError: release unlocked lock": a traceback
+    on stderr, seen once in ~60 interrupted runs under load). A sleep interrupted raises
+    with no lock held."""
+    waited_s = 0.0
+    while True:
+        done = [future for future in pending if future.done()]
+        if done:
+            return done
+        time.sleep(_POLL_S)
+        waited_s += _POLL_S
+        if waited_s >= _WATCH_S:
+            _check_alive(processes)
+            waited_s = 0.0
+
+
+def _check_alive(processes: list[multiprocessing.process.BaseProcess]) -> None:
+    """`BrokenProcessPool` if a worker has died (the OOM killer; workers end only when told
+    to). The pool's own thread sees a death too, but not one half-way through sending a
+    result: it waits for the rest of that message forever, and this process waited forever
+    for the result (issue 29). Read from the workers' sentinels (no wait: not reaped here)."""
+    if multiprocessing.connection.wait([p.sentinel for p in processes], timeout=0):
+        raise BrokenProcessPool("a worker process died")
 
 
 def _stop_pool(
