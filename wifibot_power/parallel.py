@@ -280,8 +280,7 @@ def _start_beside(beside: Callable[[], object]) -> threading.Thread:
     """`beside()` in a thread of its own, started once every worker is forked (fork: all at
     once, by the first submit), with Ctrl-C and SIGTERM blocked, which it keeps (as the
     pool's manager thread, started by the first submit): the kernel gives them to the main
-    thread, whose wait they interrupt; one taken by another thread would wait for the next
-    file to finish."""
+    thread, whose wait (`_finished`) they interrupt at once."""
     meanwhile = threading.Thread(target=beside, name="beside", daemon=True)
     with signals.blocked():
         meanwhile.start()
