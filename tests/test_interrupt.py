@@ -276,15 +276,9 @@ def test_sigterm_to_fit_stops_its_workers_and_exits_143(
     the pipe)."""
     out = tmp_path / "out"
     process = _start_fit(corpus, out, name)
-    try:
-        time.sleep(after_s)
-        process.send_signal(signal.SIGTERM)
-        # communicate() returns only once every holder of the pipes (workers too) is gone
-        stdout, stderr = process.communicate(timeout=30)
-    finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.communicate()
+    time.sleep(after_s)
+    process.send_signal(signal.SIGTERM)
+    stdout, stderr = _ended(process)
     assert process.returncode == 143, stderr.decode()
     assert stderr == b"wbpower: error: terminated (SIGTERM)\n"
     assert stdout == b""
@@ -407,6 +401,34 @@ def test_no_interrupt_is_raised_while_workers_are_forked() -> None:
             signal.signal(signum, handler)
 
 
+def _ended(process: subprocess.Popen) -> tuple[bytes, bytes]:
+    """`process.communicate(timeout=30)`: it returns only once every holder of the pipes
+    (workers too) is gone; a process still running then is killed with its group."""
+    try:
+        return process.communicate(timeout=30)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.communicate()
+
+
+def _script_alone(script: str, *args: str) -> str:
+    """Run a Python `script` in a session of its own; its stdout, once it ended within 30 s
+    (not hung), exited 0, printed no traceback and left no process behind."""
+    done = subprocess.Popen(
+        [sys.executable, "-c", script, *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+    )
+    stdout, stderr = _ended(done)
+    assert done.returncode == 0, stderr.decode()
+    assert b"Traceback" not in stderr, stderr.decode()
+    time.sleep(0.1)
+    assert _group(done.pid) == [], "a worker outlived the command"
+    return stdout.decode()
+
+
 _LARGE_RESULTS = """
 import os, signal, sys, threading
 from wifibot_power import parallel, signals
@@ -430,23 +452,8 @@ def test_a_worker_stopped_while_it_sends_a_large_result_does_not_hang_the_parent
     message in the pool's result pipe, the pool's thread waited for the rest forever, and so
     did the parent, joining it. Here the workers do nothing but send 8 MB results, so the
     SIGTERM nearly always stops one mid-message (before the fix: 6 hangs in 6 tries)."""
-    done = subprocess.Popen(
-        [sys.executable, "-c", _LARGE_RESULTS, str(after_s)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        start_new_session=True,
-    )
-    try:
-        stdout, stderr = done.communicate(timeout=30)
-    finally:
-        if done.poll() is None:
-            os.killpg(done.pid, signal.SIGKILL)
-            done.communicate()
-    assert stdout.decode().strip() == "Terminated", stderr.decode()
-    assert done.returncode == 0, stderr.decode()
-    assert b"Traceback" not in stderr
-    time.sleep(0.1)
-    assert _group(done.pid) == [], "a worker outlived the command"
+    stdout = _script_alone(_LARGE_RESULTS, str(after_s))
+    assert stdout.strip() == "Terminated"
 
 
 _KILLED_MID_MESSAGE = """
@@ -478,19 +485,4 @@ def test_a_worker_killed_while_it_sends_a_result_is_a_one_line_error_not_a_hang(
     result: the pool's thread waited forever for the rest of the message, so it never saw
     the worker's death, and the parent waited forever for a result. The parent watches its
     workers while it waits."""
-    done = subprocess.Popen(
-        [sys.executable, "-c", _KILLED_MID_MESSAGE],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        start_new_session=True,
-    )
-    try:
-        stdout, stderr = done.communicate(timeout=30)
-    finally:
-        if done.poll() is None:
-            os.killpg(done.pid, signal.SIGKILL)
-            done.communicate()
-    assert "a worker process died" in stdout.decode(), stderr.decode()
-    assert done.returncode == 0 and b"Traceback" not in stderr, stderr.decode()
-    time.sleep(0.1)
-    assert _group(done.pid) == [], "a worker outlived the command"
+    assert "a worker process died" in _script_alone(_KILLED_MID_MESSAGE)
