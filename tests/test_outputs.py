@@ -469,3 +469,170 @@ def test_an_output_folder_that_cannot_be_made_is_refused_before_the_work(wbpower
     result = wbpower("fit", Path(__file__).resolve().parents[1] / "sample_logs", "-o", "/proc/out")
     assert result.exit_code == 2
     assert result.stderr.startswith("wbpower: error: -o /proc/out: cannot create anything in /proc")
+
+
+# -- issue 29 (leftovers): report's staged folder, energy/lifetime/export -o ---------------
+
+
+def _held_lock(folder: Path) -> int:
+    """Another writer holding `folder`'s lock (flock on another open file description)."""
+    import fcntl
+
+    held = os.open(folder, os.O_RDONLY)
+    fcntl.flock(held, fcntl.LOCK_EX)
+    return held
+
+
+def test_a_staged_folder_is_refused_while_another_writer_holds_the_folder(tmp_path):
+    """`report -o DIR` built its staged folder with no lock: two reports at once swapped
+    their entries into DIR in turn (one's page beside the other's figures)."""
+    from wifibot_power.errors import UsageError
+    from wifibot_power.outputs import staged_folder
+
+    folder = tmp_path / "out"
+    old = _old_set(folder)
+    held = _held_lock(folder)
+    try:
+        with pytest.raises(UsageError, match="another wbpower is writing into this folder"):
+            with staged_folder(folder) as stage:
+                (stage / "a.json").write_text("new a")
+        assert _contents(folder) == old
+        assert [p.name for p in tmp_path.iterdir()] == ["out"]  # no stage left beside it
+    finally:
+        os.close(held)
+    with staged_folder(folder) as stage:  # released: put in place
+        (stage / "a.json").write_text("new a")
+    assert _contents(folder) == {**old, "a.json": "new a"}
+
+
+def test_a_staged_folder_holds_the_lock_until_it_is_in_place(tmp_path):
+    """While the new entries are built, a `write_set` into the same folder is refused."""
+    from wifibot_power.errors import UsageError
+    from wifibot_power.outputs import json_file, staged_folder, write_set
+
+    folder = tmp_path / "new"
+    with staged_folder(folder) as stage:
+        (stage / "report.html").write_text("page")
+        with pytest.raises(UsageError, match="another wbpower is writing"):
+            write_set(folder, {"model.json": json_file(1)})
+    assert _contents(folder) == {"report.html": "page"}
+
+
+def test_a_staged_folder_for_a_new_folder_stopped_leaves_nothing(tmp_path):
+    from wifibot_power.outputs import staged_folder
+
+    with pytest.raises(KeyboardInterrupt):
+        with staged_folder(tmp_path / "a" / "report") as stage:
+            (stage / "report.html").write_text("page")
+            raise KeyboardInterrupt
+    assert list(tmp_path.iterdir()) == []
+
+
+def _fail_second_parquet(monkeypatch) -> None:
+    """Writing the second Parquet file of a command fails (disk full), the first succeeds."""
+    real = pd.DataFrame.to_parquet
+    calls = []
+
+    def to_parquet(frame, path, *args, **kwargs):
+        calls.append(path)
+        if len(calls) == 2:
+            raise OSError(28, "No space left on device")
+        return real(frame, path, *args, **kwargs)
+
+    monkeypatch.setattr(pd.DataFrame, "to_parquet", to_parquet)
+
+
+def test_energy_out_is_written_as_one_set(tmp_path, wbpower, monkeypatch):
+    """`energy -o DIR` wrote energy_phases.parquet, then energy.parquet, one at a time:
+    stopped at the second, the folder held a new phase table beside the old trip's row."""
+    out = tmp_path / "out"
+    first = wbpower("energy", "--speed", "0.5", "--dist", "10", "--steps", "2", "-o", out)
+    assert first.exit_code == 0, first.stderr
+    old = {p.name: p.read_bytes() for p in sorted(out.iterdir())}
+    assert set(old) == {"energy.parquet", "energy_phases.parquet"}
+    _fail_second_parquet(monkeypatch)
+    again = wbpower("energy", "--speed", "0.9", "--dist", "20", "--steps", "5", "-o", out)
+    assert again.exit_code == 2, again.stderr
+    assert "No space left on device" in again.stderr
+    assert {p.name: p.read_bytes() for p in sorted(out.iterdir())} == old
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("energy", "--speed", "0.5", "--dist", "10", "--steps", "2"),
+        ("energy", "--sweep", "speed"),
+        ("lifetime", "--rate", "54"),
+        ("lifetime", "--sweep", "rate"),
+    ],
+    ids=["energy", "energy-sweep", "lifetime", "lifetime-sweep"],
+)
+def test_energy_and_lifetime_out_take_the_folder_lock_and_count_as_written(
+    tmp_path, wbpower, monkeypatch, args
+):
+    """One writer per folder, and a Ctrl-C during the renames exits 3 naming the files (it
+    exited 130, "nothing written", with the files in place)."""
+    import wifibot_power.outputs as outputs
+
+    out = tmp_path / "out"
+    out.mkdir()
+    held = _held_lock(out)
+    try:
+        locked = wbpower(*args, "-o", out)
+    finally:
+        os.close(held)
+    assert locked.exit_code == 2, locked.stderr
+    assert "another wbpower is writing into this folder now" in locked.stderr
+    assert list(out.iterdir()) == []
+    real = outputs._fsync_dir
+
+    def signal_in_the_renames(folder: Path) -> None:
+        signal.raise_signal(signal.SIGINT)  # held until the renames are done
+        real(folder)
+
+    monkeypatch.setattr(outputs, "_fsync_dir", signal_in_the_renames)
+    result = wbpower(*args, "-o", out)
+    assert result.exit_code == 3, result.stderr
+    line = result.stderr.strip().splitlines()[-1]
+    assert line.startswith("wbpower: error: interrupted after writing ") and line.endswith(
+        " in full"
+    )
+    listed = line.removeprefix("wbpower: error: interrupted after writing ").removesuffix(
+        " in full"
+    )
+    names = {p.name for p in out.iterdir()}
+    assert names and all(name.endswith(".parquet") for name in names)
+    assert set(listed.split(", ")) == {str(out / name) for name in names}
+
+
+def test_export_out_counts_as_written_and_takes_the_folder_lock(tmp_path, wbpower, monkeypatch):
+    """`export -o FILE` interrupted once the file was in place exited 130 ("nothing
+    written"): now 3, naming it; and it waits for no other writer of that folder."""
+    from test_export import drive_section
+
+    import wifibot_power.outputs as outputs
+
+    model = tmp_path / "model.json"
+    model.write_text(json.dumps({"format": "wbpower-model", "drive": drive_section()}))
+    out = tmp_path / "out" / "power.yaml"
+    out.parent.mkdir()
+    held = _held_lock(out.parent)
+    try:
+        locked = wbpower("export", "--model", model, "--to", "rmf", "--turn-rate", "0.5", "-o", out)
+    finally:
+        os.close(held)
+    assert locked.exit_code == 2, locked.stderr
+    assert "another wbpower is writing into this folder now" in locked.stderr
+    assert not out.exists()
+    real = outputs._fsync_dir
+
+    def signal_in_the_renames(folder: Path) -> None:
+        signal.raise_signal(signal.SIGINT)
+        real(folder)
+
+    monkeypatch.setattr(outputs, "_fsync_dir", signal_in_the_renames)
+    result = wbpower("export", "--model", model, "--to", "rmf", "--turn-rate", "0.5", "-o", out)
+    assert result.exit_code == 3, result.stderr
+    assert result.stderr.strip().endswith(f"interrupted after writing {out} in full")
+    assert out.read_text().strip()
+    assert [p.name for p in out.parent.iterdir()] == ["power.yaml"]  # no temporary file

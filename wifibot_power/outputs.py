@@ -314,51 +314,62 @@ def staged_folder(out_dir: Path) -> Iterator[Path]:
     (an error, Ctrl-C), the temporary folder is removed and `out_dir` is as it was, or not
     there if it was not (cli.md: "writes nothing partial").
 
+    One writer at a time, as for `write_set`: `out_dir` is made first and locked (flock(2))
+    for the whole block; held by another process, this one stops with a one-line error
+    before anything is built (two `report -o DIR` at once swapped their entries into DIR in
+    turn: one's page beside the other's figures).
+
     The temporary folder is next to `out_dir` (`.NAME.*.tmp`, on the same file system, so
     every move is a rename), or inside it (`.staged.*.tmp`) where its parent cannot be
     written or is on another file system.
     """
     import shutil
-    import tempfile
 
     out_dir = Path(out_dir).absolute()
     if out_dir.exists():
         out_dir = out_dir.resolve()  # a link's folder: the stage goes beside the folder
     made: list[Path] = []
     stage: Path | None = None
+    lock: int | None = None
     try:
-        with hold_ctrl_c():  # a Ctrl-C here comes once both are known, to be removed
-            made = make_dirs(out_dir.parent)
-            # beside it: where its parent can be written and is on its file system
-            beside = not out_dir.exists() or (
-                os.access(out_dir.parent, os.W_OK | os.X_OK)
-                and os.stat(out_dir.parent).st_dev == os.stat(out_dir).st_dev
-            )
-            stage = Path(
-                tempfile.mkdtemp(
-                    prefix=f".{out_dir.name}." if beside else ".staged.",
-                    suffix=".tmp",
-                    dir=out_dir.parent if beside else out_dir,
-                )
-            )
-        yield stage
-        _fsync_dir(stage)
-        # mkdtemp makes its folder 0700: as a folder mkdir makes it, then (the umask's mode),
-        # or the report renamed into place could be read by no one else (a web server)
-        os.chmod(stage, 0o777 & ~_umask())
-        with hold_ctrl_c():
-            if not out_dir.exists():
-                os.rename(stage, out_dir)  # one rename: the whole new folder at once
-            else:
+        try:
+            with hold_ctrl_c():  # a Ctrl-C here comes once both are known, to be removed
+                made = make_dirs(out_dir)
+                lock = _lock_folder(out_dir)
+                stage = _stage_for(out_dir)
+            yield stage
+            _fsync_dir(stage)
+            with hold_ctrl_c():
                 _swap_entries(stage, out_dir)
-            written.append(out_dir)
-    except BaseException:
-        if stage is not None:  # (after the renames: what is left of it, the old entries)
-            shutil.rmtree(stage, ignore_errors=True)
-        remove_made_dirs(made)
-        raise
+                written.append(out_dir)
+        except BaseException:
+            if stage is not None:  # (after the renames: what is left of it, the old entries)
+                shutil.rmtree(stage, ignore_errors=True)
+            if lock is not None:  # (a folder not locked is another writer's: left as it is)
+                remove_made_dirs(made)
+            raise
+    finally:
+        if lock is not None:
+            os.close(lock)  # the lock goes with it
     shutil.rmtree(stage, ignore_errors=True)  # what is left: the old entries replaced
     _fsync_dir(out_dir)
+
+
+def _stage_for(out_dir: Path) -> Path:
+    """A new temporary folder for `out_dir`'s new entries: beside it where its parent can be
+    written and is on its file system (every move a rename), else inside it."""
+    import tempfile
+
+    beside = os.access(out_dir.parent, os.W_OK | os.X_OK) and (
+        os.stat(out_dir.parent).st_dev == os.stat(out_dir).st_dev
+    )
+    return Path(
+        tempfile.mkdtemp(
+            prefix=f".{out_dir.name}." if beside else ".staged.",
+            suffix=".tmp",
+            dir=out_dir.parent if beside else out_dir,
+        )
+    )
 
 
 def _swap_entries(stage: Path, out_dir: Path) -> None:

@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import ctypes
 import multiprocessing
+import multiprocessing.connection
 import os
 import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import TypeVar
 
@@ -201,56 +202,54 @@ def map_ordered(
 
     global _TASK
     previous, _TASK = _TASK, lambda index: task(items[index])
-    meanwhile: threading.Thread | None = None
-    results_by_index: dict[int, R] = {}
-    context = multiprocessing.get_context("fork")
+    order = range(len(items))
+    if cost is not None:
+        order = sorted(order, key=lambda index: -cost(items[index]))
+
+    def done(index: int) -> None:
+        if on_done is not None:
+            on_done(items[index])
+
+    try:
+        results_by_index = _map_forked(iter(order), workers, done, beside)
+    finally:
+        _TASK = previous
+    return [results_by_index[index] for index in range(len(items))]
+
+
+def _map_forked(
+    queue: Iterator[int],
+    workers: int,
+    on_done: Callable[[int], object],
+    beside: Callable[[], object] | None,
+) -> dict[int, object]:
+    """`_TASK(index)` for each index of `queue` (in that order) in `workers` forked workers;
+    `on_done(index)` as each is done. No worker is left behind however it ends."""
     threads = max(available_cores() // workers, 1)
     pool = ProcessPoolExecutor(
         max_workers=workers,
-        mp_context=context,
+        mp_context=multiprocessing.get_context("fork"),
         initializer=_start_worker,
         initargs=(threads, os.getpid()),
     )
     processes: list[multiprocessing.process.BaseProcess] = []
+    meanwhile: threading.Thread | None = None
     try:
-        pending: dict[object, int] = {}
-        order = range(len(items))
-        if cost is not None:
-            order = sorted(order, key=lambda index: -cost(items[index]))
-        queue = iter(order)
+        first = next(queue, None)
+        if first is None:
+            return {}
+        pending, processes = _fork_workers(pool, first)
+        if beside is not None:
+            meanwhile = _start_beside(beside)
         # a window of 2 items per worker in flight: workers never wait for work, and the
         # parent holds a few futures, not one per file
         for index in queue:
-            if not processes:
-                # the first submit forks every worker: SIGINT and SIGTERM are held back
-                # meanwhile, so they land here, once the workers are known and can be stopped
-                with signals.blocked():
-                    pending[pool.submit(_run_task, index)] = index
-                    processes = list(pool._processes.values())  # noqa: SLF001
-                if beside is not None:  # every worker is forked by now (fork: all at once)
-                    meanwhile = threading.Thread(target=beside, name="beside", daemon=True)
-                    # started with Ctrl-C and SIGTERM blocked, which it keeps (as the pool's
-                    # manager thread, started by the first submit above): the kernel gives
-                    # them to the main thread, whose wait they interrupt; one taken by
-                    # another thread would wait for the next file to finish
-                    with signals.blocked():
-                        meanwhile.start()
-            else:
-                pending[pool.submit(_run_task, index)] = index
+            pending[pool.submit(_run_task, index)] = index
             if len(pending) >= 2 * workers:
                 break
-        while pending:
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for future in done:
-                index = pending.pop(future)
-                results_by_index[index] = future.result()
-                if on_done is not None:
-                    on_done(items[index])
-                next_index = next(queue, None)
-                if next_index is not None:
-                    pending[pool.submit(_run_task, next_index)] = next_index
+        results = _collect(pool, pending, queue, on_done, processes)
     except BrokenProcessPool:
-        _stop_workers(_forked(pool, processes))
+        _stop_pool(pool, processes)
         raise WbpowerError(
             "a worker process died (killed for lack of memory?)",
             fix="run again with --jobs 1, or with fewer jobs",
@@ -258,11 +257,121 @@ def map_ordered(
     except BaseException:
         # Ctrl-C (KeyboardInterrupt), SIGTERM (`signals.Terminated`), or an error a task
         # raised: no worker is left behind
-        _stop_workers(_forked(pool, processes))
+        _stop_pool(pool, processes)
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
-        _TASK = previous
     if meanwhile is not None:
         meanwhile.join()
-    return [results_by_index[index] for index in range(len(items))]
+    return results
+
+
+def _fork_workers(
+    pool: ProcessPoolExecutor, index: int
+) -> tuple[dict[Future, int], list[multiprocessing.process.BaseProcess]]:
+    """The first submit, which forks every worker, with SIGINT and SIGTERM held back
+    meanwhile, so they land once the workers are known and can be stopped."""
+    with signals.blocked():
+        pending = {pool.submit(_run_task, index): index}
+        return pending, list(pool._processes.values())  # noqa: SLF001
+
+
+def _start_beside(beside: Callable[[], object]) -> threading.Thread:
+    """`beside()` in a thread of its own, started once every worker is forked (fork: all at
+    once, by the first submit), with Ctrl-C and SIGTERM blocked, which it keeps (as the
+    pool's manager thread, started by the first submit): the kernel gives them to the main
+    thread, whose wait (`_finished`) they interrupt at once."""
+    meanwhile = threading.Thread(target=beside, name="beside", daemon=True)
+    with signals.blocked():
+        meanwhile.start()
+    return meanwhile
+
+
+def _collect(
+    pool: ProcessPoolExecutor,
+    pending: dict[Future, int],
+    queue: Iterator[int],
+    on_done: Callable[[int], object],
+    processes: list[multiprocessing.process.BaseProcess],
+) -> dict[int, object]:
+    """The results of `pending` as they finish, each replaced by the next index of `queue`;
+    every `_WATCH_S` without one, a check that no worker has died (`_check_alive`)."""
+    results: dict[int, object] = {}
+    while pending:
+        for future in _finished(pending, processes):
+            index = pending.pop(future)
+            results[index] = future.result()
+            on_done(index)
+            next_index = next(queue, None)
+            if next_index is not None:
+                pending[pool.submit(_run_task, next_index)] = next_index
+    return results
+
+
+#: seconds between two looks at the results in flight
+_POLL_S = 0.005
+#: seconds between two checks that every worker is alive while no result comes
+_WATCH_S = 0.5
+
+
+def _finished(
+    pending: dict[Future, int], processes: list[multiprocessing.process.BaseProcess]
+) -> list[Future]:
+    """The futures of `pending` that are done, waiting for one: polled every `_POLL_S`, with
+    a check that no worker has died every `_WATCH_S` (`_check_alive`).
+
+    Polled, not `concurrent.futures.wait`: its `Condition.wait`, when a Ctrl-C or SIGTERM
+    interrupts it while it takes its lock back (held by the pool's thread, marking a result
+    done), raises without that lock and then releases it from under the pool's thread,
+    which dies ("Exception in thread ... RuntimeError: release unlocked lock": a traceback
+    on stderr, seen once in ~60 interrupted runs under load). A sleep interrupted raises
+    with no lock held."""
+    waited_s = 0.0
+    while True:
+        done = [future for future in pending if future.done()]
+        if done:
+            return done
+        time.sleep(_POLL_S)
+        waited_s += _POLL_S
+        if waited_s >= _WATCH_S:
+            _check_alive(processes)
+            waited_s = 0.0
+
+
+def _check_alive(processes: list[multiprocessing.process.BaseProcess]) -> None:
+    """`BrokenProcessPool` if a worker has died (the OOM killer; workers end only when told
+    to). The pool's own thread sees a death too, but not one half-way through sending a
+    result: it waits for the rest of that message forever, and this process waited forever
+    for the result (issue 29). Read from the workers' sentinels (no wait: not reaped here)."""
+    if multiprocessing.connection.wait([p.sentinel for p in processes], timeout=0):
+        raise BrokenProcessPool("a worker process died")
+
+
+def _stop_pool(
+    pool: ProcessPoolExecutor, processes: list[multiprocessing.process.BaseProcess]
+) -> None:
+    """Stop every worker the pool forked, then end the read of the pool's result thread
+    (`_end_result_reads`), so that `pool.shutdown(wait=True)`, which waits for that thread,
+    returns. A second Ctrl-C or SIGTERM meanwhile is acted on once this is done, not half-way
+    (it would leave the pool's thread blocked, and the exit waiting for it)."""
+    with signals.held():
+        _stop_workers(_forked(pool, processes))
+        _end_result_reads(pool)
+
+
+def _end_result_reads(pool: ProcessPoolExecutor) -> None:
+    """Close this process's copy of the write end of the pool's result pipe, once its workers
+    are all gone: a read of that pipe then ends (EOF) instead of waiting forever.
+
+    The cause of the hang of issue 29 (`diagnose -j 2` stopped 0.3 s into its work, 2 runs in
+    60 under load): a worker stopped while it sent a result (diagnose's are large: written in
+    several pieces) leaves half a message in the pipe. The pool's manager thread reads the
+    message's length, then waits for the rest, which never comes; nor does EOF, as this
+    process holds the pipe's write end too (it never writes there). `shutdown(wait=True)`
+    waited for that thread forever (stacks dumped from the stuck process:
+    `wait_result_broken_or_wakeup` -> `Connection._recv`). With EOF the read fails, the pool
+    marks itself broken and its thread ends."""
+    results = getattr(pool, "_result_queue", None)
+    writer = getattr(results, "_writer", None)
+    if writer is not None:
+        writer.close()

@@ -25,7 +25,7 @@ from wifibot_power.cli.typer_app import app
 from wifibot_power.energy import EnergyReport, energy_report, speed_sweep
 from wifibot_power.errors import UsageError
 from wifibot_power.model import load_model
-from wifibot_power.outputs import write_parquet
+from wifibot_power.outputs import parquet_file, write_set
 
 Speed = Annotated[float | None, typer.Option("--speed", help="Cruise speed [m/s].")]
 Dist = Annotated[float | None, typer.Option("--dist", help="Trip distance [m].")]
@@ -172,7 +172,8 @@ def energy_command(
         plot_to(plot, "figure5", power_model, t_acc_s=t_acc)
         summaries = [r.summary() for r in rows]
         if out is not None:
-            write_parquet(out / "energy_sweep_speed.parquet", _frame(map(_flat, summaries)))
+            table = parquet_file(_frame(map(_flat, summaries)))
+            write_set(out, {"energy_sweep_speed.parquet": table})
         for message in dict.fromkeys(w for r in rows for w in r.warnings):
             warn(message)
         if json_out:
@@ -190,8 +191,12 @@ def energy_command(
     for message in report.warnings:
         warn(message)
     if out is not None:
-        write_parquet(out / "energy_phases.parquet", _frame(summary["phases"]))
-        write_parquet(out / "energy.parquet", _frame([_flat(summary)]))
+        # as a set (`outputs.write_set`): never the new phases beside the old trip's row
+        phases, trip = _frame(summary["phases"]), _frame([_flat(summary)])
+        write_set(
+            out,
+            {"energy_phases.parquet": parquet_file(phases), "energy.parquet": parquet_file(trip)},
+        )
     if json_out:
         print_json(summary)
     else:

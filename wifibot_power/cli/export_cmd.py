@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 import sys
-import tempfile
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
@@ -121,12 +120,9 @@ def _check_out_file(out: Path | None) -> None:
 
 
 def _write(out: Path, text: str) -> None:
-    """Write whole or not at all (a temporary file renamed over `out`)."""
-    fd, tmp = tempfile.mkstemp(dir=out.absolute().parent, prefix=f".{out.name}.")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
-        os.replace(tmp, out)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """Write whole or not at all (a temporary file renamed over `out`), as a set of one
+    (`outputs.write_set`): under its folder's lock, and counted as written, so that a Ctrl-C
+    once it is in place exits 3, not 130 (docs/errors.md)."""
+    from wifibot_power.outputs import write_set
+
+    write_set(out.absolute().parent, {out.name: lambda tmp: tmp.write_text(text, "utf-8")})

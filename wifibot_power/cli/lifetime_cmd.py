@@ -32,7 +32,7 @@ from wifibot_power.lifetime import (
     network_lifetime,
 )
 from wifibot_power.model import load_model
-from wifibot_power.outputs import write_parquet
+from wifibot_power.outputs import parquet_file, write_set
 
 _RATES = "/".join(f"{r:g}" for r in TABLE2)
 
@@ -148,7 +148,7 @@ def lifetime_command(
         for message in result.warnings:
             warn(message)
         if out is not None:
-            write_parquet(out / "lifetime.parquet", _frame([result.summary()]))
+            write_set(out, {"lifetime.parquet": parquet_file(_frame([result.summary()]))})
         if json_out:
             print_json(result.summary())
         else:
@@ -159,7 +159,7 @@ def lifetime_command(
     for message in dict.fromkeys(w for r in rows for w in r.warnings):
         warn(message)
     if out is not None:
-        write_parquet(out / f"lifetime_sweep_{sweep}.parquet", _frame(summaries))
+        write_set(out, {f"lifetime_sweep_{sweep}.parquet": parquet_file(_frame(summaries))})
     if json_out:
         print_json({"sweep": sweep, "rows": summaries})
     else:
