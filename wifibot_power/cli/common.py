@@ -82,6 +82,7 @@ YawRateColumn = Annotated[
     str | None,
     typer.Option(
         "--yaw-rate-column",
+        metavar="NAME",
         help="Name of the rate-of-turn column [rad/s] (default: yaw_rate_radps, if any).",
     ),
 ]
@@ -89,8 +90,8 @@ TrackWidth = Annotated[
     float | None,
     typer.Option(
         "--track-width",
-        min=0.0,
-        help="Track width [m] turning speed_left_mps/speed_right_mps into a rate of turn.",
+        metavar="M",
+        help="Track width [m], > 0, turning speed_left_mps/speed_right_mps into a rate of turn.",
     ),
 ]
 TimeColumn = Annotated[
@@ -493,7 +494,7 @@ CacheDir = Annotated[
         "--cache",
         metavar="DIR",
         help="Keep parsed logs as Parquet in DIR so a second run skips parsing unchanged "
-        "files (keyed by content; see docs/benchmarks.md).",
+        "files (keyed by content; see 'wbpower docs benchmarks').",
     ),
 ]
 

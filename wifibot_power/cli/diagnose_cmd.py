@@ -151,7 +151,7 @@ def _findings(result: Diagnosis) -> None:
         failed = [c for c in f.checks if not c.passed]
         if failed:  # a finding's checks all pass by construction; shown if ever not
             cells.append([f.cause, "", "", "", "", "", "", f"check failed: {failed[0].detail}"])
-    print_table(stdout, "Findings: named causes (shared/spec/causes.md)", _FINDING_COLUMNS, cells)
+    print_table(stdout, "Findings: named causes ('wbpower docs causes')", _FINDING_COLUMNS, cells)
 
 
 @app.command("diagnose", **command_help("diagnose"))

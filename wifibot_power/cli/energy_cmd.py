@@ -42,7 +42,7 @@ Profile = Annotated[
     typer.Option(
         "--profile",
         help="A planned route: CSV of time_s, speed_mps[, yaw_rate_radps, surface]; its energy "
-        "from the drive model of --model (docs/drive-model.md).",
+        "from the drive model of --model ('wbpower docs drive-model').",
     ),
 ]
 Sweep = Annotated[

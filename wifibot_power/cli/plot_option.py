@@ -15,7 +15,7 @@ PlotFile = Annotated[
     typer.Option(
         "--plot",
         metavar="FILE",
-        help="Also draw this command's figure into FILE (.png or .svg; docs/report.md).",
+        help="Also draw this command's figure into FILE (.png or .svg; 'wbpower docs report').",
     ),
 ]
 

@@ -44,7 +44,7 @@ def report_command(
     keep_doubtful: KeepDoubtful = False,
 ) -> None:
     """Read, segment, fit and diagnose the logs; write one self-contained report.html (every
-    figure embedded, opens offline) and its figures as PNG (docs/report.md)."""
+    figure embedded, opens offline) and its figures as PNG ('wbpower docs report')."""
     from wifibot_power.report import build_report, check_report_dir, report_figures, write_report
 
     check_out_dir(out)  # before any work

@@ -107,7 +107,7 @@ def simulate_command(
         typer.Option(
             "--realism",
             help=f"{'|'.join(REALISM)}: 'field' adds what real logs carry (PWM tone, run-to-run "
-            "spread, 0.8 W noise); docs/simulator.md.",
+            "spread, 0.8 W noise); 'wbpower docs simulator'.",
         ),
     ] = "lab",
     noise: Annotated[
@@ -132,7 +132,7 @@ def simulate_command(
         typer.Option(
             "--drive",
             help="grid: the paper's experiment; free: a skid-steer robot driven freely (turns, "
-            "stops, reversing) with speed and yaw-rate columns (docs/drive-model.md).",
+            "stops, reversing) with speed and yaw-rate columns ('wbpower docs drive-model').",
         ),
     ] = "grid",
     surfaces: Annotated[
