@@ -21,6 +21,7 @@ from wifibot_power.cli.common import (
     parse_cache,
     print_json,
     progress,
+    progress_done,
     report_skipped,
     stdout,
     warn,
@@ -191,13 +192,16 @@ def diagnose_command(
     result = diagnose_logs(
         paths,
         options,
-        wrap=lambda s: progress(s, "diagnosing"),
+        wrap=lambda s: progress(
+            s, "reading and segmenting", then="diagnosing: fits on held-out folds"
+        ),
         jobs=jobs,
         cache=parse_cache(cache),
         on_problems=warn_problems,
         reference=reference,
         keep_doubtful=keep_doubtful,
     )
+    progress_done()
     plot_to(plot, "heldout_error", result)
     for note in result.notes:  # the doubted runs it used: a warning too (cli.md)
         if note.kind == KEPT_IN_DOUBT:

@@ -20,6 +20,7 @@ from wifibot_power.cli.common import (
     parse_cache,
     print_json,
     progress,
+    progress_done,
     report_skipped,
     warn,
     warn_problems,
@@ -107,12 +108,13 @@ def fit_command(
     result = fit_logs(
         paths,
         options,
-        wrap=lambda s: progress(s, "fitting"),
+        wrap=lambda s: progress(s, "reading and segmenting", then="fitting the models"),
         jobs=jobs,
         cache=parse_cache(cache),
         on_problems=warn_problems,
         keep_doubtful=keep_doubtful,
     )
+    progress_done()
     if result.has_paper or result.drive is None:
         plot_to(plot, "power_speed", result)
     else:  # free driving: the drive model's held-out energies are fit's one figure

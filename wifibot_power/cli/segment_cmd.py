@@ -15,6 +15,8 @@ from wifibot_power.cli.common import (
     check_out_dir,
     handles_errors,
     print_json,
+    progress_done,
+    stage,
     stdout,
     warn,
     warn_problems,
@@ -76,11 +78,14 @@ def segment_command(
 
     check_plot(plot)
     source = single_source(path)  # with the row of the runs.csv beside it (log-format.md)
+    stage(f"reading {path.name}")  # a long log (10 M samples) takes seconds
     run = read_log(source.path, options, source.overrides, origin=source.origin)
+    stage("segmenting")
     try:
         segmentation = segment_run(run)
     except LogError as exc:
         raise exc.with_file(path) from None
+    progress_done()
     plot_to(plot, "trace", run, segmentation)
     warn_problems(run.file, run.problems)
     for doubt in segmentation.doubts:  # cli.md: a doubt is also a warning on stderr
