@@ -43,3 +43,44 @@ def test_sizes_read_as_people_read_them():
     assert size_text(1500) == "1.5 kB"
     assert size_text(2.5e9) == "2.5 GB"
     assert size_text(Path(__file__).stat().st_size).split()[1] in ("B", "kB")
+
+
+def _model_file(tmp_path: Path, t_acc_s: float, extensions: dict) -> Path:
+    from wifibot_power.model import load_model
+    from wifibot_power.outputs import json_safe
+
+    data = json_safe(load_model("paper").to_json())  # NaN intervals -> null, as fit writes
+    data["t_acc"]["intercept"] = t_acc_s  # a fitted t_acc, to the microsecond
+    data["extensions"] = extensions
+    data["source"] = "diagnose"
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+def test_energy_shows_t_acc_to_the_tables_precision(wbpower, tmp_path):
+    model = _model_file(tmp_path, 0.800034, {})
+    result = wbpower("energy", "--speed", "0.8", "--dist", "10", "--steps", "10", "--model", model)
+    assert result.exit_code == 0, result.stderr
+    assert "t_acc 0.800 s" in result.stdout and "0.800034" not in result.stdout
+    # the JSON keeps every digit
+    doc = json.loads(
+        wbpower("energy", "--speed", "0.8", "--dist", "10", "--model", model, "--json").stdout
+    )
+    assert doc["t_acc_s"] == 0.800034
+
+
+def test_an_extension_that_adds_no_energy_is_said_not_a_row(wbpower, tmp_path):
+    """A ripple of zero mean (cruise_ripple) adds 0 J: it was a `cruise_ripple - - 0.00` row;
+    decel_phase adds a phase with time and energy: a row."""
+    ripple = {"amplitude_W": 1.0, "hz_per_mps": 2.45}
+    decel = {"t_dec_s": 0.3, "P_dec_intercept_W": 24.0, "P_dec_slope_W_per_mps": 2.6}
+    model = _model_file(tmp_path, 1.0, {"decel_phase": decel, "cruise_ripple": ripple})
+    args = ["energy", "--speed", "0.8", "--dist", "10", "--steps", "10", "--model", model]
+    text = wbpower(*args).stdout
+    rows = [line for line in text.splitlines() if line.startswith("│")]
+    assert [r.split("│")[1].strip() for r in rows] == ["accel", "cruise", "decel", "total"], text
+    assert "cruise_ripple adds 0 J to this trip" in " ".join(text.split()), text
+    doc = json.loads(wbpower(*args, "--json").stdout)
+    ripple_phase = [p for p in doc["phases"] if p["phase"] == "cruise_ripple"]
+    assert ripple_phase and ripple_phase[0]["energy_J"] == 0  # the JSON still lists it

@@ -79,12 +79,18 @@ def _print_report(report: EnergyReport) -> None:
     trip, one = report.trip, report.one_step
     title = (
         f"{trip.distance_m:g} m at {trip.speed_mps:g} m/s in {trip.steps} step(s) of "
-        f"{trip.step.step_m:g} m (t_acc {trip.t_acc_s:g} s, model {report.model_source})"
+        # to the table's precision of times (a fitted t_acc is 0.800034 s, not to 1 us)
+        f"{trip.step.step_m:g} m (t_acc {_fmt(trip.t_acc_s, '.3f')} s, "
+        f"model {report.model_source})"
     )
     one_by_phase = {p.phase: p for p in one.phases}
     rows = []
+    nothing = []  # an extension that adds no energy (a zero-mean ripple): said, not a row
     for p in trip.phases:
         q = one_by_phase[p.phase]
+        if not p.time_s and not q.time_s and p.energy_J == 0 and q.energy_J == 0:
+            nothing.append(p.phase)
+            continue
         rows.append(
             [
                 p.phase,
@@ -106,6 +112,8 @@ def _print_report(report: EnergyReport) -> None:
         ]
     )
     notes = [f"stop-and-go overhead: {report.overhead_pct:.2f} %"]
+    if nothing:
+        notes.append(f"{', '.join(nothing)} adds 0 J to this trip (no row)")
     if not trip.step.reaches_speed:
         notes.append(
             f"steps too short to reach {trip.speed_mps:g} m/s: triangular profile, "
