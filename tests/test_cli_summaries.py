@@ -84,3 +84,44 @@ def test_an_extension_that_adds_no_energy_is_said_not_a_row(wbpower, tmp_path):
     doc = json.loads(wbpower(*args, "--json").stdout)
     ripple_phase = [p for p in doc["phases"] if p["phase"] == "cruise_ripple"]
     assert ripple_phase and ripple_phase[0]["energy_J"] == 0  # the JSON still lists it
+
+
+def test_diagnose_with_no_finding_does_not_repeat_the_baseline(wbpower, tmp_path):
+    """No cause named: the extended model is the paper-form model, so its columns (and the
+    pattern rows of its error) would repeat the baseline's; and no "(none)" row."""
+    logs = tmp_path / "clean"
+    made = wbpower(
+        "simulate", "-o", logs, "--speeds", "0.3,0.5,0.7,0.9", "--trips", "2x1,10x1,10x5",
+        "--repeats", "2", "--modes", "idle", "--sample-period", "0.002",
+    )  # fmt: skip
+    assert made.exit_code == 0, made.stderr
+    result = wbpower("diagnose", logs, "-j", "1")
+    assert result.exit_code == 0, result.stderr
+    text = result.stdout
+    doc = json.loads(wbpower("diagnose", logs, "-j", "1", "--json").stdout)
+    assert doc["findings"] == [] and doc["extended"]["causes"] == []
+    headers = [line for line in text.split("Pattern")[0].splitlines() if line.startswith("┃")]
+    assert headers and not any("extended" in line for line in headers), text
+    assert "(2/2)" not in text  # the table fits: no extended columns moved aside
+    assert "paper-form" in text and "no cause named" in text
+    patterns = text.split("Pattern")[1].split("Findings")[0]
+    assert "baseline" in patterns and "extended" not in patterns, patterns
+    assert "(none)" not in text
+    assert "Findings: no cause named: " in text
+
+
+def test_the_extended_columns_stay_when_a_cause_is_named():
+    import pandas as pd
+
+    from wifibot_power.cli.diagnose_cmd import _nothing_added
+
+    class Result:
+        findings: list = []
+        runs = pd.DataFrame({"baseline_energy_J": [1.0, 2.0], "extended_energy_J": [1.0, 2.0]})
+
+    assert _nothing_added(Result())
+    Result.findings = ["decel_phase"]
+    assert not _nothing_added(Result())
+    Result.findings = []
+    Result.runs = pd.DataFrame({"baseline_energy_J": [1.0, 2.0], "extended_energy_J": [1.0, 2.5]})
+    assert not _nothing_added(Result())
