@@ -28,7 +28,7 @@ from wifibot_power.cli.common import (
 )
 from wifibot_power.cli.help import command_help
 from wifibot_power.cli.plot_option import PlotFile, check_plot, plot_to
-from wifibot_power.cli.tables import Col, print_table, with_wide_option
+from wifibot_power.cli.tables import MARKDOWN, Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.io import ReadOptions
 
@@ -91,7 +91,8 @@ def fit_command(
     options: ReadOptions,
     json_out: JsonFlag = False,
     markdown: Annotated[
-        bool, typer.Option("--markdown", help="Print the table as Markdown (for a paper).")
+        bool,
+        typer.Option("--markdown", help="Print every table as Markdown (for a paper)."),
     ] = False,
     out: OutDir = None,
     jobs: Jobs = 0,
@@ -134,23 +135,23 @@ def fit_command(
             print(f"wbpower: wrote {path}", file=sys.stderr)
     if json_out:
         print_json({**result.summary(), "warnings": warnings})
-    elif markdown:
-        from wifibot_power.cli.common import stdout
-
-        stdout.print(result.to_markdown(), markup=False, highlight=False, end="")
-    else:
+    else:  # the tables; with --markdown, each as Markdown (tables.MARKDOWN)
         from wifibot_power.cli.fit_tables import (
             print_drive_tables,
             print_runs_table,
             print_stop_and_go_table,
         )
 
-        if result.has_paper:
-            print_fit_table(result)
-        print_stop_and_go_table(result)
-        print_drive_tables(result)
-        if runs:
-            print_runs_table(result)
+        token = MARKDOWN.set(markdown)
+        try:
+            if result.has_paper:
+                print_fit_table(result)
+            print_stop_and_go_table(result)
+            print_drive_tables(result)
+            if runs:
+                print_runs_table(result)
+        finally:
+            MARKDOWN.reset(token)
     # an incomplete paper model: its notes are the why of its warning (incomplete_warning)
     if result.model_complete or not result.has_paper:
         for note in result.notes:
