@@ -125,3 +125,41 @@ def test_the_extended_columns_stay_when_a_cause_is_named():
     Result.findings = []
     Result.runs = pd.DataFrame({"baseline_energy_J": [1.0, 2.0], "extended_energy_J": [1.0, 2.5]})
     assert not _nothing_added(Result())
+
+
+def _said_written(result) -> list[str]:
+    return [
+        line.removeprefix("wbpower: wrote ")
+        for line in result.stderr.splitlines()
+        if line.startswith("wbpower: wrote ")
+    ]
+
+
+def test_every_command_with_o_says_what_it_wrote(wbpower, tmp_path):
+    """`-o DIR` (and `--plot FILE`): each file written, one `wbpower: wrote PATH` line on
+    stderr, and the `--json` document's `written` (diagnose said nothing; issue 28)."""
+    logs = tmp_path / "logs"
+    wbpower("simulate", "-o", logs, *SMALL_GRID[:-2], "--speeds", "0.3,0.6,0.9", "--modes", "")
+    one = sorted(logs.glob("v*.csv"))[0]
+    cases = {
+        "inspect": ["inspect", logs],
+        "segment": ["segment", one],
+        "fit": ["fit", logs, "-j", "1"],
+        "diagnose": ["diagnose", logs, "-j", "1"],
+    }
+    for command, args in cases.items():
+        out = tmp_path / f"out_{command}"
+        result = wbpower(*args, "-o", out)
+        assert result.exit_code == 0, (command, result.stderr)
+        files = sorted(str(p) for p in out.iterdir())
+        assert files and sorted(_said_written(result)) == files, (command, result.stderr)
+        again = wbpower(*args, "-o", out, "--json")
+        doc = json.loads(again.stdout)
+        assert sorted(doc["written"]) == files == sorted(_said_written(again)), command
+    # a run that writes nothing has no `written`, and says nothing of it
+    quiet = wbpower("fit", logs, "-j", "1", "--json")
+    assert "written" not in json.loads(quiet.stdout) and not _said_written(quiet)
+    # --plot: its figure, the same way
+    figure = tmp_path / "fit.png"
+    doc = json.loads(wbpower("fit", logs, "-j", "1", "--plot", figure, "--json").stdout)
+    assert doc["written"] == [str(figure)] and figure.is_file()

@@ -291,11 +291,15 @@ def handles_errors(command: F) -> F:
         written.clear()  # (several commands may run in one process: tests)
         document = JsonDocument() if kwargs.get("json_out") else None
         token = _DOCUMENT.set(document)
+        said = _SAID_WRITTEN.set([])
         try:
             return _reporting_errors(command, *args, **kwargs)
         finally:
             progress_done()
+            # every file (or folder) written in full, said once, however the command ended
+            say_written(written)
             _DOCUMENT.reset(token)
+            _SAID_WRITTEN.reset(said)
             if document is not None:
                 document.emit()
 
@@ -349,6 +353,8 @@ class JsonDocument:
     error: str | None = None
     skipped: list[dict[str, str]] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    #: every output written (`say_written`): the document's `written`, when there is one
+    written: list[str] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, object]:
         result = self.result or {}
@@ -357,13 +363,16 @@ class JsonDocument:
         warnings = [str(w) for w in result.get("warnings") or []]
         said = {_one_line(w) for w in warnings}
         warnings += [w for w in self.warnings if w not in said]
-        return {
+        document = {
             **self.defaults,
             **result,
             "error": self.error,
             "skipped": skipped,
             "warnings": warnings,
         }
+        if self.written:  # only with -o or --plot: a run that writes nothing has no key
+            document["written"] = list(self.written)
+        return document
 
     def emit(self) -> None:
         _write_json(self.as_dict())
@@ -435,6 +444,26 @@ def fail(message: str, code: int = EXIT_USAGE) -> None:
         document.error = one_line
     print(f"wbpower: error: {one_line}", file=sys.stderr)
     raise typer.Exit(code)
+
+
+#: the outputs said written so far by the running command (`say_written`)
+_SAID_WRITTEN: contextvars.ContextVar[list[str]] = contextvars.ContextVar("said_written")
+
+
+def say_written(paths: Iterable[Path | str]) -> None:
+    """Say each output written, once: `wbpower: wrote PATH` on stderr, and in the `--json`
+    document's `written` (docs/cli-output.md, "-o DIR"). `handles_errors` says every file
+    of `outputs.written` (`write_set`, `staged_folder`) when the command ends."""
+    said = _SAID_WRITTEN.get(None)
+    document = _DOCUMENT.get()
+    for path in map(str, paths):
+        if said is not None:
+            if path in said:
+                continue
+            said.append(path)
+        if document is not None:
+            document.written.append(path)
+        print(f"wbpower: wrote {path}", file=sys.stderr)
 
 
 def warn(message: str) -> None:

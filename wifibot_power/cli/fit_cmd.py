@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -130,9 +129,7 @@ def fit_command(
                 f"removed {stale}, the model of an earlier fit: this fit's model is "
                 "incomplete, and energy --model would have read the old one as this fit's"
             )
-        written = write_fit(result, out)
-        for path in written:
-            print(f"wbpower: wrote {path}", file=sys.stderr)
+        write_fit(result, out)  # said by handles_errors (common.say_written)
     if json_out:
         print_json({**result.summary(), "warnings": warnings})
     else:  # the tables; with --markdown, each as Markdown (tables.MARKDOWN)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -63,8 +62,7 @@ def inspect_command(
         paths, options, wrap=lambda s: progress(s, "reading"), on_problems=warn_problems
     )
     if out is not None:
-        for written in write_inspection(rows, out):
-            print(f"wbpower: wrote {written}", file=sys.stderr)
+        write_inspection(rows, out)  # said by handles_errors (common.say_written)
     if json_out:  # skipped inputs: in `skipped` and on stderr (exit 1), as warnings are
         print_json({"logs": rows})
     else:

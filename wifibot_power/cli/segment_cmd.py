@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -91,8 +90,7 @@ def segment_command(
     for doubt in segmentation.doubts:  # cli.md: a doubt is also a warning on stderr
         warn(f"{run.file}: segmentation in doubt: {doubt}")
     if out is not None:
-        for written in write_segmentation(segmentation, run.file, out):
-            print(f"wbpower: wrote {written}", file=sys.stderr)
+        write_segmentation(segmentation, run.file, out)  # said by common.say_written
     if json_out:
         print_json(
             {
