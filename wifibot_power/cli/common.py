@@ -293,17 +293,32 @@ def handles_errors(command: F) -> F:
         token = _DOCUMENT.set(document)
         said = _SAID_WRITTEN.set([])
         try:
-            return _reporting_errors(command, *args, **kwargs)
+            return _reporting_errors(_saying_written(command), *args, **kwargs)
         finally:
             progress_done()
-            # every file (or folder) written in full, said once, however the command ended
-            say_written(written)
             _DOCUMENT.reset(token)
             _SAID_WRITTEN.reset(said)
             if document is not None:
                 document.emit()
 
     return wrapper  # type: ignore[return-value]
+
+
+def _saying_written(command: Callable[..., object]) -> Callable[..., object]:
+    """`command`, then every file (or folder) it wrote in full (`outputs.written`) said once
+    (`say_written`), when it ends with its result or its exit code; a Ctrl-C says what was
+    written in its own line (`signals.interrupted`)."""
+
+    def run(*args: object, **kwargs: object) -> object:
+        try:
+            result = command(*args, **kwargs)
+        except (typer.Exit, SystemExit):
+            say_written(written)
+            raise
+        say_written(written)
+        return result
+
+    return run
 
 
 def _reporting_errors(command: Callable[..., object], *args: object, **kwargs: object) -> object:
@@ -453,7 +468,8 @@ _SAID_WRITTEN: contextvars.ContextVar[list[str]] = contextvars.ContextVar("said_
 def say_written(paths: Iterable[Path | str]) -> None:
     """Say each output written, once: `wbpower: wrote PATH` on stderr, and in the `--json`
     document's `written` (docs/cli-output.md, "-o DIR"). `handles_errors` says every file
-    of `outputs.written` (`write_set`, `staged_folder`) when the command ends."""
+    of `outputs.written` (`write_set`, `staged_folder`) when the command ends
+    (`_saying_written`)."""
     said = _SAID_WRITTEN.get(None)
     document = _DOCUMENT.get()
     for path in map(str, paths):

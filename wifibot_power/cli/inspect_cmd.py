@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated
 
@@ -142,36 +141,90 @@ LOG_COLUMNS = (
     "problem_details",
     "topics",
 )
-#: the keys whose values nest (a dict or a list): JSON text in their column
-_NESTED = ("meta", "channels", "problems", "problem_details", "topics")
+
+
+def _nested_types() -> dict[str, object]:
+    """The Parquet types of the columns whose values nest (docs/cli-output.md, "-o DIR"):
+    `meta` a struct of RunMeta's fields, the log's other metadata keys in `extra` (a map of
+    text: a log's metadata holds whatever keys its file gives, as text); the lists as lists
+    of structs, `problems` a list of text."""
+    import pyarrow as pa
+
+    meta = pa.struct(
+        [
+            ("run_id", pa.string()),
+            ("mode", pa.string()),
+            ("speed_mps", pa.float64()),
+            ("distance_m", pa.float64()),
+            ("steps", pa.int64()),
+            ("payload_kg", pa.float64()),
+            ("started_at", pa.string()),
+            ("sample_period_s", pa.float64()),
+            ("extra", pa.map_(pa.string(), pa.string())),
+        ]
+    )
+    return {
+        "meta": meta,
+        "channels": pa.list_(
+            pa.struct(
+                [("name", pa.string()), ("mean_power_W", pa.float64()), ("energy_J", pa.float64())]
+            )
+        ),
+        "problems": pa.list_(pa.string()),
+        "problem_details": pa.list_(
+            pa.struct(
+                [
+                    ("kind", pa.string()),
+                    ("message", pa.string()),
+                    ("t_start_s", pa.float64()),
+                    ("duration_s", pa.float64()),
+                ]
+            )
+        ),
+        "topics": pa.list_(
+            pa.struct(
+                [
+                    ("topic", pa.string()),
+                    ("type", pa.string()),
+                    ("messages", pa.int64()),
+                    ("rate_Hz", pa.float64()),
+                ]
+            )
+        ),
+    }
+
+
+def _meta_struct(meta: dict[str, object], fields: list[str]) -> dict[str, object]:
+    """A row's `meta` as the struct's fields, its other keys (as text) in `extra`."""
+    extra = [(str(k), str(v)) for k, v in meta.items() if k not in fields]
+    return {**{k: meta.get(k) for k in fields}, "extra": extra}
 
 
 def write_inspection(rows: list[dict[str, object]], out: Path) -> list[Path]:
-    """`inspect -o DIR`: `logs.parquet`, a row per log read, the `--json` keys as columns;
-    `meta`, `channels`, `problems` and `problem_details` as JSON text (a log's metadata
-    holds whatever keys its file gives), written with `outputs.write_set`."""
-    import pandas as pd
+    """`inspect -o DIR`: `logs.parquet`, a row per log read, the `--json` keys as columns,
+    the nested ones (`meta`, `channels`, `problems`, `problem_details`, `topics`) as Parquet
+    structs and lists (`_nested_types`), written with `outputs.write_set`."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
 
-    from wifibot_power.outputs import json_safe, parquet_file, write_set
+    from wifibot_power.outputs import write_set
 
-    table = [
-        {
-            key: json.dumps(json_safe(row.get(key)), allow_nan=False)
-            if key in _NESTED
-            else row.get(key)
-            for key in LOG_COLUMNS
-        }
-        for row in rows
-    ]
-    frame = pd.DataFrame(table, columns=list(LOG_COLUMNS))
-    frame = frame.astype(
-        {
-            "samples": "int64",
-            "sample_period_s": "float64",
-            "duration_s": "float64",
-            "mean_power_W": "float64",
-            "energy_J": "float64",
-            "speed_column": "bool",
-        }
-    )
-    return write_set(out, {"logs.parquet": parquet_file(frame)})
+    nested = _nested_types()
+    flat = {
+        "file": pa.string(),
+        "format": pa.string(),
+        "run_id": pa.string(),
+        "samples": pa.int64(),
+        "sample_period_s": pa.float64(),
+        "duration_s": pa.float64(),
+        "mean_power_W": pa.float64(),
+        "energy_J": pa.float64(),
+        "speed_column": pa.bool_(),
+    }
+    schema = pa.schema([(key, flat.get(key) or nested[key]) for key in LOG_COLUMNS])
+    meta_fields = [f.name for f in nested["meta"] if f.name != "extra"]
+    columns = {key: [row.get(key) for row in rows] for key in LOG_COLUMNS}
+    columns["meta"] = [_meta_struct(dict(m or {}), meta_fields) for m in columns["meta"]]
+    columns["topics"] = [t or [] for t in columns["topics"]]
+    table = pa.table(columns, schema=schema)
+    return write_set(out, {"logs.parquet": lambda path: pq.write_table(table, path)})
