@@ -153,6 +153,7 @@ def test_every_command_with_o_says_what_it_wrote(wbpower, tmp_path):
         assert result.exit_code == 0, (command, result.stderr)
         files = sorted(str(p) for p in out.iterdir())
         assert files and sorted(_said_written(result)) == files, (command, result.stderr)
+        _help_names_each_file(command, out)
         again = wbpower(*args, "-o", out, "--json")
         doc = json.loads(again.stdout)
         assert sorted(doc["written"]) == files == sorted(_said_written(again)), command
@@ -163,3 +164,28 @@ def test_every_command_with_o_says_what_it_wrote(wbpower, tmp_path):
     figure = tmp_path / "fit.png"
     doc = json.loads(wbpower("fit", logs, "-j", "1", "--plot", figure, "--json").stdout)
     assert doc["written"] == [str(figure)] and figure.is_file()
+
+
+def _help_names_each_file(command: str, out: Path) -> None:
+    """`-o`'s help says what it writes (it said "the tables (Parquet, JSON)" for every
+    command): each file found in `out` is named there (a sweep's by its pattern)."""
+    from test_cli_help import _help, _option_blocks
+
+    block = " ".join(_option_blocks(_help(command))["--out"].split())
+    for path in out.iterdir():
+        name = path.name  # lifetime's sweep of X: lifetime_sweep_X.parquet
+        name = re.sub(r"_sweep_\w+\.", "_sweep_X.", name) if command == "lifetime" else name
+        assert name in block, (command, path.name, block)
+
+
+def test_energy_and_lifetime_o_help_names_their_files(wbpower, tmp_path):
+    cases = {
+        "energy": [["--speed", "0.5", "--dist", "10"], ["--sweep", "speed"]],
+        "lifetime": [["--rate", "54"], ["--rate", "54", "--sweep", "rate"]],
+    }
+    for command, runs in cases.items():
+        out = tmp_path / command
+        for args in runs:
+            assert wbpower(command, *args, "-o", out).exit_code == 0
+        assert len(list(out.iterdir())) >= 2
+        _help_names_each_file(command, out)

@@ -168,10 +168,19 @@ SpeedTopic = Annotated[
     ),
 ]
 JsonFlag = Annotated[bool, typer.Option("--json", help="Print one JSON document on stdout.")]
-OutDir = Annotated[
-    Path | None,
-    typer.Option("-o", "--out", metavar="DIR", help="Write the tables (Parquet, JSON) into DIR."),
-]
+
+
+def out_dir(files: str) -> object:
+    """The `-o/--out DIR` option of a command, its help naming the files it writes there
+    (`tests/test_cli_summaries.py` checks each file written is named)."""
+    return Annotated[
+        Path | None,
+        typer.Option(
+            "-o", "--out", metavar="DIR", help=f"Also write {files} into DIR (made if missing)."
+        ),
+    ]
+
+
 ModelSpec = Annotated[
     str,
     typer.Option(

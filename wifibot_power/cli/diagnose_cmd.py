@@ -15,9 +15,9 @@ from wifibot_power.cli.common import (
     Jobs,
     JsonFlag,
     KeepDoubtful,
-    OutDir,
     check_out_dir,
     handles_errors,
+    out_dir,
     parse_cache,
     print_json,
     progress,
@@ -171,6 +171,10 @@ def _findings(result: Diagnosis) -> None:
     print_table(stdout, "Findings: named causes ('wbpower docs causes')", _FINDING_COLUMNS, cells)
 
 
+#: `-o DIR`: what it writes there (cli.md)
+Out = out_dir("discrepancy.parquet, findings.json and the extended model.json")
+
+
 @app.command("diagnose", **command_help("diagnose"))
 @handles_errors
 @with_wide_option
@@ -179,7 +183,7 @@ def diagnose_command(
     paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
     options: ReadOptions,
     json_out: JsonFlag = False,
-    out: OutDir = None,
+    out: Out = None,
     jobs: Jobs = 0,
     cache: CacheDir = None,
     model: Annotated[

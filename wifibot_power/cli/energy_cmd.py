@@ -11,9 +11,9 @@ import typer
 from wifibot_power.cli.common import (
     JsonFlag,
     ModelSpec,
-    OutDir,
     check_out_dir,
     handles_errors,
+    out_dir,
     print_json,
     stdout,
     warn,
@@ -150,6 +150,10 @@ def _flat(summary: dict[str, object]) -> dict[str, object]:
     return {k: v for k, v in summary.items() if not isinstance(v, list | dict)}
 
 
+#: `-o DIR`: what it writes there (cli.md)
+Out = out_dir("energy.parquet and energy_phases.parquet (--sweep: energy_sweep_speed.parquet)")
+
+
 @app.command("energy", **command_help("energy"))
 @handles_errors
 @with_wide_option
@@ -163,7 +167,7 @@ def energy_command(
     sweep: Sweep = None,
     profile: Profile = None,
     json_out: JsonFlag = False,
-    out: OutDir = None,
+    out: Out = None,
     plot: PlotFile = None,
 ) -> None:
     """Energy of a trip in N stop-and-go steps (paper Eq. 5/6), beside the one-step trip."""

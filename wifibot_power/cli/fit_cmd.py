@@ -13,9 +13,9 @@ from wifibot_power.cli.common import (
     Jobs,
     JsonFlag,
     KeepDoubtful,
-    OutDir,
     check_out_dir,
     handles_errors,
+    out_dir,
     parse_cache,
     print_json,
     progress,
@@ -81,6 +81,10 @@ def print_fit_table(result: FitResult) -> None:
     )
 
 
+#: `-o DIR`: what it writes there (cli.md)
+Out = out_dir("runs.parquet, phases.parquet, stop_and_go.parquet and model.json (for --model)")
+
+
 @app.command("fit", **command_help("fit"))
 @handles_errors
 @with_wide_option
@@ -93,7 +97,7 @@ def fit_command(
         bool,
         typer.Option("--markdown", help="Print every table as Markdown (for a paper)."),
     ] = False,
-    out: OutDir = None,
+    out: Out = None,
     jobs: Jobs = 0,
     cache: CacheDir = None,
     runs: Annotated[bool, typer.Option("--runs", help="Also print each run's energy.")] = False,

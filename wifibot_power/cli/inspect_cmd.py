@@ -9,10 +9,10 @@ import typer
 
 from wifibot_power.cli.common import (
     JsonFlag,
-    OutDir,
     check_out_dir,
     handles_errors,
     json_defaults,
+    out_dir,
     print_json,
     progress,
     report_skipped,
@@ -43,6 +43,10 @@ COLUMNS = (
 )
 
 
+#: `-o DIR`: what it writes there (cli.md)
+Out = out_dir("logs.parquet (a row per log)")
+
+
 @app.command("inspect", **command_help("inspect"))
 @handles_errors
 @with_wide_option
@@ -51,7 +55,7 @@ def inspect_command(
     paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
     options: ReadOptions,
     json_out: JsonFlag = False,
-    out: OutDir = None,
+    out: Out = None,
 ) -> None:
     """What is in each log: format, samples, period, duration, mean power, energy, metadata."""
     check_out_dir(out)  # before any work (cli.md)

@@ -10,9 +10,9 @@ import typer
 
 from wifibot_power.cli.common import (
     JsonFlag,
-    OutDir,
     check_out_dir,
     handles_errors,
+    out_dir,
     print_json,
     progress_done,
     stage,
@@ -49,6 +49,10 @@ _SPIKE_COLUMNS = (
 )
 
 
+#: `-o DIR`: what it writes there (cli.md)
+Out = out_dir("phases.parquet and spikes.parquet")
+
+
 @app.command("segment", **command_help("segment"))
 @handles_errors
 @with_wide_option
@@ -57,7 +61,7 @@ def segment_command(
     path: Annotated[Path, typer.Argument(help="One log file.")],
     options: ReadOptions,
     json_out: JsonFlag = False,
-    out: OutDir = None,
+    out: Out = None,
     plot: PlotFile = None,
 ) -> None:
     """Split one log into phases: idle/accel/cruise/decel per step for a motion run (turn
