@@ -112,3 +112,22 @@ def test_no_progress_with_json_even_at_a_terminal(command, logs, tmp_path):
     assert json.loads(out)["error"] is None
     assert not any(words in err for words in SAYS[command]), err
     assert "\x1b[" not in err
+
+
+def test_energy_profile_of_a_log_shows_its_reading(tmp_path):
+    """`energy --profile LOG --model FILE` reads a whole log (hours of free driving)."""
+    free = tmp_path / "free"
+    for args in (
+        ["simulate", "-o", str(free), "--drive", "free", "--repeats", "3", "--duration", "20"]
+        + ["--surfaces", "asphalt"],
+        ["fit", str(free), "-o", str(tmp_path / "fit"), "-j", "1"],
+    ):
+        made = _run(args, terminal=False)
+        assert made[0] == 0, made[2]
+    log = sorted(free.glob("*.csv"))[0]
+    args = ["energy", "--profile", str(log), "--model", str(tmp_path / "fit" / "model.json")]
+    code, out, err = _run(args, terminal=True)
+    assert code == 0, err
+    assert f"reading {log.name}" in err and "energy J" in out
+    code, out, err = _run([*args, "--json"], terminal=True)
+    assert code == 0 and "reading" not in err and json.loads(out)["error"] is None

@@ -15,6 +15,8 @@ from wifibot_power.cli.common import (
     handles_errors,
     out_dir,
     print_json,
+    progress_done,
+    stage,
     stdout,
     warn,
 )
@@ -219,6 +221,7 @@ def _route(profile: Path, model: str, json_out: bool) -> None:
             "--profile needs a drive model", fix="give --model model.json from 'wbpower fit -o'"
         )
     drive = load_drive_model(model)
+    stage(f"reading {profile.name}")  # a log of hours takes seconds
     run = _as_log(profile)
     if run is not None:  # a log: measured beside predicted
         time_s, speed_mps, yaw_radps = run.time_s, run.speed_mps, run.yaw_rate_radps
@@ -229,6 +232,7 @@ def _route(profile: Path, model: str, json_out: bool) -> None:
         result = route_energy(drive, time_s, speed_mps, yaw_radps, surface)
     except ValueError as exc:
         raise UsageError(str(exc), file=profile, fix="add a surface column naming one") from None
+    progress_done()
     for message in result.warnings:
         warn(message)
     summary = result.summary()
