@@ -154,47 +154,30 @@ def _nested_types() -> dict[str, object]:
     of structs, `problems` a list of text."""
     import pyarrow as pa
 
+    text, number, count = pa.string(), pa.float64(), pa.int64()
+
+    def rows_of(**fields: pa.DataType) -> pa.DataType:
+        return pa.list_(pa.struct(list(fields.items())))
+
     meta = pa.struct(
         [
-            ("run_id", pa.string()),
-            ("mode", pa.string()),
-            ("speed_mps", pa.float64()),
-            ("distance_m", pa.float64()),
-            ("steps", pa.int64()),
-            ("payload_kg", pa.float64()),
-            ("started_at", pa.string()),
-            ("sample_period_s", pa.float64()),
-            ("extra", pa.map_(pa.string(), pa.string())),
+            ("run_id", text),
+            ("mode", text),
+            ("speed_mps", number),
+            ("distance_m", number),
+            ("steps", count),
+            ("payload_kg", number),
+            ("started_at", text),
+            ("sample_period_s", number),
+            ("extra", pa.map_(text, text)),
         ]
     )
     return {
         "meta": meta,
-        "channels": pa.list_(
-            pa.struct(
-                [("name", pa.string()), ("mean_power_W", pa.float64()), ("energy_J", pa.float64())]
-            )
-        ),
-        "problems": pa.list_(pa.string()),
-        "problem_details": pa.list_(
-            pa.struct(
-                [
-                    ("kind", pa.string()),
-                    ("message", pa.string()),
-                    ("t_start_s", pa.float64()),
-                    ("duration_s", pa.float64()),
-                ]
-            )
-        ),
-        "topics": pa.list_(
-            pa.struct(
-                [
-                    ("topic", pa.string()),
-                    ("type", pa.string()),
-                    ("messages", pa.int64()),
-                    ("rate_Hz", pa.float64()),
-                ]
-            )
-        ),
+        "channels": rows_of(name=text, mean_power_W=number, energy_J=number),
+        "problems": pa.list_(text),
+        "problem_details": rows_of(kind=text, message=text, t_start_s=number, duration_s=number),
+        "topics": rows_of(topic=text, type=text, messages=count, rate_Hz=number),
     }
 
 
