@@ -1,11 +1,11 @@
 """What a command shows on stderr while it works (`cli.common.progress` and `cli.common.stage`),
 with rich: a bar over the files of a batch (files done, MB/s, time), and a spinner line naming
-the step under way (`fitting the models`, `drawing the figures`, `simulating run 12 of 89`) with
-its time, for the steps that are not per file. Loaded only when something is drawn (stderr a
-terminal, no `--json`: `common.progress_on`), so a `--json` run or a run in a pipe never
-imports rich's progress machinery. One live line at a time: the bar ends the spinner and the
-spinner the bar; `stop()` ends either (the command calls it before it prints its result, and
-`common.handles_errors` when the command ends)."""
+the step under way (`fitting the models`, `drawing the figures`, `simulating: 12 of 89 runs
+done`) with its time, for the steps that are not per file. Loaded only when something is drawn
+(stderr a terminal, no `--json`: `common.progress_on`), so a `--json` run or a run in a pipe
+never imports rich's progress machinery. One live line at a time: the bar ends the spinner and
+the spinner the bar; `stop()` ends either (the command calls it before it prints its result,
+and `common.handles_errors` when the command ends)."""
 
 from __future__ import annotations
 
