@@ -95,10 +95,28 @@ def test_table_shows_paper_values_and_silent_stderr(logs, truth_segments):
     assert result.stderr == ""  # no progress bar when stderr is not a terminal
 
 
-def test_markdown(logs, truth_segments):
-    result = invoke(logs, "--markdown")
+def test_markdown_prints_every_table(logs, truth_segments):
+    """Every table fit prints (it printed the paper's alone, issue 28), each as Markdown
+    under its bold title; the paper's table as the library's `to_markdown` writes it."""
+    from wifibot_power.fit import fit_logs
+
+    result = invoke(logs, "--markdown", "--runs")
     assert result.exit_code == 0
-    assert result.stdout.startswith("| parameter | unit | fitted | 95% CI |")
+    text = result.stdout
+    assert "┃" not in text and "│" not in text  # no rich table
+    titles = [line for line in text.splitlines() if line.startswith("**")]
+    plain = invoke(logs, "--runs", "--wide").stdout  # the same tables, drawn
+    tables = [line for line in plain.splitlines() if line.startswith("┏")]
+    assert len(titles) == len(tables) >= 3, (titles, plain)
+    for title in titles:
+        assert title.strip("*") in " ".join(plain.split()), title
+    paper = fit_logs([logs]).to_markdown().splitlines()
+    start = text.splitlines().index(paper[0])
+    assert text.splitlines()[start : start + len(paper)] == paper
+    for block in text.split("**")[2::2]:  # each table: a header, its alignment row, rows
+        rows = [line for line in block.splitlines() if line.startswith("| ")]
+        assert len(rows) >= 3 and set(rows[1]) <= set("| -:"), block
+        assert len({row.count(" | ") for row in rows}) == 1, block  # one column count
 
 
 def test_out_dir_writes_tables_and_a_model_that_loads(logs, truth_segments, tmp_path):

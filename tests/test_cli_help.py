@@ -48,7 +48,7 @@ def test_each_command_has_help_and_examples(command):
     assert "Examples:" in text
     after = text.split("Examples:")[1]
     for args, what in EXAMPLES[command]:
-        assert f"wbpower {command} {args}" in after
+        assert f"wbpower {command} {args}".rstrip() in after
         assert f"# {what}" in after
     assert len(EXAMPLES[command]) >= 2
 
@@ -89,11 +89,17 @@ def test_help_shows_plain_placeholders(command):
 
 
 @pytest.mark.parametrize(
-    ("option", "unit"), [("--supply-voltage", "V"), ("--max-power", "W"), ("--sample-period", "S")]
+    ("option", "unit"),
+    [
+        ("--supply-voltage", "V"),
+        ("--max-power", "W"),
+        ("--sample-period", "S"),
+        ("--track-width", "M"),
+    ],
 )
 def test_help_shows_the_bound_that_is_enforced(wbpower, tmp_path, option, unit):
-    """0 is refused (it is no voltage, no power limit, no period): the help says > 0, never
-    typer's `[x>=0.0]`."""
+    """0 is refused (it is no voltage, no power limit, no period, no track): the help says
+    > 0, never typer's `[x>=0.0]` (shown for --track-width while 0 was refused)."""
     block = _option_blocks(_help("fit"))[option]
     assert block.startswith(f"  {option} {unit} ") and "> 0" in block, block
     assert "x>=0" not in block, block

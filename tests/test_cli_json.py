@@ -83,6 +83,7 @@ def _failing(tmp: Path, logs: Path, model_file: Path) -> dict[str, tuple[list[st
         "simulate": (["simulate", "-o", a_file], "is a file"),
         "report": (["report", logs, "-o", a_file], "is a file"),
         "export": (["export", "--model", tmp / "none.json", "--to", "rmf"], "no such model"),
+        "docs": (["docs", "nowhere"], "no documentation page 'nowhere'"),
     }
 
 
@@ -134,6 +135,7 @@ def test_every_command_prints_one_document_when_it_succeeds(wbpower, tmp_path, l
             ["export", "--model", model_file, "--to", "rmf", "--turn-rate", "0.5"],
             "parameters",
         ),
+        "docs": (["docs", "causes"], "text"),
     }
     assert set(cases) == set(COMMANDS)
     for command, (args, key) in cases.items():

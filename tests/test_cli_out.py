@@ -41,13 +41,56 @@ def test_inspect_out_writes_a_row_per_log_with_the_json_keys(wbpower, tmp_path):
     for row, record in zip(rows, table.to_dict("records"), strict=True):
         for key, value in row.items():
             if key in ("meta", "channels", "problems", "problem_details"):
-                assert json.loads(record[key]) == value  # nested: JSON text
+                assert _as_json(key, record[key]) == value  # nested: structs and lists
             elif isinstance(value, float):
                 np.testing.assert_allclose(record[key], value, rtol=1e-15)  # the same float
             else:
                 assert record[key] == value, key
     assert table["samples"].dtype == np.int64
     assert f"wrote {out / 'logs.parquet'}" in result.stderr
+
+
+def _as_json(key: str, value: object) -> object:
+    """A nested cell of logs.parquet read by pandas, in the `--json` form: a struct is a
+    dict, a list an array, the map of `meta.extra` a list of (key, value) pairs."""
+    if key == "meta":
+        meta = dict(value)
+        return {**{k: v for k, v in meta.items() if k != "extra"}, **dict(meta["extra"])}
+    return [dict(item) if isinstance(item, dict) else item for item in value]
+
+
+def test_inspect_out_nests_meta_channels_and_problems_as_parquet_types(wbpower, tmp_path):
+    """Not JSON text in a string column (issue 28): `meta` a struct (its free keys in a
+    map), `channels` and `problem_details` lists of structs, `problems` a list of text, so
+    that pandas, DuckDB or Polars query them without parsing."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    t = np.concatenate([np.arange(0, 2, 0.01), np.arange(2.03, 40, 0.01)])  # a 30 ms gap
+    lines = ["# wbpower-log: 1", "# run_id: gap_r1", "# mode: idle", "# surface: grass"]
+    lines += ["time_s,left_W,right_W"] + [f"{x:.2f},{10 + np.sin(x):.3f},12" for x in t]
+    log = tmp_path / "gap.csv"
+    log.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "out"
+    args = ["--power-column", "left_W", "--power-column", "right_W", "-o", out, "--json"]
+    result = wbpower("inspect", log, *args)
+    assert result.exit_code == 0, result.stderr
+    rows = json.loads(result.stdout)["logs"]
+    schema = pq.read_schema(out / "logs.parquet")
+    assert pa.types.is_struct(schema.field("meta").type)
+    assert pa.types.is_map(schema.field("meta").type.field("extra").type)
+    assert schema.field("problems").type == pa.list_(pa.string())
+    for key in ("channels", "problem_details", "topics"):
+        assert pa.types.is_struct(schema.field(key).type.value_type), key
+    table = pd.read_parquet(out / "logs.parquet").to_dict("records")
+    gap = next(r for r in table if r["run_id"] == "gap_r1")
+    assert gap["meta"]["mode"] == "idle" and dict(gap["meta"]["extra"])["surface"] == "grass"
+    assert [c["name"] for c in gap["channels"]] == ["left_W", "right_W"]
+    assert list(gap["problems"]) == ["line 206: 30 ms of samples dropped after t = 1.99 s"]
+    assert gap["problem_details"][0]["kind"] == "gap"
+    for row, record in zip(rows, table, strict=True):
+        for key in ("meta", "channels", "problems", "problem_details"):
+            assert _as_json(key, record[key]) == row[key], key
 
 
 def _doubted_log(tmp_path: Path) -> Path:

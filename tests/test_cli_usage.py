@@ -85,6 +85,7 @@ _COMMAND_ARGS = {
     "simulate": ["-o", "unused"],
     "report": [str(SAMPLE_LOGS), "-o", "unused"],
     "export": ["--model", "model.json", "--to", "rmf"],
+    "docs": ["causes"],
 }
 
 

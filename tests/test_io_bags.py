@@ -399,7 +399,7 @@ def test_inspect_out_keeps_the_topics(bags, tmp_path, wbpower):
     result = wbpower("inspect", bags["mcap"], "-o", tmp_path / "out")
     assert result.exit_code == 0, result.stderr
     table = pd.read_parquet(tmp_path / "out" / "logs.parquet")
-    topics = json.loads(table["topics"].iloc[0])
+    topics = list(table["topics"].iloc[0])  # a list of structs (docs/cli-output.md, "-o DIR")
     assert {t["topic"] for t in topics} == {"/battery", "/odom"}
 
 

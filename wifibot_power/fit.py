@@ -192,8 +192,8 @@ def fit_records(
         notes = (
             "the paper's models (P_acc, P_v, t_acc, idle) need step runs: straight runs at set "
             "speeds, each accelerate / cruise / stop, named by mode and speed_mps "
-            f"(log-format.md); no usable step run among the {len(records)} run(s), so only the "
-            f"drive model was fitted, from the {len(drive_only)} with a speed"
+            f"('wbpower docs log-format'); no usable step run among the {len(records)} run(s), "
+            f"so only the drive model was fitted, from the {len(drive_only)} with a speed"
             + (f" (the paper's reasons: {why})" if why else ""),
         )
     skipped = (*read_skipped, *(_skipped(r) for r in unusable))

@@ -124,7 +124,7 @@ def _why_no_fit(
         reasons_in_brief(list(unusable), most=len(unusable))
         if unusable
         else "the paper's models need motion runs with speed, distance and steps in "
-        "their metadata (log-format.md)"
+        "their metadata ('wbpower docs log-format')"
     )
     return f"none of the {len(records)} run(s) read can be fitted: {why}"
 

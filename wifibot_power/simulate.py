@@ -537,11 +537,13 @@ def write_simulation(
     *,
     render: Render | None = None,
     generator: str = "wbpower simulate",
+    on_run: Callable[[int, int], None] | None = None,
 ) -> dict[str, object]:
     """Write every run as a canonical log, plus `runs.csv` (manifest) and `truth.json`.
 
     `render` writes each run in another layout instead (`benchmarks/corpora.py`: an N6705
-    export, voltage and current only, ...); `generator` names the writer in truth.json."""
+    export, voltage and current only, ...); `generator` names the writer in truth.json;
+    `on_run(k, n)` is called as run k of n begins (the command's progress line)."""
     write = write or WriteOptions()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -549,7 +551,10 @@ def write_simulation(
     manifest = [MANIFEST_HEADER]
     runs_truth = []
     total_bytes = 0
-    for sim in iter_simulation(config):
+    n_runs = len(plan_runs(config)) if on_run is not None else 0
+    for k, sim in enumerate(iter_simulation(config), start=1):
+        if on_run is not None:
+            on_run(k, n_runs)
         meta = sim.run.meta
         suffix, data = render(meta, sim.run.power_W, sim.voltage_V)
         name = f"{meta.run_id}{suffix}"

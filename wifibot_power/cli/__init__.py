@@ -27,6 +27,7 @@ COMMANDS = {
     "simulate": "simulate_cmd",
     "report": "report_cmd",
     "export": "export_cmd",
+    "docs": "docs_cmd",
 }
 
 

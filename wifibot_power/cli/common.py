@@ -82,6 +82,7 @@ YawRateColumn = Annotated[
     str | None,
     typer.Option(
         "--yaw-rate-column",
+        metavar="NAME",
         help="Name of the rate-of-turn column [rad/s] (default: yaw_rate_radps, if any).",
     ),
 ]
@@ -89,8 +90,8 @@ TrackWidth = Annotated[
     float | None,
     typer.Option(
         "--track-width",
-        min=0.0,
-        help="Track width [m] turning speed_left_mps/speed_right_mps into a rate of turn.",
+        metavar="M",
+        help="Track width [m], > 0, turning speed_left_mps/speed_right_mps into a rate of turn.",
     ),
 ]
 TimeColumn = Annotated[
@@ -167,10 +168,19 @@ SpeedTopic = Annotated[
     ),
 ]
 JsonFlag = Annotated[bool, typer.Option("--json", help="Print one JSON document on stdout.")]
-OutDir = Annotated[
-    Path | None,
-    typer.Option("-o", "--out", metavar="DIR", help="Write the tables (Parquet, JSON) into DIR."),
-]
+
+
+def out_dir(files: str) -> object:
+    """The `-o/--out DIR` option of a command, its help naming the files it writes there
+    (`tests/test_cli_summaries.py` checks each file written is named)."""
+    return Annotated[
+        Path | None,
+        typer.Option(
+            "-o", "--out", metavar="DIR", help=f"Also write {files} into DIR (made if missing)."
+        ),
+    ]
+
+
 ModelSpec = Annotated[
     str,
     typer.Option(
@@ -290,14 +300,34 @@ def handles_errors(command: F) -> F:
         written.clear()  # (several commands may run in one process: tests)
         document = JsonDocument() if kwargs.get("json_out") else None
         token = _DOCUMENT.set(document)
+        said = _SAID_WRITTEN.set([])
         try:
-            return _reporting_errors(command, *args, **kwargs)
+            return _reporting_errors(_saying_written(command), *args, **kwargs)
         finally:
+            progress_done()
             _DOCUMENT.reset(token)
+            _SAID_WRITTEN.reset(said)
             if document is not None:
                 document.emit()
 
     return wrapper  # type: ignore[return-value]
+
+
+def _saying_written(command: Callable[..., object]) -> Callable[..., object]:
+    """`command`, then every file (or folder) it wrote in full (`outputs.written`) said once
+    (`say_written`), when it ends with its result or its exit code; a Ctrl-C says what was
+    written in its own line (`signals.interrupted`)."""
+
+    def run(*args: object, **kwargs: object) -> object:
+        try:
+            result = command(*args, **kwargs)
+        except (typer.Exit, SystemExit):
+            say_written(written)
+            raise
+        say_written(written)
+        return result
+
+    return run
 
 
 def _reporting_errors(command: Callable[..., object], *args: object, **kwargs: object) -> object:
@@ -347,6 +377,8 @@ class JsonDocument:
     error: str | None = None
     skipped: list[dict[str, str]] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    #: every output written (`say_written`): the document's `written`, when there is one
+    written: list[str] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, object]:
         result = self.result or {}
@@ -355,13 +387,16 @@ class JsonDocument:
         warnings = [str(w) for w in result.get("warnings") or []]
         said = {_one_line(w) for w in warnings}
         warnings += [w for w in self.warnings if w not in said]
-        return {
+        document = {
             **self.defaults,
             **result,
             "error": self.error,
             "skipped": skipped,
             "warnings": warnings,
         }
+        if self.written:  # only with -o or --plot: a run that writes nothing has no key
+            document["written"] = list(self.written)
+        return document
 
     def emit(self) -> None:
         _write_json(self.as_dict())
@@ -435,6 +470,27 @@ def fail(message: str, code: int = EXIT_USAGE) -> None:
     raise typer.Exit(code)
 
 
+#: the outputs said written so far by the running command (`say_written`)
+_SAID_WRITTEN: contextvars.ContextVar[list[str]] = contextvars.ContextVar("said_written")
+
+
+def say_written(paths: Iterable[Path | str]) -> None:
+    """Say each output written, once: `wbpower: wrote PATH` on stderr, and in the `--json`
+    document's `written` (docs/cli-output.md, "-o DIR"). `handles_errors` says every file
+    of `outputs.written` (`write_set`, `staged_folder`) when the command ends
+    (`_saying_written`)."""
+    said = _SAID_WRITTEN.get(None)
+    document = _DOCUMENT.get()
+    for path in map(str, paths):
+        if said is not None:
+            if path in said:
+                continue
+            said.append(path)
+        if document is not None:
+            document.written.append(path)
+        print(f"wbpower: wrote {path}", file=sys.stderr)
+
+
 def warn(message: str) -> None:
     """A warning: one line on stderr, and in the `--json` document's `warnings`."""
     one_line = _one_line(message)
@@ -465,15 +521,63 @@ def report_skipped(skipped: list[Skipped]) -> int:
 T = TypeVar("T")
 
 
-def progress(items: list[T], label: str) -> Iterable[T]:
-    """A progress bar over files (files done, MB/s) on stderr, for `map_runs(wrap=...)`;
-    silent (a plain list) when stderr is not a terminal or there is a single file. rich
-    loads only when a bar is drawn (`cli/progress_bar.py`)."""
-    if not sys.stderr.isatty() or len(items) < 2:
-        return items
-    from wifibot_power.cli.progress_bar import FileProgress
+def progress_on() -> bool:
+    """Whether progress is drawn: stderr is a terminal and the command prints no `--json`
+    document (docs/cli-output.md, "Progress")."""
+    return sys.stderr.isatty() and _DOCUMENT.get() is None
 
-    return FileProgress(items, label)
+
+def progress(items: list[T], label: str, then: str | None = None) -> Iterable[T]:
+    """A progress bar over files (files done, MB/s) on stderr, for `map_runs(wrap=...)`,
+    and once the files are done, the spinner of the step that follows (`then`, e.g.
+    "fitting the models"); a single file shows the spinner `label` alone. Silent (a plain
+    list) unless `progress_on()`. rich loads only when something is drawn
+    (`cli/progress_bar.py`)."""
+    if not progress_on():
+        return items
+    from wifibot_power.cli import progress_bar
+
+    if len(items) < 2:
+        progress_bar.stage(label)
+        return _Then(items, then)
+    return progress_bar.FileProgress(items, label, then)
+
+
+@dataclass
+class _Then:
+    """One file: the spinner says `label` while it is read, `then` once it is done."""
+
+    items: list
+    then: str | None
+
+    def __iter__(self) -> Iterable:
+        return iter(self.items)
+
+    def done(self, item: object) -> None:
+        return None
+
+    def close(self) -> None:
+        if self.then:
+            stage(self.then)
+        else:
+            progress_done()
+
+
+def stage(label: str) -> None:
+    """Say on stderr, on a spinner line with its time, the step under way (`drawing the
+    figures`); silent unless `progress_on()`. `progress_done()` ends it."""
+    if progress_on():
+        from wifibot_power.cli import progress_bar
+
+        progress_bar.stage(label)
+
+
+def progress_done() -> None:
+    """End the progress line, if any: called before the command prints its result, and by
+    `handles_errors` when the command ends, however it ends."""
+    bar = sys.modules.get("wifibot_power.cli.progress_bar")  # loaded only if one was drawn
+    if bar is not None:
+        bar.stop()
 
 
 # -- batch options: parallel files and the parse cache ----------------------------------
@@ -493,7 +597,7 @@ CacheDir = Annotated[
         "--cache",
         metavar="DIR",
         help="Keep parsed logs as Parquet in DIR so a second run skips parsing unchanged "
-        "files (keyed by content; see docs/benchmarks.md).",
+        "files (keyed by content; see 'wbpower docs benchmarks').",
     ),
 ]
 

@@ -15,12 +15,13 @@ from wifibot_power.cli.common import (
     Jobs,
     JsonFlag,
     KeepDoubtful,
-    OutDir,
     check_out_dir,
     handles_errors,
+    out_dir,
     parse_cache,
     print_json,
     progress,
+    progress_done,
     report_skipped,
     stdout,
     warn,
@@ -67,6 +68,15 @@ _FINDING_COLUMNS = (
 )
 
 
+def _nothing_added(result: Diagnosis) -> bool:
+    """No cause named: the extended model is the paper-form model, run for run (its columns
+    and rows would repeat the baseline's: issue 28)."""
+    runs = result.runs
+    return not result.findings and bool(
+        (runs["extended_energy_J"] == runs["baseline_energy_J"]).all()
+    )
+
+
 def _by_configuration(result: Diagnosis) -> None:
     keys = ["speed_mps", "distance_m", "steps", "payload_kg"]
     grouped = result.runs.groupby(keys, sort=True).agg(
@@ -92,11 +102,16 @@ def _by_configuration(result: Diagnosis) -> None:
         ]
         for (speed, dist, steps, payload), row in grouped.iterrows()
     ]
+    columns, caption = _CONFIG_COLUMNS, None
+    if _nothing_added(result):
+        columns, cells = columns[:-2], [row[:-2] for row in cells]
+        caption = "no cause named: the extended model is the paper-form model"
     print_table(
         stdout,
         "Measured vs simulated motion energy (held-out), mean over repeats",
-        _CONFIG_COLUMNS,
+        columns,
         cells,
+        caption=caption,
     )
 
 
@@ -109,6 +124,7 @@ def _patterns(result: Diagnosis) -> None:
             f"{value['p_value']:.2g}",
         ]
         for key, value in result.patterns.items()
+        if not (_nothing_added(result) and key.startswith("extended_"))
     ]
     print_table(
         stdout,
@@ -146,12 +162,17 @@ def _findings(result: Diagnosis) -> None:
         verdict = result.verdict_text
         if result.unexplained:
             verdict += " (see 'unexplained' below)"
-        cells.append(["(none)", "", "", "", "", "", "", verdict])
+        stdout.print(f"Findings: no cause named: {verdict}", markup=False, highlight=False)
+        return
     for f in result.findings:
         failed = [c for c in f.checks if not c.passed]
         if failed:  # a finding's checks all pass by construction; shown if ever not
             cells.append([f.cause, "", "", "", "", "", "", f"check failed: {failed[0].detail}"])
-    print_table(stdout, "Findings: named causes (shared/spec/causes.md)", _FINDING_COLUMNS, cells)
+    print_table(stdout, "Findings: named causes ('wbpower docs causes')", _FINDING_COLUMNS, cells)
+
+
+#: `-o DIR`: what it writes there (cli.md)
+Out = out_dir("discrepancy.parquet, findings.json and the extended model.json")
 
 
 @app.command("diagnose", **command_help("diagnose"))
@@ -162,7 +183,7 @@ def diagnose_command(
     paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
     options: ReadOptions,
     json_out: JsonFlag = False,
-    out: OutDir = None,
+    out: Out = None,
     jobs: Jobs = 0,
     cache: CacheDir = None,
     model: Annotated[
@@ -191,13 +212,16 @@ def diagnose_command(
     result = diagnose_logs(
         paths,
         options,
-        wrap=lambda s: progress(s, "diagnosing"),
+        wrap=lambda s: progress(
+            s, "reading and segmenting", then="diagnosing: fits on held-out folds"
+        ),
         jobs=jobs,
         cache=parse_cache(cache),
         on_problems=warn_problems,
         reference=reference,
         keep_doubtful=keep_doubtful,
     )
+    progress_done()
     plot_to(plot, "heldout_error", result)
     for note in result.notes:  # the doubted runs it used: a warning too (cli.md)
         if note.kind == KEPT_IN_DOUBT:

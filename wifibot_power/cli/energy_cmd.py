@@ -11,10 +11,12 @@ import typer
 from wifibot_power.cli.common import (
     JsonFlag,
     ModelSpec,
-    OutDir,
     check_out_dir,
     handles_errors,
+    out_dir,
     print_json,
+    progress_done,
+    stage,
     stdout,
     warn,
 )
@@ -42,7 +44,7 @@ Profile = Annotated[
     typer.Option(
         "--profile",
         help="A planned route: CSV of time_s, speed_mps[, yaw_rate_radps, surface]; its energy "
-        "from the drive model of --model (docs/drive-model.md).",
+        "from the drive model of --model ('wbpower docs drive-model').",
     ),
 ]
 Sweep = Annotated[
@@ -79,12 +81,18 @@ def _print_report(report: EnergyReport) -> None:
     trip, one = report.trip, report.one_step
     title = (
         f"{trip.distance_m:g} m at {trip.speed_mps:g} m/s in {trip.steps} step(s) of "
-        f"{trip.step.step_m:g} m (t_acc {trip.t_acc_s:g} s, model {report.model_source})"
+        # to the table's precision of times (a fitted t_acc is 0.800034 s, not to 1 us)
+        f"{trip.step.step_m:g} m (t_acc {_fmt(trip.t_acc_s, '.3f')} s, "
+        f"model {report.model_source})"
     )
     one_by_phase = {p.phase: p for p in one.phases}
     rows = []
+    nothing = []  # an extension that adds no energy (a zero-mean ripple): said, not a row
     for p in trip.phases:
         q = one_by_phase[p.phase]
+        if not p.time_s and not q.time_s and p.energy_J == 0 and q.energy_J == 0:
+            nothing.append(p.phase)
+            continue
         rows.append(
             [
                 p.phase,
@@ -106,6 +114,8 @@ def _print_report(report: EnergyReport) -> None:
         ]
     )
     notes = [f"stop-and-go overhead: {report.overhead_pct:.2f} %"]
+    if nothing:
+        notes.append(f"{', '.join(nothing)} adds 0 J to this trip (no row)")
     if not trip.step.reaches_speed:
         notes.append(
             f"steps too short to reach {trip.speed_mps:g} m/s: triangular profile, "
@@ -142,6 +152,10 @@ def _flat(summary: dict[str, object]) -> dict[str, object]:
     return {k: v for k, v in summary.items() if not isinstance(v, list | dict)}
 
 
+#: `-o DIR`: what it writes there (cli.md)
+Out = out_dir("energy.parquet and energy_phases.parquet (--sweep: energy_sweep_speed.parquet)")
+
+
 @app.command("energy", **command_help("energy"))
 @handles_errors
 @with_wide_option
@@ -155,7 +169,7 @@ def energy_command(
     sweep: Sweep = None,
     profile: Profile = None,
     json_out: JsonFlag = False,
-    out: OutDir = None,
+    out: Out = None,
     plot: PlotFile = None,
 ) -> None:
     """Energy of a trip in N stop-and-go steps (paper Eq. 5/6), beside the one-step trip."""
@@ -212,6 +226,7 @@ def _route(profile: Path, model: str, json_out: bool) -> None:
             "--profile needs a drive model", fix="give --model model.json from 'wbpower fit -o'"
         )
     drive = load_drive_model(model)
+    stage(f"reading {profile.name}")  # a log of hours takes seconds
     run = _as_log(profile)
     if run is not None:  # a log: measured beside predicted
         time_s, speed_mps, yaw_radps = run.time_s, run.speed_mps, run.yaw_rate_radps
@@ -222,6 +237,7 @@ def _route(profile: Path, model: str, json_out: bool) -> None:
         result = route_energy(drive, time_s, speed_mps, yaw_radps, surface)
     except ValueError as exc:
         raise UsageError(str(exc), file=profile, fix="add a surface column naming one") from None
+    progress_done()
     for message in result.warnings:
         warn(message)
     summary = result.summary()

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -14,12 +13,13 @@ from wifibot_power.cli.common import (
     Jobs,
     JsonFlag,
     KeepDoubtful,
-    OutDir,
     check_out_dir,
     handles_errors,
+    out_dir,
     parse_cache,
     print_json,
     progress,
+    progress_done,
     report_skipped,
     warn,
     warn_problems,
@@ -27,7 +27,7 @@ from wifibot_power.cli.common import (
 )
 from wifibot_power.cli.help import command_help
 from wifibot_power.cli.plot_option import PlotFile, check_plot, plot_to
-from wifibot_power.cli.tables import Col, print_table, with_wide_option
+from wifibot_power.cli.tables import MARKDOWN, Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
 from wifibot_power.io import ReadOptions
 
@@ -81,6 +81,10 @@ def print_fit_table(result: FitResult) -> None:
     )
 
 
+#: `-o DIR`: what it writes there (cli.md)
+Out = out_dir("runs.parquet, phases.parquet, stop_and_go.parquet and model.json (for --model)")
+
+
 @app.command("fit", **command_help("fit"))
 @handles_errors
 @with_wide_option
@@ -90,9 +94,10 @@ def fit_command(
     options: ReadOptions,
     json_out: JsonFlag = False,
     markdown: Annotated[
-        bool, typer.Option("--markdown", help="Print the table as Markdown (for a paper).")
+        bool,
+        typer.Option("--markdown", help="Print every table as Markdown (for a paper)."),
     ] = False,
-    out: OutDir = None,
+    out: Out = None,
     jobs: Jobs = 0,
     cache: CacheDir = None,
     runs: Annotated[bool, typer.Option("--runs", help="Also print each run's energy.")] = False,
@@ -107,12 +112,13 @@ def fit_command(
     result = fit_logs(
         paths,
         options,
-        wrap=lambda s: progress(s, "fitting"),
+        wrap=lambda s: progress(s, "reading and segmenting", then="fitting the models"),
         jobs=jobs,
         cache=parse_cache(cache),
         on_problems=warn_problems,
         keep_doubtful=keep_doubtful,
     )
+    progress_done()
     if result.has_paper or result.drive is None:
         plot_to(plot, "power_speed", result)
     else:  # free driving: the drive model's held-out energies are fit's one figure
@@ -127,28 +133,26 @@ def fit_command(
                 f"removed {stale}, the model of an earlier fit: this fit's model is "
                 "incomplete, and energy --model would have read the old one as this fit's"
             )
-        written = write_fit(result, out)
-        for path in written:
-            print(f"wbpower: wrote {path}", file=sys.stderr)
+        write_fit(result, out)  # said by handles_errors (common.say_written)
     if json_out:
         print_json({**result.summary(), "warnings": warnings})
-    elif markdown:
-        from wifibot_power.cli.common import stdout
-
-        stdout.print(result.to_markdown(), markup=False, highlight=False, end="")
-    else:
+    else:  # the tables; with --markdown, each as Markdown (tables.MARKDOWN)
         from wifibot_power.cli.fit_tables import (
             print_drive_tables,
             print_runs_table,
             print_stop_and_go_table,
         )
 
-        if result.has_paper:
-            print_fit_table(result)
-        print_stop_and_go_table(result)
-        print_drive_tables(result)
-        if runs:
-            print_runs_table(result)
+        token = MARKDOWN.set(markdown)
+        try:
+            if result.has_paper:
+                print_fit_table(result)
+            print_stop_and_go_table(result)
+            print_drive_tables(result)
+            if runs:
+                print_runs_table(result)
+        finally:
+            MARKDOWN.reset(token)
     # an incomplete paper model: its notes are the why of its warning (incomplete_warning)
     if result.model_complete or not result.has_paper:
         for note in result.notes:

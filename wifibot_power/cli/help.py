@@ -17,6 +17,7 @@ SHORT_HELP = {
     # for branch `report` (its command registers with **command_help("report"))
     "report": "Figures and one report.html: traces, fits, diagnosis.",
     "export": "The drive model as Open-RMF or Gazebo power parameters.",
+    "docs": "Read the documentation pages: causes, log formats, outputs.",
 }
 
 #: command -> (example arguments after `wbpower COMMAND`, what it does)
@@ -68,6 +69,11 @@ EXAMPLES: dict[str, list[tuple[str, str]]] = {
         ("--model m.json --to gazebo --voltage 24 --capacity 20", "the battery <plugin>"),
         ("--model m.json --to rmf --moment-of-inertia 9 --json", "JSON, for CI"),
     ],
+    "docs": [
+        ("", "the pages, each with its title"),
+        ("causes", "the causes diagnose names, and how a cause earns its name"),
+        ("log-format", "the log formats wbpower reads, and their columns"),
+    ],
 }
 
 
@@ -75,7 +81,7 @@ def epilog(command: str) -> str:
     """The Examples block of `command`'s help (`\\b`: click keeps its lines as written)."""
     lines = []
     for args, what in EXAMPLES[command]:
-        lines += [f"  # {what}", f"  wbpower {command} {args}"]
+        lines += [f"  # {what}", f"  wbpower {command} {args}".rstrip()]
     return "\b\nExamples:\n" + "\n".join(lines)
 
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -11,10 +9,10 @@ import typer
 
 from wifibot_power.cli.common import (
     JsonFlag,
-    OutDir,
     check_out_dir,
     handles_errors,
     json_defaults,
+    out_dir,
     print_json,
     progress,
     report_skipped,
@@ -45,6 +43,10 @@ COLUMNS = (
 )
 
 
+#: `-o DIR`: what it writes there (cli.md)
+Out = out_dir("logs.parquet (a row per log)")
+
+
 @app.command("inspect", **command_help("inspect"))
 @handles_errors
 @with_wide_option
@@ -53,7 +55,7 @@ def inspect_command(
     paths: Annotated[list[Path], typer.Argument(help="Log files or folders.")],
     options: ReadOptions,
     json_out: JsonFlag = False,
-    out: OutDir = None,
+    out: Out = None,
 ) -> None:
     """What is in each log: format, samples, period, duration, mean power, energy, metadata."""
     check_out_dir(out)  # before any work (cli.md)
@@ -63,8 +65,7 @@ def inspect_command(
         paths, options, wrap=lambda s: progress(s, "reading"), on_problems=warn_problems
     )
     if out is not None:
-        for written in write_inspection(rows, out):
-            print(f"wbpower: wrote {written}", file=sys.stderr)
+        write_inspection(rows, out)  # said by handles_errors (common.say_written)
     if json_out:  # skipped inputs: in `skipped` and on stderr (exit 1), as warnings are
         print_json({"logs": rows})
     else:
@@ -144,36 +145,73 @@ LOG_COLUMNS = (
     "problem_details",
     "topics",
 )
-#: the keys whose values nest (a dict or a list): JSON text in their column
-_NESTED = ("meta", "channels", "problems", "problem_details", "topics")
+
+
+def _nested_types() -> dict[str, object]:
+    """The Parquet types of the columns whose values nest (docs/cli-output.md, "-o DIR"):
+    `meta` a struct of RunMeta's fields, the log's other metadata keys in `extra` (a map of
+    text: a log's metadata holds whatever keys its file gives, as text); the lists as lists
+    of structs, `problems` a list of text."""
+    import pyarrow as pa
+
+    text, number, count = pa.string(), pa.float64(), pa.int64()
+
+    def rows_of(**fields: pa.DataType) -> pa.DataType:
+        return pa.list_(pa.struct(list(fields.items())))
+
+    meta = pa.struct(
+        [
+            ("run_id", text),
+            ("mode", text),
+            ("speed_mps", number),
+            ("distance_m", number),
+            ("steps", count),
+            ("payload_kg", number),
+            ("started_at", text),
+            ("sample_period_s", number),
+            ("extra", pa.map_(text, text)),
+        ]
+    )
+    return {
+        "meta": meta,
+        "channels": rows_of(name=text, mean_power_W=number, energy_J=number),
+        "problems": pa.list_(text),
+        "problem_details": rows_of(kind=text, message=text, t_start_s=number, duration_s=number),
+        "topics": rows_of(topic=text, type=text, messages=count, rate_Hz=number),
+    }
+
+
+def _meta_struct(meta: dict[str, object], fields: list[str]) -> dict[str, object]:
+    """A row's `meta` as the struct's fields, its other keys (as text) in `extra`."""
+    extra = [(str(k), str(v)) for k, v in meta.items() if k not in fields]
+    return {**{k: meta.get(k) for k in fields}, "extra": extra}
 
 
 def write_inspection(rows: list[dict[str, object]], out: Path) -> list[Path]:
-    """`inspect -o DIR`: `logs.parquet`, a row per log read, the `--json` keys as columns;
-    `meta`, `channels`, `problems` and `problem_details` as JSON text (a log's metadata
-    holds whatever keys its file gives), written with `outputs.write_set`."""
-    import pandas as pd
+    """`inspect -o DIR`: `logs.parquet`, a row per log read, the `--json` keys as columns,
+    the nested ones (`meta`, `channels`, `problems`, `problem_details`, `topics`) as Parquet
+    structs and lists (`_nested_types`), written with `outputs.write_set`."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
 
-    from wifibot_power.outputs import json_safe, parquet_file, write_set
+    from wifibot_power.outputs import write_set
 
-    table = [
-        {
-            key: json.dumps(json_safe(row.get(key)), allow_nan=False)
-            if key in _NESTED
-            else row.get(key)
-            for key in LOG_COLUMNS
-        }
-        for row in rows
-    ]
-    frame = pd.DataFrame(table, columns=list(LOG_COLUMNS))
-    frame = frame.astype(
-        {
-            "samples": "int64",
-            "sample_period_s": "float64",
-            "duration_s": "float64",
-            "mean_power_W": "float64",
-            "energy_J": "float64",
-            "speed_column": "bool",
-        }
-    )
-    return write_set(out, {"logs.parquet": parquet_file(frame)})
+    nested = _nested_types()
+    flat = {
+        "file": pa.string(),
+        "format": pa.string(),
+        "run_id": pa.string(),
+        "samples": pa.int64(),
+        "sample_period_s": pa.float64(),
+        "duration_s": pa.float64(),
+        "mean_power_W": pa.float64(),
+        "energy_J": pa.float64(),
+        "speed_column": pa.bool_(),
+    }
+    schema = pa.schema([(key, flat.get(key) or nested[key]) for key in LOG_COLUMNS])
+    meta_fields = [f.name for f in nested["meta"] if f.name != "extra"]
+    columns = {key: [row.get(key) for row in rows] for key in LOG_COLUMNS}
+    columns["meta"] = [_meta_struct(dict(m or {}), meta_fields) for m in columns["meta"]]
+    columns["topics"] = [t or [] for t in columns["topics"]]
+    table = pa.table(columns, schema=schema)
+    return write_set(out, {"logs.parquet": lambda path: pq.write_table(table, path)})

@@ -9,9 +9,9 @@ import typer
 from wifibot_power.cli.common import (
     JsonFlag,
     ModelSpec,
-    OutDir,
     check_out_dir,
     handles_errors,
+    out_dir,
     print_json,
     stdout,
     warn,
@@ -108,6 +108,10 @@ def _print(rows: list[LifetimeResult], title: str, key: str | None) -> None:
     print_table(stdout, title, cols, cells)
 
 
+#: `-o DIR`: what it writes there (cli.md)
+Out = out_dir("lifetime.parquet (--sweep X: lifetime_sweep_X.parquet)")
+
+
 @app.command("lifetime", **command_help("lifetime"))
 @handles_errors
 @with_wide_option
@@ -122,7 +126,7 @@ def lifetime_command(
     t_acc: TAcc = None,
     sweep: Sweep = None,
     json_out: JsonFlag = False,
-    out: OutDir = None,
+    out: Out = None,
     plot: PlotFile = None,
 ) -> None:
     """Relay scenario (paper Eq. 7-11): lifetime of A with B relaying, against A alone."""

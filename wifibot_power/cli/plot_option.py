@@ -4,7 +4,6 @@ matplotlib is imported only when a figure is drawn."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -15,7 +14,7 @@ PlotFile = Annotated[
     typer.Option(
         "--plot",
         metavar="FILE",
-        help="Also draw this command's figure into FILE (.png or .svg; docs/report.md).",
+        help="Also draw this command's figure into FILE (.png or .svg; 'wbpower docs report').",
     ),
 ]
 
@@ -43,4 +42,6 @@ def plot_to(path: Path | None, figure: str, *args: object, **kwargs: object) -> 
     from wifibot_power.figures import FIGURES, save_figure
 
     save_figure(FIGURES[figure].draw(*args, **kwargs), path)
-    print(f"wbpower: wrote {path}", file=sys.stderr)
+    from wifibot_power.cli.common import say_written
+
+    say_written([path])

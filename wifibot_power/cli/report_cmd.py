@@ -18,7 +18,9 @@ from wifibot_power.cli.common import (
     parse_cache,
     print_json,
     progress,
+    progress_done,
     report_skipped,
+    stage,
     warn,
     warn_problems,
     with_reading_options,
@@ -44,7 +46,7 @@ def report_command(
     keep_doubtful: KeepDoubtful = False,
 ) -> None:
     """Read, segment, fit and diagnose the logs; write one self-contained report.html (every
-    figure embedded, opens offline) and its figures as PNG (docs/report.md)."""
+    figure embedded, opens offline) and its figures as PNG ('wbpower docs report')."""
     from wifibot_power.report import build_report, check_report_dir, report_figures, write_report
 
     check_out_dir(out)  # before any work
@@ -52,7 +54,7 @@ def report_command(
     report = build_report(
         paths,
         options,
-        wrap=lambda s: progress(s, "reading"),
+        wrap=lambda s: progress(s, "reading and segmenting", then="fitting and diagnosing"),
         jobs=jobs,
         cache=parse_cache(cache),
         on_problems=warn_problems,
@@ -61,7 +63,9 @@ def report_command(
     if report.fit is not None:
         for warning in report.fit.warnings:  # as fit prints them (cli.md `warnings`)
             warn(warning)
+    stage("drawing the figures")
     written = write_report(report, out, jobs=jobs)
+    progress_done()
     missing = [(name, note) for name, _, draw, note in report_figures(report) if draw is None]
     for note in dict.fromkeys(note for _, note in missing):  # one line per reason
         warn(f"{', '.join(n for n, why in missing if why == note)}: {note}")

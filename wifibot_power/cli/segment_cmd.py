@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -11,10 +10,12 @@ import typer
 
 from wifibot_power.cli.common import (
     JsonFlag,
-    OutDir,
     check_out_dir,
     handles_errors,
+    out_dir,
     print_json,
+    progress_done,
+    stage,
     stdout,
     warn,
     warn_problems,
@@ -48,6 +49,10 @@ _SPIKE_COLUMNS = (
 )
 
 
+#: `-o DIR`: what it writes there (cli.md)
+Out = out_dir("phases.parquet and spikes.parquet")
+
+
 @app.command("segment", **command_help("segment"))
 @handles_errors
 @with_wide_option
@@ -56,7 +61,7 @@ def segment_command(
     path: Annotated[Path, typer.Argument(help="One log file.")],
     options: ReadOptions,
     json_out: JsonFlag = False,
-    out: OutDir = None,
+    out: Out = None,
     plot: PlotFile = None,
 ) -> None:
     """Split one log into phases: idle/accel/cruise/decel per step for a motion run (turn
@@ -76,18 +81,20 @@ def segment_command(
 
     check_plot(plot)
     source = single_source(path)  # with the row of the runs.csv beside it (log-format.md)
+    stage(f"reading {path.name}")  # a long log (10 M samples) takes seconds
     run = read_log(source.path, options, source.overrides, origin=source.origin)
+    stage("segmenting")
     try:
         segmentation = segment_run(run)
     except LogError as exc:
         raise exc.with_file(path) from None
+    progress_done()
     plot_to(plot, "trace", run, segmentation)
     warn_problems(run.file, run.problems)
     for doubt in segmentation.doubts:  # cli.md: a doubt is also a warning on stderr
         warn(f"{run.file}: segmentation in doubt: {doubt}")
     if out is not None:
-        for written in write_segmentation(segmentation, run.file, out):
-            print(f"wbpower: wrote {written}", file=sys.stderr)
+        write_segmentation(segmentation, run.file, out)  # said by common.say_written
     if json_out:
         print_json(
             {

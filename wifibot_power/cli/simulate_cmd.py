@@ -7,7 +7,15 @@ from typing import Annotated
 
 import typer
 
-from wifibot_power.cli.common import JsonFlag, check_out_dir, handles_errors, print_json, stdout
+from wifibot_power.cli.common import (
+    JsonFlag,
+    check_out_dir,
+    handles_errors,
+    print_json,
+    progress_done,
+    stage,
+    stdout,
+)
 from wifibot_power.cli.help import command_help
 from wifibot_power.cli.tables import Col, print_table, with_wide_option
 from wifibot_power.cli.typer_app import app
@@ -107,7 +115,7 @@ def simulate_command(
         typer.Option(
             "--realism",
             help=f"{'|'.join(REALISM)}: 'field' adds what real logs carry (PWM tone, run-to-run "
-            "spread, 0.8 W noise); docs/simulator.md.",
+            "spread, 0.8 W noise); 'wbpower docs simulator'.",
         ),
     ] = "lab",
     noise: Annotated[
@@ -132,7 +140,7 @@ def simulate_command(
         typer.Option(
             "--drive",
             help="grid: the paper's experiment; free: a skid-steer robot driven freely (turns, "
-            "stops, reversing) with speed and yaw-rate columns (docs/drive-model.md).",
+            "stops, reversing) with speed and yaw-rate columns ('wbpower docs drive-model').",
         ),
     ] = "grid",
     surfaces: Annotated[
@@ -150,7 +158,10 @@ def simulate_command(
     if drive not in ("grid", "free"):
         raise typer.BadParameter("--drive takes grid or free")
     if drive == "free":
-        _print_summary(_free(out, surfaces, repeats, duration, realism_name, seed), json_out)
+        stage("simulating free driving")
+        summary = _free(out, surfaces, repeats, duration, realism_name, seed)
+        named = [s.strip() for s in surfaces.split(",") if s.strip()]
+        _print_summary({**summary, "surfaces": named}, json_out)
         return
     # checked before anything is simulated or written (cli.md: a usage error, exit 2)
     write = WriteOptions(columns=columns, compress=compress, decimals=decimals)
@@ -169,12 +180,42 @@ def simulate_command(
         effects=parse_effects(effect or []),
         seed=seed,
     )
-    _print_summary(write_simulation(config, out, write), json_out)
+    summary = write_simulation(
+        config, out, write, on_run=lambda k, n: stage(f"simulating: {k} of {n} runs done")
+    )
+    _print_summary(summary, json_out)
+
+
+def size_text(n_bytes: float) -> str:
+    """A size in bytes as people read it: `87.6 MB`, `912 kB`, `512 B` (SI units)."""
+    for unit in ("B", "kB", "MB", "GB"):
+        if n_bytes < 1000 or unit == "GB":
+            return f"{n_bytes:.0f} {unit}" if unit == "B" else f"{n_bytes:.3g} {unit}"
+        n_bytes /= 1000
+    return ""  # not reached
+
+
+def summary_cells(summary: dict[str, object]) -> list[list[str]]:
+    """What `simulate` wrote, in words: the logs (count, size), the folder, the effects
+    (NAME=SIZE, or none), the seed, the surfaces (free driving)."""
+    effects = summary.get("effects")
+    cells = [
+        ["logs", f"{summary['runs']} files, {size_text(float(summary['csv_bytes']))}"],
+        ["folder", f"{summary['out_dir']} (with runs.csv and truth.json)"],
+    ]
+    if effects is not None:  # the grid; free driving has no effects
+        named = ", ".join(f"{k}={v:g}" for k, v in dict(effects).items())
+        cells.append(["effects", named or "none"])
+    if "surfaces" in summary:
+        cells.append(["surfaces", ", ".join(map(str, summary["surfaces"]))])
+    cells.append(["seed", str(summary["seed"])])
+    return cells
 
 
 def _print_summary(summary: dict[str, object], json_out: bool) -> None:
+    progress_done()
     if json_out:
         print_json(summary)
         return
-    cells = [[key, str(value)] for key, value in summary.items()]
-    print_table(stdout, "simulated", (Col("what", "text", key=True), Col("value", "text")), cells)
+    cols = (Col("what", "text", key=True), Col("written", "text"))
+    print_table(stdout, f"Simulated {summary['runs']} runs", cols, summary_cells(summary))

@@ -36,6 +36,8 @@ if TYPE_CHECKING:  # rich loads when a table is drawn: `--json` output never nee
 
 #: Whether `--wide` was given to the running command.
 WIDE: contextvars.ContextVar[bool] = contextvars.ContextVar("wide", default=False)
+#: Whether the running command prints its tables as Markdown (`fit --markdown`).
+MARKDOWN: contextvars.ContextVar[bool] = contextvars.ContextVar("markdown", default=False)
 #: Narrowest a text column is planned at (it folds below its natural width).
 TEXT_MIN_WIDTH = 12
 
@@ -175,7 +177,11 @@ def print_table(
     row_styles: Sequence[str | None] | None = None,
 ) -> None:
     """Print the table(s) for the console's width; with `--wide`, one table at its full width
-    (wider than the terminal if it must be)."""
+    (wider than the terminal if it must be); with `MARKDOWN`, one Markdown table."""
+    if MARKDOWN.get():
+        text = markdown_table(title, cols, rows, caption=caption)
+        console.print(text, markup=False, highlight=False, soft_wrap=True)
+        return
     wide = WIDE.get()
     made = tables(
         title, cols, rows, width=console.width, wide=wide, caption=caption, row_styles=row_styles
@@ -192,6 +198,31 @@ def print_table(
             console.print(table)
         finally:
             console.width = width
+
+
+_MARKDOWN_ALIGN = {"left": "---", "right": "---:", "center": ":---:"}
+
+
+def markdown_table(
+    title: str, cols: Sequence[Col], rows: Sequence[Sequence[str]], caption: str | None = None
+) -> str:
+    """One table as Markdown (GitHub's pipe tables), to paste into a paper or a report: the
+    title in bold above it, the caption below; numbers right-aligned as in the terminal."""
+
+    def cell(text: str) -> str:
+        return " ".join(str(text).split()).replace("|", "\\|")
+
+    def align(col: Col) -> str:
+        return _MARKDOWN_ALIGN[col.justify or ("left" if col.kind == "text" else "right")]
+
+    lines = [f"**{cell(title)}**", ""]
+    lines.append("| " + " | ".join(cell(c.name) for c in cols) + " |")
+    lines.append("| " + " | ".join(align(c) for c in cols) + " |")
+    lines += ["| " + " | ".join(cell(x) for x in row) + " |" for row in rows]
+    for line in (caption or "").splitlines():  # each line of the caption a paragraph
+        if line.strip():
+            lines += ["", cell(line)]
+    return "\n".join(lines) + "\n"
 
 
 F = TypeVar("F", bound=Callable[..., object])

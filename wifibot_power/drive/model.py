@@ -238,8 +238,8 @@ def fit_drive_stats(
         warnings.append(
             f"{proxies} of {len(stats)} log(s) hold motor currents only (voltage_assumed_V): "
             "their power is a nominal voltage times current, ~ torque, so the terms take their "
-            "force form (docs/drive-model.md, 'Current-only logs'): each coefficient is a force "
-            "(or moment) times the motors' no-load speed, rolling_W_per_mps is a constant "
+            "force form ('wbpower docs drive-model', 'Current-only logs'): each coefficient is a "
+            "force (or moment) times the motors' no-load speed, rolling_W_per_mps is a constant "
             "force's [W], drive_on_W a constant scrubbing moment's while turning [W] (a motor "
             "current holds no drivers' step), quadratic_W_per_mps2 a viscous force's "
             "[W/(m/s)], effective_mass_kg "

@@ -184,7 +184,7 @@ def not_a_log(path: Path, why: str, where: str | None = None) -> LogError:
         f"not a power log ({why})",
         file=path,
         where=where,
-        fix="give a wbpower CSV (see docs/log-format.md) or a Keysight N6705 datalog export",
+        fix="give a wbpower CSV (see 'wbpower docs log-format') or a Keysight N6705 datalog export",
     )
 
 

@@ -122,7 +122,8 @@ class Canonical(LogFormat):
                     "current_A)",
                     file=path,
                     where=f"line {index + 1}",
-                    fix=f"{column_hint(header)}; or give a wbpower CSV (see docs/log-format.md)",
+                    fix=f"{column_hint(header)}; or give a wbpower CSV "
+                    "(see 'wbpower docs log-format')",
                 )
             version = metadata.get("wbpower-log")
             if version is not None and version not in KNOWN_VERSIONS:
@@ -174,7 +175,7 @@ class Canonical(LogFormat):
             "no power_W, power_mW, or voltage_V x current_A columns",
             file=path,
             where=f"line {pre.header_line + 1}",
-            fix=f"{column_hint(pre.header)}; or name the columns as in docs/log-format.md",
+            fix=f"{column_hint(pre.header)}; or name the columns as in 'wbpower docs log-format'",
         )
 
     def time_source(
