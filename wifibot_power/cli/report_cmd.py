@@ -36,7 +36,11 @@ def report_command(
     options: ReadOptions,
     out: Annotated[
         Path,
-        typer.Option("-o", "--out", help="Write DIR/report.html and DIR/figures/*.png."),
+        typer.Option(
+            "-o",
+            "--out",
+            help="Write DIR/report.html and DIR/figures/ (PNG, and SVG of the model figures).",
+        ),
     ],
     jobs: Jobs = 0,
     cache: CacheDir = None,
@@ -57,28 +61,39 @@ def report_command(
         cache=parse_cache(cache),
         on_problems=warn_problems,
         keep_doubtful=keep_doubtful,
+        command=sys.argv,
     )
     if report.fit is not None:
         for warning in report.fit.warnings:  # as fit prints them (cli.md `warnings`)
             warn(warning)
     written = write_report(report, out, jobs=jobs)
     missing = [(name, note) for name, _, draw, note in report_figures(report) if draw is None]
-    for note in dict.fromkeys(note for _, note in missing):  # one line per reason
+    said = list(dict.fromkeys(note for _, note in missing))
+    for note in said:  # one line per reason, each reason once
         warn(f"{', '.join(n for n, why in missing if why == note)}: {note}")
+    # the runs the fit left out are in the report (their traces, levels and energies):
+    # not skipped by it; each one's reason once (not again when a line above gave it)
+    read = set(map(id, report.read_skipped))
+    not_fitted = [s for s in report.skipped if id(s) not in read]
+    for item in not_fitted:
+        if not any(item.why in note for note in said):
+            warn(f"not in the fit: {item.reason}")
     page = out / "report.html"
+    figures = [p for p in written if p.suffix in (".png", ".svg")]
     if json_out:
         print_json(
             {
                 "report": str(page),
-                "figures": [str(p) for p in written if p.suffix == ".png"],
+                "figures": [str(p) for p in figures],
                 "not_drawn": [{"figure": n, "reason": note} for n, note in missing],
                 "n_runs": len(report.traces),
-                "skipped": [s.as_dict() for s in report.skipped],
+                "not_fitted": [s.as_dict() for s in not_fitted],
             }
         )
     else:
         print(
-            f"wbpower: wrote {len(written) - 1} figure(s) into {out / 'figures'}", file=sys.stderr
+            f"wbpower: wrote {len(figures)} figure file(s) into {out / 'figures'}", file=sys.stderr
         )
         print(f"report: {page}")
-    raise typer.Exit(report_skipped(list(report.skipped)))
+    # exit 1 only for inputs the report could not read (cli.md: "some input skipped")
+    raise typer.Exit(report_skipped(list(report.read_skipped)))
