@@ -53,13 +53,16 @@ def figure5(
     step_m: float = 1.0,
     speeds_mps: Sequence[float] | None = None,
     t_acc_s: float | None = None,
+    trip: tuple[float, float, int] | None = None,
 ) -> Figure:
     """Left: trip energy [J] against speed [m/s] for each distance in one step and in
     `step_m` steps, from `model` (solid) and the paper's model (dashed), the measured mean
     energies of `stop_and_go`'s trips as points. Right: the stop-and-go overhead [%] of the
     same trips, and of each measured trip, with the measured overheads as points with 95%
     interval bars. Without `stop_and_go` (None: no logs, e.g. `energy --plot`), models only;
-    with an empty one, the figure says the logs hold no trip in both 1 and N steps."""
+    with an empty one, the figure says the logs hold no trip in both 1 and N steps.
+    `trip` (speed [m/s], distance [m], steps): the trip asked about (`energy --speed --dist
+    --steps --plot`), marked with a star and its energy and overhead from `model`."""
     from wifibot_power.model import paper_model
 
     paper = paper or paper_model()
@@ -74,6 +77,8 @@ def figure5(
     models = [(model, "-")] + ([(paper, "--")] if model != paper else [])
     peak_J = _draw_trip_models(ax_energy, ax_over, trips, models, speeds, t_acc_s)
     _draw_measured(ax_energy, ax_over, stop_and_go)
+    if trip is not None:
+        _mark_trip(ax_energy, ax_over, model, trip, t_acc_s)
     # another robot's trips can cost a hundredth of the Wifibot's: on a linear scale they
     # lie flat under the paper's curves, so the scale is logarithmic when the two models'
     # largest energies differ tenfold or more
@@ -89,6 +94,50 @@ def figure5(
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="upper right" if ax is ax_energy else "upper left")
     return figure
+
+
+def _mark_trip(
+    ax_energy: Axes,
+    ax_over: Axes,
+    model: PowerModel,
+    trip: tuple[float, float, int],
+    t_acc_s: float | None,
+) -> None:
+    """The trip asked about: a star at its energy [J] (and, in N > 1 steps, its overhead
+    [%]) from `model`, labelled with the numbers `energy` prints (Eq. 5/6)."""
+    from wifibot_power.energy import energy_report
+
+    speed, distance, steps = trip
+    report = energy_report(model, speed, distance, steps, t_acc_s=t_acc_s)
+    label = (
+        f"this trip: {distance:g} m in {steps} step(s) at {speed:g} m/s, "
+        f"{report.trip.energy_J:.4g} J"
+    )
+    ax_energy.plot(
+        speed,
+        report.trip.energy_J,
+        "*",
+        ms=15,
+        color="#d62728",
+        mec="black",
+        mew=0.8,
+        label=label,
+        gid="trip",
+        zorder=5,
+    )
+    if steps > 1:
+        ax_over.plot(
+            speed,
+            report.overhead_pct,
+            "*",
+            ms=15,
+            color="#d62728",
+            mec="black",
+            mew=0.8,
+            label=f"this trip: {report.overhead_pct:.3g}%",
+            gid="trip",
+            zorder=5,
+        )
 
 
 def _figure5_speeds(model: PowerModel, speeds_mps: Sequence[float] | None) -> np.ndarray:
