@@ -54,8 +54,9 @@ test: $(VENV)/.installed browser
 
 # What the browser test (tests/test_report_browser.py: report.html in headless Chromium)
 # needs: selenium in the venv (the `browser` extra, ~45 MB with its dependencies), and
-# Debian's chromium and chromium-driver (505 MB with their libraries on Debian 12), installed with apt where this runs as
-# root with apt-get; elsewhere the test is skipped and says why. Nothing else is fetched:
+# Debian's chromium and chromium-driver (505 MB with their libraries on Debian 12), installed
+# with apt where this runs as root with apt-get; elsewhere the test is skipped and says why.
+# Nothing else is fetched:
 # selenium drives the system chromedriver, never downloads a browser of its own.
 CHROMIUM_PACKAGES ?= chromium chromium-driver
 browser: $(VENV)/.browser
