@@ -49,12 +49,15 @@ def _quantised(envelope: Envelope) -> dict[str, object]:
     v0 = float(low[finite].min()) if finite.any() else 0.0
     top = float(high[finite].max()) if finite.any() else 1.0
     dv = (top - v0) / QUANTA or 1.0
-    codes = lambda v: np.clip(np.rint((np.where(finite, v, v0) - v0) / dv), 0, QUANTA)  # noqa: E731
+    def codes(v: np.ndarray, rounding: np.ufunc) -> np.ndarray:
+        # low rounded down and high up: the band drawn holds every sample
+        return np.clip(rounding((np.where(finite, v, v0) - v0) / dv), 0, QUANTA)
+
     return {
         "v0": v0,
         "dv": dv,
-        "lo": _b64(np.floor(codes(low)), "<u2"),
-        "hi": _b64(np.ceil(codes(high)), "<u2"),
+        "lo": _b64(codes(low, np.floor), "<u2"),
+        "hi": _b64(codes(high, np.ceil), "<u2"),
     }
 
 
