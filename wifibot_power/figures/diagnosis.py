@@ -103,9 +103,9 @@ def heldout_error_figure(diagnosis: Diagnosis) -> Figure:
         ax.set_xlabel(label)
         ax.set_ylabel(f"{RESIDUAL} [%]")
         ax.grid(True, alpha=0.3)
-    # the legend above the panels: inside one it covered a run's point
+    # the legend under the panels: inside one it covered a run's point
     handles, labels = axes[0].get_legend_handles_labels()
-    figure.legend(handles, labels, loc="outside upper right", ncol=2, fontsize=8, frameon=False)
+    figure.legend(handles, labels, loc="outside lower center", ncol=2, fontsize=8, frameon=False)
     figure.suptitle(
         f"Held-out error of each run's motion energy ({diagnosis.n_runs} runs): "
         f"RMSE {diagnosis.baseline_rmse_J:.3g} J paper-form, "

@@ -328,5 +328,7 @@
     });
   }
   showRun(0);
+  // when the view was ready [ms after navigation]: what opening the page costs
+  document.body.setAttribute("data-explorer-ms", String(Math.round(performance.now())));
   document.body.setAttribute("data-explorer", "ready");
 })();
