@@ -113,6 +113,12 @@ docs-figures: $(VENV)/.installed
 	  --screenshot=out/report_chromium.png file://$(CURDIR)/out/report/report.html
 	$(PY) -c "from PIL import Image; im = Image.open('out/report_chromium.png').convert('RGB'); \
 	  im.resize((640, 1300)).quantize(256).save('docs/figures/report_chromium.png', optimize=True)"
+	@# the trace view, zoomed and with a selection: the browser test's own screenshots
+	rm -rf out/explorer && WBPOWER_SCREENSHOTS=out/explorer $(PY) -m pytest -q -n 0 \
+	  tests/test_report_browser.py
+	for f in whole selection; do $(PY) -c "import sys; from PIL import Image; \
+	  Image.open(sys.argv[1]).convert('RGB').quantize(256).save(sys.argv[2], optimize=True)" \
+	  out/explorer/report_explorer_$$f.png docs/figures/report_explorer_$$f.png; done
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache .hypothesis

@@ -71,10 +71,15 @@ def report_command(
     said = list(dict.fromkeys(note for _, note in missing))
     for note in said:  # one line per reason, each reason once
         warn(f"{', '.join(n for n, why in missing if why == note)}: {note}")
-    # the runs the fit left out are in the report (their traces, levels and energies):
-    # not skipped by it; each one's reason once (not again when a line above gave it)
+    # a run whose log says nothing to fit (no mode or speed: an instrument's export, not a
+    # robot's run) is the expected case of a log to look at, not a skipped input: its trace,
+    # levels and energy are the report (exit 0), its reason said once. Runs the fit left out
+    # for a fault of their own (no motion found, a doubted segmentation) are skipped, as
+    # `fit` says (exit 1).
+    unknown = {view.file for view in report.traces if view.mode == "unknown"}
     read = set(map(id, report.read_skipped))
-    not_fitted = [s for s in report.skipped if id(s) not in read]
+    not_fitted = [s for s in report.skipped if id(s) not in read and s.file in unknown]
+    skipped = [s for s in report.skipped if s not in not_fitted]
     for item in not_fitted:
         if not any(item.why in note for note in said):
             warn(f"not in the fit: {item.reason}")
@@ -95,5 +100,4 @@ def report_command(
             f"wbpower: wrote {len(figures)} figure file(s) into {out / 'figures'}", file=sys.stderr
         )
         print(f"report: {page}")
-    # exit 1 only for inputs the report could not read (cli.md: "some input skipped")
-    raise typer.Exit(report_skipped(list(report.read_skipped)))
+    raise typer.Exit(report_skipped(skipped))
