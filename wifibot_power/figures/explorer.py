@@ -49,6 +49,7 @@ def _quantised(envelope: Envelope) -> dict[str, object]:
     v0 = float(low[finite].min()) if finite.any() else 0.0
     top = float(high[finite].max()) if finite.any() else 1.0
     dv = (top - v0) / QUANTA or 1.0
+
     def codes(v: np.ndarray, rounding: np.ufunc) -> np.ndarray:
         # low rounded down and high up: the band drawn holds every sample
         return np.clip(rounding((np.where(finite, v, v0) - v0) / dv), 0, QUANTA)
