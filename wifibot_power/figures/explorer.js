@@ -327,7 +327,7 @@
       document.getElementById("explore").scrollIntoView();
     });
   }
-  showRun(0);
+  showRun(doc.first || 0);
   // when the view was ready [ms after navigation]: what opening the page costs
   document.body.setAttribute("data-explorer-ms", String(Math.round(performance.now())));
   document.body.setAttribute("data-explorer", "ready");

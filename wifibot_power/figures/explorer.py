@@ -96,9 +96,12 @@ def explorer_script() -> str:
 def explorer_data(views: Sequence[TraceView], anchors: Mapping[str, str]) -> str:
     """Every run's data and the colours, as the JSON the script reads (a `<script
     type="application/json">` block: `</` is escaped so no value can close it)."""
+    motion = [k for k, v in enumerate(views) if v.mode == "motion"]
     document = {
         "colours": {**PHASE_COLOURS, "power": POWER_COLOUR, "speed": SPEED_COLOUR},
         "runs": [run_data(v, anchors[v.run_id]) for v in views],
+        # the run shown first: the first that moves (its phases say most), else the first
+        "first": motion[0] if motion else 0,
     }
     text = json.dumps(document, separators=(",", ":"), allow_nan=False)
     return text.replace("</", "<\\/")
