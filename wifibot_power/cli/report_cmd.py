@@ -47,8 +47,10 @@ def report_command(
     json_out: JsonFlag = False,
     keep_doubtful: KeepDoubtful = False,
 ) -> None:
-    """Read, segment, fit and diagnose the logs; write one self-contained report.html (every
-    figure embedded, opens offline) and its figures as PNG (docs/report.md)."""
+    """Read, segment, fit and diagnose the logs; write one self-contained report.html (opens
+    offline: a zoomable trace view with a selection's energy, a sortable table of every
+    run, the model figures, what it was made from) and its figures as files
+    (docs/report.md)."""
     from wifibot_power.report import build_report, check_report_dir, report_figures, write_report
 
     check_out_dir(out)  # before any work
