@@ -4,7 +4,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 WBPOWER := $(VENV)/bin/wbpower
 
-.PHONY: demo test lint bench bench-jls sample-logs docs-figures clean
+.PHONY: demo test browser lint bench bench-jls sample-logs docs-figures clean
 
 # The oldest Python wbpower runs on (pyproject.toml: requires-python).
 MIN_PYTHON ?= 3.11
@@ -48,9 +48,30 @@ demo: $(VENV)/.installed
 	$(WBPOWER) report sample_logs/ -o out/report
 	@echo "open out/report/report.html in a browser (one file, works offline)"
 
-test: $(VENV)/.installed
+test: $(VENV)/.installed browser
 	$(VENV)/bin/ruff check .
 	$(PY) -m pytest -q -n 2
+
+# What the browser test (tests/test_report_browser.py: report.html in headless Chromium)
+# needs: selenium in the venv (the `browser` extra, ~45 MB with its dependencies), and
+# Debian's chromium and chromium-driver (505 MB with their libraries on Debian 12), installed
+# with apt where this runs as root with apt-get; elsewhere the test is skipped and says why.
+# Nothing else is fetched:
+# selenium drives the system chromedriver, never downloads a browser of its own.
+CHROMIUM_PACKAGES ?= chromium chromium-driver
+browser: $(VENV)/.browser
+	@if command -v chromium >/dev/null 2>&1 && command -v chromedriver >/dev/null 2>&1; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	  echo "installing $(CHROMIUM_PACKAGES) with apt-get for the browser test"; \
+	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+	    $(CHROMIUM_PACKAGES) >/dev/null) \
+	  || echo "could not install $(CHROMIUM_PACKAGES): the browser test will be skipped"; \
+	else echo "no chromium and chromedriver (and not root with apt-get): the browser test" \
+	  "will be skipped"; fi
+
+$(VENV)/.browser: $(VENV)/.installed
+	$(PIP_INSTALL) -e '.[browser]'
+	touch $@
 
 lint: $(VENV)/.installed
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .
@@ -92,6 +113,12 @@ docs-figures: $(VENV)/.installed
 	  --screenshot=out/report_chromium.png file://$(CURDIR)/out/report/report.html
 	$(PY) -c "from PIL import Image; im = Image.open('out/report_chromium.png').convert('RGB'); \
 	  im.resize((640, 1300)).quantize(256).save('docs/figures/report_chromium.png', optimize=True)"
+	@# the trace view, zoomed and with a selection: the browser test's own screenshots
+	rm -rf out/explorer && WBPOWER_SCREENSHOTS=out/explorer $(PY) -m pytest -q -n 0 \
+	  tests/test_report_browser.py
+	for f in whole selection; do $(PY) -c "import sys; from PIL import Image; \
+	  Image.open(sys.argv[1]).convert('RGB').quantize(256).save(sys.argv[2], optimize=True)" \
+	  out/explorer/report_explorer_$$f.png docs/figures/report_explorer_$$f.png; done
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache .hypothesis

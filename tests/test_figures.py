@@ -198,10 +198,17 @@ def test_heldout_error_figure_has_a_point_per_run_per_model(report) -> None:
     labels = [ax.get_xlabel() for ax in figure.axes]
     assert labels[0] == "speed [m/s]" and all(_has_unit(label) for label in labels)
     speed_ax = figure.axes[0]
+    runs = diagnosis.runs
     for model in ("baseline", "extended"):
         (points,) = [line for line in speed_ax.lines if line.get_gid() == model]
-        assert_allclose(sorted(points.get_ydata()), sorted(diagnosis.runs[f"{model}_error_pct"]))
+        # one sign in every figure (issue 28): measured − predicted, in % of the measured
+        measured, predicted = runs["measured_energy_J"], runs[f"{model}_energy_J"]
+        by_hand = 100 * (measured - predicted) / measured
+        assert_allclose(sorted(points.get_ydata()), sorted(by_hand), rtol=1e-9)
         assert len(points.get_ydata()) == diagnosis.n_runs == 14
+    assert all(ax.get_ylabel() == "measured − predicted [%]" for ax in figure.axes)
+    # the legend is the figure's, outside the panels: it covers no point
+    assert not any(ax.get_legend() for ax in figure.axes) and figure.legends
 
 
 def test_findings_figure_shows_the_ripple_line_and_spectrum(report) -> None:
@@ -211,6 +218,15 @@ def test_findings_figure_shows_the_ripple_line_and_spectrum(report) -> None:
     figure = findings_figure(diagnosis, diagnosis.traces)
     visible = [ax for ax in figure.axes if ax.axison]
     assert len(visible) == len(diagnosis.findings) + 1  # + the ripple's spectrum
+    assert len(figure.axes) == len(visible)  # no empty panel (issue 28)
+    from wifibot_power.causes import CAUSES
+
+    codes = {c.name for c in CAUSES.values()} | {p for c in CAUSES.values() for p in c.parameters}
+    for ax in visible:  # titled in words: no code name (decel_phase, t_dec_s, amplitude_W)
+        title = ax.get_title(loc="left")
+        assert title and not [c for c in codes if c.lower() in title.lower()], title
+    residual = [ax.get_ylabel() for ax in visible if "predicted" in ax.get_ylabel()]
+    assert all(label.startswith("measured − predicted") for label in residual)
     (ax,) = [ax for ax in visible if ax.get_ylabel() == "ripple frequency [Hz]"]
     (line,) = [line for line in ax.lines if line.get_gid() == "fit"]
     x, y = line.get_xdata(), line.get_ydata()
@@ -251,12 +267,7 @@ def test_figure5_lines_are_eq56_and_points_are_the_measured_overheads(report) ->
     assert_allclose(y, [r.overhead_pct for r in fit.stop_and_go])
 
 
-def test_figure7_has_each_sweep_a_line_per_rate_and_the_paper() -> None:
-    from wifibot_power.lifetime import lifetime_sweep
-
-    model = paper_model()
-    fitted = paper_model().with_extensions({}, source="fit")
-    figure = figure7(fitted, paper=model)
+def _figure7_axes(figure) -> list:
     axes = [ax for ax in figure.axes if ax.axison]
     assert len(axes) == 4
     assert [ax.get_xlabel() for ax in axes] == [
@@ -266,12 +277,74 @@ def test_figure7_has_each_sweep_a_line_per_rate_and_the_paper() -> None:
         "data rate [Mbit/s]",
     ]
     assert all(ax.get_ylabel() == "lifetime gain [%]" for ax in axes)
-    e0a = axes[0]
-    assert len([line for line in e0a.lines if line.get_gid() == "model:1"]) == 3  # rates
-    (line,) = [ln for ln in e0a.lines if ln.get_label() == "54 Mbit/s (paper)"]
-    rows = lifetime_sweep("e0a", model, 54.0)
+    return axes
+
+
+def _legend_labels(figure) -> list[str]:
+    (legend,) = figure.legends
+    assert not any(ax.get_legend() for ax in figure.axes)  # one legend, under the panels
+    return [t.get_text() for t in legend.get_texts()]
+
+
+def test_figure7_has_each_sweep_a_line_per_rate_and_the_paper() -> None:
+    """A fit unlike the paper's (idle 30 W): each panel a solid line per rate and the
+    paper's dashed, the data rates as points with no line between them, and a legend of
+    the three rates and the two styles, all of which show."""
+    from dataclasses import replace
+
+    from wifibot_power.lifetime import lifetime_sweep
+
+    paper = paper_model()
+    fitted = replace(paper.with_extensions({}, source="fit"), idle_W=30.0)
+    figure = figure7(fitted, paper=paper)
+    e0a, _, _, rate = _figure7_axes(figure)
+    assert len([line for line in e0a.lines if line.get_gid() == "model:0"]) == 3  # rates
+    dashed = [line for line in e0a.lines if line.get_gid() == "model:1"]
+    assert len(dashed) == 3 and all(line.get_linestyle() == "--" for line in dashed)
+    (line,) = [ln for ln in dashed if ln.get_color() == "#009e73"]  # 54 Mbit/s
+    rows = lifetime_sweep("e0a", paper, 54.0)
     assert_allclose(line.get_ydata(), [r.improvement_pct for r in rows])
     assert_allclose(line.get_xdata(), [r.e0a_J / 1e3 for r in rows])
+    # the data-rate panel: three separate scenarios, points never joined by a line
+    assert all(ln.get_linestyle() == "None" for ln in rate.lines)
+    assert sorted(x for ln in rate.lines if ln.get_gid() == "model:0" for x in ln.get_xdata())
+    labels = _legend_labels(figure)
+    assert labels == [
+        "10 Mbit/s",
+        "54 Mbit/s",
+        "100 Mbit/s",
+        "fitted (solid, filled)",
+        "paper (dashed, ring)",
+    ]
+
+
+def test_figure7_draws_coinciding_lines_once_and_its_legend_says_so() -> None:
+    """issue 28: a fit on the paper's coefficients drew each dashed paper line on its solid
+    twin and listed six lines where three showed."""
+    paper = paper_model()
+    fitted = paper.with_extensions({}, source="fit")
+    figure = figure7(fitted, paper=paper)
+    e0a, e0b, dist, rate = _figure7_axes(figure)
+    for ax in (e0a, e0b, dist):
+        assert [ln.get_gid() for ln in ax.lines] == ["model:0"] * 3
+    labels = _legend_labels(figure)
+    assert labels[:3] == ["10 Mbit/s", "54 Mbit/s", "100 Mbit/s"]
+    assert labels[3].startswith("fitted = paper within 0 % points")
+    assert labels[4] == "paper (ring)"  # the rate panel's rings around the fitted points
+    assert [ln.get_gid() for ln in rate.lines].count("model:1") == 1
+
+
+def test_energy_plot_marks_the_trip_asked_about() -> None:
+    from wifibot_power.energy import trip_energy
+
+    model = paper_model()
+    figure = figure5(model, distances_m=(4.0,), step_m=1.0, trip=(0.5, 4.0, 4))
+    ax_energy, ax_over = figure.axes
+    (star,) = [ln for ln in ax_energy.lines if ln.get_gid() == "trip"]
+    assert star.get_xdata()[0] == 0.5
+    by_eq56 = 4 * trip_energy(model, 0.5, 1.0).energy_J  # four 1 m steps
+    assert star.get_ydata()[0] == pytest.approx(by_eq56, rel=1e-9)
+    assert [ln for ln in ax_over.lines if ln.get_gid() == "trip"]
 
 
 def test_one_sweep_gives_one_panel() -> None:

@@ -26,21 +26,31 @@ def written(report, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, lis
 
 
 def test_report_html_embeds_every_figure_of_cli_md(report, written) -> None:  # noqa: F811
+    """The model figures embedded as PNG and written as PNG and SVG; each run's trace as a
+    PNG file, shown in the page by the trace view (its data embedded), not as 16 images."""
     tmp_path, written = written
     page = (tmp_path / "report.html").read_text(encoding="utf-8")
     pngs = sorted((tmp_path / "figures").glob("*.png"))
-    assert sorted(p for p in written if p.suffix == ".png") == pngs
+    svgs = sorted((tmp_path / "figures").glob("*.svg"))
+    assert sorted(p for p in written if p.suffix in (".png", ".svg")) == sorted(pngs + svgs)
     names = {p.stem for p in pngs}
     # cli.md's list: each run's trace, P(v), the diagnosis views, Figures 5 and 7
-    assert {"power_speed", "heldout_error", "findings", "figure5", "figure7"} <= names
-    assert len([n for n in names if n.startswith("trace_")]) == len(report.traces) == 16
+    models = {"power_speed", "heldout_error", "findings", "figure5", "figure7"}
+    assert models <= names
+    traces = [p for p in pngs if p.stem.startswith("trace_")]
+    assert len(traces) == len(report.traces) == 16
+    assert {p.stem for p in svgs} == names - {p.stem for p in traces}  # SVG: model figures
+    assert all(p.read_bytes().lstrip().startswith(b"<?xml") for p in svgs)
     embedded = IMG.findall(page)
-    assert len(embedded) == len(pngs) == page.count("<img ")
-    assert sorted(base64.b64decode(e) for e in embedded) == sorted(p.read_bytes() for p in pngs)
+    assert len(embedded) == len(pngs) - len(traces) == page.count("<img ")
+    assert sorted(base64.b64decode(e) for e in embedded) == sorted(
+        p.read_bytes() for p in pngs if not p.stem.startswith("trace_")
+    )
     # self-contained: nothing is fetched from anywhere (links only within the page)
     assert not re.search(r'(src|href)="(?!data:|#)', page)
-    assert page.count('href="#trace_') == 16
-    assert "not drawn" not in page
+    assert not re.search(r"https?://", page)
+    assert page.count('data-run="') >= 16 and '<canvas id="wb-canvas"' in page
+    assert "not drawn" not in page.lower()
     assert "Stop-and-go overhead" in page and "cruise_ripple" in page
 
 
@@ -105,7 +115,8 @@ def test_report_replaces_the_old_figures_whole(old_report: Path, real_n6705: Pat
         "notes.txt",
         "report.html",
     ]
-    assert len(IMG.findall((old_report / "report.html").read_text(encoding="utf-8"))) == 1
+    page = (old_report / "report.html").read_text(encoding="utf-8")
+    assert not IMG.findall(page) and page.count('class="wb-run-phases"') == 1  # the new run
     assert sorted(p.name for p in old_report.parent.iterdir()) == ["out"]
 
 
@@ -113,10 +124,13 @@ def test_report_of_a_log_without_motion_metadata_draws_its_trace(
     real_n6705: Path, tmp_path: Path
 ) -> None:
     """The real N6705C export: no mode, speed or steps, so no fit and no diagnosis; the
-    report still draws its trace (steady levels) and says what it cannot draw and why."""
-    from wifibot_power.io import ReadOptions
+    report still draws its trace (steady levels), gives the level and spike tables `segment`
+    prints, says once why the rest is not drawn, and links no figure it did not draw."""
+    from wifibot_power.io import ReadOptions, read_log
+    from wifibot_power.segment import segment_run
 
-    built = build_report([real_n6705], ReadOptions(supply_voltage_V=12.6))
+    options = ReadOptions(supply_voltage_V=12.6)
+    built = build_report([real_n6705], options)
     assert built.fit is None and built.diagnosis is None
     write_report(built, tmp_path)
     assert sorted(p.name for p in (tmp_path / "figures").iterdir()) == [
@@ -124,15 +138,45 @@ def test_report_of_a_log_without_motion_metadata_draws_its_trace(
         "trace_n6705c_dlog1.png",
     ]
     page = (tmp_path / "report.html").read_text(encoding="utf-8")
-    assert len(IMG.findall(page)) == 1
+    assert not IMG.findall(page)  # its trace is in the trace view
+    # the fit's own reason for the run, as `fit` gives it, once in the page
+    reason = "no mode or speed in its metadata, so it cannot be fitted"
+    assert reason in built.fit_problem
+    assert page.count(reason) == 1
     for name in ("power_speed", "figure5", "figure7", "heldout_error", "findings"):
-        section = page[page.index(f'id="{name}"') :]
-        assert section[: section.index("</section>")].count("not drawn:") == 1
-    # the fit's own reason for the run, as `fit` gives it
-    assert "no mode or speed in its metadata, so it cannot be fitted" in built.fit_problem
-    assert "no mode or speed in its metadata" in page
+        assert f'id="{name}"' not in page and f'href="#{name}"' not in page
+    # the levels and spikes as `segment` finds them (segmented here, independently)
+    run = read_log(real_n6705, options)
+    run = run[0] if isinstance(run, list) else run
+    segmentation = segment_run(run)
+    assert len(segmentation.phases) >= 5 and segmentation.spikes
+    for p in segmentation.phases:
+        assert f"<td>{p.t_start_s:.4f}</td><td>{p.t_end_s:.4f}</td>" in page
+        assert f"<td>{p.mean_power_W:.3f}</td><td>{p.energy_J:.2f}</td>" in page
+    for spike in segmentation.spikes:
+        assert f"<td>{spike.peak_W:.3f}</td><td>{spike.energy_above_level_J:.4f}</td>" in page
     view = built.traces[0]
     assert {p.phase for p in view.phases} == {"level"} and len(view.phases) >= 5
+
+
+def test_report_command_on_a_log_that_is_no_robot_run(wbpower, real_n6705, tmp_path) -> None:
+    """issue 28: on the N6705C export (an expected situation: not a robot log) `report`
+    exits 0, says the reason once on stderr, and lists what it drew."""
+    result = wbpower("report", real_n6705, "--supply-voltage", "12.6", "-o", tmp_path / "o")
+    assert result.exit_code == 0, result.stderr
+    reason = "no mode or speed in its metadata"
+    assert result.stderr.count(reason) == 1
+    assert "power_speed, figure5, figure7, heldout_error, findings" in result.stderr
+    as_json = wbpower(
+        "report", real_n6705, "--supply-voltage", "12.6", "-o", tmp_path / "p", "--json"
+    )
+    assert as_json.exit_code == 0
+    import json
+
+    document = json.loads(as_json.stdout)
+    assert document["skipped"] == [] and document["n_runs"] == 1
+    assert [Path(f).name for f in document["figures"]] == ["trace_n6705c_dlog1.png"]
+    assert reason in document["not_fitted"][0]["reason"]
 
 
 def test_report_command_on_too_few_runs_to_diagnose(wbpower, tmp_path: Path) -> None:
@@ -220,6 +264,7 @@ def test_report_loads_every_image_in_headless_chromium(written) -> None:
     """report.html opened from disk, offline, in headless Chromium: after the load event the
     page's own script counts the images that decoded (body data-images-loaded="N/M")."""
     tmp_path, _ = written
+    embedded = len(IMG.findall((tmp_path / "report.html").read_text(encoding="utf-8")))
     with tempfile.TemporaryDirectory() as profile:
         done = subprocess.run(
             [
@@ -243,7 +288,7 @@ def test_report_loads_every_image_in_headless_chromium(written) -> None:
     match = re.search(r'data-images-loaded="(\d+)/(\d+)"', done.stdout)
     assert match, done.stderr[-2000:]
     loaded, total = map(int, match.groups())
-    assert total == len(list((tmp_path / "figures").glob("*.png"))) > 0
+    assert total == embedded > 0
     assert loaded == total
 
 
@@ -350,3 +395,80 @@ def test_report_never_deletes_files_it_did_not_write(wbpower, tmp_path: Path) ->
     assert refused.exit_code == 2
     assert "my_notes.txt" in refused.stderr and "another -o DIR" in refused.stderr
     assert mine.read_text() == "the user's"
+
+
+# -- the page: the trace view's data, the runs table, the provenance (issue 28) -------------
+def _page_data(folder: Path) -> dict:
+    import json
+
+    page = (folder / "report.html").read_text(encoding="utf-8")
+    match = re.search(r'<script type="application/json" id="wb-data">(.*?)</script>', page, re.S)
+    return json.loads(match.group(1))
+
+
+def test_trace_view_data_gives_each_columns_exact_energy(written, subset_dir: Path) -> None:  # noqa: F811
+    """The embedded energies, summed as the page sums them, are the samples' energy at
+    every column edge (summed here from the log), within float32's rounding; the display
+    envelope holds every sample (min <= each sample <= max in its column)."""
+    import numpy as np
+
+    from wifibot_power.io import read_log
+
+    data = _page_data(written[0])
+    assert len(data["runs"]) == 16
+    run_data = next(r for r in data["runs"] if r["id"] == "v0.90_d10_s10_r2")
+    run = read_log(subset_dir / "v0.90_d10_s10_r2.csv.gz")
+    run = run[0] if isinstance(run, list) else run
+    power_W, dt = np.asarray(run.power_W, np.float64), run.sample_period_s
+    edges_s = np.frombuffer(base64.b64decode(run_data["t"]), "<f4").astype(np.float64)
+    column_J = np.frombuffer(base64.b64decode(run_data["e"]), "<f4").astype(np.float64)
+    cumulative_J = np.concatenate([[0.0], np.cumsum(column_J)])
+    first = np.rint(edges_s / dt).astype(np.int64)  # each column's first sample
+    assert first[0] == 0 and first[-1] == power_W.size and np.all(np.diff(first) > 0)
+    by_samples_J = np.concatenate([[0.0], np.cumsum(power_W)])[first] * dt
+    np.testing.assert_allclose(cumulative_J, by_samples_J, rtol=2e-7, atol=1e-9)
+    q = run_data["p"]
+    low = q["v0"] + np.frombuffer(base64.b64decode(q["lo"]), "<u2") * q["dv"]
+    high = q["v0"] + np.frombuffer(base64.b64decode(q["hi"]), "<u2") * q["dv"]
+    column = np.repeat(np.arange(first.size - 1), np.diff(first))
+    assert np.all(low[column] <= power_W + 1e-9) and np.all(power_W <= high[column] + 1e-9)
+    assert np.max(high - low) < np.ptp(power_W)  # and is not one wide band
+
+
+def test_runs_table_lists_every_run_with_its_energy(written, subset_dir: Path) -> None:  # noqa: F811
+    import numpy as np
+
+    from wifibot_power.io import read_log
+
+    page = (written[0] / "report.html").read_text(encoding="utf-8")
+    table = page[page.index('<table id="wb-runs">') :]
+    table = table[: table.index("</table>")]
+    rows = re.findall(r"<tr>(.*?)</tr>", table[table.index("<tbody>") :], re.S)
+    ids = [re.search(r'data-run="\d+">([^<]+)</a>', r).group(1) for r in rows]
+    assert sorted(ids) == sorted(n.removesuffix(".csv.gz") for n in SUBSET)
+    heads = re.findall(r"<th[^>]*>([^<]+)</th>", table)
+    energy = heads.index("energy J")
+    for row, run_id in zip(rows, ids, strict=True):
+        value = float(re.findall(r'<td data-v="([^"]*)"', row)[energy])
+        run = read_log(subset_dir / f"{run_id}.csv.gz")
+        run = run[0] if isinstance(run, list) else run
+        assert value == pytest.approx(np.sum(run.power_W, dtype=np.float64) * run.sample_period_s)
+
+
+def test_provenance_names_version_command_date_and_every_input(subset_dir: Path) -> None:  # noqa: F811
+    import hashlib
+
+    from wifibot_power import __version__
+    from wifibot_power.report_page import render_html
+
+    built = build_report([subset_dir], jobs=1, command=["/x/bin/wbpower", "report", "a b"])
+    page = render_html(built, [])
+    section = page[page.index('id="provenance"') :]
+    assert f"<td class=text>{__version__}</td>" in section
+    assert "<code>wbpower report &#x27;a b&#x27;</code>" in section  # as a shell reads it
+    assert re.search(r"<td class=text>20\d\d-\d\d-\d\d \d\d:\d\d:\d\d UTC</td>", section)
+    for name in SUBSET:
+        data = (subset_dir / name).read_bytes()
+        assert f"{len(data):,}</td>" in section
+        assert hashlib.sha256(data).hexdigest() in section
+    assert built.provenance is not None and len(built.provenance.inputs) == len(SUBSET)

@@ -12,15 +12,11 @@ its trace figures; the report says what it cannot draw and why.
 
 from __future__ import annotations
 
-import base64
-import html
 import re
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
-
-import numpy as np
 
 from wifibot_power.errors import WbpowerError
 from wifibot_power.io import LogSource, ReadOptions, Skipped
@@ -36,6 +32,7 @@ if TYPE_CHECKING:
     from wifibot_power.drive.traces import HeldOutTrace
     from wifibot_power.figures.trace import TraceView
     from wifibot_power.fit import FitResult
+    from wifibot_power.report_page import Provenance
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,6 +49,11 @@ class Report:
     skipped: tuple[Skipped, ...] = ()
     #: a few runs' held-out drive-model power (`drive.traces.heldout_traces`)
     drive_traces: tuple[HeldOutTrace, ...] = ()
+    #: the inputs not read at all (a subset of `skipped`, which also lists the runs the
+    #: fit left out: those are in the report, their traces drawn)
+    read_skipped: tuple[Skipped, ...] = ()
+    #: what the report was made from (`report_page.provenance`)
+    provenance: Provenance | None = None
 
 
 def build_report(
@@ -63,13 +65,16 @@ def build_report(
     cache: ParseCache | None = None,
     on_problems: ProblemHook | None = None,
     keep_doubtful: bool = False,
+    command: Sequence[str] | None = None,
 ) -> Report:
     """Read every log under `paths` once (`pipeline.gather` with `REPORT_PLAN`), fit and
     diagnose them (module docstring); `cache` skips parsing files parsed before;
     `keep_doubtful`: as `fit`/`diagnose --keep-doubtful`, runs whose segmentation is in
-    doubt are used by both."""
+    doubt are used by both; `command`: the command line the provenance names (None: this
+    process's)."""
     from wifibot_power.diagnose import diagnose_summaries, summary_of
     from wifibot_power.fit import fit_records
+    from wifibot_power.report_page import files_of, provenance
 
     gathered = gather(
         paths, options, REPORT_PLAN, wrap=wrap, jobs=jobs, cache=cache, on_problems=on_problems
@@ -85,23 +90,26 @@ def build_report(
             diagnosis = diagnose_summaries(summaries, read_skipped, keep_doubtful=keep_doubtful)
         except WbpowerError as exc:
             diagnosis_problem = exc.one_line()
-    else:
-        diagnosis_problem = "no fit to diagnose"
+    else:  # the fit's own reason: the page and stderr say it once for every figure
+        diagnosis_problem = fit_problem
     drive_traces = ()
     if fit is not None and fit.drive is not None:
         from wifibot_power.drive.traces import heldout_traces
         from wifibot_power.models.drive import drive_stats_of
 
         drive_traces = heldout_traces([drive_stats_of(r) for r in records])
+    views = tuple(r.view for r in records if r.view is not None)
     return Report(
         paths=gathered.paths,
-        traces=tuple(r.view for r in records if r.view is not None),
+        traces=views,
         fit=fit,
         fit_problem=fit_problem,
         diagnosis=diagnosis,
         diagnosis_problem=diagnosis_problem,
         skipped=skipped,
         drive_traces=drive_traces,
+        read_skipped=tuple(read_skipped),
+        provenance=provenance(files_of(read_skipped, views), command),
     )
 
 
@@ -138,6 +146,8 @@ class Drawn:
     file: str | None
     note: str = ""
     how_to_read: str = ""
+    #: also written as figures/NAME.svg
+    svg: bool = False
 
 
 def report_figures(report: Report) -> Iterator[tuple[str, str, Callable[[], Figure] | None, str]]:
@@ -219,9 +229,10 @@ def check_report_dir(out_dir: str | Path) -> None:
 
 
 def write_report(report: Report, out_dir: str | Path, *, jobs: int | None = 1) -> list[Path]:
-    """`DIR/figures/*.png` and `DIR/report.html` (every image embedded as base64 PNG, so the
-    one file opens offline). `jobs` worker processes draw the figures (None or 0: all
-    cores). Returns the files written.
+    """`DIR/figures/*.png`, the model figures also as `DIR/figures/*.svg` (not the runs'
+    traces: 0.4 MB and 0.3 s each, 36 MB for 89 runs; `segment --plot F.svg` draws one),
+    and `DIR/report.html` (`report_page.render_html`: one file that opens offline). `jobs`
+    worker processes draw the figures (None or 0: all cores). Returns the files written.
 
     The report is built in a temporary folder next to DIR and put in place whole once it is
     complete (`outputs.staged_folder`): until then the old report and figures are untouched,
@@ -234,14 +245,16 @@ def write_report(report: Report, out_dir: str | Path, *, jobs: int | None = 1) -
     out_dir = Path(out_dir)
     items = list(report_figures(report))
 
-    def draw_one(item: tuple[str, str, Callable[[], Figure] | None, str]) -> bytes | None:
-        from wifibot_power.figures.style import png_bytes
+    def draw_one(
+        item: tuple[str, str, Callable[[], Figure] | None, str],
+    ) -> tuple[bytes, bytes | None] | None:
+        from wifibot_power.figures.style import png_bytes, svg_bytes
 
         name, _, draw, _ = item
         if draw is None:
             return None
         figure = draw()
-        data = png_bytes(figure)
+        data = png_bytes(figure), (None if name.startswith("trace_") else svg_bytes(figure))
         figure.clear()  # one figure in memory at a time per worker
         return data
 
@@ -251,16 +264,19 @@ def write_report(report: Report, out_dir: str | Path, *, jobs: int | None = 1) -
     written: list[Path] = []
     drawn: list[tuple[Drawn, bytes | None]] = []
     with staged_folder(out_dir) as stage:
-        for (name, title, _, note), data in zip(items, images, strict=True):
+        for (name, title, _, note), both in zip(items, images, strict=True):
             spec = FIGURES.get(name) or next(
                 (f for f in FIGURES.values() if f.per_run and name.startswith(f"{f.name}_")), None
             )
             how = spec.how_to_read if spec else ""
+            data, svg = both if both is not None else (None, None)
             file = f"{name}.png" if data is not None else None
-            if file:
-                write_atomic(stage / "figures" / file, lambda tmp, data=data: tmp.write_bytes(data))
-                written.append(out_dir / "figures" / file)
-            drawn.append((Drawn(name, title, file, note, how), data))
+            for suffix, content in ((".png", data), (".svg", svg)):
+                if content is not None:
+                    target = stage / "figures" / f"{name}{suffix}"
+                    write_atomic(target, lambda tmp, c=content: tmp.write_bytes(c))
+                    written.append(out_dir / "figures" / f"{name}{suffix}")
+            drawn.append((Drawn(name, title, file, note, how, svg is not None), data))
         if not written:  # no figure drawn: still a figures/ folder, and no old one left
             (stage / "figures").mkdir()
         names = "\n".join(p.name for p in written)
@@ -272,128 +288,7 @@ def write_report(report: Report, out_dir: str | Path, *, jobs: int | None = 1) -
 
 
 def render_html(report: Report, drawn: list[tuple[Drawn, bytes | None]]) -> str:
-    """The self-contained report page: tables of the fit and diagnosis, every figure inline."""
-    e = html.escape
-    parts = [
-        "<!DOCTYPE html>",
-        '<html lang="en"><head><meta charset="utf-8">',
-        "<title>wbpower report</title>",
-        "<style>body{font-family:sans-serif;max-width:1200px;margin:1em auto;padding:0 1em;"
-        "color:#222}img{max-width:100%;height:auto;border:1px solid #ddd}"
-        "table{border-collapse:collapse;font-size:0.9em;margin:0.5em 0}"
-        "td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}"
-        "td:first-child,th:first-child{text-align:left}.note{color:#a00}"
-        ".how{color:#555;font-size:0.9em}figure{margin:1em 0}</style>",
-        "</head><body>",
-        "<h1>wbpower report</h1>",
-        f"<p>Logs: {e(', '.join(report.paths))}: {len(report.traces)} run(s) read"
-        + (f", {len(report.skipped)} skipped or not usable" if report.skipped else "")
-        + ".</p>",
-    ]
-    parts += _summary_html(report)
-    # a table of contents: the model figures by name, then the runs' traces on one line
-    links = [
-        f'<a href="#{e(item.name)}">{e(item.title)}</a>'
-        for item, _ in drawn
-        if not item.name.startswith("trace_")
-    ]
-    runs = [
-        f'<a href="#{e(item.name)}">{e(item.name.removeprefix("trace_"))}</a>'
-        for item, _ in drawn
-        if item.name.startswith("trace_")
-    ]
-    parts.append("<h2>Figures</h2><ul>" + "".join(f"<li>{link}</li>" for link in links))
-    if runs:
-        parts.append(f"<li>Runs' traces: {' · '.join(runs)}</li>")
-    parts.append("</ul>")
-    traces_started = False
-    for item, data in drawn:
-        if item.name.startswith("trace_") and not traces_started:
-            parts.append("<h2>Runs: power traces with their phases</h2>")
-            parts.append(f'<p class="how">{e(item.how_to_read)}</p>')
-            traces_started = True
-        tag = "h3" if item.name.startswith("trace_") else "h2"
-        parts.append(f'<section id="{e(item.name)}"><{tag}>{e(item.title)}</{tag}>')
-        if item.how_to_read and not item.name.startswith("trace_"):
-            parts.append(f'<p class="how">{e(item.how_to_read)}</p>')
-        if data is None:
-            parts.append(f'<p class="note">{e(item.note)}</p>')
-        else:
-            encoded = base64.b64encode(data).decode("ascii")
-            parts.append(
-                f'<figure><img alt="{e(item.title)}" src="data:image/png;base64,{encoded}">'
-                f"<figcaption>figures/{e(item.file or '')}</figcaption></figure>"
-            )
-        parts.append("</section>")
-    if report.skipped:
-        parts.append("<h2>Skipped or not usable</h2><ul>")
-        parts += [f"<li>{e(s.reason)}</li>" for s in report.skipped]
-        parts.append("</ul>")
-    # after loading, the page records how many of its images decoded (the Chromium test and
-    # anyone opening the console can read it): <body data-images-loaded="N/M">
-    parts.append(
-        "<script>window.addEventListener('load',function(){var i=document.images,n=0;"
-        "for(var k=0;k<i.length;k++){if(i[k].complete&&i[k].naturalWidth>0){n++;}}"
-        "document.body.setAttribute('data-images-loaded',n+'/'+i.length);});</script>"
-    )
-    parts.append("</body></html>")
-    return "\n".join(parts) + "\n"
+    """The page (`report_page.render_html`)."""
+    from wifibot_power.report_page import render_html as page
 
-
-def _summary_html(report: Report) -> list[str]:
-    from wifibot_power.models.paper_table import format_number as num
-
-    e = html.escape
-    out: list[str] = []
-    if report.fit is None:
-        out.append(f'<p class="note">Fit: {e(report.fit_problem or "")}</p>')
-    else:
-        out.append("<h2>Fitted model (95% CI: OLS t intervals by run)</h2><table>")
-        out.append(
-            "<tr><th>parameter</th><th>unit</th><th>fitted</th><th>95% CI</th><th>R²</th>"
-            "<th>paper</th><th>n runs</th></tr>"
-        )
-        for r in report.fit.table_rows():
-            low = r["ci95_low"]
-            ci = f"[{num(low)}, {num(r['ci95_high'])}]" if np.isfinite(low) else "-"
-            out.append(
-                f"<tr><td>{e(str(r['parameter']))}</td><td>{e(str(r['unit']))}</td>"
-                f"<td>{num(r['value'])}</td><td>{ci}</td><td>{num(r['r2'], 4)}</td>"
-                f"<td>{num(r['paper'], 1)}</td><td>{r['n_runs']}</td></tr>"
-            )
-        out.append("</table>")
-        if report.fit.stop_and_go:
-            out.append("<h3>Stop-and-go overhead: measured vs model (Eq. 5/6)</h3><table>")
-            out.append(
-                "<tr><th>speed m/s</th><th>dist m</th><th>steps</th><th>N steps J</th>"
-                "<th>1 step J</th><th>measured %</th><th>95% CI %</th><th>model %</th></tr>"
-            )
-            for s in report.fit.stop_and_go:
-                low, high = s.overhead_ci95
-                out.append(
-                    f"<tr><td>{s.speed_mps:g}</td><td>{s.distance_m:g}</td><td>{s.steps}</td>"
-                    f"<td>{s.energy_J:.1f}</td><td>{s.one_step_energy_J:.1f}</td>"
-                    f"<td>{s.overhead_pct:.2f}</td><td>[{num(low, 2)}, {num(high, 2)}]</td>"
-                    f"<td>{num(s.model_overhead_pct, 2)}</td></tr>"
-                )
-            out.append("</table>")
-        # a weak or implausible fit says so here too, as `fit` does (cli.md `warnings`)
-        for warning in report.fit.warnings:
-            out.append(f'<p class="note">warning: {e(warning)}</p>')
-    d = report.diagnosis
-    if d is None:
-        out.append(f'<p class="note">Diagnosis: {e(report.diagnosis_problem or "")}</p>')
-    else:
-        out.append("<h2>Diagnosis</h2><ul>")
-        for f in d.findings:
-            out.append(f"<li><b>{e(f.cause)}</b> (gain {f.gain_pct:.1f}%): {e(f.summary)}</li>")
-        if not d.findings:
-            out.append("<li>no cause named</li>")
-        out.append(
-            f"<li>held-out RMSE of run energy: {d.baseline_rmse_J:.3g} J ({e(d.baseline_label)})"
-            f" → {d.extended_rmse_J:.3g} J extended; gain {d.gain_pct:.1f}%</li>"
-        )
-        if d.unexplained:
-            out.append(f'<li class="note">unexplained: {e("; ".join(d.unexplained_reasons))}</li>')
-        out.append("</ul>")
-    return out
+    return page(report, drawn)

@@ -200,7 +200,15 @@ def energy_command(
             "--speed and --dist are needed", fix="e.g. --speed 0.8 --dist 10 --steps 10"
         )
     report = energy_report(power_model, speed, dist, steps, t_acc_s=t_acc, payload_kg=payload)
-    plot_to(plot, "figure5", power_model, distances_m=(dist,), step_m=dist / steps, t_acc_s=t_acc)
+    plot_to(
+        plot,
+        "figure5",
+        power_model,
+        distances_m=(dist,),
+        step_m=dist / steps,
+        t_acc_s=t_acc,
+        trip=(speed, dist, steps),
+    )
     summary = report.summary()
     for message in report.warnings:
         warn(message)

@@ -38,15 +38,21 @@ def report_command(
     options: ReadOptions,
     out: Annotated[
         Path,
-        typer.Option("-o", "--out", help="Write DIR/report.html and DIR/figures/*.png."),
+        typer.Option(
+            "-o",
+            "--out",
+            help="Write DIR/report.html and DIR/figures/ (PNG, and SVG of the model figures).",
+        ),
     ],
     jobs: Jobs = 0,
     cache: CacheDir = None,
     json_out: JsonFlag = False,
     keep_doubtful: KeepDoubtful = False,
 ) -> None:
-    """Read, segment, fit and diagnose the logs; write one self-contained report.html (every
-    figure embedded, opens offline) and its figures as PNG ('wbpower docs report')."""
+    """Read, segment, fit and diagnose the logs; write one self-contained report.html (opens
+    offline: a zoomable trace view with a selection's energy, a sortable table of every
+    run, the model figures, what it was made from) and its figures as files
+    ('wbpower docs report')."""
     from wifibot_power.report import build_report, check_report_dir, report_figures, write_report
 
     check_out_dir(out)  # before any work
@@ -59,6 +65,7 @@ def report_command(
         cache=parse_cache(cache),
         on_problems=warn_problems,
         keep_doubtful=keep_doubtful,
+        command=sys.argv,
     )
     if report.fit is not None:
         for warning in report.fit.warnings:  # as fit prints them (cli.md `warnings`)
@@ -67,22 +74,36 @@ def report_command(
     written = write_report(report, out, jobs=jobs)
     progress_done()
     missing = [(name, note) for name, _, draw, note in report_figures(report) if draw is None]
-    for note in dict.fromkeys(note for _, note in missing):  # one line per reason
+    said = list(dict.fromkeys(note for _, note in missing))
+    for note in said:  # one line per reason, each reason once
         warn(f"{', '.join(n for n, why in missing if why == note)}: {note}")
+    # a run whose log says nothing to fit (no mode or speed: an instrument's export, not a
+    # robot's run) is the expected case of a log to look at, not a skipped input: its trace,
+    # levels and energy are the report (exit 0), its reason said once. Runs the fit left out
+    # for a fault of their own (no motion found, a doubted segmentation) are skipped, as
+    # `fit` says (exit 1).
+    unknown = {view.file for view in report.traces if view.mode == "unknown"}
+    read = set(map(id, report.read_skipped))
+    not_fitted = [s for s in report.skipped if id(s) not in read and s.file in unknown]
+    skipped = [s for s in report.skipped if s not in not_fitted]
+    for item in not_fitted:
+        if not any(item.why in note for note in said):
+            warn(f"not in the fit: {item.reason}")
     page = out / "report.html"
+    figures = [p for p in written if p.suffix in (".png", ".svg")]
     if json_out:
         print_json(
             {
                 "report": str(page),
-                "figures": [str(p) for p in written if p.suffix == ".png"],
+                "figures": [str(p) for p in figures],
                 "not_drawn": [{"figure": n, "reason": note} for n, note in missing],
                 "n_runs": len(report.traces),
-                "skipped": [s.as_dict() for s in report.skipped],
+                "not_fitted": [s.as_dict() for s in not_fitted],
             }
         )
     else:
         print(
-            f"wbpower: wrote {len(written) - 1} figure(s) into {out / 'figures'}", file=sys.stderr
+            f"wbpower: wrote {len(figures)} figure file(s) into {out / 'figures'}", file=sys.stderr
         )
         print(f"report: {page}")
-    raise typer.Exit(report_skipped(list(report.skipped)))
+    raise typer.Exit(report_skipped(skipped))

@@ -37,10 +37,29 @@ COVARIATES = {
 }
 
 
+#: The residual of every figure: measured − predicted (what the model misses; positive where
+#: the robot used more than predicted), as docs/diagnose.md's relative errors and the
+#: findings' per-step panel. `Diagnosis.runs`' `*_error_pct` columns are predicted −
+#: measured, so their sign is turned here.
+RESIDUAL = "measured − predicted"
+
+#: A finding's headline parameter in words (the panel titles name no code names).
+PARAMETER_WORDS = {
+    "kI": "inertial factor kI",
+    "amplitude_W": "ripple amplitude",
+    "hz_per_mps": "ripple frequency per speed",
+    "t_dec_s": "stopping time",
+    "E_start_J": "energy of each start",
+    "alpha_per_min": "power rise per minute of driving",
+    "k2_W_per_mps2": "speed² coefficient",
+}
+
+
 def heldout_error_figure(diagnosis: Diagnosis) -> Figure:
-    """Four panels: held-out error of run motion energy [%] of the paper-form model and of
-    the extended model, a point per run, against each covariate. Side by side at discrete
-    values (a small offset), so both show."""
+    """Four panels: held-out error of run motion energy, measured − predicted [%] of the
+    measured (`RESIDUAL`), of the paper-form model and of the extended model, a point per
+    run, against each covariate. Side by side at discrete values (a small offset), so both
+    show."""
     figure = new_figure(11.0, 6.4)
     axes = figure.subplots(2, 2).ravel()
     runs = diagnosis.runs
@@ -59,7 +78,7 @@ def heldout_error_figure(diagnosis: Diagnosis) -> Figure:
                 fontsize=9,
             )
             ax.set_xlabel(label)
-            ax.set_ylabel("predicted − measured [%]")
+            ax.set_ylabel(f"{RESIDUAL} [%]")
             ax.set_xticks([])  # no 0-1 scale that no data drew
             ax.set_yticks([])
             continue
@@ -72,7 +91,7 @@ def heldout_error_figure(diagnosis: Diagnosis) -> Figure:
         ):
             ax.plot(
                 x[known] + shift,
-                runs[f"{name}_error_pct"].to_numpy(np.float64)[known],
+                -runs[f"{name}_error_pct"].to_numpy(np.float64)[known],  # measured − predicted
                 "o",
                 ms=3.5,
                 color=colour,
@@ -82,9 +101,11 @@ def heldout_error_figure(diagnosis: Diagnosis) -> Figure:
             )
         ax.axhline(0.0, color="#444444", lw=0.8)
         ax.set_xlabel(label)
-        ax.set_ylabel("predicted − measured [%]")
+        ax.set_ylabel(f"{RESIDUAL} [%]")
         ax.grid(True, alpha=0.3)
-    axes[0].legend(fontsize=8, loc="best")
+    # the legend under the panels: inside one it covered a run's point
+    handles, labels = axes[0].get_legend_handles_labels()
+    figure.legend(handles, labels, loc="outside lower center", ncol=2, fontsize=8, frameon=False)
     figure.suptitle(
         f"Held-out error of each run's motion energy ({diagnosis.n_runs} runs): "
         f"RMSE {diagnosis.baseline_rmse_J:.3g} J paper-form, "
@@ -118,12 +139,16 @@ def findings_figure(
         panels += drawn if drawn is not None else [_bind(_energy_cause, diagnosis, finding)]
     if not panels:
         panels.append(_bind(_nothing_named, diagnosis))
-    figure = new_figure(5.5 * min(len(panels), 2), 4.0 * ((len(panels) + 1) // 2))
-    axes = np.atleast_1d(figure.subplots((len(panels) + 1) // 2, min(len(panels), 2))).ravel()
-    for ax, draw in zip(axes, panels, strict=False):
-        draw(ax)
-    for ax in axes[len(panels) :]:
-        ax.set_axis_off()
+    # no empty panel: up to three in a row; more in rows of two, an odd last one as wide as
+    # the row
+    columns = len(panels) if len(panels) <= 3 else 2
+    rows = (len(panels) + columns - 1) // columns
+    figure = new_figure(5.0 * columns if columns < 3 else 15.0, 4.0 * rows)
+    grid = figure.add_gridspec(rows, columns)
+    for k, draw in enumerate(panels):
+        row, col = divmod(k, columns)
+        last_alone = k == len(panels) - 1 and col == 0 and columns == 2
+        draw(figure.add_subplot(grid[row, :] if last_alone else grid[row, col]))
     return figure
 
 
@@ -141,10 +166,18 @@ def _nothing_named(ax: Axes, diagnosis: Diagnosis) -> None:
 
 
 def _estimate_text(finding: Finding) -> str:
+    """A finding's panel title in words: what the cause is (its physics, causes.md), then
+    its headline parameter's name in words, value, unit and 95% interval, and the gain."""
+    from wifibot_power.causes import CAUSES
+
     e = finding.estimate
     low, high = e.get("ci95", [np.nan, np.nan])
+    cause = CAUSES.get(finding.cause)
+    what = cause.physics if cause is not None else finding.cause.replace("_", " ")
+    parameter = str(e.get("parameter", ""))
+    words = PARAMETER_WORDS.get(parameter, parameter.replace("_", " "))
     return (
-        f"{finding.cause}: {e.get('parameter', '')} = {float(e.get('value', np.nan)):.4g} "
+        f"{what[:1].upper()}{what[1:]}\n{words} {float(e.get('value', np.nan)):.4g} "
         f"{e.get('unit', '')} [{low:.4g}, {high:.4g}], gain {finding.gain_pct:.1f}%"
     )
 
@@ -175,7 +208,7 @@ def _energy_cause(ax: Axes, diagnosis: Diagnosis, finding: Finding) -> None:
                 )
     ax.axhline(0.0, color="#444444", lw=0.8)
     ax.set_xlabel("speed [m/s]")
-    ax.set_ylabel("measured − predicted, per step [J]")
+    ax.set_ylabel(f"{RESIDUAL}, per step [J]")
     ax.set_title(_estimate_text(finding), fontsize=8, loc="left")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7, loc="best")

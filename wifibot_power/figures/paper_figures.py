@@ -16,7 +16,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from wifibot_power.figures.style import (
-    FIT_COLOUR,
     PAPER_COLOUR,
     RATE_COLOURS,
     new_figure,
@@ -54,13 +53,16 @@ def figure5(
     step_m: float = 1.0,
     speeds_mps: Sequence[float] | None = None,
     t_acc_s: float | None = None,
+    trip: tuple[float, float, int] | None = None,
 ) -> Figure:
     """Left: trip energy [J] against speed [m/s] for each distance in one step and in
     `step_m` steps, from `model` (solid) and the paper's model (dashed), the measured mean
     energies of `stop_and_go`'s trips as points. Right: the stop-and-go overhead [%] of the
     same trips, and of each measured trip, with the measured overheads as points with 95%
     interval bars. Without `stop_and_go` (None: no logs, e.g. `energy --plot`), models only;
-    with an empty one, the figure says the logs hold no trip in both 1 and N steps."""
+    with an empty one, the figure says the logs hold no trip in both 1 and N steps.
+    `trip` (speed [m/s], distance [m], steps): the trip asked about (`energy --speed --dist
+    --steps --plot`), marked with a star and its energy and overhead from `model`."""
     from wifibot_power.model import paper_model
 
     paper = paper or paper_model()
@@ -75,6 +77,8 @@ def figure5(
     models = [(model, "-")] + ([(paper, "--")] if model != paper else [])
     peak_J = _draw_trip_models(ax_energy, ax_over, trips, models, speeds, t_acc_s)
     _draw_measured(ax_energy, ax_over, stop_and_go)
+    if trip is not None:
+        _mark_trip(ax_energy, ax_over, model, trip, t_acc_s)
     # another robot's trips can cost a hundredth of the Wifibot's: on a linear scale they
     # lie flat under the paper's curves, so the scale is logarithmic when the two models'
     # largest energies differ tenfold or more
@@ -90,6 +94,50 @@ def figure5(
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="upper right" if ax is ax_energy else "upper left")
     return figure
+
+
+def _mark_trip(
+    ax_energy: Axes,
+    ax_over: Axes,
+    model: PowerModel,
+    trip: tuple[float, float, int],
+    t_acc_s: float | None,
+) -> None:
+    """The trip asked about: a star at its energy [J] (and, in N > 1 steps, its overhead
+    [%]) from `model`, labelled with the numbers `energy` prints (Eq. 5/6)."""
+    from wifibot_power.energy import energy_report
+
+    speed, distance, steps = trip
+    report = energy_report(model, speed, distance, steps, t_acc_s=t_acc_s)
+    label = (
+        f"this trip: {distance:g} m in {steps} step(s) at {speed:g} m/s, "
+        f"{report.trip.energy_J:.4g} J"
+    )
+    ax_energy.plot(
+        speed,
+        report.trip.energy_J,
+        "*",
+        ms=15,
+        color="#d62728",
+        mec="black",
+        mew=0.8,
+        label=label,
+        gid="trip",
+        zorder=5,
+    )
+    if steps > 1:
+        ax_over.plot(
+            speed,
+            report.overhead_pct,
+            "*",
+            ms=15,
+            color="#d62728",
+            mec="black",
+            mew=0.8,
+            label=f"this trip: {report.overhead_pct:.3g}%",
+            gid="trip",
+            zorder=5,
+        )
 
 
 def _figure5_speeds(model: PowerModel, speeds_mps: Sequence[float] | None) -> np.ndarray:
@@ -243,6 +291,12 @@ SWEEP_AXES = {
 }
 
 
+#: Fitted and paper curves closer than this fraction of a panel's gain range are drawn once
+#: (at 3.8 in per panel, 0.5% is under a line's width: a dashed line on top of a solid one
+#: hid it, and the legend listed six lines where three showed).
+COINCIDE_FRACTION = 0.005
+
+
 def figure7(
     model: PowerModel,
     *,
@@ -253,7 +307,14 @@ def figure7(
 ) -> Figure:
     """Lifetime gain [%] of the relay scenario (paper Eq. 7-11) against each swept input,
     a line per data rate (paper Table 2) for E0A, E0B and distance; `model` solid, the
-    paper's dashed. `scenario`: the other inputs (`lifetime.network_lifetime` keywords)."""
+    paper's dashed. The data-rate panel has a point per rate, never a line joining rates
+    (each rate is its own scenario): the fitted model's filled, the paper's a ring around
+    it. Where the two models' curves coincide (within `COINCIDE_FRACTION` of the panel's
+    range) the paper's are not drawn again, and the legend says they coincide: it lists
+    only what shows. One legend, under the panels. `scenario`: the other inputs
+    (`lifetime.network_lifetime` keywords)."""
+    from matplotlib.lines import Line2D
+
     from wifibot_power.lifetime import TABLE2, lifetime_sweep
     from wifibot_power.model import paper_model
 
@@ -261,56 +322,135 @@ def figure7(
     rates = tuple(TABLE2) if rates_mbps is None else tuple(rates_mbps)
     n = len(sweeps)
     columns = 2 if n > 1 else 1
-    figure = new_figure(5.5 * columns, 3.8 * ((n + 1) // 2))
+    figure = new_figure(5.5 * columns, 3.8 * ((n + 1) // 2) + 0.6)
     axes = np.atleast_1d(figure.subplots((n + 1) // 2, columns)).ravel()
-    models = [(model, "-")] + ([(paper, "--")] if model != paper else [])
-    for ax, sweep in zip(axes, sweeps, strict=False):
-        label, scale = SWEEP_AXES[sweep]
-        for which, (m, style) in enumerate(models):
-            tag = _label(m)
-            if sweep == "rate":
-                rows = lifetime_sweep("rate", m, 0.0, **scenario)
-                x = np.array([r.rate_mbps for r in rows])
-                ax.plot(
-                    x,
-                    [r.improvement_pct for r in rows],
-                    style + "o",
-                    color=FIT_COLOUR if which == 0 else PAPER_COLOUR,
-                    ms=4,
-                    label=tag,
-                    gid=f"model:{which}",
-                )
-                continue
-            for rate in rates:
+    models = [model] + ([paper] if model != paper else [])
+    # every curve: (sweep, rate) -> (x, gain of each model)
+    curves: dict[tuple[str, float], tuple[np.ndarray, list[np.ndarray]]] = {}
+    for sweep in sweeps:
+        _, scale = SWEEP_AXES[sweep]
+        for rate in rates if sweep != "rate" else (0.0,):
+            gains, x = [], np.zeros(0)
+            for m in models:
                 rows = lifetime_sweep(sweep, m, rate, **scenario)
-                x = np.array([getattr(r, _X[sweep]) for r in rows]) * scale
+                attribute = "rate_mbps" if sweep == "rate" else _X[sweep]
+                x = np.array([getattr(r, attribute) for r in rows]) * scale
+                gains.append(np.array([r.improvement_pct for r in rows], dtype=np.float64))
+            curves[(sweep, rate)] = (x, gains)
+    differ_pp = 0.0  # the largest difference between the models, in % points
+    coincide = len(models) == 2
+    for sweep in sweeps:
+        mine = [g for (s, _), (_, gs) in curves.items() if s == sweep for g in gs]
+        every = np.concatenate(mine) if mine else np.zeros(0)
+        span = float(np.nanmax(every) - np.nanmin(every)) if every.size else 0.0
+        for (s, _), (_, gs) in curves.items():
+            if s == sweep and len(gs) == 2:
+                gap = float(np.nanmax(np.abs(gs[0] - gs[1]))) if gs[0].size else 0.0
+                differ_pp = max(differ_pp, gap)
+                coincide &= gap <= COINCIDE_FRACTION * max(span, 1e-9)
+    shown_rates: list[float] = []
+    for ax, sweep in zip(axes, sweeps, strict=False):
+        label, _ = SWEEP_AXES[sweep]
+        if sweep == "rate":
+            x, gains = curves[(sweep, 0.0)]
+            for xi, gi in zip(x, gains[0], strict=True):  # a point per rate, no line
+                ax.plot(xi, gi, "o", ls="none", color=_rate_colour(xi), ms=7, gid="model:0")
+                shown_rates.append(float(xi))
+            if len(gains) == 2:
                 ax.plot(
                     x,
-                    [r.improvement_pct for r in rows],
-                    style,
-                    color=RATE_COLOURS.get(float(rate), "#999999"),
-                    lw=1.4,
-                    label=f"{rate:g} Mbit/s ({tag})",
-                    gid=f"model:{which}",
+                    gains[1],
+                    "o",
+                    ls="none",
+                    mfc="none",
+                    mec=PAPER_COLOUR,
+                    ms=12,
+                    mew=1.2,
+                    gid="model:1",
                 )
+            ax.set_xticks(x)
+        else:
+            for rate in rates:
+                x, gains = curves[(sweep, rate)]
+                colour = _rate_colour(rate)
+                ax.plot(x, gains[0], "-", color=colour, lw=1.6, gid="model:0")
+                if len(gains) == 2 and not coincide:
+                    ax.plot(x, gains[1], "--", color=colour, lw=1.2, gid="model:1")
+                shown_rates.append(float(rate))
         if sweep == "dist":
             ax.set_xscale("symlog", linthresh=1.0)
         ax.set_xlabel(label)
         ax.set_ylabel("lifetime gain [%]")
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7)
     for ax in axes[n:]:
         ax.set_axis_off()
+    # one legend for every panel: a colour per rate, then what the line styles mean
+    handles = [
+        Line2D([], [], color=_rate_colour(r), lw=2, marker="o", ms=5, label=f"{r:g} Mbit/s")
+        for r in dict.fromkeys(shown_rates)
+    ]
+    fitted = _label(model)
+    if len(models) == 1:
+        handles.append(Line2D([], [], color="#555555", lw=1.6, label=fitted))
+    elif coincide:
+        handles.append(
+            Line2D(
+                [],
+                [],
+                color="#555555",
+                lw=1.6,
+                label=f"{fitted} = paper within {differ_pp:.2g} % points (lines drawn once)",
+            )
+        )
+    else:
+        handles.append(Line2D([], [], color="#555555", lw=1.6, label=f"{fitted} (solid, filled)"))
+        handles.append(
+            Line2D(
+                [],
+                [],
+                color="#555555",
+                ls="--",
+                lw=1.2,
+                marker="o",
+                mfc="none",
+                ms=7,
+                label="paper (dashed, ring)",
+            )
+        )
+    if len(models) == 2 and coincide and "rate" in sweeps:
+        handles.append(
+            Line2D(
+                [],
+                [],
+                ls="none",
+                marker="o",
+                mfc="none",
+                mec=PAPER_COLOUR,
+                ms=9,
+                label="paper (ring)",
+            )
+        )
+    figure.legend(
+        handles=handles,
+        loc="outside lower center",
+        ncol=min(len(handles), 6),
+        fontsize=8,
+        frameon=False,
+    )
     # Eq. 7-11 take the model's idle power as the whole robot's at rest (its embedded
     # system); a log of the motors alone reads ~0 W there (REGBOT: 0.14-1.4 W, a gain of
     # 34% beside the paper's 3-4%), so the figure says which idle power each line stands on
-    idle = ", ".join(f"{_label(m)} {m.idle_W:.3g} W" for m, _ in models)
+    idle = ", ".join(f"{_label(m)} {m.idle_W:.3g} W" for m in models)
     figure.suptitle(
         "Figure 7: network lifetime gain with B relaying (Eq. 7-11)\n"
         f"idle power (the robot's at rest, radio off): {idle}",
         fontsize=10,
     )
     return figure
+
+
+def _rate_colour(rate: float) -> str:
+    return RATE_COLOURS.get(float(rate), "#999999")
 
 
 _X = {"e0a": "e0a_J", "e0b": "e0b_J", "dist": "distance_m"}

@@ -89,3 +89,12 @@ def check_plot_path(path: str | Path) -> str:
 def _metadata(suffix: str) -> dict[str, object]:
     # no creation date or software version: the same figure makes the same bytes
     return {"Software": None} if suffix == ".png" else {"Date": None, "Creator": None}
+
+
+def svg_bytes(figure: Figure) -> bytes:
+    """The figure as SVG (no date or creator: the same figure makes the same bytes)."""
+    import io
+
+    out = io.BytesIO()
+    figure.savefig(out, format="svg", metadata=_metadata(".svg"))
+    return out.getvalue()

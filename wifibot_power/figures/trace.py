@@ -44,6 +44,8 @@ class Envelope:
     low: np.ndarray
     high: np.ndarray
     mean: np.ndarray
+    #: samples in each column (the sum over a column is `mean * count`)
+    count: np.ndarray | None = None
 
 
 def envelope(time_s: np.ndarray, values: np.ndarray, columns: int = COLUMNS) -> Envelope:
@@ -53,7 +55,8 @@ def envelope(time_s: np.ndarray, values: np.ndarray, columns: int = COLUMNS) -> 
     time_s = np.asarray(time_s, dtype=np.float64)
     n = values.size
     if n <= columns:
-        return Envelope(time_s.copy(), values.copy(), values.copy(), values.copy())
+        one = np.ones(n, dtype=np.int64)
+        return Envelope(time_s.copy(), values.copy(), values.copy(), values.copy(), one)
     starts = np.linspace(0, n, columns + 1).astype(np.int64)[:-1]
     counts = np.diff(np.append(starts, n))
     return Envelope(
@@ -61,6 +64,7 @@ def envelope(time_s: np.ndarray, values: np.ndarray, columns: int = COLUMNS) -> 
         low=np.minimum.reduceat(values, starts),
         high=np.maximum.reduceat(values, starts),
         mean=np.add.reduceat(values, starts) / counts,
+        count=counts,
     )
 
 
@@ -71,6 +75,8 @@ class PhaseSpan:
     t_start_s: float
     t_end_s: float
     mean_power_W: float
+    #: the phase's energy [J] (`Phase.energy_J`, the rectangle rule over its samples)
+    energy_J: float = float("nan")
 
 
 @dataclass(frozen=True)
@@ -78,6 +84,7 @@ class SpikeMark:
     t_start_s: float
     duration_s: float
     peak_W: float
+    energy_above_level_J: float = float("nan")
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,29 +105,57 @@ class TraceView:
     speed_mps: float | None = None
     distance_m: float | None = None
     steps: int | None = None
+    #: the run's energy from its start to the left edge of each column of `power`, and to
+    #: its end (one more value than columns) [J]: the exact rectangle-rule sums of the
+    #: samples (`run.energy_J`), so a span between column edges has its exact energy
+    energy_edges_J: np.ndarray | None = None
+    #: the end of the last sample's period [s] (the right edge of the last column)
+    t_end_s: float | None = None
+
+    @property
+    def energy_J(self) -> float:
+        """The run's energy [J] (`Run.energy_J`), NaN when the view has no edges."""
+        edges = self.energy_edges_J
+        return float(edges[-1]) if edges is not None and edges.size else float("nan")
+
+
+def energy_edges_J(power: Envelope, sample_period_s: float) -> np.ndarray:
+    """The cumulative energy [J] at each column edge of a power envelope (`TraceView`):
+    0, then the rectangle-rule sum `sum(P_i) dt` (paper Eq. 1's integral, as
+    `run.energy_J`) of every sample up to each column's end."""
+    count = power.count if power.count is not None else np.ones(power.mean.size, np.int64)
+    sums_W = power.mean * count
+    return np.concatenate([[0.0], np.cumsum(sums_W)]) * sample_period_s
 
 
 def trace_view(run: Run, segmentation: Segmentation, columns: int = COLUMNS) -> TraceView:
     """The `TraceView` of a segmented run (the samples are reduced to an envelope here)."""
     speed = None if run.speed_mps is None else envelope(run.time_s, run.speed_mps, columns)
     meta = run.meta
+    power = envelope(run.time_s, run.power_W, columns)
+    t_end = float(run.time_s[-1]) + run.sample_period_s if run.samples else 0.0
     return TraceView(
         run_id=segmentation.run_id or meta.run_id,
         file=run.file,
         mode=meta.mode,
         duration_s=run.duration_s,
         samples=run.samples,
-        power=envelope(run.time_s, run.power_W, columns),
+        power=power,
         speed=speed,
         phases=tuple(
-            PhaseSpan(p.phase, p.step, p.t_start_s, p.t_end_s, p.mean_power_W)
+            PhaseSpan(p.phase, p.step, p.t_start_s, p.t_end_s, p.mean_power_W, p.energy_J)
             for p in segmentation.phases
         ),
-        spikes=tuple(SpikeMark(s.t_start_s, s.duration_s, s.peak_W) for s in segmentation.spikes),
+        spikes=tuple(
+            SpikeMark(s.t_start_s, s.duration_s, s.peak_W, s.energy_above_level_J)
+            for s in segmentation.spikes
+        ),
         doubts=tuple(segmentation.doubts),
         speed_mps=meta.speed_mps if meta.mode == "motion" else None,
         distance_m=meta.distance_m if meta.mode == "motion" else None,
         steps=meta.steps if meta.mode == "motion" else None,
+        energy_edges_J=energy_edges_J(power, run.sample_period_s),
+        t_end_s=t_end,
     )
 
 
