@@ -251,7 +251,7 @@ def _explorer_html(views: Sequence[TraceView], anchors: dict[str, str]) -> list[
         "energy and mean power below); <b>shift+drag</b>: pan; <b>double-click</b>: the whole "
         "run; keys on the focused trace: + − ← → Esc. Drawn from each run's min/max envelope "
         "(2 400 columns); a selection's energy is exact between column edges, and the ± "
-        "bounds what the two partial columns at its ends can add (docs/report.md).</p>",
+        "bounds what the two partial columns at its ends can add ('wbpower docs report').</p>",
         f'<div class="wb-controls"><label>Run <select id="wb-run">{options}</select></label> '
         '<button id="wb-zoom-in">Zoom in</button><button id="wb-zoom-out">Zoom out</button>'
         '<button id="wb-left">◀ Pan</button><button id="wb-right">Pan ▶</button>'
