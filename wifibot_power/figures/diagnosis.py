@@ -145,7 +145,7 @@ def _estimate_text(finding: Finding) -> str:
     low, high = e.get("ci95", [np.nan, np.nan])
     return (
         f"{finding.cause}: {e.get('parameter', '')} = {float(e.get('value', np.nan)):.4g} "
-        f"{e.get('unit', '')} [{low:.4g}, {high:.4g}], gain {finding.gain_pct:.1f}%"
+        f"{e.get('unit', '')} [{low:.4g}, {high:.4g}], gain {finding.gain_text()}"
     )
 
 
