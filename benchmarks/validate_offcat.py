@@ -346,8 +346,7 @@ def main(argv: list[str]) -> None:
 
 def tables(results: list[dict]) -> None:
     off = [r for r in results if r["suite"] == "off"]
-    seeds = sorted({r["seed"] for r in off})
-    print(f"Off-catalogue effects (seeds {seeds[0]}-{seeds[-1]} at each size):\n")
+    print(f"Off-catalogue effects (seeds {_seeds(results, 'off')} at each size):\n")
     print(
         "| effect | sizes | batches | a catalogue name given | unexplained "
         "| unexplained with its pattern | names given |"
@@ -375,10 +374,13 @@ def tables(results: list[dict]) -> None:
         f"| {pattern} ({100 * pattern / n:.1f}%, 95% lower bound {lower95(pattern, n):.1f}%) | |"
     )
 
-    print("\nCatalogue causes, alone (seeds 1-8) and in pairs:\n")
+    print(
+        f"\nCatalogue causes, alone (seeds {_seeds(results, 'alone')}) and in pairs "
+        f"(seeds {_seeds(results, 'pair')}):\n"
+    )
     print(
         "| cause | named alone | named in its pairs | all its cases (95% lower bound) "
-        "| other names alone | own gain when named, alone | thermal or other misses: why |"
+        "| other names alone | own gain when named, alone | misses: why |"
     )
     print("| --- | --- | --- | --- | --- | --- | --- |")
     total_k = total_n = 0
@@ -414,6 +416,11 @@ def tables(results: list[dict]) -> None:
         f"| all | | | {total_k}/{total_n} ({100 * total_k / total_n:.1f}%, 95% lower bound "
         f"{lower95(total_k, total_n):.1f}%) | | | |"
     )
+
+
+def _seeds(results: list[dict], suite: str) -> str:
+    seeds = sorted({r["seed"] for r in results if r["suite"] == suite})
+    return f"{seeds[0]}-{seeds[-1]}" if seeds else "-"
 
 
 def _errors(rs: list[dict]) -> str:
