@@ -43,6 +43,7 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "benchmarks")]
 
 from test_diagnose import GRID  # noqa: E402  (the grid the tests diagnose)
 from validate_diagnose import size  # noqa: E402  (catalogue sizes, seeded)
+from validate_field import _seeds  # noqa: E402  (a suite's seed range, as that table says it)
 
 from wifibot_power import diagnose  # noqa: E402
 from wifibot_power.simulate import EFFECTS, SimConfig, realism, simulate_runs  # noqa: E402
@@ -416,11 +417,6 @@ def tables(results: list[dict]) -> None:
         f"| all | | | {total_k}/{total_n} ({100 * total_k / total_n:.1f}%, 95% lower bound "
         f"{lower95(total_k, total_n):.1f}%) | | | |"
     )
-
-
-def _seeds(results: list[dict], suite: str) -> str:
-    seeds = sorted({r["seed"] for r in results if r["suite"] == suite})
-    return f"{seeds[0]}-{seeds[-1]}" if seeds else "-"
 
 
 def _errors(rs: list[dict]) -> str:
