@@ -152,7 +152,7 @@ def test_the_report_and_the_findings_figure_show_each_gain_with_its_interval(rip
     from types import SimpleNamespace
 
     from wifibot_power.figures.diagnosis import _estimate_text
-    from wifibot_power.report import _summary_html
+    from wifibot_power.report_page import _summary_html
 
     result = diagnose_runs(ripple_runs)
     (finding,) = result.findings
@@ -160,7 +160,8 @@ def test_the_report_and_the_findings_figure_show_each_gain_with_its_interval(rip
     shown = f"{finding.gain_pct:.1f}% [{low:.1f}, {high:.1f}]"
     page = "".join(
         _summary_html(
-            SimpleNamespace(fit=None, fit_problem="", diagnosis=result, diagnosis_problem=None)
+            SimpleNamespace(fit=None, fit_problem="", diagnosis=result, diagnosis_problem=None),
+            set(),
         )
     )
     assert f"(gain {shown})" in page
