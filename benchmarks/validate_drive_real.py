@@ -376,6 +376,96 @@ def sets() -> dict[str, list[Path]]:
     return found
 
 
+#: a Husky motor's current standing still [A] (convert_borealtc.py): a side at or under it
+#: is not driving
+STANDSTILL_A = 0.6
+#: a sample turns (for the sides' table) above this rate of turn [rad/s]; a side moves above
+#: this wheel speed [m/s]
+ARC_YAW_RADPS = 0.15
+SIDE_MOVING_MPS = 0.05
+#: trips repeat one command when their median |speed| and |yaw rate| round to the same
+#: multiple of this [m/s, rad/s] on one surface
+COMMAND_STEP = 0.05
+
+
+def sides_rows(files: list[Path]) -> list[str]:
+    """The sides of a skid-steer robot's turns (drive/windows.py `_force_form`): per surface
+    and kind of motion (straight, spinning in place, an arc: both sides forward, turning over
+    `ARC_YAW_RADPS`), the samples, the share where the slower ("inner") side's current is at
+    most the standstill current, its median and the other side's [A]. Logs without two
+    sides' currents and speeds: none."""
+    tally: dict[tuple[str, str], list[np.ndarray]] = {}
+    for path in files:
+        meta, cols = read_log(path)
+        need = ("current_left_A", "current_right_A", "speed_left_mps", "speed_right_mps")
+        if not all(n in cols for n in need) or "track_m" not in meta:
+            return []
+        i_l, i_r = cols["current_left_A"], cols["current_right_A"]
+        v_l, v_r = cols["speed_left_mps"], cols["speed_right_mps"]
+        yaw = (v_r - v_l) / float(meta["track_m"])
+        both = (np.abs(v_l) > SIDE_MOVING_MPS) & (np.abs(v_r) > SIDE_MOVING_MPS)
+        same = np.sign(v_l) == np.sign(v_r)
+        kinds = {
+            "straight": both & same & (np.abs(yaw) < 0.02),
+            "spin": both & ~same,
+            "arc": both & same & (np.abs(yaw) > ARC_YAW_RADPS),
+        }
+        slower_left = np.abs(v_l) < np.abs(v_r)
+        inner = np.where(slower_left, i_l, i_r)
+        outer = np.where(slower_left, i_r, i_l)
+        surface = meta.get("surface") or "mixed"
+        for kind, mask in kinds.items():
+            tally.setdefault((surface, kind), []).append(np.column_stack((inner, outer))[mask])
+    rows = []
+    for (surface, kind), parts in sorted(tally.items(), key=lambda x: (x[0][1], x[0][0])):
+        both_sides = np.vstack(parts)
+        if both_sides.shape[0] < 10:
+            continue
+        inner, outer = both_sides[:, 0], both_sides[:, 1]
+        share = float(np.mean(inner <= STANDSTILL_A) * 100)
+        rows.append(
+            f"| {kind} | {surface} | {inner.size} | {share:.0f} | {np.median(inner):.1f} "
+            f"| {np.median(outer):.1f} |"
+        )
+    return rows
+
+
+def repeat_rows(trips: list[Trip]) -> list[str]:
+    """The floor no model of speed, rate of turn and surface can beat: trips of one surface
+    that repeat one command (median |speed| and |yaw rate| the same to `COMMAND_STEP`) have
+    the same inputs, so each one's energy is predicted at best by its duration times the mean
+    power of the others (leave one out). Per surface: the groups (their mean powers [W] and
+    coefficient of variation) and that prediction's MAPE and median over their trips [%]."""
+    groups: dict[tuple[str, float, float], list[float]] = {}
+    for tr in trips:
+        speed = round(float(np.median(np.abs(tr.speed_mps))) / COMMAND_STEP) * COMMAND_STEP
+        yaw = 0.0 if tr.yaw_radps is None else float(np.median(np.abs(tr.yaw_radps)))
+        yaw = round(yaw / COMMAND_STEP) * COMMAND_STEP
+        groups.setdefault((tr.group, speed, yaw), []).append(tr.energy_J / float(np.sum(tr.held_s)))
+    errors: dict[str, list[float]] = {}
+    rows = []
+    for (group, speed, yaw), powers in sorted(groups.items()):
+        if len(powers) < 2:
+            continue
+        p = np.array(powers)
+        others = (p.sum() - p) / (p.size - 1)
+        ape = list(np.abs(others - p) / p * 100)
+        errors.setdefault(group, []).extend(ape)
+        errors.setdefault("all", []).extend(ape)
+        cv = 100 * p.std(ddof=1) / p.mean()
+        listed = ", ".join(f"{x:.0f}" for x in p)
+        rows.append(
+            f"| {group} | {speed:.2f} | {yaw:.2f} | {p.size} | {listed} | {cv:.1f} "
+            f"| {np.mean(ape):.1f} | {np.median(ape):.1f} |"
+        )
+    for group, ape in sorted(errors.items(), key=lambda x: (x[0] == "all", x[0])):
+        rows.append(
+            f"| **{group}** | | | {len(ape)} | | | **{np.mean(ape):.1f}** "
+            f"| **{np.median(ape):.1f}** |"
+        )
+    return rows
+
+
 def fmt(x: float) -> str:
     return f"{x:.1f}"
 
@@ -450,6 +540,27 @@ def report() -> str:
                 cells += scores(m, pooled_yaw[idx])
             text = " | ".join("-" if c is None else fmt(c) for c in cells)
             out.append(f"| {g} | {idx.size} | {nonpos} | {text} |")
+        repeats = repeat_rows(trips) if has_yaw else []
+        if repeats:
+            out += [
+                "\nRepeated commands (the floor: trips of a surface whose median |speed| and "
+                f"|yaw rate| round to the same multiple of {COMMAND_STEP} m/s, rad/s; each "
+                "trip's mean power predicted by the others' mean; MAPE, median [%]):\n",
+                "| group | speed [m/s] | yaw [rad/s] | trips | mean power [W] | cv [%] "
+                "| MAPE | median |",
+                "|---|---|---|---|---|---|---|---|",
+                *repeats,
+            ]
+        sides = sides_rows(files)
+        if sides:
+            out += [
+                "\nThe sides of an arc (samples; the slower side's current at most the "
+                f"standstill {STANDSTILL_A} A [%]; medians of the slower and the faster side "
+                "[A]):\n",
+                "| motion | surface | samples | slower <= standstill | slower | faster |",
+                "|---|---|---|---|---|---|",
+                *sides,
+            ]
         vehicles = any(tr.group != name for tr in trips) and all(
             "vehicle" in _meta_of(f) for f in files
         )

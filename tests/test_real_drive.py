@@ -356,3 +356,69 @@ def test_the_converters_write_the_logs_found_byte_for_byte(tmp_path: Path) -> No
         compared += 1
     if not compared:
         pytest.skip(f"{UNAVAILABLE}; or no fetched mirror under {MIRRORS}")
+
+
+def _sides_proxy(v: np.ndarray, yaw: np.ndarray, track_m: float) -> np.ndarray:
+    """A Husky-like current proxy built side by side, not from the drive model's columns:
+    each side needs half the rolling force (50 W proxy while it moves) and its viscous force
+    (40 W/(m/s) of its own speed) along its motion, plus or minus the scrubbing moment over
+    the track (125 W Coulomb + 40 W/(rad/s)), F_side = F/2 +- M/B (Wong 2008, Sec. 7.2); a
+    side's current is logged only while it drives (F_side > 0: a braking side reads ~0 A);
+    idle 30 W."""
+    total = np.full(v.size, 30.0)
+    moment = np.where(yaw != 0, 125.0 + 40.0 * np.abs(yaw), 0.0)
+    for side in (-1.0, 1.0):
+        side_v = v + side * yaw * track_m / 2
+        moves = np.abs(side_v) > 1e-9
+        # along its own motion: the moment helps the side turning against it (the inner
+        # side of an arc), drives both sides of a spin (each turns its own way)
+        sign = np.sign(side_v) * side * np.sign(yaw)
+        along = np.where(moves, 50.0 + 40.0 * np.abs(side_v) + sign * moment, 0.0)
+        total += np.maximum(along, 0.0)
+    return total
+
+
+def test_a_current_proxys_arc_counts_the_driving_side_only() -> None:
+    # drive/windows.py `_force_form`: driving straight the proxy is F, spinning F_r + 2M/B,
+    # on an arc F/2 + M/B (its inner side brakes): a proxy made side by side is fitted back
+    # exactly on steady windows, with the rolling, viscous and moment terms the sides were
+    # given; counting an arc as a spin plus a straight run (its longitudinal and moment
+    # columns in full) misses it
+    from wifibot_power.drive.identify import least_squares
+    from wifibot_power.drive.stats import drive_stats
+    from wifibot_power.drive.windows import assemble, run_windows
+    from wifibot_power.run import Run, RunMeta
+
+    track_m, period_s = 0.57, 0.01
+    t = np.arange(0, 60, period_s)
+    plan = [  # (start, end, speed [m/s], yaw rate [rad/s]); standing elsewhere
+        (3, 11, 0.4, 0.0),
+        (14, 22, 0.8, 0.0),
+        (25, 33, 0.0, 0.5),
+        (36, 44, 0.0, 1.0),
+        (47, 57, 0.3, 0.4),
+    ]
+    v, yaw = np.zeros(t.size), np.zeros(t.size)
+    for start, end, speed, rate in plan:
+        inside = (t >= start) & (t < end)
+        v[inside], yaw[inside] = speed, rate
+    meta = RunMeta(
+        run_id="arc", sample_period_s=period_s, extra={"surface": "s", "voltage_assumed_V": "24"}
+    )
+    proxy = _sides_proxy(v, yaw, track_m)
+    run = Run("arc.csv", "wbpower-csv", meta, t, proxy, speed_mps=v, yaw_rate_radps=yaw)
+    windows = assemble([run_windows(drive_stats(run))], 0)
+    start = np.arange(windows.size) * windows.window_s
+    steady = np.ones(windows.size, dtype=bool)
+    for edge in sorted({e for s, f, *_ in plan for e in (s, f)}):  # no window across a step
+        steady &= (start + windows.window_s <= edge) | (start >= edge)
+    names = ("idle_W", "rolling_W_per_mps[s]", "quadratic_W_per_mps2", "drive_on_W")
+    X = windows.design[steady][:, [windows.columns.index(n) for n in (*names, "turning_Nm[s]")]]
+    y = windows.power_W[steady]
+    coef = least_squares(X, y)
+    # idle, rolling (both sides), viscous (both sides: 2 x 40), Coulomb moment 2 x 125;
+    # the rate part: 2 x 40 and a spinning side's viscous force at omega B/2
+    expected = (30.0, 100.0, 80.0, 250.0, 80.0 + 80.0 * track_m / 2)
+    np.testing.assert_allclose(coef, expected, rtol=1e-6)
+    arc = steady & (start >= 47) & (start < 57)
+    np.testing.assert_allclose(X[arc[steady]] @ coef, y[arc[steady]], rtol=1e-9)

@@ -201,18 +201,11 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     )
     moving = moving_bins.reshape(shape).mean(axis=1)
     if stats.current_proxy:
-        # the force form (docs/drive-model.md, "Current-only logs"): a Coulomb rolling force
-        # while the robot translates, a viscous force ~ |v|; a scrubbing moment's Coulomb part
-        # while it turns in the step's slot (a motor current holds no drivers' step: their
-        # own draw is not in it), its rate-dependent part on |yaw rate| (the Husky's currents
-        # grow with the rate of turn within a trip: 83 W window RMS on BorealTC against 96 W
-        # with the Coulomb part alone; its spins' currents are flat in the rate from trip to
-        # trip: sandy loam 39% held-out MAPE without the Coulomb part, 13% with it)
-        translating = np.abs(speed[:used]) > speed_floor
-        turning = np.abs(stats.yaw_rate_radps[:used]) > yaw_floor
-        speed2 = abs_speed
-        abs_speed = translating.reshape(shape).mean(axis=1)
-        moving = turning.reshape(shape).mean(axis=1)
+        translating = (np.abs(speed[:used]) > speed_floor).reshape(shape)
+        turning = (np.abs(stats.yaw_rate_radps[:used]) > yaw_floor).reshape(shape)
+        abs_speed, speed2, moving, abs_yaw, av_up, av_down = _force_form(
+            translating, turning, abs_speed, abs_yaw, av_up, av_down
+        )
     # (not the speeding-up and braking terms: a window standing still may end where a step
     # in speed begins, and its edge speeds say so; at a true standstill they are ~0 anyway)
     for regressor in (abs_speed, speed2, abs_yaw, moving):
@@ -221,6 +214,45 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     return RunWindows(
         stats, n, abs_speed, speed2, av_up, av_down, abs_yaw, moving, ok, trip, standing
     )
+
+
+def _force_form(
+    translating: np.ndarray,
+    turning: np.ndarray,
+    abs_speed: np.ndarray,
+    abs_yaw: np.ndarray,
+    av_up: np.ndarray,
+    av_down: np.ndarray,
+) -> tuple[np.ndarray, ...]:
+    """A current proxy's regressors (docs/drive-model.md, "Current-only logs"), from each
+    bin's `translating` and `turning` (a row of bins per window) and the window's |v|, |yaw
+    rate| and d|v|/dt: (rolling, viscous, Coulomb moment, rate moment, speeding up,
+    braking), in the slots of (|v|, v^2, the step on moving, |yaw rate|, (a v)+, (a v)-).
+
+    The proxy is V_nom (|I_left| + |I_right|), each side's current its motor's torque while
+    it drives (the Husky's controller reads ~0 A on a side that brakes: below). A skid-steer
+    robot's two sides share the longitudinal force F (rolling F_r, viscous c|v|, inertial
+    m a) and make the scrubbing moment M between them: F_out = F/2 + M/B, F_in = F/2 - M/B
+    (Wong, "Theory of Ground Vehicles", 4th ed., Wiley 2008, Sec. 7.2, the kinetics of skid
+    steering; Morales et al. 2009, [1] of terms.py, Eq. 20-22 for M). So the proxy is u_0 F
+    driving straight; u_0 (F_r + 2 M/B) turning in place (each side drives its own way,
+    rolling included); and u_0 (F/2 + M/B) on an arc where M/B > F/2: the inner side
+    brakes, its current is not in the log, and every longitudinal force and the moment
+    count half. On BorealTC's Husky logs the inner side reads <= 0.6 A (the standstill
+    current) in 51-98% of the arc samples per surface (turning at > 0.15 rad/s, both sides
+    forward; Vulpi's few arcs: 27-45%), against 0-9% of the slower side driving straight or
+    spinning; its median is 0.0-0.6 A while the outer side's is about one side of a spin's
+    on the same surface (3.6-12.7 A against 3.5-11.8 A: benchmarks/validate_drive_real.py,
+    "The sides of an arc"). The moment's part growing
+    with the rate of turn is |yaw rate|'s column, halved on an arc alike. Held out (one fit
+    per surface, BorealTC): MAPE 19.8% -> 17.5%, median 10.1% -> 7.1%, against an arc
+    counted as a spin plus a straight run."""
+    arc = (translating & turning).mean(axis=1)
+    half = 1.0 - arc / 2.0
+    moving = (translating | turning).mean(axis=1)
+    rolling = moving - arc / 2.0
+    coulomb = turning.mean(axis=1) - arc / 2.0
+    return rolling, abs_speed * half, coulomb, abs_yaw * half, av_up * half, av_down * half
 
 
 def _window_abs(bins: np.ndarray, mean: np.ndarray, noise: float, samples: float) -> np.ndarray:
