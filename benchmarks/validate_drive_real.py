@@ -383,7 +383,7 @@ STANDSTILL_A = 0.6
 #: this wheel speed [m/s]
 ARC_YAW_RADPS = 0.15
 SIDE_MOVING_MPS = 0.05
-#: trips repeat one command when their median |speed| and |yaw rate| round to the same
+#: trips repeat one command when their mean |speed| and |yaw rate| round to the same
 #: multiple of this [m/s, rad/s] on one surface
 COMMAND_STEP = 0.05
 
@@ -432,14 +432,14 @@ def sides_rows(files: list[Path]) -> list[str]:
 
 def repeat_rows(trips: list[Trip]) -> list[str]:
     """The floor no model of speed, rate of turn and surface can beat: trips of one surface
-    that repeat one command (median |speed| and |yaw rate| the same to `COMMAND_STEP`) have
+    that repeat one command (mean |speed| and |yaw rate| the same to `COMMAND_STEP`) have
     the same inputs, so each one's energy is predicted at best by its duration times the mean
     power of the others (leave one out). Per surface: the groups (their mean powers [W] and
     coefficient of variation) and that prediction's MAPE and median over their trips [%]."""
     groups: dict[tuple[str, float, float], list[float]] = {}
     for tr in trips:
-        speed = round(float(np.median(np.abs(tr.speed_mps))) / COMMAND_STEP) * COMMAND_STEP
-        yaw = 0.0 if tr.yaw_radps is None else float(np.median(np.abs(tr.yaw_radps)))
+        speed = round(float(np.mean(np.abs(tr.speed_mps))) / COMMAND_STEP) * COMMAND_STEP
+        yaw = 0.0 if tr.yaw_radps is None else float(np.mean(np.abs(tr.yaw_radps)))
         yaw = round(yaw / COMMAND_STEP) * COMMAND_STEP
         groups.setdefault((tr.group, speed, yaw), []).append(tr.energy_J / float(np.sum(tr.held_s)))
     errors: dict[str, list[float]] = {}
@@ -543,7 +543,7 @@ def report() -> str:
         repeats = repeat_rows(trips) if has_yaw else []
         if repeats:
             out += [
-                "\nRepeated commands (the floor: trips of a surface whose median |speed| and "
+                "\nRepeated commands (the floor: trips of a surface whose mean |speed| and "
                 f"|yaw rate| round to the same multiple of {COMMAND_STEP} m/s, rad/s; each "
                 "trip's mean power predicted by the others' mean; MAPE, median [%]):\n",
                 "| group | speed [m/s] | yaw [rad/s] | trips | mean power [W] | cv [%] "

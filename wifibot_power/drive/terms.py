@@ -19,7 +19,10 @@ V_nom I = u_0 F, a force times the motor's no-load speed at the ground (I = tau 
 terms take their force form (windows.py; docs/drive-model.md, "Current-only logs"), the
 same names with the speed divided out: a constant rolling force while translating, a viscous
 force |v|, m_eff a sign(v), and for turning a Coulomb moment while turning (in drive_on_W's
-slot: a motor current holds no drivers' step) plus its part in |yaw rate|.
+slot: a motor current holds no drivers' step) plus its part in |yaw rate|; on an arc only the
+outer side drives (the inner one brakes, its current not logged), so every longitudinal and
+moment column counts half there (windows.py `_force_form`; Wong, "Theory of Ground
+Vehicles", 4th ed., 2008, Sec. 7.2: F_out = F/2 + M/B, F_in = F/2 - M/B).
 
 References
 ----------

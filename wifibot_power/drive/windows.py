@@ -14,7 +14,9 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
   samples: no window spans a drop-out.
 - A current-proxy log (`DriveStats.current_proxy`: nominal voltage x motor current, ~ the
   wheels' force) gets the force form of the regressors (terms.py): the share of the window
-  translating, |v|, the change of |v| (not of v^2/2), the share turning, and |yaw rate|.
+  moving, |v|, the change of |v| (not of v^2/2), the share turning, and |yaw rate|, with an
+  arc's (translating and turning) longitudinal and moment columns counted half: only its
+  outer side drives (`_force_form`).
 - Trips: a run is cut at its stops (the robot standing, not turning, for at least `STOP_S`),
   in the middle of each stop; a trip is the unit held out (heldout.py).
 """
