@@ -466,6 +466,52 @@ def repeat_rows(trips: list[Trip]) -> list[str]:
     return rows
 
 
+#: GPS altitude is smoothed over this [s] (on a 1 s grid) before its changes are taken
+ALTITUDE_SMOOTH_S = 10
+G_MPS2 = 9.81
+
+
+def grade_rows(files: list[Path]) -> list[str]:
+    """What a slope puts in a trip's energy that no term of speed can (the drive model has no
+    grade term: docs/drive-model.md, "What is not modelled"): per group, over the trips of
+    logs with `gps_altitude_m` and a `mass_kg` (+ `payload_kg`, the rider), the potential
+    energy m g (h_end - h_start) of the trip's net climb and m g sum(dh > 0) of its gross
+    climb, each over the trip's measured energy [%] (altitude the mean over
+    `ALTITUDE_SMOOTH_S`: GPS altitude is noisy to a few metres, so a lower bound on what the
+    road does, and an upper one on the gross climb of a flat ride). The trips are cut as
+    `trips_of` cuts them."""
+    net: dict[str, list[float]] = {}
+    gross: dict[str, list[float]] = {}
+    for path in files:
+        meta, cols = read_log(path)
+        if "gps_altitude_m" not in cols or "mass_kg" not in meta:
+            continue
+        mass_kg = float(meta["mass_kg"]) + float(meta.get("payload_kg") or 0)
+        t, p, v, h = cols["time_s"], power_of(cols), cols["speed_mps"], cols["gps_altitude_m"]
+        group = meta.get("surface") or meta.get("vehicle") or "all"
+        for a, b in moving_stretches(t, v, None):
+            energy_J = float(np.sum(p[a:b] * np.append(np.diff(t[a:b]), 0.0)))
+            known = np.isfinite(h[a:b])
+            grid = np.arange(t[a], t[b - 1], 1.0)
+            if energy_J <= 0 or known.sum() < 2 or grid.size < 2 * ALTITUDE_SMOOTH_S:
+                continue
+            height = np.interp(grid, t[a:b][known], h[a:b][known])
+            kernel = np.ones(ALTITUDE_SMOOTH_S) / ALTITUDE_SMOOTH_S
+            height = np.convolve(height, kernel, mode="valid")
+            weight = mass_kg * G_MPS2 / energy_J * 100
+            for key in (group, "all"):
+                net.setdefault(key, []).append(abs(height[-1] - height[0]) * weight)
+                gross.setdefault(key, []).append(np.sum(np.maximum(np.diff(height), 0)) * weight)
+    rows = []
+    for key in sorted(net, key=lambda k: (k == "all", k)):
+        n, g = np.array(net[key]), np.array(gross[key])
+        rows.append(
+            f"| {key} | {n.size} | {np.median(n):.1f} | {np.mean(n > 5) * 100:.0f} "
+            f"| {np.median(g):.1f} |"
+        )
+    return rows
+
+
 def fmt(x: float) -> str:
     return f"{x:.1f}"
 
@@ -550,6 +596,15 @@ def report() -> str:
                 "| MAPE | median |",
                 "|---|---|---|---|---|---|---|---|",
                 *repeats,
+            ]
+        grades = grade_rows(files)
+        if grades:
+            out += [
+                "\nSlopes (trips of logs with a GPS altitude and a mass: the potential energy "
+                "of the net climb and of the gross climb, m g dh, over the trip's energy [%]):\n",
+                "| group | trips | net: median | net > 5% of trips | gross: median |",
+                "|---|---|---|---|---|",
+                *grades,
             ]
         sides = sides_rows(files)
         if sides:
