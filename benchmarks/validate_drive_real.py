@@ -309,6 +309,34 @@ def as_run(trip: Trip):
     )
 
 
+def heldout_drive(trips: list[Trip]) -> tuple[np.ndarray, np.ndarray]:
+    """Each trip's measured and predicted energy [J] over its windows, the drive model
+    identified (lag, determined terms, coefficients: `fit_drive`'s steps, without its own
+    held-out loop) on the other folds of `folds_of`: the plain least squares' folds, so the
+    two are compared on the same partition. NaN where a trip has no window."""
+    from wifibot_power.drive.identify import identify, lag_search
+    from wifibot_power.drive.stats import drive_stats
+    from wifibot_power.drive.windows import assemble, run_windows
+
+    runs = [run_windows(drive_stats(as_run(tr))) for tr in trips]
+    surfaces = tuple(sorted({s for rw in runs for s in rw.stats.surfaces}))
+    fold = folds_of(len(trips))
+    measured, predicted = np.full(len(trips), np.nan), np.full(len(trips), np.nan)
+    for f in np.unique(fold):
+        train = [rw for rw, g in zip(runs, fold, strict=True) if g != f and rw.count]
+        lag_bins, _ = lag_search(train, surfaces)
+        windows = assemble(train, lag_bins, surfaces)
+        clusters = windows.run if len(train) >= 10 else windows.trip
+        model = identify(windows, lag_bins, clusters)
+        for i in np.flatnonzero(fold == f):
+            if not runs[i].count:
+                continue
+            held = assemble([runs[i]], lag_bins, surfaces)
+            measured[i] = float(np.sum(held.power_W)) * held.window_s
+            predicted[i] = float(np.sum(model.predict_W(held.design))) * held.window_s
+    return measured, predicted
+
+
 def drive_model_rows(trips: list[Trip], by_vehicle: bool) -> list[str] | None:
     """The drive model's held-out rows (group, n, E<=0, MAPE, median, wAPE, cover90), or None
     when `wifibot_power.drive.fit_drive` cannot be imported yet. Each trip is given to it as
@@ -345,6 +373,41 @@ def drive_model_rows(trips: list[Trip], by_vehicle: bool) -> list[str] | None:
         cells = " | ".join(fmt(c) for c in (*scores(m, p), cover))
         rows.append(f"| {g} | {len(mine)} | {int(np.count_nonzero(m <= 0))} | {cells} |")
     return rows
+
+
+def same_folds_rows(trips: list[Trip], groups: list[str], ls_per_group: np.ndarray) -> list[str]:
+    """The plain least squares and the drive model, each fitted per group on the same folds
+    (`folds_of`), side by side: each one's errors over its own measure of a trip's energy
+    (the samples' for the least squares, the windows' for the drive model)."""
+    rows = []
+    pooled: dict[str, list[np.ndarray]] = {"m": [], "d": [], "lm": [], "lp": []}
+    for g in groups:
+        idx = [i for i, tr in enumerate(trips) if tr.group == g]
+        if len(idx) < MIN_TRIPS:
+            continue
+        measured, predicted = heldout_drive([trips[i] for i in idx])
+        ls_measured = np.array([trips[i].energy_J for i in idx])
+        ls_predicted = ls_per_group[idx]
+        pooled["m"].append(measured)
+        pooled["d"].append(predicted)
+        pooled["lm"].append(ls_measured)
+        pooled["lp"].append(ls_predicted)
+        rows.append((g, len(idx), ls_measured, ls_predicted, measured, predicted))
+    if not rows:
+        return []
+    join = {k: np.concatenate(v) for k, v in pooled.items()}
+    rows.append(("all", join["m"].size, join["lm"], join["lp"], join["m"], join["d"]))
+    out = [
+        "\nSame folds, fitted per group (the plain least squares beside the drive model; "
+        "MAPE / median / wAPE [%]):\n",
+        "| group | n | LS: MAPE | median | wAPE | drive: MAPE | median | wAPE |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for g, n, lm, lp, m, d in rows:
+        known = np.isfinite(m) & np.isfinite(d)
+        cells = [*scores(lm, lp), *scores(m[known], d[known])]
+        out.append(f"| {g} | {n} | " + " | ".join(fmt(c) for c in cells) + " |")
+    return out
 
 
 def _meta_of(path: Path) -> dict[str, str]:
@@ -624,6 +687,7 @@ def report() -> str:
         # one fit per group (every term per surface, as "LS per group"); and, where the
         # groups are surfaces of one robot, one fit for the set (per-surface rolling and
         # turning terms, the rest shared: what `fit` does with a folder of them)
+        out += same_folds_rows(trips, groups, per[False])
         for by_group in (True,) if vehicles else (True, False):
             drive = drive_model_rows(trips, by_vehicle=by_group)
             if drive is None:

@@ -422,3 +422,25 @@ def test_a_current_proxys_arc_counts_the_driving_side_only() -> None:
     np.testing.assert_allclose(coef, expected, rtol=1e-6)
     arc = steady & (start >= 47) & (start < 57)
     np.testing.assert_allclose(X[arc[steady]] @ coef, y[arc[steady]], rtol=1e-9)
+
+
+def test_vulpis_aliased_wheel_speeds_are_replaced_and_nothing_else() -> None:
+    # convert_borealtc.dealias: a sample reading about half of its two agreeing neighbours
+    # (Vulpi's every third or fourth) takes their mean; a real change of speed, a stop, a
+    # start from rest and a half-speed stretch longer than one sample are kept as logged
+    bt = load_script("convert_borealtc", ROOT / "benchmarks" / "real_logs" / "convert_borealtc.py")
+    cruise = np.full(12, 0.56)
+    cruise[[2, 6, 9]] = [0.29, 0.30, 0.27]  # aliased
+    ramp = np.linspace(0.56, 0.0, 8)  # braking to a stop
+    halved = np.array([0.56, 0.28, 0.28, 0.28, 0.56])  # a real stretch at half speed
+    start = np.array([0.0, 0.0, 0.3, 0.56, 0.56])
+    speed = np.concatenate((cruise, ramp, halved, start))
+    fixed, count = bt.dealias(speed)
+    assert count == 3
+    expected = speed.copy()
+    expected[[2, 6, 9]] = [0.56, 0.56, 0.56]
+    np.testing.assert_allclose(fixed, expected)
+    # backwards alike
+    fixed, count = bt.dealias(-speed)
+    assert count == 3
+    np.testing.assert_allclose(fixed, -expected)
