@@ -329,8 +329,9 @@ def heldout_drive(trips: list[Trip]) -> tuple[np.ndarray, np.ndarray]:
         clusters = windows.run if len(train) >= 10 else windows.trip
         model = identify(windows, lag_bins, clusters)
         for i in np.flatnonzero(fold == f):
-            if not runs[i].count:
-                continue
+            if not runs[i].count or not model.kept.any():
+                continue  # no window, or no term determined (e.g. a bursty phone app's
+                # stamps: every window holds a drop-out): no prediction
             held = assemble([runs[i]], lag_bins, surfaces)
             measured[i] = float(np.sum(held.power_W)) * held.window_s
             predicted[i] = float(np.sum(model.predict_W(held.design))) * held.window_s
@@ -399,14 +400,16 @@ def same_folds_rows(trips: list[Trip], groups: list[str], ls_per_group: np.ndarr
     rows.append(("all", join["m"].size, join["lm"], join["lp"], join["m"], join["d"]))
     out = [
         "\nSame folds, fitted per group (the plain least squares beside the drive model; "
-        "MAPE / median / wAPE [%]):\n",
-        "| group | n | LS: MAPE | median | wAPE | drive: MAPE | median | wAPE |",
-        "|---|---|---|---|---|---|---|---|",
+        "MAPE / median / wAPE [%]; the drive model's n: trips it predicts, with a window "
+        "and a term determined):\n",
+        "| group | n | LS: MAPE | median | wAPE | drive: n | MAPE | median | wAPE |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for g, n, lm, lp, m, d in rows:
-        known = np.isfinite(m) & np.isfinite(d)
-        cells = [*scores(lm, lp), *scores(m[known], d[known])]
-        out.append(f"| {g} | {n} | " + " | ".join(fmt(c) for c in cells) + " |")
+        known = np.isfinite(m) & np.isfinite(d) & (m > 0)
+        cells = [*scores(lm, lp), int(known.sum()), *scores(m[known], d[known])]
+        text = " | ".join(str(c) if isinstance(c, int) else fmt(c) for c in cells)
+        out.append(f"| {g} | {n} | {text} |")
     return out
 
 
