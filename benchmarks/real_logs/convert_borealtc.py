@@ -133,13 +133,14 @@ def dealias(speed_mps: np.ndarray) -> tuple[np.ndarray, int]:
 
     Vulpi's wheel speeds (15 Hz) read about half the speed on every third or fourth sample
     (0.56, 0.57, 0.29, 0.59 m/s): of the samples whose two neighbours agree within 15% above
-    0.1 m/s, 54% read 0.40-0.70 of their neighbours' mean, 0.50-0.55 most often (BorealTC's
-    own logs, 6.5 Hz: 6 of 79,000). A 50 kg Husky cannot lose and regain half of 0.56 m/s
-    within 2/15 s (+-4 m/s^2, 0.4 g), and its motor currents do not move at those samples
-    (3.6 / 3.9 A before one, 3.5 / 4.0 A at it, concrete/pro_1): an encoder count taken over
-    part of its period, not a speed. Left in, they put a quarter of the samples at half speed
-    and the noise estimate of the drive model (successive differences) at 0.25 m/s, so that
-    a 0.56 m/s run counts as standing (docs/drive-model.md, "Real logs")."""
+    0.1 m/s, 54% read 0.40-0.70 of their neighbours' mean, 0.50-0.55 most often: 6,312 of its
+    24,640 wheel speed samples (BorealTC's own logs, 6.5 Hz: 8 of 108,302). A 50 kg Husky
+    cannot lose and regain half of 0.56 m/s within 2/15 s (+-4 m/s^2, 0.4 g), and its motor
+    currents show no braking nor pulse there (concrete/pro_1 at 0.4 s, 0.29 m/s between 0.56
+    and 0.57: 2.3 / 3.6 A before, 3.6 / 3.9 A at it, 3.5 / 4.0 A after): an encoder count
+    taken over part of its period, not a speed. Left in, they put a quarter of the samples at
+    half speed and the noise estimate of the drive model (successive differences) at 0.25 m/s,
+    so that a 0.56 m/s run counts as standing (docs/drive-model.md, "Real logs")."""
     prev, cur, nxt = speed_mps[:-2], speed_mps[1:-1], speed_mps[2:]
     around = (prev + nxt) / 2
     with np.errstate(divide="ignore", invalid="ignore"):
