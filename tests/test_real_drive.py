@@ -444,3 +444,31 @@ def test_vulpis_aliased_wheel_speeds_are_replaced_and_nothing_else() -> None:
     fixed, count = bt.dealias(-speed)
     assert count == 3
     np.testing.assert_allclose(fixed, -expected)
+
+
+def test_a_current_proxy_that_never_stands_keeps_its_rolling_force_not_idle() -> None:
+    # trips that never stand make idle and the rolling force (on while moving) one column;
+    # in the force form idle is the motors' standstill current and the rolling force is
+    # what moving takes, so rolling is kept (identify.PREFERENCE_FORCE_FORM) and an arc,
+    # where the rolling force counts half, is predicted from straight runs and spins alone
+    from wifibot_power.drive import fit_drive
+    from wifibot_power.drive.stats import drive_stats
+    from wifibot_power.run import Run, RunMeta
+
+    track_m, period_s = 0.57, 0.01
+    t = np.arange(0, 20, period_s)
+    extra = {"surface": "s", "voltage_assumed_V": "24"}
+
+    def run(name: str, speed: float, rate: float) -> Run:
+        v, yaw = np.full(t.size, speed), np.full(t.size, rate)
+        meta = RunMeta(run_id=name, sample_period_s=period_s, extra=extra)
+        proxy = _sides_proxy(v, yaw, track_m) - 30.0  # no idle to see: 0 W standing
+        return Run(f"{name}.csv", "wbpower-csv", meta, t, proxy, speed_mps=v, yaw_rate_radps=yaw)
+
+    kinds = [(0.4, 0.0), (0.8, 0.0), (0.0, 0.5), (0.0, 1.0)]
+    runs = [run(f"r{k}{j}", *kind) for k, kind in enumerate(kinds) for j in range(2)]
+    model = fit_drive(runs)
+    assert "rolling_W_per_mps" in model.surfaces["s"]
+    assert "idle_W" not in model.terms
+    measured_J, predicted_J = model.run_energy_J(drive_stats(run("arc", 0.3, 0.4)))
+    assert abs(predicted_J / measured_J - 1) < 0.01, (measured_J, predicted_J)

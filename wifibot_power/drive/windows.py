@@ -83,6 +83,8 @@ class Windows:
     run_ids: tuple[str, ...]
     surfaces: tuple[str, ...]
     window_s: float
+    #: every run is a current proxy: the columns are the terms' force form (`_force_form`)
+    force_form: bool = False
 
     @property
     def size(self) -> int:
@@ -100,6 +102,7 @@ class Windows:
             self.run_ids,
             self.surfaces,
             self.window_s,
+            self.force_form,
         )
 
 
@@ -410,4 +413,5 @@ def assemble(
         run_ids=tuple(rw.stats.run_id for rw in runs),
         surfaces=surfaces,
         window_s=runs[0].n * runs[0].stats.bin_s if runs else WINDOW_S,
+        force_form=bool(runs) and all(rw.stats.current_proxy for rw in runs),
     )
