@@ -145,7 +145,7 @@ PREFERENCE = (
 #: always there while moving is the rolling force, so where the two are one column (trips
 #: that never stand) the rolling term is kept and idle left out. Held out per surface on
 #: BorealTC, sandy loam 8.7% -> 5.8% MAPE (median 4.1 -> 4.2%): its only arc, whose rolling
-#: force counts half, was predicted from an idle that counts in full (+63%); no other
+#: force counts half, was predicted from an idle that counts in full (+63%; now +23%); no other
 #: BorealTC surface moves by 0.1 point; Vulpi's ploughed (its arcs alike) 7.0% -> 5.6%.
 PREFERENCE_FORCE_FORM = ("rolling_W_per_mps", "idle_W", *PREFERENCE[2:])
 
