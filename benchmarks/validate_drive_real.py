@@ -460,12 +460,29 @@ def sides_rows(files: list[Path]) -> list[str]:
     `ARC_YAW_RADPS`), the samples, the share where the slower ("inner") side's current is at
     most the standstill current, its median and the other side's [A]. Logs without two
     sides' currents and speeds: none."""
+    rows = []
+    tally = sides_currents(files)
+    for (surface, kind), both_sides in sorted(tally.items(), key=lambda x: (x[0][1], x[0][0])):
+        if both_sides.shape[0] < 10:
+            continue
+        inner, outer = both_sides[:, 0], both_sides[:, 1]
+        share = float(np.mean(inner <= STANDSTILL_A) * 100)
+        rows.append(
+            f"| {kind} | {surface} | {inner.size} | {share:.0f} | {np.median(inner):.1f} "
+            f"| {np.median(outer):.1f} |"
+        )
+    return rows
+
+
+def sides_currents(files: list[Path]) -> dict[tuple[str, str], np.ndarray]:
+    """Per (surface, kind of motion): the slower and the faster side's current of every such
+    sample [A] (a row each; `sides_rows`); empty for logs without both sides."""
     tally: dict[tuple[str, str], list[np.ndarray]] = {}
     for path in files:
         meta, cols = read_log(path)
         need = ("current_left_A", "current_right_A", "speed_left_mps", "speed_right_mps")
         if not all(n in cols for n in need) or "track_m" not in meta:
-            return []
+            return {}
         i_l, i_r = cols["current_left_A"], cols["current_right_A"]
         v_l, v_r = cols["speed_left_mps"], cols["speed_right_mps"]
         yaw = (v_r - v_l) / float(meta["track_m"])
@@ -482,18 +499,7 @@ def sides_rows(files: list[Path]) -> list[str]:
         surface = meta.get("surface") or "mixed"
         for kind, mask in kinds.items():
             tally.setdefault((surface, kind), []).append(np.column_stack((inner, outer))[mask])
-    rows = []
-    for (surface, kind), parts in sorted(tally.items(), key=lambda x: (x[0][1], x[0][0])):
-        both_sides = np.vstack(parts)
-        if both_sides.shape[0] < 10:
-            continue
-        inner, outer = both_sides[:, 0], both_sides[:, 1]
-        share = float(np.mean(inner <= STANDSTILL_A) * 100)
-        rows.append(
-            f"| {kind} | {surface} | {inner.size} | {share:.0f} | {np.median(inner):.1f} "
-            f"| {np.median(outer):.1f} |"
-        )
-    return rows
+    return {key: np.vstack(parts) for key, parts in tally.items()}
 
 
 def repeat_rows(trips: list[Trip]) -> list[str]:

@@ -472,3 +472,29 @@ def test_a_current_proxy_that_never_stands_keeps_its_rolling_force_not_idle() ->
     assert "idle_W" not in model.terms
     measured_J, predicted_J = model.run_energy_J(drive_stats(run("arc", 0.3, 0.4)))
     assert abs(predicted_J / measured_J - 1) < 0.01, (measured_J, predicted_J)
+
+
+@pytest.mark.skipif(
+    not (DRIVE / "borealtc").is_dir(), reason=UNAVAILABLE.replace("logs in", "BorealTC logs in")
+)
+def test_a_huskys_arc_is_driven_by_its_outer_side_alone() -> None:
+    # what `_force_form` assumes, read from the raw side currents, not from any fit: on an
+    # arc the slower side reads at most the standstill current in most samples of every
+    # surface, its median at that level, while driving straight or spinning in place a side
+    # seldom does; the faster side of an arc carries at least half a spin's side
+    files = sorted((DRIVE / "borealtc").rglob("*.csv.gz"))
+    tally = validate.sides_currents(files)
+    standstill = validate.STANDSTILL_A
+    for (surface, kind), sides in tally.items():
+        if sides.shape[0] < 100:
+            continue
+        idle_share = float(np.mean(sides[:, 0] <= standstill))
+        if kind == "arc":
+            assert idle_share > 0.5, (surface, idle_share)
+            assert np.median(sides[:, 0]) <= standstill, surface
+            spin = tally.get((surface, "spin"))
+            if spin is not None and spin.shape[0] >= 100:
+                assert np.median(sides[:, 1]) > 0.5 * np.median(spin), surface
+        else:
+            assert idle_share < 0.1, (surface, kind, idle_share)
+    assert {kind for _, kind in tally} == {"arc", "spin", "straight"}
