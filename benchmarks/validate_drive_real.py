@@ -101,6 +101,8 @@ class Trip:
     yaw_radps: np.ndarray | None
     #: the log's `voltage_assumed_V` metadata: its power is a current proxy (drive/stats.py)
     voltage_assumed: str | None = None
+    #: the log's `track_m` metadata [m] (its wheels' track: the turning radius over it)
+    track_m: str | None = None
 
     @property
     def held_s(self) -> np.ndarray:
@@ -218,6 +220,7 @@ def trips_of(path: Path, set_name: str) -> list[Trip]:
                 v[a:b],
                 None if yaw is None else yaw[a:b],
                 meta.get("voltage_assumed_V"),
+                meta.get("track_m"),
             )
         )
     return out
@@ -294,6 +297,8 @@ def as_run(trip: Trip):
     extra_meta = {"surface": trip.group}
     if trip.voltage_assumed is not None:
         extra_meta["voltage_assumed_V"] = trip.voltage_assumed
+    if trip.track_m is not None:
+        extra_meta["track_m"] = trip.track_m
     meta = RunMeta(run_id=trip.run_id, mode="motion", sample_period_s=step, extra=extra_meta)
     extra = {}
     if "yaw_rate_radps" in {f.name for f in fields(Run)} and trip.yaw_radps is not None:

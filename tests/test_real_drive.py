@@ -358,22 +358,29 @@ def test_the_converters_write_the_logs_found_byte_for_byte(tmp_path: Path) -> No
         pytest.skip(f"{UNAVAILABLE}; or no fetched mirror under {MIRRORS}")
 
 
-def _sides_proxy(v: np.ndarray, yaw: np.ndarray, track_m: float) -> np.ndarray:
+def _sides_proxy(
+    v: np.ndarray, yaw: np.ndarray, track_m: float, viscous: float = 40.0, wong: bool = False
+) -> np.ndarray:
     """A Husky-like current proxy built side by side, not from the drive model's columns:
     each side needs half the rolling force (50 W proxy while it moves) and its viscous force
     (40 W/(m/s) of its own speed) along its motion, plus or minus the scrubbing moment over
     the track (125 W Coulomb + 40 W/(rad/s)), F_side = F/2 +- M/B (Wong 2008, Sec. 7.2); a
     side's current is logged only while it drives (F_side > 0: a braking side reads ~0 A);
-    idle 30 W."""
+    idle 30 W. `wong`: the moment on a turn of radius R is its spin's times 0.925 / (0.925 +
+    0.15 R/B) (Wong 2008, Sec. 7.2)."""
     total = np.full(v.size, 30.0)
     moment = np.where(yaw != 0, 125.0 + 40.0 * np.abs(yaw), 0.0)
+    if wong:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            radius_m = np.where(yaw != 0, np.abs(v) / np.abs(yaw), 0.0)
+        moment = moment * 0.925 / (0.925 + 0.15 * radius_m / track_m)
     for side in (-1.0, 1.0):
         side_v = v + side * yaw * track_m / 2
         moves = np.abs(side_v) > 1e-9
         # along its own motion: the moment helps the side turning against it (the inner
         # side of an arc), drives both sides of a spin (each turns its own way)
         sign = np.sign(side_v) * side * np.sign(yaw)
-        along = np.where(moves, 50.0 + 40.0 * np.abs(side_v) + sign * moment, 0.0)
+        along = np.where(moves, 50.0 + viscous * np.abs(side_v) + sign * moment, 0.0)
         total += np.maximum(along, 0.0)
     return total
 
@@ -498,3 +505,42 @@ def test_a_huskys_arc_is_driven_by_its_outer_side_alone() -> None:
         else:
             assert idle_share < 0.1, (surface, kind, idle_share)
     assert {kind for _, kind in tally} == {"arc", "spin", "straight"}
+
+
+def test_a_current_proxys_arc_turns_with_the_moment_of_its_radius() -> None:
+    # windows._radius_factor: with the log's track the arc's moment is its spin's times
+    # 0.925 / (0.925 + 0.15 R/B); a proxy made side by side with that moment is fitted back
+    # exactly, and without the track (the factor unknown: 1) it is not
+    from wifibot_power.drive.identify import least_squares
+    from wifibot_power.drive.stats import drive_stats
+    from wifibot_power.drive.windows import assemble, run_windows
+    from wifibot_power.run import Run, RunMeta
+
+    track_m, period_s = 0.57, 0.01
+    t = np.arange(0, 50, period_s)
+    plan = [(3, 11, 0.4, 0.0), (14, 22, 0.0, 0.5), (25, 33, 0.0, 1.0), (36, 46, 0.3, 0.4)]
+    v, yaw = np.zeros(t.size), np.zeros(t.size)
+    for start, end, speed, rate in plan:
+        inside = (t >= start) & (t < end)
+        v[inside], yaw[inside] = speed, rate
+    proxy = _sides_proxy(v, yaw, track_m, viscous=0.0, wong=True)
+    fits = {}
+    for with_track in (True, False):
+        extra = {"surface": "s", "voltage_assumed_V": "24"}
+        if with_track:
+            extra["track_m"] = str(track_m)
+        meta = RunMeta(run_id="arc", sample_period_s=period_s, extra=extra)
+        run = Run("arc.csv", "wbpower-csv", meta, t, proxy, speed_mps=v, yaw_rate_radps=yaw)
+        windows = assemble([run_windows(drive_stats(run))], 0)
+        start = np.arange(windows.size) * windows.window_s
+        steady = np.ones(windows.size, dtype=bool)
+        for edge in sorted({e for s, f, *_ in plan for e in (s, f)}):
+            steady &= (start + windows.window_s <= edge) | (start >= edge)
+        names = ("idle_W", "rolling_W_per_mps[s]", "drive_on_W", "turning_Nm[s]")
+        X = windows.design[steady][:, [windows.columns.index(n) for n in names]]
+        y = windows.power_W[steady]
+        coef = least_squares(X, y)
+        fits[with_track] = (coef, float(np.max(np.abs(X @ coef - y) / y)))
+    np.testing.assert_allclose(fits[True][0], (30.0, 100.0, 250.0, 80.0), rtol=1e-6)
+    assert fits[True][1] < 1e-9
+    assert fits[False][1] > 0.01

@@ -103,7 +103,8 @@ def turning_power_W(yaw_rate_radps: np.ndarray, turning_Nm: float) -> np.ndarray
     overcome it is P = M_r |yaw rate| [W] ([1], Eq. 20-22: the lateral friction moment
     mu m g l / 4 for a uniform load times the rate of turn, over the drive efficiency). [1]
     finds M_r varies with the turning radius (larger on tight turns); a constant moment is
-    its spin-in-place value and is what logs of hand-driven robots determine. For a
+    its spin-in-place value (a current proxy's force form scales an arc's by Wong's
+    0.925 / (0.925 + 0.15 R/B) where the track is known: windows.py `_radius_factor`). For a
     differential drive the same form holds with a much smaller moment (caster scrub, [2],
     Sec. 3.2). Depends on the surface."""
     return turning_Nm * np.abs(yaw_rate_radps)

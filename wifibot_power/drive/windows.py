@@ -208,8 +208,11 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     if stats.current_proxy:
         translating = (np.abs(speed[:used]) > speed_floor).reshape(shape)
         turning = (np.abs(stats.yaw_rate_radps[:used]) > yaw_floor).reshape(shape)
+        radius_w = _radius_factor(
+            speed[:used].reshape(shape), stats.yaw_rate_radps[:used].reshape(shape), stats.track_m
+        )
         abs_speed, speed2, moving, abs_yaw, av_up, av_down = _force_form(
-            translating, turning, abs_speed, abs_yaw, av_up, av_down
+            translating, turning, radius_w, abs_speed, abs_yaw, av_up, av_down
         )
     # (not the speeding-up and braking terms: a window standing still may end where a step
     # in speed begins, and its edge speeds say so; at a true standstill they are ~0 anyway)
@@ -221,18 +224,45 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     )
 
 
+#: Wong's empirical lateral resistance of a skid-steer turn, mu_t = mu_max / (A + B_R R/B)
+#: (`_radius_factor`)
+WONG_A, WONG_B = 0.925, 0.15
+
+
+def _radius_factor(speed_mps: np.ndarray, yaw_rate_radps: np.ndarray, track_m: float):
+    """Each bin's scrubbing moment on a turn of radius R = |v| / |yaw rate| over its value
+    turning in place, 0.925 / (0.925 + 0.15 R/B), B the track (1 where the track is unknown
+    or the bin does not turn). The lateral resistance of a skid-steer vehicle falls with the
+    turning radius: Wong, "Theory of Ground Vehicles", 4th ed., 2008, Sec. 7.2, the empirical
+    mu_t = mu_max / (0.925 + 0.15 R/B) of Steeds; Morales et al. 2009 ([1] of terms.py) find
+    the Auriga's moment larger on tight turns. On BorealTC's Husky (R from the wheel
+    speeds), sandy loam's one arc (R/B ~1.2) turns with ~0.7 of its spins' moment by the
+    sides' currents (the formula: 0.84); held out per surface with the factor, MAPE 17.0% ->
+    16.1% (median 7.1%): asphalt 25.6 -> 19.5%, sandy loam 5.8 -> 5.0%, its arc +23% ->
+    +10%. Used by the force form only (measured on current proxies; the simulator's robot
+    has a constant moment)."""
+    if not track_m > 0:
+        return np.ones_like(speed_mps)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.abs(speed_mps) / (np.abs(yaw_rate_radps) * track_m)
+    factor = WONG_A / (WONG_A + WONG_B * ratio)
+    return np.where(np.isfinite(factor), factor, 1.0)
+
+
 def _force_form(
     translating: np.ndarray,
     turning: np.ndarray,
+    radius_w: np.ndarray,
     abs_speed: np.ndarray,
     abs_yaw: np.ndarray,
     av_up: np.ndarray,
     av_down: np.ndarray,
 ) -> tuple[np.ndarray, ...]:
     """A current proxy's regressors (docs/drive-model.md, "Current-only logs"), from each
-    bin's `translating` and `turning` (a row of bins per window) and the window's |v|, |yaw
-    rate| and d|v|/dt: (rolling, viscous, Coulomb moment, rate moment, speeding up,
-    braking), in the slots of (|v|, v^2, the step on moving, |yaw rate|, (a v)+, (a v)-).
+    bin's `translating`, `turning` and moment factor `radius_w` (a row of bins per window;
+    `_radius_factor`) and the window's |v|, |yaw rate| and d|v|/dt: (rolling, viscous,
+    Coulomb moment, rate moment, speeding up, braking), in the slots of (|v|, v^2, the step
+    on moving, |yaw rate|, (a v)+, (a v)-).
 
     The proxy is V_nom (|I_left| + |I_right|), each side's current its motor's torque while
     it drives (the Husky's controller reads ~0 A on a side that brakes: below). A skid-steer
@@ -248,18 +278,23 @@ def _force_form(
     forward; Vulpi's few arcs: 27-45%), against 0-9% of the slower side driving straight or
     spinning; its median is 0.0-0.6 A while the outer side's is about one side of a spin's
     on the same surface (3.6-12.7 A against 3.5-11.8 A: benchmarks/validate_drive_real.py,
-    "The sides of an arc"). The moment's part growing with the rate of turn is |yaw rate|'s
-    column, halved on an arc alike (within a trip the Husky's currents grow with the rate:
+    "The sides of an arc"). An arc's moment is its spin's times the radius factor. The
+    moment's part growing with the rate of turn is |yaw rate|'s column, halved on an arc
+    alike (within a trip the Husky's currents grow with the rate:
     83 W window RMS on BorealTC against 96 W with the Coulomb part alone; from trip to trip
     its spins' currents are flat in the rate, which the Coulomb part carries). Held out (one
     fit per surface, BorealTC): MAPE 19.8% -> 17.5%, median 10.1% -> 7.1%, against an arc
     counted as a spin plus a straight run."""
-    arc = (translating & turning).mean(axis=1)
+    arc_bins = translating & turning
+    arc = arc_bins.mean(axis=1)
+    # an arc's moment, each bin's by its radius (`_radius_factor`; 1: a spin's)
+    arc_moment = (arc_bins * radius_w).mean(axis=1)
     half = 1.0 - arc / 2.0
     moving = (translating | turning).mean(axis=1)
     rolling = moving - arc / 2.0
-    coulomb = turning.mean(axis=1) - arc / 2.0
-    return rolling, abs_speed * half, coulomb, abs_yaw * half, av_up * half, av_down * half
+    coulomb = turning.mean(axis=1) - arc + arc_moment / 2.0
+    rate = abs_yaw * (1.0 - arc + arc_moment / 2.0)
+    return rolling, abs_speed * half, coulomb, rate, av_up * half, av_down * half
 
 
 def _window_abs(bins: np.ndarray, mean: np.ndarray, noise: float, samples: float) -> np.ndarray:
