@@ -36,7 +36,15 @@ with numpy (not with wbpower's reader, which refuses some of them today: docs), 
 - **Drive model (b)**: `wifibot_power.drive.fit_drive` when it can be imported (the drive
   lane writes it); until then the line says "drive model not available yet".
 - **Folds**: K = min(5, trips) folds of a group's trips, dealt by a seeded permutation
-  (seed 0): the same folds for every model.
+  (seed 0): the same folds for every model ("Same folds": the drive model identified on the
+  plain least squares' folds, `heldout_drive`; its own rows use `fit_drive`'s 10 folds).
+- **The floor** ("Repeated commands", `repeat_rows`): trips of a surface whose mean |speed|
+  and |yaw rate| round alike repeat one command; each one's mean power predicted by the
+  others' is the best any model of those inputs can do.
+- **The sides of an arc** (`sides_rows`): the two sides' currents of a skid-steer log
+  straight, spinning and on arcs: what the force form's arc rule rests on (drive/windows.py
+  `_force_form`). **Slopes** (`grade_rows`): the potential energy of each trip's climb over
+  its energy, where the log has a GPS altitude and a mass.
 
 Columns: trips (`n`), of which `E<=0` have a net energy <= 0 (unicycles walked or pushed
 at ~0.5 m/s, reading 0 W or a small negative power: left out of the percentages, still in
