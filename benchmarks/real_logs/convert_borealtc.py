@@ -8,8 +8,10 @@ pro_NN.csv` holds, at 6.5 Hz (a 1/6.5 s step, evenly spaced):
 
 - `time` [s] from the file's first row;
 - `curL`, `curR`: the left and right **motor** currents [A] as the Husky's controller
-  reports them: magnitudes (never negative), the torque-producing current (the dataset's
-  own `utils/transforms.py` turns them into torque with the motor constant);
+  reports them: never negative, the torque-producing current (the dataset's own
+  `utils/transforms.py` turns them into torque with the motor constant), and ~0 on a side
+  that brakes (an arc's inner side reads at most the 0.6 A standstill current in 51-98% of
+  its samples: benchmarks/validate_drive_real.py, "The sides of an arc");
 - `velL`, `velR`: the left and right wheel speeds [m/s] (wheel odometry, signed);
 - `MIXED/pro_00.csv` only: a `terrain` column naming the surface under the robot, empty
   where unlabelled.
@@ -18,8 +20,8 @@ The logs carry no voltage. Power is therefore `NOMINAL_V` (the Husky's 24 V batt
 each motor's current: each side is a channel (`voltage_left_V` = 24, `current_left_A`;
 `..._right_...`; log-format.md "Several channels"). This is what the motors would draw
 from the battery if the drivers passed motor current through 1:1: at part duty the real
-battery current is lower, and braking shows as a draw (the currents are magnitudes). It
-is a proxy proportional to the motors' torque; a constant factor does not change any
+battery current is lower, and a braking side shows nothing (its current reads ~0). It
+is a proxy proportional to the driving motors' torque; a constant factor does not change any
 relative energy error, but the watts are not the battery's.
 
 Each file becomes one `.csv.gz`, every row kept: `time_s`, the two channels,
