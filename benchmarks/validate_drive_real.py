@@ -36,7 +36,15 @@ with numpy (not with wbpower's reader, which refuses some of them today: docs), 
 - **Drive model (b)**: `wifibot_power.drive.fit_drive` when it can be imported (the drive
   lane writes it); until then the line says "drive model not available yet".
 - **Folds**: K = min(5, trips) folds of a group's trips, dealt by a seeded permutation
-  (seed 0): the same folds for every model.
+  (seed 0): the same folds for every model ("Same folds": the drive model identified on the
+  plain least squares' folds, `heldout_drive`; its own rows use `fit_drive`'s 10 folds).
+- **The floor** ("Repeated commands", `repeat_rows`): trips of a surface whose mean |speed|
+  and |yaw rate| round alike repeat one command; each one's mean power predicted by the
+  others' is the best any model of those inputs can do.
+- **The sides of an arc** (`sides_rows`): the two sides' currents of a skid-steer log
+  straight, spinning and on arcs: what the force form's arc rule rests on (drive/windows.py
+  `_force_form`). **Slopes** (`grade_rows`): the potential energy of each trip's climb over
+  its energy, where the log has a GPS altitude and a mass.
 
 Columns: trips (`n`), of which `E<=0` have a net energy <= 0 (unicycles walked or pushed
 at ~0.5 m/s, reading 0 W or a small negative power: left out of the percentages, still in
@@ -101,6 +109,8 @@ class Trip:
     yaw_radps: np.ndarray | None
     #: the log's `voltage_assumed_V` metadata: its power is a current proxy (drive/stats.py)
     voltage_assumed: str | None = None
+    #: the log's `track_m` metadata [m] (its wheels' track: the turning radius over it)
+    track_m: str | None = None
 
     @property
     def held_s(self) -> np.ndarray:
@@ -218,6 +228,7 @@ def trips_of(path: Path, set_name: str) -> list[Trip]:
                 v[a:b],
                 None if yaw is None else yaw[a:b],
                 meta.get("voltage_assumed_V"),
+                meta.get("track_m"),
             )
         )
     return out
@@ -294,6 +305,8 @@ def as_run(trip: Trip):
     extra_meta = {"surface": trip.group}
     if trip.voltage_assumed is not None:
         extra_meta["voltage_assumed_V"] = trip.voltage_assumed
+    if trip.track_m is not None:
+        extra_meta["track_m"] = trip.track_m
     meta = RunMeta(run_id=trip.run_id, mode="motion", sample_period_s=step, extra=extra_meta)
     extra = {}
     if "yaw_rate_radps" in {f.name for f in fields(Run)} and trip.yaw_radps is not None:
@@ -307,6 +320,35 @@ def as_run(trip: Trip):
         speed_mps=trip.speed_mps,
         **extra,
     )
+
+
+def heldout_drive(trips: list[Trip]) -> tuple[np.ndarray, np.ndarray]:
+    """Each trip's measured and predicted energy [J] over its windows, the drive model
+    identified (lag, determined terms, coefficients: `fit_drive`'s steps, without its own
+    held-out loop) on the other folds of `folds_of`: the plain least squares' folds, so the
+    two are compared on the same partition. NaN where a trip has no window."""
+    from wifibot_power.drive.identify import identify, lag_search
+    from wifibot_power.drive.stats import drive_stats
+    from wifibot_power.drive.windows import assemble, run_windows
+
+    runs = [run_windows(drive_stats(as_run(tr))) for tr in trips]
+    surfaces = tuple(sorted({s for rw in runs for s in rw.stats.surfaces}))
+    fold = folds_of(len(trips))
+    measured, predicted = np.full(len(trips), np.nan), np.full(len(trips), np.nan)
+    for f in np.unique(fold):
+        train = [rw for rw, g in zip(runs, fold, strict=True) if g != f and rw.count]
+        lag_bins, _ = lag_search(train, surfaces)
+        windows = assemble(train, lag_bins, surfaces)
+        clusters = windows.run if len(train) >= 10 else windows.trip
+        model = identify(windows, lag_bins, clusters)
+        for i in np.flatnonzero(fold == f):
+            if not runs[i].count or not model.kept.any():
+                continue  # no window, or no term determined (e.g. a bursty phone app's
+                # stamps: every window holds a drop-out): no prediction
+            held = assemble([runs[i]], lag_bins, surfaces)
+            measured[i] = float(np.sum(held.power_W)) * held.window_s
+            predicted[i] = float(np.sum(model.predict_W(held.design))) * held.window_s
+    return measured, predicted
 
 
 def drive_model_rows(trips: list[Trip], by_vehicle: bool) -> list[str] | None:
@@ -347,6 +389,43 @@ def drive_model_rows(trips: list[Trip], by_vehicle: bool) -> list[str] | None:
     return rows
 
 
+def same_folds_rows(trips: list[Trip], groups: list[str], ls_per_group: np.ndarray) -> list[str]:
+    """The plain least squares and the drive model, each fitted per group on the same folds
+    (`folds_of`), side by side: each one's errors over its own measure of a trip's energy
+    (the samples' for the least squares, the windows' for the drive model)."""
+    rows = []
+    pooled: dict[str, list[np.ndarray]] = {"m": [], "d": [], "lm": [], "lp": []}
+    for g in groups:
+        idx = [i for i, tr in enumerate(trips) if tr.group == g]
+        if len(idx) < MIN_TRIPS:
+            continue
+        measured, predicted = heldout_drive([trips[i] for i in idx])
+        ls_measured = np.array([trips[i].energy_J for i in idx])
+        ls_predicted = ls_per_group[idx]
+        pooled["m"].append(measured)
+        pooled["d"].append(predicted)
+        pooled["lm"].append(ls_measured)
+        pooled["lp"].append(ls_predicted)
+        rows.append((g, len(idx), ls_measured, ls_predicted, measured, predicted))
+    if not rows:
+        return []
+    join = {k: np.concatenate(v) for k, v in pooled.items()}
+    rows.append(("all", join["m"].size, join["lm"], join["lp"], join["m"], join["d"]))
+    out = [
+        "\nSame folds, fitted per group (the plain least squares beside the drive model; "
+        "MAPE / median / wAPE [%]; the drive model's n: trips it predicts, with a window "
+        "and a term determined):\n",
+        "| group | n | LS: MAPE | median | wAPE | drive: n | MAPE | median | wAPE |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for g, n, lm, lp, m, d in rows:
+        known = np.isfinite(m) & np.isfinite(d) & (m > 0)
+        cells = [*scores(lm, lp), int(known.sum()), *scores(m[known], d[known])]
+        text = " | ".join(str(c) if isinstance(c, int) else fmt(c) for c in cells)
+        out.append(f"| {g} | {n} | {text} |")
+    return out
+
+
 def _meta_of(path: Path) -> dict[str, str]:
     """A converted file's `#` metadata alone (the lines before its header)."""
     meta = {}
@@ -374,6 +453,148 @@ def sets() -> dict[str, list[Path]]:
     if f1 is not None:  # the three sides of the logger's gaps (the whole log has them)
         found["f1tenth"] = [f1 / n for n in ("ds5_a.csv.gz", "ds5_b.csv.gz", "ds5_c.csv.gz")]
     return found
+
+
+#: a Husky motor's current standing still [A] (convert_borealtc.py): a side at or under it
+#: is not driving
+STANDSTILL_A = 0.6
+#: a sample turns (for the sides' table) above this rate of turn [rad/s]; a side moves above
+#: this wheel speed [m/s]
+ARC_YAW_RADPS = 0.15
+SIDE_MOVING_MPS = 0.05
+#: trips repeat one command when their mean |speed| and |yaw rate| round to the same
+#: multiple of this [m/s, rad/s] on one surface
+COMMAND_STEP = 0.05
+
+
+def sides_rows(files: list[Path]) -> list[str]:
+    """The sides of a skid-steer robot's turns (drive/windows.py `_force_form`): per surface
+    and kind of motion (straight, spinning in place, an arc: both sides forward, turning over
+    `ARC_YAW_RADPS`), the samples, the share where the slower ("inner") side's current is at
+    most the standstill current, its median and the other side's [A]. Logs without two
+    sides' currents and speeds: none."""
+    rows = []
+    tally = sides_currents(files)
+    for (surface, kind), both_sides in sorted(tally.items(), key=lambda x: (x[0][1], x[0][0])):
+        if both_sides.shape[0] < 10:
+            continue
+        inner, outer = both_sides[:, 0], both_sides[:, 1]
+        share = float(np.mean(inner <= STANDSTILL_A) * 100)
+        rows.append(
+            f"| {kind} | {surface} | {inner.size} | {share:.0f} | {np.median(inner):.1f} "
+            f"| {np.median(outer):.1f} |"
+        )
+    return rows
+
+
+def sides_currents(files: list[Path]) -> dict[tuple[str, str], np.ndarray]:
+    """Per (surface, kind of motion): the slower and the faster side's current of every such
+    sample [A] (a row each; `sides_rows`); empty for logs without both sides."""
+    tally: dict[tuple[str, str], list[np.ndarray]] = {}
+    for path in files:
+        meta, cols = read_log(path)
+        need = ("current_left_A", "current_right_A", "speed_left_mps", "speed_right_mps")
+        if not all(n in cols for n in need) or "track_m" not in meta:
+            return {}
+        i_l, i_r = cols["current_left_A"], cols["current_right_A"]
+        v_l, v_r = cols["speed_left_mps"], cols["speed_right_mps"]
+        yaw = (v_r - v_l) / float(meta["track_m"])
+        both = (np.abs(v_l) > SIDE_MOVING_MPS) & (np.abs(v_r) > SIDE_MOVING_MPS)
+        same = np.sign(v_l) == np.sign(v_r)
+        kinds = {
+            "straight": both & same & (np.abs(yaw) < 0.02),
+            "spin": both & ~same,
+            "arc": both & same & (np.abs(yaw) > ARC_YAW_RADPS),
+        }
+        slower_left = np.abs(v_l) < np.abs(v_r)
+        inner = np.where(slower_left, i_l, i_r)
+        outer = np.where(slower_left, i_r, i_l)
+        surface = meta.get("surface") or "mixed"
+        for kind, mask in kinds.items():
+            tally.setdefault((surface, kind), []).append(np.column_stack((inner, outer))[mask])
+    return {key: np.vstack(parts) for key, parts in tally.items()}
+
+
+def repeat_rows(trips: list[Trip]) -> list[str]:
+    """The floor no model of speed, rate of turn and surface can beat: trips of one surface
+    that repeat one command (mean |speed| and |yaw rate| the same to `COMMAND_STEP`) have
+    the same inputs, so each one's energy is predicted at best by its duration times the mean
+    power of the others (leave one out). Per surface: the groups (their mean powers [W] and
+    coefficient of variation) and that prediction's MAPE and median over their trips [%]."""
+    groups: dict[tuple[str, float, float], list[float]] = {}
+    for tr in trips:
+        speed = round(float(np.mean(np.abs(tr.speed_mps))) / COMMAND_STEP) * COMMAND_STEP
+        yaw = 0.0 if tr.yaw_radps is None else float(np.mean(np.abs(tr.yaw_radps)))
+        yaw = round(yaw / COMMAND_STEP) * COMMAND_STEP
+        groups.setdefault((tr.group, speed, yaw), []).append(tr.energy_J / float(np.sum(tr.held_s)))
+    errors: dict[str, list[float]] = {}
+    rows = []
+    for (group, speed, yaw), powers in sorted(groups.items()):
+        if len(powers) < 2:
+            continue
+        p = np.array(powers)
+        others = (p.sum() - p) / (p.size - 1)
+        ape = list(np.abs(others - p) / p * 100)
+        errors.setdefault(group, []).extend(ape)
+        errors.setdefault("all", []).extend(ape)
+        cv = 100 * p.std(ddof=1) / p.mean()
+        listed = ", ".join(f"{x:.0f}" for x in p)
+        rows.append(
+            f"| {group} | {speed:.2f} | {yaw:.2f} | {p.size} | {listed} | {cv:.1f} "
+            f"| {np.mean(ape):.1f} | {np.median(ape):.1f} |"
+        )
+    for group, ape in sorted(errors.items(), key=lambda x: (x[0] == "all", x[0])):
+        rows.append(
+            f"| **{group}** | | | {len(ape)} | | | **{np.mean(ape):.1f}** "
+            f"| **{np.median(ape):.1f}** |"
+        )
+    return rows
+
+
+#: GPS altitude is smoothed over this [s] (on a 1 s grid) before its changes are taken
+ALTITUDE_SMOOTH_S = 10
+G_MPS2 = 9.81
+
+
+def grade_rows(files: list[Path]) -> list[str]:
+    """What a slope puts in a trip's energy that no term of speed can (the drive model has no
+    grade term: docs/drive-model.md, "What is not modelled"): per group, over the trips of
+    logs with `gps_altitude_m` and a `mass_kg` (+ `payload_kg`, the rider), the potential
+    energy m g (h_end - h_start) of the trip's net climb and m g sum(dh > 0) of its gross
+    climb, each over the trip's measured energy [%] (altitude the mean over
+    `ALTITUDE_SMOOTH_S`: GPS altitude is noisy to a few metres, so a lower bound on what the
+    road does, and an upper one on the gross climb of a flat ride). The trips are cut as
+    `trips_of` cuts them."""
+    net: dict[str, list[float]] = {}
+    gross: dict[str, list[float]] = {}
+    for path in files:
+        meta, cols = read_log(path)
+        if "gps_altitude_m" not in cols or "mass_kg" not in meta:
+            continue
+        mass_kg = float(meta["mass_kg"]) + float(meta.get("payload_kg") or 0)
+        t, p, v, h = cols["time_s"], power_of(cols), cols["speed_mps"], cols["gps_altitude_m"]
+        group = meta.get("surface") or meta.get("vehicle") or "all"
+        for a, b in moving_stretches(t, v, None):
+            energy_J = float(np.sum(p[a:b] * np.append(np.diff(t[a:b]), 0.0)))
+            known = np.isfinite(h[a:b])
+            grid = np.arange(t[a], t[b - 1], 1.0)
+            if energy_J <= 0 or known.sum() < 2 or grid.size < 2 * ALTITUDE_SMOOTH_S:
+                continue
+            height = np.interp(grid, t[a:b][known], h[a:b][known])
+            kernel = np.ones(ALTITUDE_SMOOTH_S) / ALTITUDE_SMOOTH_S
+            height = np.convolve(height, kernel, mode="valid")
+            weight = mass_kg * G_MPS2 / energy_J * 100
+            for key in (group, "all"):
+                net.setdefault(key, []).append(abs(height[-1] - height[0]) * weight)
+                gross.setdefault(key, []).append(np.sum(np.maximum(np.diff(height), 0)) * weight)
+    rows = []
+    for key in sorted(net, key=lambda k: (k == "all", k)):
+        n, g = np.array(net[key]), np.array(gross[key])
+        rows.append(
+            f"| {key} | {n.size} | {np.median(n):.1f} | {np.mean(n > 5) * 100:.0f} "
+            f"| {np.median(g):.1f} |"
+        )
+    return rows
 
 
 def fmt(x: float) -> str:
@@ -450,6 +671,36 @@ def report() -> str:
                 cells += scores(m, pooled_yaw[idx])
             text = " | ".join("-" if c is None else fmt(c) for c in cells)
             out.append(f"| {g} | {idx.size} | {nonpos} | {text} |")
+        repeats = repeat_rows(trips) if has_yaw else []
+        if repeats:
+            out += [
+                "\nRepeated commands (the floor: trips of a surface whose mean |speed| and "
+                f"|yaw rate| round to the same multiple of {COMMAND_STEP} m/s, rad/s; each "
+                "trip's mean power predicted by the others' mean; MAPE, median [%]):\n",
+                "| group | speed [m/s] | yaw [rad/s] | trips | mean power [W] | cv [%] "
+                "| MAPE | median |",
+                "|---|---|---|---|---|---|---|---|",
+                *repeats,
+            ]
+        grades = grade_rows(files)
+        if grades:
+            out += [
+                "\nSlopes (trips of logs with a GPS altitude and a mass: the potential energy "
+                "of the net climb and of the gross climb, m g dh, over the trip's energy [%]):\n",
+                "| group | trips | net: median | net > 5% of trips | gross: median |",
+                "|---|---|---|---|---|",
+                *grades,
+            ]
+        sides = sides_rows(files)
+        if sides:
+            out += [
+                "\nThe sides of an arc (samples; the slower side's current at most the "
+                f"standstill {STANDSTILL_A} A [%]; medians of the slower and the faster side "
+                "[A]):\n",
+                "| motion | surface | samples | slower <= standstill | slower | faster |",
+                "|---|---|---|---|---|---|",
+                *sides,
+            ]
         vehicles = any(tr.group != name for tr in trips) and all(
             "vehicle" in _meta_of(f) for f in files
         )
@@ -458,6 +709,7 @@ def report() -> str:
         # one fit per group (every term per surface, as "LS per group"); and, where the
         # groups are surfaces of one robot, one fit for the set (per-surface rolling and
         # turning terms, the rest shared: what `fit` does with a folder of them)
+        out += same_folds_rows(trips, groups, per[False])
         for by_group in (True,) if vehicles else (True, False):
             drive = drive_model_rows(trips, by_vehicle=by_group)
             if drive is None:

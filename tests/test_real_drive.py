@@ -356,3 +356,191 @@ def test_the_converters_write_the_logs_found_byte_for_byte(tmp_path: Path) -> No
         compared += 1
     if not compared:
         pytest.skip(f"{UNAVAILABLE}; or no fetched mirror under {MIRRORS}")
+
+
+def _sides_proxy(
+    v: np.ndarray, yaw: np.ndarray, track_m: float, viscous: float = 40.0, wong: bool = False
+) -> np.ndarray:
+    """A Husky-like current proxy built side by side, not from the drive model's columns:
+    each side needs half the rolling force (50 W proxy while it moves) and its viscous force
+    (40 W/(m/s) of its own speed) along its motion, plus or minus the scrubbing moment over
+    the track (125 W Coulomb + 40 W/(rad/s)), F_side = F/2 +- M/B (Wong 2008, Sec. 7.2); a
+    side's current is logged only while it drives (F_side > 0: a braking side reads ~0 A);
+    idle 30 W. `wong`: the moment on a turn of radius R is its spin's times 0.925 / (0.925 +
+    0.15 R/B) (Wong 2008, Sec. 7.2)."""
+    total = np.full(v.size, 30.0)
+    moment = np.where(yaw != 0, 125.0 + 40.0 * np.abs(yaw), 0.0)
+    if wong:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            radius_m = np.where(yaw != 0, np.abs(v) / np.abs(yaw), 0.0)
+        moment = moment * 0.925 / (0.925 + 0.15 * radius_m / track_m)
+    for side in (-1.0, 1.0):
+        side_v = v + side * yaw * track_m / 2
+        moves = np.abs(side_v) > 1e-9
+        # along its own motion: the moment helps the side turning against it (the inner
+        # side of an arc), drives both sides of a spin (each turns its own way)
+        sign = np.sign(side_v) * side * np.sign(yaw)
+        along = np.where(moves, 50.0 + viscous * np.abs(side_v) + sign * moment, 0.0)
+        total += np.maximum(along, 0.0)
+    return total
+
+
+def test_a_current_proxys_arc_counts_the_driving_side_only() -> None:
+    # drive/windows.py `_force_form`: driving straight the proxy is F, spinning F_r + 2M/B,
+    # on an arc F/2 + M/B (its inner side brakes): a proxy made side by side is fitted back
+    # exactly on steady windows, with the rolling, viscous and moment terms the sides were
+    # given; counting an arc as a spin plus a straight run (its longitudinal and moment
+    # columns in full) misses it
+    from wifibot_power.drive.identify import least_squares
+    from wifibot_power.drive.stats import drive_stats
+    from wifibot_power.drive.windows import assemble, run_windows
+    from wifibot_power.run import Run, RunMeta
+
+    track_m, period_s = 0.57, 0.01
+    t = np.arange(0, 60, period_s)
+    plan = [  # (start, end, speed [m/s], yaw rate [rad/s]); standing elsewhere
+        (3, 11, 0.4, 0.0),
+        (14, 22, 0.8, 0.0),
+        (25, 33, 0.0, 0.5),
+        (36, 44, 0.0, 1.0),
+        (47, 57, 0.3, 0.4),
+    ]
+    v, yaw = np.zeros(t.size), np.zeros(t.size)
+    for start, end, speed, rate in plan:
+        inside = (t >= start) & (t < end)
+        v[inside], yaw[inside] = speed, rate
+    meta = RunMeta(
+        run_id="arc", sample_period_s=period_s, extra={"surface": "s", "voltage_assumed_V": "24"}
+    )
+    proxy = _sides_proxy(v, yaw, track_m)
+    run = Run("arc.csv", "wbpower-csv", meta, t, proxy, speed_mps=v, yaw_rate_radps=yaw)
+    windows = assemble([run_windows(drive_stats(run))], 0)
+    start = np.arange(windows.size) * windows.window_s
+    steady = np.ones(windows.size, dtype=bool)
+    for edge in sorted({e for s, f, *_ in plan for e in (s, f)}):  # no window across a step
+        steady &= (start + windows.window_s <= edge) | (start >= edge)
+    names = ("idle_W", "rolling_W_per_mps[s]", "quadratic_W_per_mps2", "drive_on_W")
+    X = windows.design[steady][:, [windows.columns.index(n) for n in (*names, "turning_Nm[s]")]]
+    y = windows.power_W[steady]
+    coef = least_squares(X, y)
+    # idle, rolling (both sides), viscous (both sides: 2 x 40), Coulomb moment 2 x 125;
+    # the rate part: 2 x 40 and a spinning side's viscous force at omega B/2
+    expected = (30.0, 100.0, 80.0, 250.0, 80.0 + 80.0 * track_m / 2)
+    np.testing.assert_allclose(coef, expected, rtol=1e-6)
+    arc = steady & (start >= 47) & (start < 57)
+    np.testing.assert_allclose(X[arc[steady]] @ coef, y[arc[steady]], rtol=1e-9)
+
+
+def test_vulpis_aliased_wheel_speeds_are_replaced_and_nothing_else() -> None:
+    # convert_borealtc.dealias: a sample reading about half of its two agreeing neighbours
+    # (Vulpi's every third or fourth) takes their mean; a real change of speed, a stop, a
+    # start from rest and a half-speed stretch longer than one sample are kept as logged
+    bt = load_script("convert_borealtc", ROOT / "benchmarks" / "real_logs" / "convert_borealtc.py")
+    cruise = np.full(12, 0.56)
+    cruise[[2, 6, 9]] = [0.29, 0.30, 0.27]  # aliased
+    ramp = np.linspace(0.56, 0.0, 8)  # braking to a stop
+    halved = np.array([0.56, 0.28, 0.28, 0.28, 0.56])  # a real stretch at half speed
+    start = np.array([0.0, 0.0, 0.3, 0.56, 0.56])
+    speed = np.concatenate((cruise, ramp, halved, start))
+    fixed, count = bt.dealias(speed)
+    assert count == 3
+    expected = speed.copy()
+    expected[[2, 6, 9]] = [0.56, 0.56, 0.56]
+    np.testing.assert_allclose(fixed, expected)
+    # backwards alike
+    fixed, count = bt.dealias(-speed)
+    assert count == 3
+    np.testing.assert_allclose(fixed, -expected)
+
+
+def test_a_current_proxy_that_never_stands_keeps_its_rolling_force_not_idle() -> None:
+    # trips that never stand make idle and the rolling force (on while moving) one column;
+    # in the force form idle is the motors' standstill current and the rolling force is
+    # what moving takes, so rolling is kept (identify.PREFERENCE_FORCE_FORM) and an arc,
+    # where the rolling force counts half, is predicted from straight runs and spins alone
+    from wifibot_power.drive import fit_drive
+    from wifibot_power.drive.stats import drive_stats
+    from wifibot_power.run import Run, RunMeta
+
+    track_m, period_s = 0.57, 0.01
+    t = np.arange(0, 20, period_s)
+    extra = {"surface": "s", "voltage_assumed_V": "24"}
+
+    def run(name: str, speed: float, rate: float) -> Run:
+        v, yaw = np.full(t.size, speed), np.full(t.size, rate)
+        meta = RunMeta(run_id=name, sample_period_s=period_s, extra=extra)
+        proxy = _sides_proxy(v, yaw, track_m) - 30.0  # no idle to see: 0 W standing
+        return Run(f"{name}.csv", "wbpower-csv", meta, t, proxy, speed_mps=v, yaw_rate_radps=yaw)
+
+    kinds = [(0.4, 0.0), (0.8, 0.0), (0.0, 0.5), (0.0, 1.0)]
+    runs = [run(f"r{k}{j}", *kind) for k, kind in enumerate(kinds) for j in range(2)]
+    model = fit_drive(runs)
+    assert "rolling_W_per_mps" in model.surfaces["s"]
+    assert "idle_W" not in model.terms
+    measured_J, predicted_J = model.run_energy_J(drive_stats(run("arc", 0.3, 0.4)))
+    assert abs(predicted_J / measured_J - 1) < 0.01, (measured_J, predicted_J)
+
+
+@pytest.mark.skipif(
+    not (DRIVE / "borealtc").is_dir(), reason=UNAVAILABLE.replace("logs in", "BorealTC logs in")
+)
+def test_a_huskys_arc_is_driven_by_its_outer_side_alone() -> None:
+    # what `_force_form` assumes, read from the raw side currents, not from any fit: on an
+    # arc the slower side reads at most the standstill current in most samples of every
+    # surface, its median at that level, while driving straight or spinning in place a side
+    # seldom does; the faster side of an arc carries at least half a spin's side
+    files = sorted((DRIVE / "borealtc").rglob("*.csv.gz"))
+    tally = validate.sides_currents(files)
+    standstill = validate.STANDSTILL_A
+    for (surface, kind), sides in tally.items():
+        if sides.shape[0] < 100:
+            continue
+        idle_share = float(np.mean(sides[:, 0] <= standstill))
+        if kind == "arc":
+            assert idle_share > 0.5, (surface, idle_share)
+            assert np.median(sides[:, 0]) <= standstill, surface
+            spin = tally.get((surface, "spin"))
+            if spin is not None and spin.shape[0] >= 100:
+                assert np.median(sides[:, 1]) > 0.5 * np.median(spin), surface
+        else:
+            assert idle_share < 0.1, (surface, kind, idle_share)
+    assert {kind for _, kind in tally} == {"arc", "spin", "straight"}
+
+
+def test_a_current_proxys_arc_turns_with_the_moment_of_its_radius() -> None:
+    # windows._radius_factor: with the log's track the arc's moment is its spin's times
+    # 0.925 / (0.925 + 0.15 R/B); a proxy made side by side with that moment is fitted back
+    # exactly, and without the track (the factor unknown: 1) it is not
+    from wifibot_power.drive.identify import least_squares
+    from wifibot_power.drive.stats import drive_stats
+    from wifibot_power.drive.windows import assemble, run_windows
+    from wifibot_power.run import Run, RunMeta
+
+    track_m, period_s = 0.57, 0.01
+    t = np.arange(0, 50, period_s)
+    plan = [(3, 11, 0.4, 0.0), (14, 22, 0.0, 0.5), (25, 33, 0.0, 1.0), (36, 46, 0.3, 0.4)]
+    v, yaw = np.zeros(t.size), np.zeros(t.size)
+    for start, end, speed, rate in plan:
+        inside = (t >= start) & (t < end)
+        v[inside], yaw[inside] = speed, rate
+    proxy = _sides_proxy(v, yaw, track_m, viscous=0.0, wong=True)
+    fits = {}
+    for with_track in (True, False):
+        extra = {"surface": "s", "voltage_assumed_V": "24"}
+        if with_track:
+            extra["track_m"] = str(track_m)
+        meta = RunMeta(run_id="arc", sample_period_s=period_s, extra=extra)
+        run = Run("arc.csv", "wbpower-csv", meta, t, proxy, speed_mps=v, yaw_rate_radps=yaw)
+        windows = assemble([run_windows(drive_stats(run))], 0)
+        start = np.arange(windows.size) * windows.window_s
+        steady = np.ones(windows.size, dtype=bool)
+        for edge in sorted({e for s, f, *_ in plan for e in (s, f)}):
+            steady &= (start + windows.window_s <= edge) | (start >= edge)
+        names = ("idle_W", "rolling_W_per_mps[s]", "drive_on_W", "turning_Nm[s]")
+        X = windows.design[steady][:, [windows.columns.index(n) for n in names]]
+        y = windows.power_W[steady]
+        coef = least_squares(X, y)
+        fits[with_track] = (coef, float(np.max(np.abs(X @ coef - y) / y)))
+    np.testing.assert_allclose(fits[True][0], (30.0, 100.0, 250.0, 80.0), rtol=1e-6)
+    assert fits[True][1] < 1e-9
+    assert fits[False][1] > 0.01

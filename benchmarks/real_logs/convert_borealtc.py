@@ -8,8 +8,10 @@ pro_NN.csv` holds, at 6.5 Hz (a 1/6.5 s step, evenly spaced):
 
 - `time` [s] from the file's first row;
 - `curL`, `curR`: the left and right **motor** currents [A] as the Husky's controller
-  reports them: magnitudes (never negative), the torque-producing current (the dataset's
-  own `utils/transforms.py` turns them into torque with the motor constant);
+  reports them: never negative, the torque-producing current (the dataset's own
+  `utils/transforms.py` turns them into torque with the motor constant), and ~0 on a side
+  that brakes (an arc's inner side reads at most the 0.6 A standstill current in 51-98% of
+  its samples: benchmarks/validate_drive_real.py, "The sides of an arc");
 - `velL`, `velR`: the left and right wheel speeds [m/s] (wheel odometry, signed);
 - `MIXED/pro_00.csv` only: a `terrain` column naming the surface under the robot, empty
   where unlabelled.
@@ -18,8 +20,8 @@ The logs carry no voltage. Power is therefore `NOMINAL_V` (the Husky's 24 V batt
 each motor's current: each side is a channel (`voltage_left_V` = 24, `current_left_A`;
 `..._right_...`; log-format.md "Several channels"). This is what the motors would draw
 from the battery if the drivers passed motor current through 1:1: at part duty the real
-battery current is lower, and braking shows as a draw (the currents are magnitudes). It
-is a proxy proportional to the motors' torque; a constant factor does not change any
+battery current is lower, and a braking side shows nothing (its current reads ~0). It
+is a proxy proportional to the driving motors' torque; a constant factor does not change any
 relative energy error, but the watts are not the battery's.
 
 Each file becomes one `.csv.gz`, every row kept: `time_s`, the two channels,
@@ -33,7 +35,8 @@ place (their linear speed is 0 throughout, and `speed_mps: 0` in a motion run is
 that contradicts itself, log-format.md "Bad input"), `surface` (lower case folder name;
 not for MIXED), `track_m` = 0.5708 (husky_description's `track`), `mass_kg` = 50 (the
 A200's own mass, Clearpath's data sheet; the sensors it carried are not stated),
-`voltage_assumed_V` = 24, and the provenance keys (`source_repo`, `source_commit`,
+`voltage_assumed_V` = 24, for `vulpi` `speed_dealiased` (its wheel speeds' aliased
+samples replaced: `dealias`), and the provenance keys (`source_repo`, `source_commit`,
 `source_path`, `source_licence`, `robot`). No `max_power_W`: the Husky's limit is not
 documented in the source.
 
@@ -87,6 +90,13 @@ TRACK_M = 0.5708
 #: Clearpath's data sheet mass of the A200 [kg]
 MASS_KG = 50.0
 HEADER = ("time", "curL", "curR", "velL", "velR")  # by name: vulpi orders them otherwise
+#: the sets whose wheel speeds hold aliased samples (`dealias`)
+ALIASED = ("vulpi",)
+#: an aliased sample reads this share of its neighbours' mean speed (Vulpi's: 0.40-0.70, most
+#: 0.50-0.55), its neighbours agreeing within `ALIAS_AGREE` and faster than `ALIAS_MIN_MPS`
+ALIAS_SHARE = (0.35, 0.70)
+ALIAS_AGREE = 0.15
+ALIAS_MIN_MPS = 0.1
 
 COLUMNS = (
     ("time_s", "%.6f"),
@@ -118,6 +128,31 @@ def parse(text: str, source: str) -> dict[str, np.ndarray]:
     if np.any(np.diff(cols["time"]) <= 0):
         raise SystemExit(f"{source}: time not increasing")
     return cols
+
+
+def dealias(speed_mps: np.ndarray) -> tuple[np.ndarray, int]:
+    """A wheel speed with its aliased samples replaced by their neighbours' mean, and how many.
+
+    Vulpi's wheel speeds (15 Hz) read about half the speed on every third or fourth sample
+    (0.56, 0.57, 0.29, 0.59 m/s): of the samples whose two neighbours agree within 15% above
+    0.1 m/s, 54% read 0.40-0.70 of their neighbours' mean, 0.50-0.55 most often: 6,312 of its
+    24,640 wheel speed samples (BorealTC's own logs, 6.5 Hz: 8 of 108,302). A 50 kg Husky
+    cannot lose and regain half of 0.56 m/s within 2/15 s (+-4 m/s^2, 0.4 g), and its motor
+    currents show no braking nor pulse there (concrete/pro_1 at 0.4 s, 0.29 m/s between 0.56
+    and 0.57: 2.3 / 3.6 A before, 3.6 / 3.9 A at it, 3.5 / 4.0 A after): an encoder count
+    taken over part of its period, not a speed. Left in, they put a quarter of the samples at
+    half speed and the noise estimate of the drive model (successive differences) at 0.25 m/s,
+    so that a 0.56 m/s run counts as standing (docs/drive-model.md, "Real logs")."""
+    prev, cur, nxt = speed_mps[:-2], speed_mps[1:-1], speed_mps[2:]
+    around = (prev + nxt) / 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = cur / around
+    agree = np.abs(prev - nxt) <= ALIAS_AGREE * np.abs(prev)
+    fast = (np.abs(prev) > ALIAS_MIN_MPS) & (np.abs(nxt) > ALIAS_MIN_MPS)
+    aliased = agree & fast & (share >= ALIAS_SHARE[0]) & (share <= ALIAS_SHARE[1])
+    out = speed_mps.copy()
+    out[1:-1][aliased] = around[aliased]
+    return out, int(np.count_nonzero(aliased))
 
 
 def to_canonical(cols: dict[str, np.ndarray], meta: dict[str, str]) -> str:
@@ -157,6 +192,11 @@ def convert(mirror: Path, out: Path, set_name: str = "borealtc") -> list[Path]:
     for path in experiments(mirror, folder):
         surface_dir, stem = Path(path).parent.name, Path(path).stem
         cols = parse(git(mirror, "show", f"{COMMIT}:{path}").decode(), f"{REPO}:{path}")
+        replaced = 0
+        if set_name in ALIASED:
+            cols["velL"], left = dealias(cols["velL"])
+            cols["velR"], right = dealias(cols["velR"])
+            replaced = left + right
         top = np.max(np.abs(cols["velL"] + cols["velR"]) / 2)
         meta = {"run_id": f"{set_name}/{surface_dir.lower()}/{stem}"}
         if top >= 0.005:  # a run that only spins has no speed to give (see the docstring)
@@ -175,6 +215,11 @@ def convert(mirror: Path, out: Path, set_name: str = "borealtc") -> list[Path]:
             "source_licence": licence,
             "robot": robot,
         }
+        if set_name in ALIASED:
+            meta["speed_dealiased"] = (
+                f"{replaced} wheel speed sample(s) of {2 * cols['time'].size} read at about "
+                "half their neighbours' speed, replaced by the neighbours' mean (dealias)"
+            )
         target = out / surface_dir.lower() / f"{stem}.csv.gz"
         target.parent.mkdir(parents=True, exist_ok=True)
         write_gzip(target, to_canonical(cols, meta))

@@ -69,6 +69,9 @@ class DriveStats:
     #: `voltage_assumed_V` metadata, `current_proxy`): it grows with the motors' torque, not
     #: with the power they draw, and the drive model takes its force form (windows.py)
     current_proxy: bool = False
+    #: the wheels' track [m] (the log's `track_m` metadata; NaN: unknown): the turning radius
+    #: over it sets a current proxy's scrubbing moment on an arc (windows.py `_force_form`)
+    track_m: float = float("nan")
 
     @property
     def bins(self) -> int:
@@ -90,6 +93,7 @@ class DriveStats:
             "surfaces": list(self.surfaces),
             "notes": list(self.notes),
             "current_proxy": self.current_proxy,
+            "track_m": None if self.track_m != self.track_m else self.track_m,
         }
 
     @classmethod
@@ -106,6 +110,7 @@ class DriveStats:
             surfaces=tuple(data["surfaces"]),
             notes=tuple(data["notes"]),
             current_proxy=bool(data.get("current_proxy", False)),
+            track_m=float("nan") if data.get("track_m") is None else float(data["track_m"]),
         )
 
 
@@ -167,6 +172,7 @@ def drive_stats(run: Run, segmentation: Segmentation | None = None) -> DriveStat
         samples_per_bin=BIN_S / period_s,
         speed_from_phases=from_phases,
         current_proxy=current_proxy(run),
+        track_m=_track_m(run),
     )
 
 
@@ -184,6 +190,16 @@ def current_proxy(run: Run) -> bool:
     ground [m/s] (k_e = k_t). It does not grow with the speed as the electrical power F v /
     eta does (docs/drive-model.md, "Current-only logs")."""
     return VOLTAGE_ASSUMED_KEY in run.meta.extra
+
+
+def _track_m(run: Run) -> float:
+    """The run's `track_m` metadata [m] when it is a positive number, else NaN (the reader
+    refuses a bad one where it needs it: io/reader.py)."""
+    try:
+        track_m = float(run.meta.extra.get("track_m", "nan"))
+    except ValueError:
+        return float("nan")
+    return track_m if track_m > 0 else float("nan")
 
 
 def _sample_noise(values: np.ndarray) -> float:

@@ -19,7 +19,10 @@ V_nom I = u_0 F, a force times the motor's no-load speed at the ground (I = tau 
 terms take their force form (windows.py; docs/drive-model.md, "Current-only logs"), the
 same names with the speed divided out: a constant rolling force while translating, a viscous
 force |v|, m_eff a sign(v), and for turning a Coulomb moment while turning (in drive_on_W's
-slot: a motor current holds no drivers' step) plus its part in |yaw rate|.
+slot: a motor current holds no drivers' step) plus its part in |yaw rate|; on an arc only the
+outer side drives (the inner one brakes, its current not logged), so every longitudinal and
+moment column counts half there (windows.py `_force_form`; Wong, "Theory of Ground
+Vehicles", 4th ed., 2008, Sec. 7.2: F_out = F/2 + M/B, F_in = F/2 - M/B).
 
 References
 ----------
@@ -100,7 +103,8 @@ def turning_power_W(yaw_rate_radps: np.ndarray, turning_Nm: float) -> np.ndarray
     overcome it is P = M_r |yaw rate| [W] ([1], Eq. 20-22: the lateral friction moment
     mu m g l / 4 for a uniform load times the rate of turn, over the drive efficiency). [1]
     finds M_r varies with the turning radius (larger on tight turns); a constant moment is
-    its spin-in-place value and is what logs of hand-driven robots determine. For a
+    its spin-in-place value (a current proxy's force form scales an arc's by Wong's
+    0.925 / (0.925 + 0.15 R/B) where the track is known: windows.py `_radius_factor`). For a
     differential drive the same form holds with a much smaller moment (caster scrub, [2],
     Sec. 3.2). Depends on the surface."""
     return turning_Nm * np.abs(yaw_rate_radps)

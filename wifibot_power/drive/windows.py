@@ -14,7 +14,9 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
   samples: no window spans a drop-out.
 - A current-proxy log (`DriveStats.current_proxy`: nominal voltage x motor current, ~ the
   wheels' force) gets the force form of the regressors (terms.py): the share of the window
-  translating, |v|, the change of |v| (not of v^2/2), the share turning, and |yaw rate|.
+  moving, |v|, the change of |v| (not of v^2/2), the share turning, and |yaw rate|, with an
+  arc's (translating and turning) longitudinal and moment columns counted half: only its
+  outer side drives (`_force_form`).
 - Trips: a run is cut at its stops (the robot standing, not turning, for at least `STOP_S`),
   in the middle of each stop; a trip is the unit held out (heldout.py).
 """
@@ -81,6 +83,8 @@ class Windows:
     run_ids: tuple[str, ...]
     surfaces: tuple[str, ...]
     window_s: float
+    #: every run is a current proxy: the columns are the terms' force form (`_force_form`)
+    force_form: bool = False
 
     @property
     def size(self) -> int:
@@ -98,6 +102,7 @@ class Windows:
             self.run_ids,
             self.surfaces,
             self.window_s,
+            self.force_form,
         )
 
 
@@ -201,18 +206,14 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     )
     moving = moving_bins.reshape(shape).mean(axis=1)
     if stats.current_proxy:
-        # the force form (docs/drive-model.md, "Current-only logs"): a Coulomb rolling force
-        # while the robot translates, a viscous force ~ |v|; a scrubbing moment's Coulomb part
-        # while it turns in the step's slot (a motor current holds no drivers' step: their
-        # own draw is not in it), its rate-dependent part on |yaw rate| (the Husky's currents
-        # grow with the rate of turn within a trip: 83 W window RMS on BorealTC against 96 W
-        # with the Coulomb part alone; its spins' currents are flat in the rate from trip to
-        # trip: sandy loam 39% held-out MAPE without the Coulomb part, 13% with it)
-        translating = np.abs(speed[:used]) > speed_floor
-        turning = np.abs(stats.yaw_rate_radps[:used]) > yaw_floor
-        speed2 = abs_speed
-        abs_speed = translating.reshape(shape).mean(axis=1)
-        moving = turning.reshape(shape).mean(axis=1)
+        translating = (np.abs(speed[:used]) > speed_floor).reshape(shape)
+        turning = (np.abs(stats.yaw_rate_radps[:used]) > yaw_floor).reshape(shape)
+        radius_w = _radius_factor(
+            speed[:used].reshape(shape), stats.yaw_rate_radps[:used].reshape(shape), stats.track_m
+        )
+        abs_speed, speed2, moving, abs_yaw, av_up, av_down = _force_form(
+            translating, turning, radius_w, abs_speed, abs_yaw, av_up, av_down
+        )
     # (not the speeding-up and braking terms: a window standing still may end where a step
     # in speed begins, and its edge speeds say so; at a true standstill they are ~0 anyway)
     for regressor in (abs_speed, speed2, abs_yaw, moving):
@@ -221,6 +222,79 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     return RunWindows(
         stats, n, abs_speed, speed2, av_up, av_down, abs_yaw, moving, ok, trip, standing
     )
+
+
+#: Wong's empirical lateral resistance of a skid-steer turn, mu_t = mu_max / (A + B_R R/B)
+#: (`_radius_factor`)
+WONG_A, WONG_B = 0.925, 0.15
+
+
+def _radius_factor(speed_mps: np.ndarray, yaw_rate_radps: np.ndarray, track_m: float):
+    """Each bin's scrubbing moment on a turn of radius R = |v| / |yaw rate| over its value
+    turning in place, 0.925 / (0.925 + 0.15 R/B), B the track (1 where the track is unknown
+    or the bin does not turn). The lateral resistance of a skid-steer vehicle falls with the
+    turning radius: Wong, "Theory of Ground Vehicles", 4th ed., 2008, Sec. 7.2, the empirical
+    mu_t = mu_max / (0.925 + 0.15 R/B) of Steeds; Morales et al. 2009 ([1] of terms.py) find
+    the Auriga's moment larger on tight turns. On BorealTC's Husky (R from the wheel
+    speeds), sandy loam's one arc (R/B ~1.2) turns with ~0.7 of its spins' moment by the
+    sides' currents (the formula: 0.84); held out per surface with the factor, MAPE 17.0% ->
+    16.1% (median 7.1%): asphalt 25.6 -> 19.5%, sandy loam 5.8 -> 5.0%, its arc +23% ->
+    +10%. Used by the force form only (measured on current proxies; the simulator's robot
+    has a constant moment)."""
+    if not track_m > 0:
+        return np.ones_like(speed_mps)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.abs(speed_mps) / (np.abs(yaw_rate_radps) * track_m)
+    factor = WONG_A / (WONG_A + WONG_B * ratio)
+    return np.where(np.isfinite(factor), factor, 1.0)
+
+
+def _force_form(
+    translating: np.ndarray,
+    turning: np.ndarray,
+    radius_w: np.ndarray,
+    abs_speed: np.ndarray,
+    abs_yaw: np.ndarray,
+    av_up: np.ndarray,
+    av_down: np.ndarray,
+) -> tuple[np.ndarray, ...]:
+    """A current proxy's regressors (docs/drive-model.md, "Current-only logs"), from each
+    bin's `translating`, `turning` and moment factor `radius_w` (a row of bins per window;
+    `_radius_factor`) and the window's |v|, |yaw rate| and d|v|/dt: (rolling, viscous,
+    Coulomb moment, rate moment, speeding up, braking), in the slots of (|v|, v^2, the step
+    on moving, |yaw rate|, (a v)+, (a v)-).
+
+    The proxy is V_nom (|I_left| + |I_right|), each side's current its motor's torque while
+    it drives (the Husky's controller reads ~0 A on a side that brakes: below). A skid-steer
+    robot's two sides share the longitudinal force F (rolling F_r, viscous c|v|, inertial
+    m a) and make the scrubbing moment M between them: F_out = F/2 + M/B, F_in = F/2 - M/B
+    (Wong, "Theory of Ground Vehicles", 4th ed., Wiley 2008, Sec. 7.2, the kinetics of skid
+    steering; Morales et al. 2009, [1] of terms.py, Eq. 20-22 for M). So the proxy is u_0 F
+    driving straight; u_0 (F_r + 2 M/B) turning in place (each side drives its own way,
+    rolling included); and u_0 (F/2 + M/B) on an arc where M/B > F/2: the inner side
+    brakes, its current is not in the log, and every longitudinal force and the moment
+    count half. On BorealTC's Husky logs the inner side reads <= 0.6 A (the standstill
+    current) in 51-98% of the arc samples per surface (turning at > 0.15 rad/s, both sides
+    forward; Vulpi's few arcs: 27-45%), against 0-9% of the slower side driving straight or
+    spinning; its median is 0.0-0.6 A while the outer side's is about one side of a spin's
+    on the same surface (3.6-12.7 A against 3.5-11.8 A: benchmarks/validate_drive_real.py,
+    "The sides of an arc"). An arc's moment is its spin's times the radius factor. The
+    moment's part growing with the rate of turn is |yaw rate|'s column, halved on an arc
+    alike (within a trip the Husky's currents grow with the rate:
+    83 W window RMS on BorealTC against 96 W with the Coulomb part alone; from trip to trip
+    its spins' currents are flat in the rate, which the Coulomb part carries). Held out (one
+    fit per surface, BorealTC): MAPE 19.8% -> 17.5%, median 10.1% -> 7.1%, against an arc
+    counted as a spin plus a straight run."""
+    arc_bins = translating & turning
+    arc = arc_bins.mean(axis=1)
+    # an arc's moment, each bin's by its radius (`_radius_factor`; 1: a spin's)
+    arc_moment = (arc_bins * radius_w).mean(axis=1)
+    half = 1.0 - arc / 2.0
+    moving = (translating | turning).mean(axis=1)
+    rolling = moving - arc / 2.0
+    coulomb = turning.mean(axis=1) - arc + arc_moment / 2.0
+    rate = abs_yaw * (1.0 - arc + arc_moment / 2.0)
+    return rolling, abs_speed * half, coulomb, rate, av_up * half, av_down * half
 
 
 def _window_abs(bins: np.ndarray, mean: np.ndarray, noise: float, samples: float) -> np.ndarray:
@@ -376,4 +450,5 @@ def assemble(
         run_ids=tuple(rw.stats.run_id for rw in runs),
         surfaces=surfaces,
         window_s=runs[0].n * runs[0].stats.bin_s if runs else WINDOW_S,
+        force_form=bool(runs) and all(rw.stats.current_proxy for rw in runs),
     )
