@@ -447,7 +447,7 @@ except KeyboardInterrupt as exc:
 def test_a_worker_stopped_while_it_sends_a_large_result_does_not_hang_the_parent(
     after_s: float,
 ) -> None:
-    """The hang of `diagnose -j 2` stopped 0.3 s into its work (issue 29; 2 runs in 60 under
+    """The hang of `diagnose -j 2` stopped 0.3 s into its work (issue 29; 3 runs in 60 under
     load, its stacks dumped): a worker stopped while it sent a large result left half a
     message in the pool's result pipe, the pool's thread waited for the rest forever, and so
     did the parent, joining it. Here the workers do nothing but send 8 MB results, so the

@@ -363,7 +363,7 @@ def _end_result_reads(pool: ProcessPoolExecutor) -> None:
     """Close this process's copy of the write end of the pool's result pipe, once its workers
     are all gone: a read of that pipe then ends (EOF) instead of waiting forever.
 
-    The cause of the hang of issue 29 (`diagnose -j 2` stopped 0.3 s into its work, 2 runs in
+    The cause of the hang of issue 29 (`diagnose -j 2` stopped 0.3 s into its work, 3 runs in
     60 under load): a worker stopped while it sent a result (diagnose's are large: written in
     several pieces) leaves half a message in the pipe. The pool's manager thread reads the
     message's length, then waits for the rest, which never comes; nor does EOF, as this
