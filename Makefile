@@ -56,15 +56,16 @@ test: $(VENV)/.installed browser
 # needs: selenium in the venv (the `browser` extra, ~45 MB with its dependencies), and
 # Debian's chromium and chromium-driver (505 MB with their libraries on Debian 12), installed
 # with apt where this runs as root with apt-get; elsewhere the test is skipped and says why.
-# Nothing else is fetched:
+# apt is given at most 5 + 10 minutes (a CI job never hangs on a slow mirror). Nothing else
+# is fetched:
 # selenium drives the system chromedriver, never downloads a browser of its own.
 CHROMIUM_PACKAGES ?= chromium chromium-driver
 browser: $(VENV)/.browser
 	@if command -v chromium >/dev/null 2>&1 && command -v chromedriver >/dev/null 2>&1; then :; \
 	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
 	  echo "installing $(CHROMIUM_PACKAGES) with apt-get for the browser test"; \
-	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
-	    $(CHROMIUM_PACKAGES) >/dev/null) \
+	  (timeout 300 apt-get update -qq && DEBIAN_FRONTEND=noninteractive timeout 600 \
+	    apt-get install -y -qq $(CHROMIUM_PACKAGES) >/dev/null) \
 	  || echo "could not install $(CHROMIUM_PACKAGES): the browser test will be skipped"; \
 	else echo "no chromium and chromedriver (and not root with apt-get): the browser test" \
 	  "will be skipped"; fi

@@ -459,7 +459,7 @@ def test_provenance_names_version_command_date_and_every_input(subset_dir: Path)
     import hashlib
 
     from wifibot_power import __version__
-    from wifibot_power.report_page import render_html
+    from wifibot_power.report import render_html
 
     built = build_report([subset_dir], jobs=1, command=["/x/bin/wbpower", "report", "a b"])
     page = render_html(built, [])

@@ -288,7 +288,8 @@ def write_report(report: Report, out_dir: str | Path, *, jobs: int | None = 1) -
 
 
 def render_html(report: Report, drawn: list[tuple[Drawn, bytes | None]]) -> str:
-    """The page (`report_page.render_html`)."""
+    """The page (`report_page.render_html`), each run's anchor its trace figure's name."""
     from wifibot_power.report_page import render_html as page
 
-    return page(report, drawn)
+    safe = _unique_safe([v.run_id for v in report.traces])
+    return page(report, drawn, {run_id: f"trace_{name}" for run_id, name in safe.items()})

@@ -98,17 +98,16 @@ STYLE = (
 )
 
 
-def render_html(report: Report, drawn: list[tuple[Drawn, bytes | None]]) -> str:
+def render_html(
+    report: Report, drawn: list[tuple[Drawn, bytes | None]], anchors: dict[str, str]
+) -> str:
     """The page (module docstring). `drawn`: every figure of the report with its PNG (None:
     not drawn, its `note` says why); the per-run trace figures are files only, the trace
-    view shows the runs."""
-    from wifibot_power.report import _unique_safe
-
+    view shows the runs; `anchors`: each run's id in the page, by run_id."""
     model = [(item, data) for item, data in drawn if not item.name.startswith("trace_")]
     shown = [(item, data) for item, data in model if data is not None]
     missing = [item for item, data in model if data is None]
     views = list(report.traces)
-    anchors = {r: f"trace_{name}" for r, name in _unique_safe([v.run_id for v in views]).items()}
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',

@@ -43,17 +43,6 @@ COVARIATES = {
 #: measured, so their sign is turned here.
 RESIDUAL = "measured − predicted"
 
-#: A finding's headline parameter in words (the panel titles name no code names).
-PARAMETER_WORDS = {
-    "kI": "inertial factor kI",
-    "amplitude_W": "ripple amplitude",
-    "hz_per_mps": "ripple frequency per speed",
-    "t_dec_s": "stopping time",
-    "E_start_J": "energy of each start",
-    "alpha_per_min": "power rise per minute of driving",
-    "k2_W_per_mps2": "speed² coefficient",
-}
-
 
 def heldout_error_figure(diagnosis: Diagnosis) -> Figure:
     """Four panels: held-out error of run motion energy, measured − predicted [%] of the
@@ -167,17 +156,16 @@ def _nothing_named(ax: Axes, diagnosis: Diagnosis) -> None:
 
 def _estimate_text(finding: Finding) -> str:
     """A finding's panel title in words: what the cause is (its physics, causes.md), then
-    its headline parameter's name in words, value, unit and 95% interval, and the gain."""
+    its estimate (the headline parameter's value, unit and 95% interval: the parameter's
+    code name is `diagnose`'s, not a title) and the gain."""
     from wifibot_power.causes import CAUSES
 
     e = finding.estimate
     low, high = e.get("ci95", [np.nan, np.nan])
     cause = CAUSES.get(finding.cause)
     what = cause.physics if cause is not None else finding.cause.replace("_", " ")
-    parameter = str(e.get("parameter", ""))
-    words = PARAMETER_WORDS.get(parameter, parameter.replace("_", " "))
     return (
-        f"{what[:1].upper()}{what[1:]}\n{words} {float(e.get('value', np.nan)):.4g} "
+        f"{what[:1].upper()}{what[1:]}\nestimate {float(e.get('value', np.nan)):.4g} "
         f"{e.get('unit', '')} [{low:.4g}, {high:.4g}], gain {finding.gain_text()}"
     )
 
