@@ -286,3 +286,69 @@ def test_step_runs_drive_model_beside_the_papers_lines(tmp_path, monkeypatch):
     assert max(len(line) for line in shown.stdout.splitlines()) <= 80
     table = shown.stdout[shown.stdout.index("paper's step runs") :]
     assert table.count(" yes ") == 6
+
+
+# -- batches of free driving and step runs (issue 25 (d), (e)) --------------------------------
+def _step_runs(folder, speeds: str):
+    made = _wbpower(
+        "simulate", "-o", folder, "--speeds", speeds, "--trips", "2x1", "--repeats", 2,
+        "--modes", "", "--sample-period", 0.01, "--seed", 3,
+    )  # fmt: skip
+    assert made.exit_code == 0, made.output
+    return folder
+
+
+def test_free_driving_beside_step_runs_is_used_by_the_drive_model(free, tmp_path):
+    # cli.md: the drive model is identified from every motion log with a speed column (or
+    # a step run's phases); the paper's fit lists the free runs in `skipped`, saying that
+    # it is the paper's models that left them out and that the drive model used them
+    logs, _, _ = free
+    grid = _step_runs(tmp_path / "grid", "0.2,0.5,0.8")
+    result = _wbpower("fit", logs, grid, "--json")
+    assert result.exit_code == 1, result.output  # cli.md: some input skipped
+    doc = json.loads(result.stdout)
+    assert doc["n_runs"] == 6 and doc["model_complete"] is True
+    assert doc["drive"]["n_runs"] == 4 + 6
+    # the free runs' surfaces are in the drive model: it used them
+    assert {"asphalt", "grass"} <= set(doc["drive"]["surfaces"])
+    free_logs = sorted(p.name for p in logs.glob("free_*.csv"))
+    assert sorted(s["file"].rsplit("/", 1)[-1] for s in doc["skipped"]) == free_logs
+    for skip in doc["skipped"]:
+        assert "the paper's models left it out: no mode or speed" in skip["reason"]
+        assert skip["reason"].endswith("the drive model used it")
+
+
+def test_incomplete_paper_model_still_writes_the_drive_model(free, tmp_path):
+    # one speed of step runs (the paper's lines need two) beside free driving: the paper's
+    # model is incomplete, and fit -o's model.json holds the drive model without the paper's
+    # section; energy --profile and export read it end to end
+    logs, _, _ = free
+    one = _step_runs(tmp_path / "one", "0.5")
+    out = tmp_path / "out"
+    result = _wbpower("fit", logs, one, "-o", out, "--json")
+    assert result.exit_code == 1, result.output
+    doc = json.loads(result.stdout)
+    assert doc["model_complete"] is False and doc["drive"] is not None
+    (incomplete,) = [w for w in doc["warnings"] if "the model is incomplete" in w]
+    assert "holds the drive model alone" in incomplete
+    model = json.loads((out / "model.json").read_text())
+    assert "accel" not in model and "cruise" not in model
+    assert model["drive"]["terms"] == doc["drive"]["terms"]
+    # the paper's Eq. 5/6 cannot use it, and says so
+    paper = _wbpower("energy", "--speed", 0.5, "--dist", 2, "--model", out / "model.json")
+    assert paper.exit_code == 2 and "incomplete" in paper.stderr
+    log = sorted(logs.glob("free_*.csv"))[0]
+    energy = _wbpower("energy", "--profile", log, "--model", out / "model.json", "--json")
+    assert energy.exit_code == 0, energy.output
+    route = json.loads(energy.stdout)
+    low, high = route["pi90_J"]
+    assert low < route["measured_J"] < high
+    rmf = _wbpower("export", "--model", out / "model.json", "--to", "rmf", "--turn-rate", 0.5)
+    assert rmf.exit_code == 0, rmf.output
+    assert check_rmf_schema(load_yaml(rmf.stdout))["mechanical_system"]["mass"] > 0
+    gz = _wbpower(
+        "export", "--model", out / "model.json", "--to", "gazebo", "--voltage", 24,
+        "--capacity", 10,
+    )  # fmt: skip
+    assert gz.exit_code == 0, gz.output
+    assert check_gazebo_schema(gz.stdout)["power_load"] > 0
