@@ -5,6 +5,7 @@ in 80 columns, model.json read back by `energy --profile` and `export`, the warm
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 from test_export import check_gazebo_schema, check_rmf_schema, load_yaml
@@ -127,12 +128,16 @@ def test_human_fit_shows_the_drive_terms_in_80_columns(free, monkeypatch):
     assert "held-out runs" in text and "MAPE %" in text and "in 90% PI %" in text
     assert "not determined: none" in text
     assert "need step runs" in result.stderr
-    # every term's value and interval, to the digits shown
+    # every term's value and interval, to the decimals that show the interval's width to two
+    # significant digits (no digit finer than the interval says anything about)
     drive = json.loads(fitted.stdout)["drive"]
     terms = [*drive["terms"].values(), *(t for s in drive["surfaces"].values() for t in s.values())]
     for term in terms:
-        assert f"{term['value']:.3f}" in text
-        assert f"[{term['ci95'][0]:.3f}, {term['ci95'][1]:.3f}]" in text
+        low, high = term["ci95"]
+        d = max(1 - math.floor(math.log10(high - low)), 0)
+        assert f"{term['value']:.{d}f}" in text
+        assert f"[{low:.{d}f}, {high:.{d}f}]" in text
+        assert f"{term['value']:.{d + 1}f}" not in text
 
 
 def test_energy_profile_of_a_fitted_log_is_within_its_interval(free):

@@ -259,7 +259,7 @@ def fit_drive_stats(
     terms: dict[str, TermValue] = {}
     per_surface: dict[str, dict[str, TermValue]] = {}
     for j, column in enumerate(fitted.columns):
-        if not fitted.kept[j]:
+        if not fitted.shown[j]:
             continue
         name, _, rest = column.partition("[")
         value = TermValue(float(fitted.coef[j]), (float(ci[j, 0]), float(ci[j, 1])), _unit(name))
