@@ -216,6 +216,7 @@ PREFERENCE = (
     "turning_Nm",
     "effective_mass_kg",
     "braking_mass_kg",
+    "turning_coulomb_W",
     "drive_on_W",
     "quadratic_W_per_mps2",
 )
@@ -271,8 +272,21 @@ def _determined(windows: Windows, clusters: np.ndarray) -> tuple[np.ndarray, lis
     order = sorted(range(len(columns)), key=lambda j: PREFERENCE.index(_term(columns[j])))
     kept = np.zeros(len(columns), dtype=bool)
     reasons: list[tuple[str, str]] = []
+    proxy = windows.proxy if windows.proxy is not None else np.zeros(windows.size, bool)
     for j in order:
         column = columns[j]
+        term = _term(column)
+        if term == "turning_coulomb_W" and not proxy.any():
+            continue  # a term of the force form only: not one of a power log's model
+        if term == "drive_on_W" and proxy.size and proxy.all():
+            reasons.append(
+                (
+                    column,
+                    "drive_on_W: a motor current holds no drivers' step (current-proxy logs: "
+                    "the force form; the constant moment of turning is turning_coulomb_W)",
+                )
+            )
+            continue
         seen = _seen(windows, j)
         n_clusters = np.unique(clusters[seen]).size if seen.any() else 0
         if n_clusters < MIN_CLUSTERS:
@@ -312,6 +326,7 @@ def _seen(windows: Windows, j: int) -> np.ndarray:
         "effective_mass_kg": ACCELERATING_M2PS3,
         "braking_mass_kg": ACCELERATING_M2PS3,
         "turning_Nm": TURNING_RADPS,
+        "turning_coulomb_W": 0.5,
     }[term]
     return value > threshold
 
@@ -326,6 +341,7 @@ def _unseen_reason(column: str, n_clusters: int) -> str:
         "effective_mass_kg": "no speeding up",
         "braking_mass_kg": "no braking",
         "turning_Nm": "no turning",
+        "turning_coulomb_W": "no turning",
     }[term]
     where = f" on surface '{column[len(term) + 1 : -1]}'" if "[" in column else ""
     if n_clusters == 0:

@@ -61,6 +61,7 @@ REGRESSOR_OF = {
     "effective_mass_kg": "av_up",
     "braking_mass_kg": "av_down",
     "turning_Nm": "abs_yaw",
+    "turning_coulomb_W": "turning",
 }
 
 
@@ -81,6 +82,8 @@ class Windows:
     run_ids: tuple[str, ...]
     surfaces: tuple[str, ...]
     window_s: float
+    #: per window: its log is a current proxy (the force form's columns)
+    proxy: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -98,6 +101,7 @@ class Windows:
             self.run_ids,
             self.surfaces,
             self.window_s,
+            None if self.proxy is None else self.proxy[keep],
         )
 
 
@@ -117,6 +121,9 @@ class RunWindows:
     ok: np.ndarray  # the regressors are defined (no drop-out in their bins)
     trip: np.ndarray  # trip number within the run
     standing: np.ndarray
+    #: share of the window's bins turning: the force form's Coulomb scrubbing moment (0 in a
+    #: power log: `turning_coulomb_W` is the force form's only)
+    turning: np.ndarray | None = None
 
     @property
     def count(self) -> int:
@@ -131,6 +138,7 @@ class RunWindows:
             "av_down": self.av_down_m2ps3,
             "abs_yaw": self.abs_yaw_radps,
             "moving": self.moving,
+            "turning": self.turning if self.turning is not None else 0.0 * self.moving,
         }
 
     def power_at(self, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
@@ -203,23 +211,26 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     if stats.current_proxy:
         # the force form (docs/drive-model.md, "Current-only logs"): a Coulomb rolling force
         # while the robot translates, a viscous force ~ |v|; a scrubbing moment's Coulomb part
-        # while it turns in the step's slot (a motor current holds no drivers' step: their
-        # own draw is not in it), its rate-dependent part on |yaw rate| (the Husky's currents
+        # while it turns (`turning_coulomb_W`; no drivers' step: a motor current does not
+        # hold their own draw), its rate-dependent part on |yaw rate| (the Husky's currents
         # grow with the rate of turn within a trip: 83 W window RMS on BorealTC against 96 W
         # with the Coulomb part alone; its spins' currents are flat in the rate from trip to
         # trip: sandy loam 39% held-out MAPE without the Coulomb part, 13% with it)
         translating = np.abs(speed[:used]) > speed_floor
-        turning = np.abs(stats.yaw_rate_radps[:used]) > yaw_floor
+        turning_bins = np.abs(stats.yaw_rate_radps[:used]) > yaw_floor
         speed2 = abs_speed
         abs_speed = translating.reshape(shape).mean(axis=1)
-        moving = turning.reshape(shape).mean(axis=1)
+        turning = turning_bins.reshape(shape).mean(axis=1)
+        moving = np.zeros(count)  # a motor current holds no drivers' step
+    else:
+        turning = np.zeros(count)  # a power log's scrubbing moment is all in |yaw rate|
     # (not the speeding-up and braking terms: a window standing still may end where a step
     # in speed begins, and its edge speeds say so; at a true standstill they are ~0 anyway)
-    for regressor in (abs_speed, speed2, abs_yaw, moving):
+    for regressor in (abs_speed, speed2, abs_yaw, moving, turning):
         regressor[still] = 0.0
     trip = _trips(standing, max(int(round(STOP_S / (n * stats.bin_s))), 1))
     return RunWindows(
-        stats, n, abs_speed, speed2, av_up, av_down, abs_yaw, moving, ok, trip, standing
+        stats, n, abs_speed, speed2, av_up, av_down, abs_yaw, moving, ok, trip, standing, turning
     )
 
 
@@ -347,6 +358,7 @@ def assemble(
                 "surface": surface[keep],
                 "power": power[keep],
                 "run": np.full(int(keep.sum()), number),
+                "proxy": np.full(int(keep.sum()), rw.stats.current_proxy),
                 "trip": rw.trip[keep] + trip_base,
             }
         )
@@ -376,4 +388,5 @@ def assemble(
         run_ids=tuple(rw.stats.run_id for rw in runs),
         surfaces=surfaces,
         window_s=runs[0].n * runs[0].stats.bin_s if runs else WINDOW_S,
+        proxy=joined.get("proxy", np.zeros(0, dtype=bool)).astype(bool),
     )
