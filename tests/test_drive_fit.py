@@ -140,10 +140,11 @@ def test_human_fit_shows_the_drive_terms_in_80_columns(free, monkeypatch):
         assert f"{term['value']:.{d + 1}f}" not in text
 
 
-def test_energy_profile_of_a_fitted_log_is_within_its_interval(free):
-    logs, out, _ = free
+def _check_profile(logs, model) -> None:
+    """`energy --profile` of a fitted log from `model` (a fit -o model.json): its measured
+    energy within the 90% interval, the terms' shares adding up to the energy."""
     log = sorted(logs.glob("free_*.csv"))[0]
-    result = _wbpower("energy", "--profile", log, "--model", out / "model.json", "--json")
+    result = _wbpower("energy", "--profile", log, "--model", model, "--json")
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
     low, high = doc["pi90_J"]
@@ -151,9 +152,8 @@ def test_energy_profile_of_a_fitted_log_is_within_its_interval(free):
     assert abs(sum(doc["terms_J"].values()) - doc["energy_J"]) < 1e-6 * doc["energy_J"]
 
 
-def test_export_of_fit_o_model_loads_in_each_tools_schema(free):
-    _, out, _ = free
-    model = out / "model.json"
+def _check_exports(model) -> None:
+    """`export --to rmf|gazebo` of `model`: each loads in its tool's documented schema."""
     rmf = _wbpower("export", "--model", model, "--to", "rmf", "--turn-rate", 0.5)
     assert rmf.exit_code == 0, rmf.output
     fleet = check_rmf_schema(load_yaml(rmf.stdout))
@@ -161,6 +161,16 @@ def test_export_of_fit_o_model_loads_in_each_tools_schema(free):
     gz = _wbpower("export", "--model", model, "--to", "gazebo", "--voltage", 24, "--capacity", 10)
     assert gz.exit_code == 0, gz.output
     assert check_gazebo_schema(gz.stdout)["power_load"] > 0
+
+
+def test_energy_profile_of_a_fitted_log_is_within_its_interval(free):
+    logs, out, _ = free
+    _check_profile(logs, out / "model.json")
+
+
+def test_export_of_fit_o_model_loads_in_each_tools_schema(free):
+    _, out, _ = free
+    _check_exports(out / "model.json")
 
 
 # -- figures (cli.md, "Figures": the drive model) -------------------------------------------
@@ -342,18 +352,5 @@ def test_incomplete_paper_model_still_writes_the_drive_model(free, tmp_path):
     # the paper's Eq. 5/6 cannot use it, and says so
     paper = _wbpower("energy", "--speed", 0.5, "--dist", 2, "--model", out / "model.json")
     assert paper.exit_code == 2 and "incomplete" in paper.stderr
-    log = sorted(logs.glob("free_*.csv"))[0]
-    energy = _wbpower("energy", "--profile", log, "--model", out / "model.json", "--json")
-    assert energy.exit_code == 0, energy.output
-    route = json.loads(energy.stdout)
-    low, high = route["pi90_J"]
-    assert low < route["measured_J"] < high
-    rmf = _wbpower("export", "--model", out / "model.json", "--to", "rmf", "--turn-rate", 0.5)
-    assert rmf.exit_code == 0, rmf.output
-    assert check_rmf_schema(load_yaml(rmf.stdout))["mechanical_system"]["mass"] > 0
-    gz = _wbpower(
-        "export", "--model", out / "model.json", "--to", "gazebo", "--voltage", 24,
-        "--capacity", 10,
-    )  # fmt: skip
-    assert gz.exit_code == 0, gz.output
-    assert check_gazebo_schema(gz.stdout)["power_load"] > 0
+    _check_profile(logs, out / "model.json")
+    _check_exports(out / "model.json")
