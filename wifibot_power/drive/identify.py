@@ -55,8 +55,8 @@ MOVING_MPS = 0.05
 ACCELERATING_M2PS3 = 0.02
 #: A term is not determined when its 95% interval's half-width, times its regressor's typical
 #: (root mean square) size in the windows where it acts, is more than this share of the
-#: standard deviation of the power over those windows: the data leave its share of a window
-#: open by more than the power itself varies there.
+#: standard deviation of the power over those windows (idle: of the mean power): the data
+#: leave its share of a window open by more than the power itself varies there.
 LOOSE_SHARE = 1.0
 
 
@@ -189,10 +189,14 @@ def _honest(windows: Windows, fitted: Identified, clusters: np.ndarray) -> Ident
         if seen.sum() < 2 or not np.isfinite(half[j]):
             continue
         # the term's share of a window where it acts: what its interval leaves open, against
-        # how much the power itself varies over those windows
+        # how much the power itself varies over those windows (idle, a constant share, against
+        # the power's level: a robot whose power hardly varies still has a measured idle)
         typical = float(np.sqrt(np.mean(np.square(windows.design[seen, j]))))
         open_W = half[j] * typical
-        spread_W = float(np.std(windows.power_W[seen]))
+        if _term(columns[j]) == "idle_W":
+            spread_W = float(np.mean(np.abs(windows.power_W[seen])))
+        else:
+            spread_W = float(np.std(windows.power_W[seen]))
         if open_W > LOOSE_SHARE * spread_W:
             unit = TERM_BY_NAME[_term(columns[j])].unit
             reported[j] = False
@@ -201,8 +205,13 @@ def _honest(windows: Windows, fitted: Identified, clusters: np.ndarray) -> Ident
                     columns[j],
                     f"{columns[j]}: not determined, {fitted.coef[j]:.3g} ± {half[j]:.3g} {unit} "
                     f"(95%) leaves ± {open_W:.3g} W open where it acts, more than the power "
-                    f"varies there (sd {spread_W:.3g} W): these logs do not tell it apart from "
-                    "the other terms (it stays in the predictions)",
+                    + (
+                        f"it is part of ({spread_W:.3g} W mean)"
+                        if _term(columns[j]) == "idle_W"
+                        else f"varies there (sd {spread_W:.3g} W)"
+                    )
+                    + ": these logs do not tell it apart from the other terms (it stays in "
+                    "the predictions)",
                 )
             )
     return replace(fitted, not_determined=tuple(reasons), reported=reported)

@@ -292,6 +292,8 @@ def _speeding_and_braking(
     neighbours' mean speeds (v^2 after against before), not from the sign of its own noisy
     change: split by its own sign, the edges' noise in a cruise would be rectified into both
     columns, biasing both coefficients (seen on the simulator at 6.5 Hz: braking 10% low).
+    `neighbours`: the squared mean speeds of each window without its first and without its
+    last edge bins, so that the call shares no sample with the edges (run_windows).
     `kinetic` is the quantity differentiated: v^2/2 (power, a v), or |v| (a current proxy's
     force form, a sign(v) [m/s^2]: windows.run_windows)."""
     start, end = edge_speed[:-1], edge_speed[1:]
