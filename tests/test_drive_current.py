@@ -136,10 +136,11 @@ def test_force_form_fits_a_real_current_log_as_well():
     assert sse[True] < 1.15 * sse[False], sse
 
 
-def test_force_form_turning_step_is_the_share_turning():
-    # a current log holds no drivers' step: in the force form the step's column is the
-    # share of the window turning (a Coulomb scrubbing moment), 0 driving straight; the
-    # power form's is the share moving or turning (1 in both)
+def test_force_form_turning_moment_is_its_own_term():
+    # a current log holds no drivers' step: in the force form the constant (Coulomb) part of
+    # the scrubbing moment has its own column, turning_coulomb_W, the share of the window
+    # turning (0 driving straight), and the step on moving has none; the power form's step
+    # is the share moving or turning (1 in both), and it has no turning_coulomb_W
     period_s = 1e-2
     t = np.arange(0, 12, period_s)
     v = np.where((t >= 2) & (t < 6), 0.5, 0.0)  # straight 2-6 s
@@ -151,11 +152,46 @@ def test_force_form_turning_step_is_the_share_turning():
         run = Run("spin.csv", "wbpower-csv", meta, t, 10 + 0 * t, speed_mps=v, yaw_rate_radps=yaw)
         windows = assemble([run_windows(drive_stats(run))], 0)
         mid = (np.arange(windows.size) + 0.5) * windows.window_s
-        step = windows.design[:, windows.columns.index("drive_on_W")]
-        columns[proxy] = (step[(mid > 3) & (mid < 5)], step[(mid > 8) & (mid < 10)])
-    straight, spin = columns[True]
-    assert_allclose(straight, 0.0)
-    assert_allclose(spin, 1.0)
-    straight, spin = columns[False]
-    assert_allclose(straight, 1.0)
-    assert_allclose(spin, 1.0)
+        straight, spin = (mid > 3) & (mid < 5), (mid > 8) & (mid < 10)
+        for name in ("drive_on_W", "turning_coulomb_W[floor]"):
+            column = windows.design[:, windows.columns.index(name)]
+            columns[proxy, name] = (column[straight], column[spin])
+    assert_allclose(columns[True, "turning_coulomb_W[floor]"], [[0.0] * 4, [1.0] * 4])
+    assert_allclose(columns[True, "drive_on_W"], 0.0)
+    assert_allclose(columns[False, "drive_on_W"], 1.0)
+    assert_allclose(columns[False, "turning_coulomb_W[floor]"], 0.0)
+
+
+def test_force_form_fit_names_the_constant_turning_moment():
+    # proxies of spins at several rates: V_nom I = idle + Coulomb moment while turning +
+    # a part growing with the rate; the fit gives the constant part its own named term and
+    # says why the step on moving has no number
+    period_s = 1e-2
+    t = np.arange(0, 12, period_s)
+    runs = []
+    for k, rate in enumerate((0.3, 0.6, 0.9, 1.2, 0.45, 0.75)):
+        yaw = np.interp(t, [0, 2, 2.5, 9, 9.5, 12], [0, 0, rate, rate, 0, 0])
+        power = 10 + 80 * (np.abs(yaw) > 1e-3) + 50 * np.abs(yaw)
+        extra = {"surface": "floor", "voltage_assumed_V": "24"}
+        meta = RunMeta(run_id=f"s{k}", sample_period_s=period_s, extra=extra)
+        runs.append(
+            Run(f"s{k}.csv", "wbpower-csv", meta, t, power, speed_mps=0 * t, yaw_rate_radps=yaw)
+        )
+    model = fit_drive(runs)
+    floor = model.surfaces["floor"]
+    assert_allclose(floor["turning_coulomb_W"].value, 80.0, rtol=0.05)
+    assert_allclose(floor["turning_Nm"].value, 50.0, rtol=0.1)
+    assert "drive_on_W" not in model.terms
+    assert any(r.startswith("drive_on_W: a motor current") for r in model.not_determined)
+    assert any("turning_coulomb_W" in w for w in model.warnings)
+    # a power log has no such term, and says nothing of it
+    plain = fit_drive([as_power_log(r) for r in runs])
+    assert all("turning_coulomb_W" not in named for named in plain.surfaces.values())
+    assert not any("turning_coulomb_W" in r for r in plain.not_determined)
+
+
+def as_power_log(run: Run) -> Run:
+    extra = {k: v for k, v in run.meta.extra.items() if k != "voltage_assumed_V"}
+    meta = RunMeta(run_id=run.meta.run_id, sample_period_s=run.meta.sample_period_s, extra=extra)
+    return Run(run.file, run.format, meta, run.stamps_s, run.power_W, speed_mps=run.speed_mps,
+               yaw_rate_radps=run.yaw_rate_radps)  # fmt: skip

@@ -5,6 +5,7 @@ in 80 columns, model.json read back by `energy --profile` and `export`, the warm
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 from test_export import check_gazebo_schema, check_rmf_schema, load_yaml
@@ -127,18 +128,23 @@ def test_human_fit_shows_the_drive_terms_in_80_columns(free, monkeypatch):
     assert "held-out runs" in text and "MAPE %" in text and "in 90% PI %" in text
     assert "not determined: none" in text
     assert "need step runs" in result.stderr
-    # every term's value and interval, to the digits shown
+    # every term's value and interval, to the decimals that show the interval's width to two
+    # significant digits (no digit finer than the interval says anything about)
     drive = json.loads(fitted.stdout)["drive"]
     terms = [*drive["terms"].values(), *(t for s in drive["surfaces"].values() for t in s.values())]
     for term in terms:
-        assert f"{term['value']:.3f}" in text
-        assert f"[{term['ci95'][0]:.3f}, {term['ci95'][1]:.3f}]" in text
+        low, high = term["ci95"]
+        d = max(1 - math.floor(math.log10(high - low)), 0)
+        assert f"{term['value']:.{d}f}" in text
+        assert f"[{low:.{d}f}, {high:.{d}f}]" in text
+        assert f"{term['value']:.{d + 1}f}" not in text
 
 
-def test_energy_profile_of_a_fitted_log_is_within_its_interval(free):
-    logs, out, _ = free
+def _check_profile(logs, model) -> None:
+    """`energy --profile` of a fitted log from `model` (a fit -o model.json): its measured
+    energy within the 90% interval, the terms' shares adding up to the energy."""
     log = sorted(logs.glob("free_*.csv"))[0]
-    result = _wbpower("energy", "--profile", log, "--model", out / "model.json", "--json")
+    result = _wbpower("energy", "--profile", log, "--model", model, "--json")
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
     low, high = doc["pi90_J"]
@@ -146,9 +152,8 @@ def test_energy_profile_of_a_fitted_log_is_within_its_interval(free):
     assert abs(sum(doc["terms_J"].values()) - doc["energy_J"]) < 1e-6 * doc["energy_J"]
 
 
-def test_export_of_fit_o_model_loads_in_each_tools_schema(free):
-    _, out, _ = free
-    model = out / "model.json"
+def _check_exports(model) -> None:
+    """`export --to rmf|gazebo` of `model`: each loads in its tool's documented schema."""
     rmf = _wbpower("export", "--model", model, "--to", "rmf", "--turn-rate", 0.5)
     assert rmf.exit_code == 0, rmf.output
     fleet = check_rmf_schema(load_yaml(rmf.stdout))
@@ -156,6 +161,16 @@ def test_export_of_fit_o_model_loads_in_each_tools_schema(free):
     gz = _wbpower("export", "--model", model, "--to", "gazebo", "--voltage", 24, "--capacity", 10)
     assert gz.exit_code == 0, gz.output
     assert check_gazebo_schema(gz.stdout)["power_load"] > 0
+
+
+def test_energy_profile_of_a_fitted_log_is_within_its_interval(free):
+    logs, out, _ = free
+    _check_profile(logs, out / "model.json")
+
+
+def test_export_of_fit_o_model_loads_in_each_tools_schema(free):
+    _, out, _ = free
+    _check_exports(out / "model.json")
 
 
 # -- figures (cli.md, "Figures": the drive model) -------------------------------------------
@@ -286,3 +301,56 @@ def test_step_runs_drive_model_beside_the_papers_lines(tmp_path, monkeypatch):
     assert max(len(line) for line in shown.stdout.splitlines()) <= 80
     table = shown.stdout[shown.stdout.index("paper's step runs") :]
     assert table.count(" yes ") == 6
+
+
+# -- batches of free driving and step runs (issue 25 (d), (e)) --------------------------------
+def _step_runs(folder, speeds: str):
+    made = _wbpower(
+        "simulate", "-o", folder, "--speeds", speeds, "--trips", "2x1", "--repeats", 2,
+        "--modes", "", "--sample-period", 0.01, "--seed", 3,
+    )  # fmt: skip
+    assert made.exit_code == 0, made.output
+    return folder
+
+
+def test_free_driving_beside_step_runs_is_used_by_the_drive_model(free, tmp_path):
+    # cli.md: the drive model is identified from every motion log with a speed column (or
+    # a step run's phases); the paper's fit lists the free runs in `skipped`, saying that
+    # it is the paper's models that left them out and that the drive model used them
+    logs, _, _ = free
+    grid = _step_runs(tmp_path / "grid", "0.2,0.5,0.8")
+    result = _wbpower("fit", logs, grid, "--json")
+    assert result.exit_code == 1, result.output  # cli.md: some input skipped
+    doc = json.loads(result.stdout)
+    assert doc["n_runs"] == 6 and doc["model_complete"] is True
+    assert doc["drive"]["n_runs"] == 4 + 6
+    # the free runs' surfaces are in the drive model: it used them
+    assert {"asphalt", "grass"} <= set(doc["drive"]["surfaces"])
+    free_logs = sorted(p.name for p in logs.glob("free_*.csv"))
+    assert sorted(s["file"].rsplit("/", 1)[-1] for s in doc["skipped"]) == free_logs
+    for skip in doc["skipped"]:
+        assert "the paper's models left it out: no mode or speed" in skip["reason"]
+        assert skip["reason"].endswith("the drive model used it")
+
+
+def test_incomplete_paper_model_still_writes_the_drive_model(free, tmp_path):
+    # one speed of step runs (the paper's lines need two) beside free driving: the paper's
+    # model is incomplete, and fit -o's model.json holds the drive model without the paper's
+    # section; energy --profile and export read it end to end
+    logs, _, _ = free
+    one = _step_runs(tmp_path / "one", "0.5")
+    out = tmp_path / "out"
+    result = _wbpower("fit", logs, one, "-o", out, "--json")
+    assert result.exit_code == 1, result.output
+    doc = json.loads(result.stdout)
+    assert doc["model_complete"] is False and doc["drive"] is not None
+    (incomplete,) = [w for w in doc["warnings"] if "the model is incomplete" in w]
+    assert "holds the drive model alone" in incomplete
+    model = json.loads((out / "model.json").read_text())
+    assert "accel" not in model and "cruise" not in model
+    assert model["drive"]["terms"] == doc["drive"]["terms"]
+    # the paper's Eq. 5/6 cannot use it, and says so
+    paper = _wbpower("energy", "--speed", 0.5, "--dist", 2, "--model", out / "model.json")
+    assert paper.exit_code == 2 and "incomplete" in paper.stderr
+    _check_profile(logs, out / "model.json")
+    _check_exports(out / "model.json")

@@ -69,6 +69,8 @@ def test_step_runs_give_the_terms_and_the_phase_powers():
 
 
 def _hand_model() -> DriveModel:
+    # the columns of a model.json written before turning_coulomb_W was a term: the model is
+    # put on this version's design (that term not determined) and predicts as it did
     columns = (
         "idle_W", "drive_on_W", "rolling_W_per_mps[floor]", "quadratic_W_per_mps2",
         "effective_mass_kg", "braking_mass_kg", "turning_Nm[floor]",

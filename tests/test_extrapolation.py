@@ -133,18 +133,39 @@ def test_fit_on_one_speed_says_its_model_is_incomplete(wbpower, tmp_path):
     assert summary["model_complete"] is False
     assert any("fewer than 2 distinct speeds" in n for n in summary["notes"])
     (warning,) = [w for w in summary["warnings"] if "the model is incomplete" in w]
-    assert "not fitted: P_acc, P_v, t_acc" in warning and "no model.json" in warning
+    assert "not fitted: P_acc, P_v, t_acc" in warning and "no paper model" in warning
     assert f"wbpower: warning: {warning}" in result.stderr.splitlines()
-    assert not (out / "model.json").exists()
+    # the step runs give the drive model (speed from their phases): model.json holds it alone
+    model = json.loads((out / "model.json").read_text())
+    assert "accel" not in model and model["drive"] is not None
     human = wbpower("fit", folder)
     assert human.exit_code == 0 and "the model is incomplete" in human.stderr
     # the fit's note is the warning's why, said once: not again as a warning of its own
     assert human.stderr.count("fewer than 2 distinct speeds") == 1
 
 
-def test_an_incomplete_fit_removes_the_model_json_of_an_earlier_fit(wbpower, tmp_path):
-    # a complete fit into DIR, then one of one speed: its tables, and no model.json for
-    # `energy --model DIR/model.json` to read as this fit's (a silently wrong number)
+def test_an_incomplete_fit_replaces_the_model_json_of_an_earlier_fit(wbpower, tmp_path):
+    # a complete fit into DIR, then one of one speed: its tables, and a model.json without
+    # the paper's model (the drive model's alone), never the earlier fit's for `energy
+    # --model DIR/model.json` to read as this fit's (a silently wrong number)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "model.json").write_text(json.dumps(paper_model().to_json()))
+    result = wbpower("fit", _one_speed(tmp_path / "one"), "-o", out, "--json")
+    assert result.exit_code == 0, result.stderr
+    model = json.loads((out / "model.json").read_text())
+    assert "accel" not in model and model["drive"] is not None
+    assert not [w for w in json.loads(result.stdout)["warnings"] if "removed" in w]
+    energy = wbpower("energy", "--speed", "0.5", "--dist", "2", "--model", out / "model.json")
+    assert energy.exit_code == 2 and "incomplete" in energy.stderr
+
+
+def test_an_incomplete_fit_removes_the_model_json_of_an_earlier_fit(wbpower, tmp_path, monkeypatch):
+    # nothing but an incomplete paper model (no drive model: its family fits nothing here):
+    # no model.json at all, and the earlier fit's removed with the new tables
+    from wifibot_power.models import FAMILIES
+
+    monkeypatch.setattr(type(FAMILIES["drive"]), "fit", lambda self, records, options=None: None)
     out = tmp_path / "out"
     out.mkdir()
     (out / "model.json").write_text(json.dumps(paper_model().to_json()))

@@ -196,7 +196,13 @@ def fit_records(
             f"so only the drive model was fitted, from the {len(drive_only)} with a speed"
             + (f" (the paper's reasons: {why})" if why else ""),
         )
-    skipped = (*read_skipped, *(_skipped(r) for r in unusable))
+    # with step runs too, `skipped` is the paper's (cli.md: a run it leaves out is listed);
+    # a run the drive model used says which model left it out, and that the other used it
+    drive_used = DRIVE in fits and PAPER in fits
+    skipped = (
+        *read_skipped,
+        *(_skipped(r, drive_used and bool(r.models.get(DRIVE))) for r in unusable),
+    )
     if not fits:
         return None, skipped
     return (
@@ -211,9 +217,17 @@ def fit_records(
     )
 
 
-def _skipped(record: RunRecord) -> Skipped:
-    """A run the paper's fit cannot use, with its reason."""
-    return Skipped(str(record.row["file"]), f"{record.row['file']}: {record.row['skip_reason']}")
+def _skipped(record: RunRecord, drive_used: bool = False) -> Skipped:
+    """A run the paper's fit cannot use, with its reason; `drive_used`: the drive model used
+    it (free driving beside step runs), which the reason says, naming the paper's models as
+    the ones that left it out."""
+    file, reason = record.row["file"], record.row["skip_reason"]
+    if drive_used:
+        return Skipped(
+            str(file),
+            f"{file}: the paper's models left it out: {reason}; the drive model used it",
+        )
+    return Skipped(str(file), f"{file}: {reason}")
 
 
 def admitted(records: Sequence[RunRecord], keep_doubtful: bool) -> list[RunRecord]:

@@ -146,10 +146,12 @@ class FitResult:
 
     @property
     def writes_model(self) -> bool:
-        """Whether `fit -o` writes model.json: the paper's model complete, or, without the
-        paper's fit (free driving), another family's model fitted. A paper model fitted but
-        incomplete writes none (its notes say why), the drive model's too."""
-        return self.model_complete or (not self.has_paper and bool(self.fits))
+        """Whether `fit -o` writes model.json: the paper's model complete, or another
+        family's model fitted (the drive model of free driving, or beside a paper model that
+        is incomplete: cli.md, "model.json carries both models"). Without a complete paper
+        model the file holds its format and the other families' sections, not the paper's
+        (`model_json`); a paper model incomplete and nothing else fitted writes none."""
+        return self.model_complete or any(name != PAPER for name in self.fits)
 
     @property
     def warnings(self) -> tuple[str, ...]:

@@ -123,13 +123,39 @@ _DRIVE_PAPER_COLUMNS = (
 )
 
 
-def _interval(ci95: Sequence[float | None]) -> str:
+def _interval(ci95: Sequence[float | None], digits: int = 3) -> str:
     from wifibot_power.fit import format_number
 
     low, high = ci95
     if low is None or high is None or not (math.isfinite(low) and math.isfinite(high)):
         return "-"
-    return f"[{format_number(low)}, {format_number(high)}]"
+    return f"[{format_number(low, digits)}, {format_number(high, digits)}]"
+
+
+def interval_digits(ci95: Sequence[float | None], most: int = 6) -> int:
+    """Decimals that show an interval's width to two significant digits (a value and its
+    interval are printed to the same decimals: digits beyond the interval's own are noise,
+    never precision); 3 without an interval."""
+    low, high = ci95
+    if low is None or high is None or not (math.isfinite(low) and math.isfinite(high)):
+        return 3
+    width = high - low
+    if not width > 0:
+        return most
+    return int(min(max(1 - math.floor(math.log10(width)), 0), most))
+
+
+def _term_cells(name: str, surface: str, term: dict) -> list[str]:
+    from wifibot_power.fit import format_number
+
+    digits = interval_digits(term["ci95"])
+    return [
+        name,
+        surface,
+        format_number(term["value"], digits),
+        _interval(term["ci95"], digits),
+        term["unit"],
+    ]
 
 
 def print_drive_tables(result: FitResult) -> None:
@@ -142,16 +168,11 @@ def print_drive_tables(result: FitResult) -> None:
     if drive is None:
         return
     summary = drive.summary()
-    cells = [
-        [name, "all", format_number(t["value"]), _interval(t["ci95"]), t["unit"]]
-        for name, t in summary["terms"].items()
-    ]
+    cells = [_term_cells(name, "all", t) for name, t in summary["terms"].items()]
     for surface, named in summary["surfaces"].items():
-        cells += [
-            [name, surface, format_number(t["value"]), _interval(t["ci95"]), t["unit"]]
-            for name, t in named.items()
-        ]
-    not_determined = "; ".join(summary["not_determined"]) or "none"
+        cells += [_term_cells(name, surface, t) for name, t in named.items()]
+    # one reason a line: each says why its term has no number
+    not_determined = "".join(f"\n- {r}" for r in summary["not_determined"]) or " none"
     # the drive model's assumptions, said under its table (and in `fit --json` drive.warnings)
     said = "".join(f"\nwarning: {w}" for w in summary["warnings"])
     print_table(
@@ -160,7 +181,7 @@ def print_drive_tables(result: FitResult) -> None:
         f"{summary['lag_s']:.2f} s (95% CI: cluster-robust, by run or trip)",
         _DRIVE_TERM_COLUMNS,
         cells,
-        caption=f"not determined: {not_determined}{said}",
+        caption=f"not determined:{not_determined}{said}",
     )
     held = summary["heldout"]
     if held is not None:

@@ -15,17 +15,26 @@ intervals from a covariance robust to autocorrelation within a cluster (a run).
   says so; braking free), by an active-set method (Lawson & Hanson 1974, NNLS) on the normal
   equations; a handful of columns, so exact and fast.
 - Intervals: windows of one run are autocorrelated (a slow wander of the battery voltage, a
-  mis-set lag), so the sampling covariance is the cluster-robust sandwich with the CR1
-  small-sample factor (Cameron & Miller 2015, "A practitioner's guide to cluster-robust
-  inference", J. Human Resources 50(2), Eq. 11-12), clusters the runs, and the 95% interval
-  uses Student's t with G - 1 degrees of freedom (G clusters; ibid., Sec. VI.C).
-  statsmodels has it, but `import statsmodels.api` took 1.1 s here (numpy: 0.09 s), too much
-  for a command's start; the sandwich is ten lines of numpy.
+  mis-set lag), so the sampling covariance is the cluster jackknife (CR3: `_cluster_cov`),
+  clusters the runs, and the 95% interval uses Student's t with G - 1 degrees of freedom
+  (G clusters; Cameron & Miller 2015, "A practitioner's guide to cluster-robust inference",
+  J. Human Resources 50(2), Sec. VI.B-C). statsmodels has it, but `import statsmodels.api`
+  took 1.1 s here (numpy: 0.09 s), too much for a command's start; it is numpy here.
+- Honest terms (`_honest`): a term the bounded fit holds at its physical bound (0) is not
+  measured (no positive value fits better): it leaves the fit, with its reason. A term
+  whose interval is far wider than any power the data hold (its half-width times the
+  typical size of its regressor where it acts, over how much the power varies there:
+  `LOOSE_SHARE`) is not determined either: reported so, with its reason, but kept in the
+  prediction (terms the data cannot tell apart still add up to a determined power; leaving
+  them out of the fit made held-out energy worse on real logs: `identify`). An interval of
+  a term bounded below by 0 is clipped at 0: the truth is not below it, so the clipped
+  interval holds it exactly as often as the symmetric one (and never says "maybe
+  negative" of a term physics makes non-negative).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -44,6 +53,11 @@ MIN_CLUSTERS = 2
 TURNING_RADPS = 0.1
 MOVING_MPS = 0.05
 ACCELERATING_M2PS3 = 0.02
+#: A term is not determined when its 95% interval's half-width, times its regressor's typical
+#: (root mean square) size in the windows where it acts, is more than this share of the
+#: standard deviation of the power over those windows (idle: of the mean power): the data
+#: leave its share of a window open by more than the power itself varies there.
+LOOSE_SHARE = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,16 +73,31 @@ class Identified:
     lag_bins: float
     not_determined: tuple[tuple[str, str], ...]  # (column, reason)
     residual_W: np.ndarray  # per window
+    #: bool per column: reported as a term (kept, and its interval not too loose to mean
+    #: anything: `_honest`); None: every kept column
+    reported: np.ndarray | None = None
+
+    @property
+    def shown(self) -> np.ndarray:
+        """bool per column: the terms reported with a value (the rest: `not_determined`)."""
+        return self.kept if self.reported is None else self.reported
+
+    def half_width(self) -> np.ndarray:
+        """Each column's 95% half-width, t(0.975, G - 1) x its standard error (NaN where
+        not kept or with fewer than 2 clusters)."""
+        out = np.full(self.coef.size, np.nan)
+        if self.dof >= 1:
+            se = np.sqrt(np.clip(np.diag(self.cov), 0, None))
+            out[self.kept] = t_quantile(0.975, self.dof) * se
+        return out
 
     def ci95(self) -> np.ndarray:
-        """Each column's 95% interval (NaN rows where not determined)."""
-        out = np.full((self.coef.size, 2), np.nan)
-        if self.dof < 1:
-            return out
-        half = t_quantile(0.975, self.dof) * np.sqrt(np.clip(np.diag(self.cov), 0, None))
-        coef = self.coef[self.kept]
-        out[self.kept, 0] = coef - half
-        out[self.kept, 1] = coef + half
+        """Each column's 95% interval (NaN rows where not determined), clipped at 0 for a term
+        physics bounds below by 0 (module docstring: the coverage is unchanged)."""
+        half = self.half_width()
+        out = np.column_stack((self.coef - half, self.coef + half))
+        bounded = np.array([TERM_BY_NAME[_term(c)].non_negative for c in self.columns])
+        out[bounded, 0] = np.maximum(out[bounded, 0], 0.0)
         return out
 
     def predict_W(self, design: np.ndarray) -> np.ndarray:
@@ -121,12 +150,71 @@ def lag_search(
 
 def identify(windows: Windows, lag_bins: float, clusters: np.ndarray) -> Identified:
     """Fit the determined columns of `windows` (module docstring). A term that passes the
-    screens keeps its number however wide its interval: leaving out the terms whose interval
+    screens stays in the fit however wide its interval: leaving out the terms whose interval
     spans over half the mean power was tried and made held-out energy worse on real logs
-    (BorealTC 29.7% -> 38.2% MAPE, the unicycles' wAPE 11.9% -> 21.6%): the interval, not
-    its absence, says how loosely the logs hold a term."""
+    (BorealTC 29.7% -> 38.2% MAPE, the unicycles' wAPE 11.9% -> 21.6%). One too loose to
+    mean anything is reported as not determined (`_honest`), not given a number."""
     kept, reasons = _determined(windows, clusters)
-    return _fit_kept(windows, lag_bins, clusters, kept, reasons)
+    return _honest(windows, _fit_kept(windows, lag_bins, clusters, kept, reasons), clusters)
+
+
+def _honest(windows: Windows, fitted: Identified, clusters: np.ndarray) -> Identified:
+    """The terms the fit can honestly report (module docstring): a term held at its bound
+    leaves the fit (its coefficient is 0 either way: the others' are unchanged, their
+    covariance is the one without it), and a term whose interval is looser than any power
+    the data hold is reported as not determined, with its reason, but still predicts."""
+    columns = fitted.columns
+    bounds = np.array([TERM_BY_NAME[_term(c)].non_negative for c in columns])
+    pinned = fitted.kept & bounds & (fitted.coef == 0)
+    reasons = list(fitted.not_determined)
+    if pinned.any():
+        free = least_squares(windows.design[:, fitted.kept], windows.power_W)
+        unbounded = dict(zip(np.flatnonzero(fitted.kept), free, strict=True))
+        for j in np.flatnonzero(pinned):
+            unit = TERM_BY_NAME[_term(columns[j])].unit
+            reasons.append(
+                (
+                    columns[j],
+                    f"{columns[j]}: held at its physical bound 0 by the fit (no positive value "
+                    f"fits these logs better; least squares without the bounds: "
+                    f"{unbounded[j]:.3g} {unit}): not measured",
+                )
+            )
+        fitted = _fit_kept(windows, fitted.lag_bins, clusters, fitted.kept & ~pinned, reasons)
+        reasons = list(fitted.not_determined)
+    half = fitted.half_width()
+    reported = fitted.kept.copy()
+    for j in np.flatnonzero(fitted.kept):
+        seen = _seen(windows, j)
+        if seen.sum() < 2 or not np.isfinite(half[j]):
+            continue
+        # the term's share of a window where it acts: what its interval leaves open, against
+        # how much the power itself varies over those windows (idle, a constant share, against
+        # the power's level: a robot whose power hardly varies still has a measured idle)
+        typical = float(np.sqrt(np.mean(np.square(windows.design[seen, j]))))
+        open_W = half[j] * typical
+        if _term(columns[j]) == "idle_W":
+            spread_W = float(np.mean(np.abs(windows.power_W[seen])))
+        else:
+            spread_W = float(np.std(windows.power_W[seen]))
+        if open_W > LOOSE_SHARE * spread_W:
+            unit = TERM_BY_NAME[_term(columns[j])].unit
+            reported[j] = False
+            reasons.append(
+                (
+                    columns[j],
+                    f"{columns[j]}: not determined, {fitted.coef[j]:.3g} ± {half[j]:.3g} {unit} "
+                    f"(95%) leaves ± {open_W:.3g} W open where it acts, more than the power "
+                    + (
+                        f"it is part of ({spread_W:.3g} W mean)"
+                        if _term(columns[j]) == "idle_W"
+                        else f"varies there (sd {spread_W:.3g} W)"
+                    )
+                    + ": these logs do not tell it apart from the other terms (it stays in "
+                    "the predictions)",
+                )
+            )
+    return replace(fitted, not_determined=tuple(reasons), reported=reported)
 
 
 #: The terms in the order they are kept when the data cannot tell them apart (roughly how
@@ -137,6 +225,7 @@ PREFERENCE = (
     "turning_Nm",
     "effective_mass_kg",
     "braking_mass_kg",
+    "turning_coulomb_W",
     "drive_on_W",
     "quadratic_W_per_mps2",
 )
@@ -201,8 +290,21 @@ def _determined(windows: Windows, clusters: np.ndarray) -> tuple[np.ndarray, lis
     order = sorted(range(len(columns)), key=lambda j: preference.index(_term(columns[j])))
     kept = np.zeros(len(columns), dtype=bool)
     reasons: list[tuple[str, str]] = []
+    proxy = windows.proxy if windows.proxy is not None else np.zeros(windows.size, bool)
     for j in order:
         column = columns[j]
+        term = _term(column)
+        if term == "turning_coulomb_W" and not proxy.any():
+            continue  # a term of the force form only: not one of a power log's model
+        if term == "drive_on_W" and proxy.size and proxy.all():
+            reasons.append(
+                (
+                    column,
+                    "drive_on_W: a motor current holds no drivers' step (current-proxy logs: "
+                    "the force form; the constant moment of turning is turning_coulomb_W)",
+                )
+            )
+            continue
         seen = _seen(windows, j)
         n_clusters = np.unique(clusters[seen]).size if seen.any() else 0
         if n_clusters < MIN_CLUSTERS:
@@ -242,6 +344,7 @@ def _seen(windows: Windows, j: int) -> np.ndarray:
         "effective_mass_kg": ACCELERATING_M2PS3,
         "braking_mass_kg": ACCELERATING_M2PS3,
         "turning_Nm": TURNING_RADPS,
+        "turning_coulomb_W": 0.5,
     }[term]
     return value > threshold
 
@@ -256,6 +359,7 @@ def _unseen_reason(column: str, n_clusters: int) -> str:
         "effective_mass_kg": "no speeding up",
         "braking_mass_kg": "no braking",
         "turning_Nm": "no turning",
+        "turning_coulomb_W": "no turning",
     }[term]
     where = f" on surface '{column[len(term) + 1 : -1]}'" if "[" in column else ""
     if n_clusters == 0:

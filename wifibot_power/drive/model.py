@@ -67,6 +67,12 @@ class DriveModel:
     #: the model family's name (`models.base.FittedModel.family`)
     family: ClassVar[str] = "drive"
 
+    def __post_init__(self) -> None:
+        if self.columns:  # on this version's design (`_aligned`)
+            columns, coef = _aligned(self.columns, self.coef, self.surface_names)
+            object.__setattr__(self, "columns", columns)
+            object.__setattr__(self, "coef", coef)
+
     def predict_energy_J(self, record: object) -> float:
         """A run's energy as the model predicts it [J], over the windows of its statistics
         (`record.models["drive"]`, or a `DriveStats`); NaN for a run without them."""
@@ -187,6 +193,23 @@ class DriveModel:
         )
 
 
+def _aligned(
+    columns: tuple[str, ...], coef: tuple[float, ...], surfaces: tuple[str, ...]
+) -> tuple[tuple[str, ...], tuple[float, ...]]:
+    """Columns and coefficients on this version's design columns: a term the model did not
+    have (a model.json written before `turning_coulomb_W` was a term) is not determined
+    (NaN); the covariance, over the determined columns in design order, is unchanged. A
+    column this version does not know is a damaged or newer file (ValueError)."""
+    from wifibot_power.drive.windows import design_columns
+
+    given = dict(zip(columns, coef, strict=True))
+    design = design_columns(surfaces)
+    unknown = set(given) - set(design)
+    if unknown:
+        raise ValueError(f"unknown drive-model columns {sorted(unknown)}")
+    return design, tuple(given.get(c, math.nan) for c in design)
+
+
 def fit_drive(
     runs: Sequence[Run],
     segmentations: Sequence[Segmentation | None] | None = None,
@@ -240,8 +263,9 @@ def fit_drive_stats(
             "their power is a nominal voltage times current, ~ torque, so the terms take their "
             "force form ('wbpower docs drive-model', 'Current-only logs'): each coefficient is a "
             "force (or moment) times the motors' no-load speed, rolling_W_per_mps is a constant "
-            "force's [W], drive_on_W a constant scrubbing moment's while turning [W] (a motor "
-            "current holds no drivers' step), quadratic_W_per_mps2 a viscous force's "
+            "force's [W], turning_coulomb_W a constant scrubbing moment's while turning [W] "
+            "(a motor current holds no drivers' step: no drive_on_W), quadratic_W_per_mps2 a "
+            "viscous force's "
             "[W/(m/s)], effective_mass_kg "
             "and braking_mass_kg multiply d|v|/dt [W/(m/s^2)], turning_Nm |yaw rate| "
             "[W/(rad/s)]; not the battery's power"
@@ -259,7 +283,7 @@ def fit_drive_stats(
     terms: dict[str, TermValue] = {}
     per_surface: dict[str, dict[str, TermValue]] = {}
     for j, column in enumerate(fitted.columns):
-        if not fitted.kept[j]:
+        if not fitted.shown[j]:
             continue
         name, _, rest = column.partition("[")
         value = TermValue(float(fitted.coef[j]), (float(ci[j, 0]), float(ci[j, 1])), _unit(name))

@@ -18,11 +18,12 @@ A log of motor currents with an assumed voltage (`stats.current_proxy`) is not p
 V_nom I = u_0 F, a force times the motor's no-load speed at the ground (I = tau / k_t): its
 terms take their force form (windows.py; docs/drive-model.md, "Current-only logs"), the
 same names with the speed divided out: a constant rolling force while translating, a viscous
-force |v|, m_eff a sign(v), and for turning a Coulomb moment while turning (in drive_on_W's
-slot: a motor current holds no drivers' step) plus its part in |yaw rate|; on an arc only the
-outer side drives (the inner one brakes, its current not logged), so every longitudinal and
-moment column counts half there (windows.py `_force_form`; Wong, "Theory of Ground
-Vehicles", 4th ed., 2008, Sec. 7.2: F_out = F/2 + M/B, F_in = F/2 - M/B).
+force |v|, m_eff a sign(v), and for turning a Coulomb moment while turning (its own term,
+`turning_coulomb_W`, of the force form only; a motor current holds no drivers' step, so
+`drive_on_W` has no column there) plus its part in |yaw rate|; on an arc only the outer side
+drives (the inner one brakes, its current not logged), so every longitudinal and moment
+column counts half there (windows.py `_force_form`; Wong, "Theory of Ground Vehicles", 4th
+ed., 2008, Sec. 7.2: F_out = F/2 + M/B, F_in = F/2 - M/B).
 
 References
 ----------
@@ -110,6 +111,18 @@ def turning_power_W(yaw_rate_radps: np.ndarray, turning_Nm: float) -> np.ndarray
     return turning_Nm * np.abs(yaw_rate_radps)
 
 
+def turning_coulomb_proxy_W(turning: np.ndarray, turning_coulomb_W: float) -> np.ndarray:
+    """The Coulomb (rate-independent) part of the skid-steer scrubbing moment in a current
+    proxy's force form [W of V_nom I]: while the robot turns, its wheels slide sideways
+    against a lateral friction moment M_c = mu m g l / 4 ([1], Eq. 20-22), which the motors
+    hold with a torque, and so a current, whatever the rate of turn; V_nom I = u_0 M_c /
+    (B/2) (u_0 the motors' no-load speed at the ground, B the track: docs/drive-model.md,
+    "Current-only logs"). In a power log the same moment draws M_c |yaw rate|: `turning_Nm`
+    carries it, and this term has no column. `turning` is 1 while turning, 0 not (or the
+    share of a window spent turning). Depends on the surface (mu)."""
+    return turning_coulomb_W * np.asarray(turning, dtype=np.float64)
+
+
 @dataclass(frozen=True)
 class Term:
     """One term of the drive model: its name (with its unit), the unit, whether it is one per
@@ -132,6 +145,8 @@ TERMS: tuple[Term, ...] = (
     Term("effective_mass_kg", "kg", False, True, "(a v)+"),
     Term("braking_mass_kg", "kg", False, False, "(a v)-"),
     Term("turning_Nm", "N m", True, True, "|yaw rate|"),
+    #: the force form's only (current-proxy logs: windows.py): 0 in a power log's design
+    Term("turning_coulomb_W", "W", True, True, "turning"),
 )
 TERM_BY_NAME = {term.name: term for term in TERMS}
 
@@ -143,7 +158,8 @@ def power_W(
     coefficients: dict[str, float],
 ) -> np.ndarray:
     """The drive model's power [W]: the sum of the terms above, each with its coefficient
-    (one surface: `coefficients` holds a value for every name of `TERMS`)."""
+    (one surface: `coefficients` holds a value for every name of `TERMS` but the force
+    form's `turning_coulomb_W`, which a power has not)."""
     moving = (speed_mps != 0) | (yaw_rate_radps != 0)
     return (
         idle_power_W(speed_mps, coefficients["idle_W"])

@@ -63,6 +63,7 @@ REGRESSOR_OF = {
     "effective_mass_kg": "av_up",
     "braking_mass_kg": "av_down",
     "turning_Nm": "abs_yaw",
+    "turning_coulomb_W": "turning",
 }
 
 
@@ -85,6 +86,8 @@ class Windows:
     window_s: float
     #: every run is a current proxy: the columns are the terms' force form (`_force_form`)
     force_form: bool = False
+    #: per window: its log is a current proxy (the force form's columns)
+    proxy: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -103,6 +106,7 @@ class Windows:
             self.surfaces,
             self.window_s,
             self.force_form,
+            None if self.proxy is None else self.proxy[keep],
         )
 
 
@@ -122,6 +126,9 @@ class RunWindows:
     ok: np.ndarray  # the regressors are defined (no drop-out in their bins)
     trip: np.ndarray  # trip number within the run
     standing: np.ndarray
+    #: share of the window's bins turning: the force form's Coulomb scrubbing moment (0 in a
+    #: power log: `turning_coulomb_W` is the force form's only)
+    turning: np.ndarray | None = None
 
     @property
     def count(self) -> int:
@@ -136,6 +143,7 @@ class RunWindows:
             "av_down": self.av_down_m2ps3,
             "abs_yaw": self.abs_yaw_radps,
             "moving": self.moving,
+            "turning": self.turning if self.turning is not None else 0.0 * self.moving,
         }
 
     def power_at(self, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
@@ -185,7 +193,20 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     edge_speed = _edge_means(speed, edges, edge_bins)
     # power: d(v^2/2)/dt = a v; a current proxy's force form: d|v|/dt = a sign(v) (terms.py)
     kinetic = np.abs if stats.current_proxy else _half_square
-    av_up, av_down = _speeding_and_braking(edge_speed, mean_speed, n * stats.bin_s, kinetic)
+    # whether a window speeds up or brakes, from its neighbours' mean speeds over the bins
+    # its own edge speeds do not use: the same samples on both sides would correlate the
+    # choice with the edges' noise (a cruise's window whose start edge reads high is called
+    # braking and gets a negative change: braking 1.2 standard errors low on the simulator,
+    # 0.8 with this; the effective mass 1.2 high, 1.0)
+    trim = min(edge_bins, n - 1)
+    blocks = speed[:used].reshape(shape)
+    neighbours = (
+        np.square(blocks[:, trim:].mean(axis=1)),  # a window without its first bins: "after"
+        np.square(blocks[:, : n - trim].mean(axis=1)),  # without its last bins: "before"
+    )
+    av_up, av_down = _speeding_and_braking(
+        edge_speed, mean_speed, n * stats.bin_s, kinetic, neighbours
+    )
     ok = np.isfinite(abs_speed) & np.isfinite(abs_yaw) & np.isfinite(av_up + av_down)
     standing = (np.abs(mean_speed) < STANDING_MPS) & (np.abs(mean_yaw) < STANDING_RADPS)
     # a robot standing still is not moving a little: where speed and rate of turn are both
@@ -207,20 +228,27 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     moving = moving_bins.reshape(shape).mean(axis=1)
     if stats.current_proxy:
         translating = (np.abs(speed[:used]) > speed_floor).reshape(shape)
-        turning = (np.abs(stats.yaw_rate_radps[:used]) > yaw_floor).reshape(shape)
+        turning_bins = (np.abs(stats.yaw_rate_radps[:used]) > yaw_floor).reshape(shape)
         radius_w = _radius_factor(
             speed[:used].reshape(shape), stats.yaw_rate_radps[:used].reshape(shape), stats.track_m
         )
-        abs_speed, speed2, moving, abs_yaw, av_up, av_down = _force_form(
-            translating, turning, radius_w, abs_speed, abs_yaw, av_up, av_down
+        abs_speed, speed2, turning, abs_yaw, av_up, av_down = _force_form(
+            translating, turning_bins, radius_w, abs_speed, abs_yaw, av_up, av_down
         )
+        moving = np.zeros(count)  # a motor current holds no drivers' step (no drive_on_W)
+    else:
+        turning = np.zeros(count)  # a power log's scrubbing moment is all in |yaw rate|
     # (not the speeding-up and braking terms: a window standing still may end where a step
     # in speed begins, and its edge speeds say so; at a true standstill they are ~0 anyway)
-    for regressor in (abs_speed, speed2, abs_yaw, moving):
+    # (nor the shares moving and turning: counts of bins beyond their noise, not a noise
+    # rectified by |.|; a window "still" by its mean may hold the last bins of motion,
+    # whose drivers' step zeroed went to idle: idle 1.1 standard errors high on the
+    # simulator, the step 1.3 low; 0.8 and 1.1 with the shares kept)
+    for regressor in (abs_speed, speed2, abs_yaw):
         regressor[still] = 0.0
     trip = _trips(standing, max(int(round(STOP_S / (n * stats.bin_s))), 1))
     return RunWindows(
-        stats, n, abs_speed, speed2, av_up, av_down, abs_yaw, moving, ok, trip, standing
+        stats, n, abs_speed, speed2, av_up, av_down, abs_yaw, moving, ok, trip, standing, turning
     )
 
 
@@ -261,8 +289,8 @@ def _force_form(
     """A current proxy's regressors (docs/drive-model.md, "Current-only logs"), from each
     bin's `translating`, `turning` and moment factor `radius_w` (a row of bins per window;
     `_radius_factor`) and the window's |v|, |yaw rate| and d|v|/dt: (rolling, viscous,
-    Coulomb moment, rate moment, speeding up, braking), in the slots of (|v|, v^2, the step
-    on moving, |yaw rate|, (a v)+, (a v)-).
+    Coulomb moment, rate moment, speeding up, braking), in the slots of (|v|, v^2,
+    `turning_coulomb_W`'s share, |yaw rate|, (a v)+, (a v)-).
 
     The proxy is V_nom (|I_left| + |I_right|), each side's current its motor's torque while
     it drives (the Husky's controller reads ~0 A on a side that brakes: below). A skid-steer
@@ -328,6 +356,7 @@ def _speeding_and_braking(
     mean_speed: np.ndarray,
     window_s: float,
     kinetic=_half_square,
+    neighbours: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, ...]:
     """Each window's mean of (a v)+ and (a v)- [m^2/s^3]. Its size is the change of v^2/2
     between the speeds at its edges over its duration (d(v^2/2)/dt = a v, exact whatever
@@ -337,14 +366,17 @@ def _speeding_and_braking(
     neighbours' mean speeds (v^2 after against before), not from the sign of its own noisy
     change: split by its own sign, the edges' noise in a cruise would be rectified into both
     columns, biasing both coefficients (seen on the simulator at 6.5 Hz: braking 10% low).
+    `neighbours`: the squared mean speeds of each window without its first and without its
+    last edge bins, so that the call shares no sample with the edges (run_windows).
     `kinetic` is the quantity differentiated: v^2/2 (power, a v), or |v| (a current proxy's
     force form, a sign(v) [m/s^2]: windows.run_windows)."""
     start, end = edge_speed[:-1], edge_speed[1:]
     half_change = kinetic(end) - kinetic(start)
     crosses = start * end < 0
     square = np.square(mean_speed)
-    after = np.concatenate((square[1:], square[-1:]))
-    before = np.concatenate((square[:1], square[:-1]))
+    after_sq, before_sq = neighbours if neighbours is not None else (square, square)
+    after = np.concatenate((after_sq[1:], square[-1:]))
+    before = np.concatenate((square[:1], before_sq[:-1]))
     rising = np.where(np.isfinite(after - before), after - before, half_change) > 0
     up = np.where(crosses, kinetic(end), np.where(rising, half_change, 0.0))
     down = np.where(crosses, -kinetic(start), np.where(rising, 0.0, half_change))
@@ -421,6 +453,7 @@ def assemble(
                 "surface": surface[keep],
                 "power": power[keep],
                 "run": np.full(int(keep.sum()), number),
+                "proxy": np.full(int(keep.sum()), rw.stats.current_proxy),
                 "trip": rw.trip[keep] + trip_base,
             }
         )
@@ -451,4 +484,5 @@ def assemble(
         surfaces=surfaces,
         window_s=runs[0].n * runs[0].stats.bin_s if runs else WINDOW_S,
         force_form=bool(runs) and all(rw.stats.current_proxy for rw in runs),
+        proxy=joined.get("proxy", np.zeros(0, dtype=bool)).astype(bool),
     )

@@ -162,7 +162,8 @@ def incomplete_warning(model: PowerModel, notes: Sequence[str] = ()) -> list[str
     why = "".join(f"; {note}" for note in notes)
     return [
         f"the model is incomplete (not fitted: {', '.join(missing)}{why}): energy, lifetime "
-        "and --model cannot use it, and fit -o writes no model.json"
+        "and --model cannot use it, and fit -o writes no paper model to model.json (the file "
+        "holds the drive model alone when one was fitted)"
     ]
 
 
