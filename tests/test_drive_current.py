@@ -163,19 +163,28 @@ def test_force_form_turning_moment_is_its_own_term():
 
 
 def test_force_form_fit_names_the_constant_turning_moment():
-    # proxies of spins at several rates: V_nom I = idle + Coulomb moment while turning +
-    # a part growing with the rate; the fit gives the constant part its own named term and
-    # says why the step on moving has no number
+    # proxies of straight runs and of spins at several rates: V_nom I = idle + the rolling
+    # force while the wheels turn (a spin's sides each drive their own way, rolling
+    # included: windows.py `_force_form`) + a Coulomb moment while turning + a part growing
+    # with the rate; the straight runs tell the rolling force from the moment, the fit gives
+    # the constant moment its own named term and says why the step on moving has no number
     period_s = 1e-2
     t = np.arange(0, 12, period_s)
     runs = []
+    extra = {"surface": "floor", "voltage_assumed_V": "24"}
     for k, rate in enumerate((0.3, 0.6, 0.9, 1.2, 0.45, 0.75)):
         yaw = np.interp(t, [0, 2, 2.5, 9, 9.5, 12], [0, 0, rate, rate, 0, 0])
-        power = 10 + 80 * (np.abs(yaw) > 1e-3) + 50 * np.abs(yaw)
-        extra = {"surface": "floor", "voltage_assumed_V": "24"}
+        power = 10 + (40 + 80) * (np.abs(yaw) > 1e-3) + 50 * np.abs(yaw)
         meta = RunMeta(run_id=f"s{k}", sample_period_s=period_s, extra=extra)
         runs.append(
             Run(f"s{k}.csv", "wbpower-csv", meta, t, power, speed_mps=0 * t, yaw_rate_radps=yaw)
+        )
+    for k, speed in enumerate((0.3, 0.6, 0.9)):
+        v = np.interp(t, [0, 2, 2.5, 9, 9.5, 12], [0, 0, speed, speed, 0, 0])
+        power = 10 + 40 * (np.abs(v) > 1e-3)
+        meta = RunMeta(run_id=f"d{k}", sample_period_s=period_s, extra=extra)
+        runs.append(
+            Run(f"d{k}.csv", "wbpower-csv", meta, t, power, speed_mps=v, yaw_rate_radps=0 * t)
         )
     model = fit_drive(runs)
     floor = model.surfaces["floor"]

@@ -419,7 +419,7 @@ def test_a_current_proxys_arc_counts_the_driving_side_only() -> None:
     steady = np.ones(windows.size, dtype=bool)
     for edge in sorted({e for s, f, *_ in plan for e in (s, f)}):  # no window across a step
         steady &= (start + windows.window_s <= edge) | (start >= edge)
-    names = ("idle_W", "rolling_W_per_mps[s]", "quadratic_W_per_mps2", "drive_on_W")
+    names = ("idle_W", "rolling_W_per_mps[s]", "quadratic_W_per_mps2", "turning_coulomb_W[s]")
     X = windows.design[steady][:, [windows.columns.index(n) for n in (*names, "turning_Nm[s]")]]
     y = windows.power_W[steady]
     coef = least_squares(X, y)
@@ -536,7 +536,7 @@ def test_a_current_proxys_arc_turns_with_the_moment_of_its_radius() -> None:
         steady = np.ones(windows.size, dtype=bool)
         for edge in sorted({e for s, f, *_ in plan for e in (s, f)}):
             steady &= (start + windows.window_s <= edge) | (start >= edge)
-        names = ("idle_W", "rolling_W_per_mps[s]", "drive_on_W", "turning_Nm[s]")
+        names = ("idle_W", "rolling_W_per_mps[s]", "turning_coulomb_W[s]", "turning_Nm[s]")
         X = windows.design[steady][:, [windows.columns.index(n) for n in names]]
         y = windows.power_W[steady]
         coef = least_squares(X, y)
