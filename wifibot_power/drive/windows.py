@@ -22,6 +22,7 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -144,12 +145,33 @@ class RunWindows:
         high, high_ok = self._power_at(whole + 1)
         return (1 - part) * low + part * high, low_ok & high_ok
 
+    @cached_property
+    def _power_sums(self) -> tuple[np.ndarray, np.ndarray]:
+        """The running count of undefined power bins and the running sum of power (the same at
+        every lag: made once, not at each of the lag search's tries)."""
+        power = self.stats.power_W
+        bad = np.concatenate(([0], np.cumsum(~np.isfinite(power))))
+        total = np.concatenate(([0.0], np.cumsum(np.nan_to_num(power))))
+        return bad, total
+
+    @cached_property
+    def rates(self) -> dict[str, np.ndarray]:
+        """Each regressor's rate of change from window to window [1/s] (`Windows.design_rate`)."""
+        return {
+            name: np.gradient(values, self.n * self.stats.bin_s) if values.size > 1 else 0 * values
+            for name, values in self.regressors().items()
+        }
+
+    @cached_property
+    def _surface_local(self) -> np.ndarray:
+        """Each window's surface, an index into `stats.surfaces` (its first bin's)."""
+        return self.stats.surface_index[np.arange(self.count) * self.n]
+
     def _power_at(self, lag_bins: int) -> tuple[np.ndarray, np.ndarray]:
         power = self.stats.power_W
         start = np.arange(self.count) * self.n + lag_bins
         inside = start + self.n <= power.size
-        bad = np.concatenate(([0], np.cumsum(~np.isfinite(power))))
-        total = np.concatenate(([0.0], np.cumsum(np.nan_to_num(power))))
+        bad, total = self._power_sums
         end = np.minimum(start + self.n, power.size)
         start = np.minimum(start, power.size)
         ok = inside & (bad[end] - bad[start] == 0)
@@ -311,6 +333,17 @@ def design_columns(surfaces: tuple[str, ...]) -> tuple[str, ...]:
     )
 
 
+def responses(runs: list[RunWindows], lag_bins: float, only: list[np.ndarray]) -> np.ndarray:
+    """`assemble(runs, lag_bins, only=only).power_W` where `only` keeps no window whose power
+    is undefined at that lag (the lag search's windows): the response alone, without the
+    design."""
+    parts = []
+    for rw, mask in zip(runs, only, strict=True):
+        power, power_ok = rw.power_at(lag_bins)
+        parts.append(power[rw.ok & power_ok & mask])
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
 def assemble(
     runs: list[RunWindows],
     lag_bins: float,
@@ -331,15 +364,10 @@ def assemble(
         keep = rw.ok & power_ok
         if only is not None:
             keep &= only[number]
-        first_bin = np.arange(rw.count) * rw.n
-        local = rw.stats.surface_index[first_bin]
         mapping = np.array([position[s] for s in rw.stats.surfaces], dtype=np.intp)
-        surface = mapping[local]
+        surface = mapping[rw._surface_local]
         regressors = rw.regressors()
-        rates = {
-            name: np.gradient(values, rw.n * rw.stats.bin_s) if values.size > 1 else 0 * values
-            for name, values in regressors.items()
-        }
+        rates = rw.rates
         parts.append(
             {
                 **{name: values[keep] for name, values in regressors.items()},
