@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wifibot_power.drive.terms import TERM_BY_NAME
-from wifibot_power.drive.windows import RunWindows, Windows, assemble, responses
+from wifibot_power.drive.windows import RunWindows, StackedPower, Windows, assemble
 from wifibot_power.stats import t_quantile
 
 #: Lags tried [s]: 0 to 1 s by one bin.
@@ -83,20 +83,20 @@ def lag_search(
     bin_s = runs[0].stats.bin_s
     lags = np.arange(int(round(MAX_LAG_S / bin_s)) + 1)
     # the windows defined at every lag, so that each lag is judged on the same windows
-    common = [rw.ok.copy() if only is None else rw.ok & only[r] for r, rw in enumerate(runs)]
+    stacked = StackedPower(runs)
+    common = stacked.ok if only is None else stacked.ok & np.concatenate(only)
     for lag in lags:
-        for mask, rw in zip(common, runs, strict=True):
-            mask &= rw.power_at(int(lag))[1]
+        common = common & stacked.power_at(int(lag))[1]
 
     # every lag tried keeps the same windows (`common`; a fraction of a bin between two whole
     # lags tried): the design is made and factorised once, only the response moves with the lag
-    X = assemble(runs, 0, surfaces, only=common).design
+    X = assemble(runs, 0, surfaces, only=stacked.split(common)).design
     usable = np.any(X != 0, axis=0)
     X = X[:, usable]
     solve = _normal_equations(X)
 
     def sse_at(lag: float) -> float:
-        y = responses(runs, lag, common)
+        y = stacked.power_at(lag)[0][common]
         if y.size <= X.shape[1]:
             return np.inf
         coef = solve(y)
