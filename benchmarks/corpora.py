@@ -18,6 +18,13 @@ the same parameters give the same bytes), written in one layout:
 - `power10k`: canonical CSV, `power_W` only, time from the `sample_period_s` metadata
   (`wbpower simulate --columns power --sample-period 0.0001`, ~8 bytes a sample), 0.1 ms.
 
+One shape is not the grid: `drive`, free driving for the drive model (issue 25), written by
+`wbpower simulate --drive free --realism field` itself (a skid-steer robot on random routes
+over asphalt and grass: stops, arcs, turns in place, reversing; 20 Hz, noise, lag, quantized
+speed, drop-outs): `time_s,power_W,speed_mps,yaw_rate_radps` (~28 bytes a sample), runs of
+`duration_s`, `repeats` runs a surface. Its runs are motion of unknown mode: `fit` gives the
+drive model from them (the paper's model needs step runs), `diagnose` has nothing to do.
+
 Each folder also holds `runs.csv` (the manifest `wbpower simulate` writes) and `truth.json`
 (true phase boundaries, for scoring segmentation), and `.corpus-params.json`: a folder whose
 parameters have not changed is not written again. A folder is built under a temporary name
@@ -31,6 +38,7 @@ import argparse
 import json
 import os
 import shutil
+import subprocess
 import sys
 import time
 from collections.abc import Callable
@@ -56,6 +64,12 @@ class Shape:
     mode_repeats: int  # repeats of each idle/network/video/cpu log
     seed: int
     description: str
+    #: `drive` only: each free-driving run's duration [s] (None: the paper's grid)
+    duration_s: float | None = None
+
+    @property
+    def free_driving(self) -> bool:
+        return self.layout == "drive_free"
 
 
 SHAPES: dict[str, Shape] = {
@@ -64,6 +78,7 @@ SHAPES: dict[str, Shape] = {
     "n6705": Shape("n6705", 0.1024e-3, 2, 2, 1403, "N6705 export, Curr avg 1 x Volt avg 1"),
     "gzip": Shape("full_gz", 0.1024e-3, 2, 2, 1404, "canonical, all columns, .csv.gz"),
     "power10k": Shape("power", 0.1e-3, 8, 2, 1405, "power-only canonical at 10 kHz, power_W"),
+    "drive": Shape("drive_free", 0.05, 100, 0, 1406, "free driving, field realism: time_s,power_W,speed_mps,yaw_rate_radps", duration_s=3600.0),  # noqa: E501
 }  # fmt: skip
 
 
@@ -171,6 +186,8 @@ def _params(shape: Shape) -> dict[str, object]:
     """What the bytes depend on (not the description)."""
     params = asdict(shape)
     del params["description"]
+    if params["duration_s"] is None:  # the grid shapes' parameters as before the field existed
+        del params["duration_s"]
     return {"shape": params, "layout_version": LAYOUT_VERSION}
 
 
@@ -181,8 +198,6 @@ def is_built(name: str, root: Path) -> bool:
 
 def build(name: str, root: Path | None = None, *, quiet: bool = False) -> Path:
     """The folder of shape `name` under `root`, written unless present with the same parameters."""
-    from wifibot_power.simulate import SimConfig, realism, write_simulation
-
     root = root_of(root)
     shape = SHAPES[name]
     folder = root / name
@@ -195,19 +210,10 @@ def build(name: str, root: Path | None = None, *, quiet: bool = False) -> Path:
     partial.mkdir(parents=True)
     print(f"corpora: writing {folder} ({shape.description}) ...", flush=True)
     start = time.perf_counter()
-    config = SimConfig(
-        repeats=shape.repeats,
-        mode_repeats=shape.mode_repeats,
-        sample_period_s=shape.sample_period_s,
-        seed=shape.seed,
-        **realism("lab"),
-    )
-    written = write_simulation(
-        config,
-        partial,
-        render=LAYOUTS[shape.layout],
-        generator=f"benchmarks/corpora.py shape {name}",
-    )
+    if shape.free_driving:
+        written = _free_driving(shape, partial)
+    else:
+        written = _grid(name, shape, partial)
     (partial / ".corpus-params.json").write_text(json.dumps(_params(shape)))
     shutil.rmtree(folder, ignore_errors=True)
     partial.rename(folder)
@@ -217,6 +223,41 @@ def build(name: str, root: Path | None = None, *, quiet: bool = False) -> Path:
         flush=True,
     )
     return folder
+
+
+def _grid(name: str, shape: Shape, partial: Path) -> dict:
+    """The paper's grid simulated into `partial` in the shape's layout."""
+    from wifibot_power.simulate import SimConfig, realism, write_simulation
+
+    config = SimConfig(
+        repeats=shape.repeats,
+        mode_repeats=shape.mode_repeats,
+        sample_period_s=shape.sample_period_s,
+        seed=shape.seed,
+        **realism("lab"),
+    )
+    return write_simulation(
+        config,
+        partial,
+        render=LAYOUTS[shape.layout],
+        generator=f"benchmarks/corpora.py shape {name}",
+    )
+
+
+def _free_driving(shape: Shape, partial: Path) -> dict:
+    """`wbpower simulate --drive free --realism field` into `partial`, as a user would run it
+    (the installed command beside this interpreter, else `python -m wifibot_power`)."""
+    wbpower = Path(sys.executable).parent / "wbpower"
+    command = [str(wbpower)] if wbpower.is_file() else [sys.executable, "-m", "wifibot_power"]
+    argv = [
+        *command, "simulate", "-o", str(partial), "--drive", "free", "--realism", "field",
+        "--repeats", str(shape.repeats), "--duration", f"{shape.duration_s:g}",
+        "--seed", str(shape.seed), "--json",
+    ]  # fmt: skip
+    done = subprocess.run(argv, capture_output=True, text=True, cwd=REPO, check=False)
+    if done.returncode != 0:
+        raise SystemExit(f"corpora: {' '.join(argv)} failed:\n{done.stderr[-2000:]}")
+    return json.loads(done.stdout)
 
 
 def log_files(folder: Path) -> list[Path]:
@@ -229,11 +270,15 @@ def log_files(folder: Path) -> list[Path]:
 
 
 def quick_subset(folder: Path, into: Path) -> Path:
-    """A small corpus for iterating on the bench: the first repeat of every run (`*_r1.*`),
-    as symlinks, with the manifest rows that name them."""
+    """A small corpus for iterating on the bench: the first repeat of every run (`*_r1.*`;
+    free driving: its first eighth of runs), as symlinks, with the manifest rows that name
+    them."""
     shutil.rmtree(into, ignore_errors=True)
     into.mkdir(parents=True)
-    keep = {p.name for p in log_files(folder) if "_r1." in p.name}
+    logs = log_files(folder)
+    keep = {p.name for p in logs if "_r1." in p.name} or {
+        p.name for p in logs[: -(-len(logs) // 8)]
+    }
     for name in sorted(keep):
         (into / name).symlink_to(folder / name)
     lines = (folder / "runs.csv").read_text().splitlines()

@@ -21,7 +21,16 @@ FIT_STAGES = {
     "  sample checks (check_samples)": ("validate.py", "check_samples"),
     "segmentation (segment_run)": ("segment/__init__.py", "segment_run"),
     "run_row": ("runtable.py", "run_row"),
+    "drive model's per-run statistics (drive_stats)": ("drive/stats.py", "drive_stats"),
     "fit of the run records (fit_records)": ("fit.py", "fit_records"),
+    "  drive model (fit_drive_stats)": ("drive/model.py", "fit_drive_stats"),
+}
+#: the drive model's stages (the free-driving shape: `profile("fit", folder, drive=True)`)
+DRIVE_STAGES = {
+    **FIT_STAGES,
+    "    lag searches (lag_search)": ("drive/identify.py", "lag_search"),
+    "    identifications (identify)": ("drive/identify.py", "identify"),
+    "    held-out K-fold (heldout_accuracy)": ("drive/heldout.py", "heldout_accuracy"),
 }
 DIAGNOSE_STAGES = {
     "diagnose_logs (whole, 1 job)": ("diagnose/batch.py", "diagnose_logs"),
@@ -142,10 +151,11 @@ def _run(script: str, *args: str) -> dict:
     return json.loads(out.stdout)
 
 
-def profile(what: str, folder: Path) -> dict:
+def profile(what: str, folder: Path, *, drive: bool = False) -> dict:
     """cProfile of `fit_logs` (`what` "fit") or `diagnose_logs` ("diagnose") over `folder`,
-    1 job: {"import_s", "wall_s", "stages": {label: cumulative s or None}, "top_own_s"}."""
-    stages = FIT_STAGES if what == "fit" else DIAGNOSE_STAGES
+    1 job: {"import_s", "wall_s", "stages": {label: cumulative s or None}, "top_own_s"}.
+    `drive`: the drive model's stages too (a free-driving corpus)."""
+    stages = (DRIVE_STAGES if drive else FIT_STAGES) if what == "fit" else DIAGNOSE_STAGES
     result = _run(PROFILE, what, str(folder), json.dumps(stages))
     missing = [label.strip() for label, s in result["stages"].items() if s is None]
     if missing:

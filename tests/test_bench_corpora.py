@@ -131,3 +131,33 @@ def test_a_corpus_is_written_through_the_simulators_writer_in_its_layout(tmp_pat
     assert log.name in (tmp_path / "runs.csv").read_text()
     truth = load_truth(tmp_path / "truth.json")
     assert truth["generator"] == "a corpus" and written["runs"] == 1
+
+
+def test_the_drive_shape_is_free_driving_written_by_simulate_and_read_with_its_columns(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The `drive` corpus (issue 25) is what `wbpower simulate --drive free --realism field`
+    writes: field-realism logs read back with a speed and a rate of turn at 20 Hz, two surfaces,
+    and its parameters stamped (a small one here: 2 runs a surface of 60 s)."""
+    small = corpora.Shape("drive_free", 0.05, 2, 0, 1406, "free driving", duration_s=60.0)
+    monkeypatch.setitem(corpora.SHAPES, "drive", small)
+    folder = corpora.build("drive", tmp_path)
+    logs = corpora.log_files(folder)
+    assert [p.name for p in logs] == [
+        "free_001_asphalt.csv", "free_002_grass.csv", "free_003_asphalt.csv", "free_004_grass.csv"
+    ]  # fmt: skip
+    run = read_log(logs[1])
+    assert run.speed_mps is not None and run.yaw_rate_radps is not None
+    assert run.meta.extra["surface"] == "grass"
+    assert run.sample_period_s == pytest.approx(0.05)
+    assert corpora.is_built("drive", tmp_path)
+    sub = corpora.quick_subset(folder, tmp_path / "quick")  # no `_r1` names: the first eighth
+    assert [p.name for p in corpora.log_files(sub)] == ["free_001_asphalt.csv"]
+
+
+def test_the_grid_shapes_parameters_did_not_change_with_the_drive_shape() -> None:
+    """A grid corpus built before the drive shape existed is not written again: its
+    parameters (what `.corpus-params.json` holds) have no `duration_s`."""
+    for name, shape in corpora.SHAPES.items():
+        params = corpora._params(shape)["shape"]
+        assert ("duration_s" in params) == shape.free_driving, name

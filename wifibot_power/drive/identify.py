@@ -39,7 +39,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from wifibot_power.drive.terms import TERM_BY_NAME
-from wifibot_power.drive.windows import RunWindows, Windows, assemble
+from wifibot_power.drive.windows import RunWindows, StackedPower, Windows, assemble
 from wifibot_power.stats import t_quantile
 
 #: Lags tried [s]: 0 to 1 s by one bin.
@@ -112,19 +112,24 @@ def lag_search(
     bin_s = runs[0].stats.bin_s
     lags = np.arange(int(round(MAX_LAG_S / bin_s)) + 1)
     # the windows defined at every lag, so that each lag is judged on the same windows
-    common = [rw.ok.copy() if only is None else rw.ok & only[r] for r, rw in enumerate(runs)]
+    stacked = StackedPower(runs)
+    common = stacked.ok if only is None else stacked.ok & np.concatenate(only)
     for lag in lags:
-        for mask, rw in zip(common, runs, strict=True):
-            mask &= rw.power_at(int(lag))[1]
+        common = common & stacked.power_at(int(lag))[1]
+
+    # every lag tried keeps the same windows (`common`; a fraction of a bin between two whole
+    # lags tried): the design is made and factorised once, only the response moves with the lag
+    X = assemble(runs, 0, surfaces, only=stacked.split(common)).design
+    usable = np.any(X != 0, axis=0)
+    X = X[:, usable]
+    solve = _normal_equations(X)
 
     def sse_at(lag: float) -> float:
-        table = assemble(runs, lag, surfaces, only=common)
-        X, y = table.design, table.power_W
-        usable = np.any(X != 0, axis=0)
-        if y.size <= usable.sum():
+        y = stacked.power_at(lag)[0][common]
+        if y.size <= X.shape[1]:
             return np.inf
-        coef = least_squares(X[:, usable], y)
-        return float(np.sum(np.square(y - X[:, usable] @ coef)))
+        coef = solve(y)
+        return float(np.sum(np.square(y - X @ coef)))
 
     sse = np.array([sse_at(int(lag)) for lag in lags])
     if not np.isfinite(sse).any():
@@ -374,10 +379,16 @@ def least_squares(X: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Least squares by the normal equations of unit-norm columns (a few columns, thousands of
     rows: ~50x faster than an SVD here, and as exact at these condition numbers); the
     pseudo-inverse where a column is a combination of others."""
+    return _normal_equations(X)(y)
+
+
+def _normal_equations(X: np.ndarray):
+    """`least_squares(X, .)` with X factorised once: a function of y."""
     scale = np.sqrt(np.sum(np.square(X), axis=0))
     scale[scale == 0] = 1.0
     A = X / scale
-    return (np.linalg.pinv(A.T @ A) @ (A.T @ y)) / scale
+    inverse = np.linalg.pinv(A.T @ A)
+    return lambda y: (inverse @ (A.T @ y)) / scale
 
 
 def _bounded_lstsq(X: np.ndarray, y: np.ndarray, non_negative: np.ndarray) -> np.ndarray:
@@ -425,10 +436,16 @@ def _cluster_cov(
     if p == 0 or G < 2 or n <= p:
         return np.full((p, p), np.nan), max(G - 1, 0), G
     gram = X.T @ X
+    # per-cluster sums by bincount, a column (pair) at a time: in the rows' order as np.add.at
+    # adds them, without its n x p x p temporary (gigabytes on a long corpus)
+    weighted = X * residual[:, None]
     scores = np.zeros((G, p))
-    np.add.at(scores, inverse, X * residual[:, None])
     grams = np.zeros((G, p, p))
-    np.add.at(grams, inverse, X[:, :, None] * X[:, None, :])
+    for i in range(p):
+        scores[:, i] = np.bincount(inverse, weights=weighted[:, i], minlength=G)
+        for j in range(i, p):
+            grams[:, i, j] = np.bincount(inverse, weights=X[:, i] * X[:, j], minlength=G)
+            grams[:, j, i] = grams[:, i, j]
     left_out = gram[None, :, :] - grams
     # a cluster without which the design is singular (the only run turning on a surface):
     # the pseudo-inverse, which leaves that direction out of its change

@@ -145,8 +145,9 @@ def drive_stats(run: Run, segmentation: Segmentation | None = None) -> DriveStat
     period_s = run.sample_period_s
     n_bins = max(int(np.floor((time_s[-1] + period_s - time_s[0]) / BIN_S + 1e-9)), 1)
     if period_s <= BIN_S / 4:
-        binned = _bin_means(time_s - time_s[0], n_bins, run.power_W, speed_mps, yaw_radps)
-        first = _first_sample(time_s - time_s[0], n_bins)
+        which = _bin_of(time_s - time_s[0], n_bins)  # each sample's bin, found once for both
+        binned = _bin_means(which, n_bins, run.power_W, speed_mps, yaw_radps)
+        first = _first_sample(which, n_bins)
         bin_surface = np.where(first >= 0, surface_index[np.maximum(first, 0)], 0)
     else:
         binned = _held(time_s - time_s[0], n_bins, period_s, run.power_W, speed_mps, yaw_radps)
@@ -226,14 +227,14 @@ def _surfaces(run: Run) -> tuple[np.ndarray, tuple[str, ...]]:
 
 
 def _bin_means(
-    offset_s: np.ndarray,
+    which: np.ndarray,
     n_bins: int,
     power_W: np.ndarray,
     speed_mps: np.ndarray,
     yaw_radps: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Mean of the samples in each bin (NaN in a bin without one: a drop-out)."""
-    which = _bin_of(offset_s, n_bins)
+    """Mean of the samples in each bin (`which`: each sample's, `_bin_of`; NaN in a bin
+    without one: a drop-out)."""
     count = np.bincount(which, minlength=n_bins).astype(np.float64)
     empty = count == 0
     count[empty] = np.nan
@@ -246,9 +247,8 @@ def _bin_means(
     return out[0], out[1], out[2]
 
 
-def _first_sample(offset_s: np.ndarray, n_bins: int) -> np.ndarray:
-    """The index of each bin's first sample (-1: none)."""
-    which = _bin_of(offset_s, n_bins)
+def _first_sample(which: np.ndarray, n_bins: int) -> np.ndarray:
+    """The index of each bin's first sample (-1: none; `which`: each sample's bin)."""
     first = np.full(n_bins, -1, dtype=np.intp)
     starts = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
     first[which[starts]] = starts

@@ -24,6 +24,7 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -149,20 +150,35 @@ class RunWindows:
     def power_at(self, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
         """Each window's mean power `lag_bins` bins later [W] (a fraction of a bin: linear
         between the two whole bins), and whether it is defined."""
-        whole = int(np.floor(lag_bins))
-        part = lag_bins - whole
-        if part <= 1e-9:
-            return self._power_at(whole)
-        low, low_ok = self._power_at(whole)
-        high, high_ok = self._power_at(whole + 1)
-        return (1 - part) * low + part * high, low_ok & high_ok
+        return _between_bins(self._power_at, lag_bins)
+
+    @cached_property
+    def _power_sums(self) -> tuple[np.ndarray, np.ndarray]:
+        """The running count of undefined power bins and the running sum of power (the same at
+        every lag: made once, not at each of the lag search's tries)."""
+        power = self.stats.power_W
+        bad = np.concatenate(([0], np.cumsum(~np.isfinite(power))))
+        total = np.concatenate(([0.0], np.cumsum(np.nan_to_num(power))))
+        return bad, total
+
+    @cached_property
+    def rates(self) -> dict[str, np.ndarray]:
+        """Each regressor's rate of change from window to window [1/s] (`Windows.design_rate`)."""
+        return {
+            name: np.gradient(values, self.n * self.stats.bin_s) if values.size > 1 else 0 * values
+            for name, values in self.regressors().items()
+        }
+
+    @cached_property
+    def _surface_local(self) -> np.ndarray:
+        """Each window's surface, an index into `stats.surfaces` (its first bin's)."""
+        return self.stats.surface_index[np.arange(self.count) * self.n]
 
     def _power_at(self, lag_bins: int) -> tuple[np.ndarray, np.ndarray]:
         power = self.stats.power_W
         start = np.arange(self.count) * self.n + lag_bins
         inside = start + self.n <= power.size
-        bad = np.concatenate(([0], np.cumsum(~np.isfinite(power))))
-        total = np.concatenate(([0.0], np.cumsum(np.nan_to_num(power))))
+        bad, total = self._power_sums
         end = np.minimum(start + self.n, power.size)
         start = np.minimum(start, power.size)
         ok = inside & (bad[end] - bad[start] == 0)
@@ -417,6 +433,65 @@ def design_columns(surfaces: tuple[str, ...]) -> tuple[str, ...]:
     )
 
 
+class StackedPower:
+    """Several runs' windows side by side (`assemble`'s row order), for the lag search: each
+    window's power at any lag in one pass over all runs, the same numbers as each run's
+    `RunWindows.power_at` (their running sums laid end to end, each window's first bin and its
+    run's end as indices into them)."""
+
+    def __init__(self, runs: list[RunWindows]) -> None:
+        sums = [rw._power_sums for rw in runs]
+        offsets = np.cumsum([0] + [total.size for _, total in sums])[:-1]
+        self.bad = np.concatenate([bad for bad, _ in sums]) if sums else np.zeros(1, np.intp)
+        self.total = np.concatenate([total for _, total in sums]) if sums else np.zeros(1)
+        self.first = _joined(
+            [base + np.arange(rw.count) * rw.n for base, rw in zip(offsets, runs, strict=True)]
+        )
+        self.end = _joined(
+            [
+                np.full(rw.count, base + rw.stats.bins)
+                for base, rw in zip(offsets, runs, strict=True)
+            ]
+        )
+        self.n = _joined([np.full(rw.count, rw.n) for rw in runs])
+        #: per window: its regressors are defined (`RunWindows.ok`)
+        self.ok = _joined([rw.ok for rw in runs]).astype(bool)
+        self.counts = [rw.count for rw in runs]
+
+    def split(self, mask: np.ndarray) -> list[np.ndarray]:
+        """A mask over the stacked windows as one mask per run."""
+        return np.split(mask, np.cumsum(self.counts)[:-1])
+
+    def power_at(self, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
+        """`RunWindows.power_at` of every run, stacked."""
+        return _between_bins(self._power_at, lag_bins)
+
+    def _power_at(self, lag_bins: int) -> tuple[np.ndarray, np.ndarray]:
+        start = self.first + lag_bins
+        inside = start + self.n <= self.end
+        end = np.minimum(start + self.n, self.end)
+        start = np.minimum(start, self.end)
+        ok = inside & (self.bad[end] - self.bad[start] == 0)
+        mean = (self.total[end] - self.total[start]) / self.n
+        return np.where(ok, mean, np.nan), ok
+
+
+def _between_bins(power_at_whole, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
+    """The power at a lag of `lag_bins` from `power_at_whole(whole lag)`: a fraction of a bin is
+    linear between the two whole bins, defined where both are."""
+    whole = int(np.floor(lag_bins))
+    part = lag_bins - whole
+    if part <= 1e-9:
+        return power_at_whole(whole)
+    low, low_ok = power_at_whole(whole)
+    high, high_ok = power_at_whole(whole + 1)
+    return (1 - part) * low + part * high, low_ok & high_ok
+
+
+def _joined(parts: list[np.ndarray]) -> np.ndarray:
+    return np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)
+
+
 def assemble(
     runs: list[RunWindows],
     lag_bins: float,
@@ -430,36 +505,29 @@ def assemble(
         surfaces = tuple(sorted({s for r in runs for s in r.stats.surfaces}))
     columns = design_columns(surfaces)
     position = {name: k for k, name in enumerate(surfaces)}
-    parts = []
-    trip_base = 0
-    for number, rw in enumerate(runs):
-        power, power_ok = rw.power_at(lag_bins)
-        keep = rw.ok & power_ok
-        if only is not None:
-            keep &= only[number]
-        first_bin = np.arange(rw.count) * rw.n
-        local = rw.stats.surface_index[first_bin]
-        mapping = np.array([position[s] for s in rw.stats.surfaces], dtype=np.intp)
-        surface = mapping[local]
-        regressors = rw.regressors()
-        rates = {
-            name: np.gradient(values, rw.n * rw.stats.bin_s) if values.size > 1 else 0 * values
-            for name, values in regressors.items()
-        }
-        parts.append(
-            {
-                **{name: values[keep] for name, values in regressors.items()},
-                **{f"rate:{name}": values[keep] for name, values in rates.items()},
-                "surface": surface[keep],
-                "power": power[keep],
-                "run": np.full(int(keep.sum()), number),
-                "proxy": np.full(int(keep.sum()), rw.stats.current_proxy),
-                "trip": rw.trip[keep] + trip_base,
-            }
-        )
-        trip_base += int(rw.trip[-1]) + 1 if rw.count else 0
-    keys = parts[0].keys() if parts else ()
-    joined = {key: np.concatenate([part[key] for part in parts]) for key in keys}
+    # every run's windows side by side, kept or not in one pass (no loop over runs per column)
+    power, power_ok = StackedPower(runs).power_at(lag_bins)
+    keep = _joined([rw.ok for rw in runs]).astype(bool) & power_ok
+    if only is not None:
+        keep &= _joined(list(only)).astype(bool)
+    bases = np.cumsum([0] + [int(rw.trip[-1]) + 1 if rw.count else 0 for rw in runs])[:-1]
+    names = tuple(runs[0].regressors()) if runs else ()
+    joined = {
+        **{name: _joined([rw.regressors()[name] for rw in runs])[keep] for name in names},
+        **{f"rate:{name}": _joined([rw.rates[name] for rw in runs])[keep] for name in names},
+        "surface": _joined(
+            [
+                np.array([position[s] for s in rw.stats.surfaces], dtype=np.intp)[rw._surface_local]
+                for rw in runs
+            ]
+        )[keep],
+        "power": power[keep],
+        "run": np.repeat(np.arange(len(runs)), [rw.count for rw in runs])[keep],
+        "proxy": np.repeat(
+            [rw.stats.current_proxy for rw in runs], [rw.count for rw in runs]
+        ).astype(bool)[keep],
+        "trip": _joined([rw.trip + base for rw, base in zip(runs, bases, strict=True)])[keep],
+    }
     power = joined.get("power", np.zeros(0))
     surface = joined.get("surface", np.zeros(0)).astype(np.intp)
     one_hot = surface[:, None] == np.arange(len(surfaces))[None, :]
