@@ -57,3 +57,16 @@ def test_unknown_surface_and_realism_are_usage_errors(tmp_path):
     bad = runner.invoke(app, ["simulate", "-o", str(tmp_path / "b"), "--drive", "free",
                               "--realism", "moon"])  # fmt: skip
     assert bad.exit_code == 2
+
+
+def test_drop_outs_never_join_into_a_gap_the_reader_refuses():
+    # drop-outs are 1 or 2 samples; two side by side would make a gap of more than 3 sample
+    # periods, which the reader refuses (32 of make bench's 200 one-hour field runs were).
+    # At 200 drop-outs a minute on 20 Hz logs, pairs are drawn often: none is made.
+    config = FreeDriveConfig(
+        runs_per_surface=2, run_s=120.0, seed=3, realism_overrides={"dropouts_per_min": 200.0}
+    )
+    for run in simulate_free(config):
+        steps = np.diff(run.time_s)
+        assert steps.max() <= 3 * 0.05 + 1e-9, steps.max()
+        assert (steps > 0.06).sum() > 100  # the drop-outs are there
