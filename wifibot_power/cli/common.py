@@ -500,11 +500,30 @@ def warn(message: str) -> None:
     print(f"wbpower: warning: {one_line}", file=sys.stderr)
 
 
+#: problems of one kind said one by one per file; the rest in one line (`warn_problems`)
+PROBLEMS_SAID = 3
+
+
 def warn_problems(file: str, problems: tuple[Problem, ...]) -> None:
-    """What reading a log found but did not stop it (short gaps): one warning
-    line each on stderr, naming the file (as `inspect` prints them)."""
+    """What reading a log found but did not stop it (short gaps): a warning line each on
+    stderr, naming the file (as `inspect` prints them), the first `PROBLEMS_SAID` of each
+    kind, then one line for the rest of that kind with their count and time in all (a field
+    logger's hour of 20 Hz drop-outs made ~120 lines a file). Every one stays in `inspect
+    --json`'s `problems`."""
+    by_kind: dict[str, list[Problem]] = {}
     for problem in problems:
-        warn(f"{file}: {problem.message}")
+        by_kind.setdefault(problem.kind, []).append(problem)
+    for kind, items in by_kind.items():
+        for problem in items[:PROBLEMS_SAID]:
+            warn(f"{file}: {problem.message}")
+        rest = items[PROBLEMS_SAID:]
+        if rest:
+            durations = [p.duration_s for p in rest if p.duration_s is not None]
+            in_all = f", {sum(durations):.4g} s in all" if durations else ""
+            warn(
+                f"{file}: and {len(rest)} more of kind '{kind}' like these{in_all} (each in "
+                "'wbpower inspect FILE --json', problems)"
+            )
 
 
 def report_skipped(skipped: list[Skipped]) -> int:
