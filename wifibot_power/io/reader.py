@@ -45,8 +45,8 @@ from wifibot_power.io.transport import (
 from wifibot_power.io.validate import (
     PowerScale,
     check_channels,
+    check_log_samples,
     check_power_twice,
-    check_samples,
     check_speed,
     check_yaw_rate,
 )
@@ -126,7 +126,7 @@ def read_log(
     )
     surface_index, surface_names = columns.labels.get(turning.surface or "", (None, ()))
     columns.values.clear()  # the arrays live on in power_W, measured and time_s only
-    period_s, problems = check_samples(
+    period_s, problems, grid = check_log_samples(
         str(path),
         time_s,
         power_W,
@@ -151,6 +151,13 @@ def read_log(
         meta = build_meta(
             values, file=str(path), stem=log_stem(path), where="metadata", origins=where
         )
+    if grid is not None:  # a logger stamping rows as they arrive: read by sample and hold
+        time_s, power_W, speed_mps, yaw_rate_radps = (
+            grid.stamps_s,
+            *map(grid.take, (power_W, speed_mps, yaw_rate_radps)),
+        )
+        channels_W = {name: grid.take(values) for name, values in channels_W.items()}
+        surface_index = grid.take(surface_index)
     return Run(
         file=str(path),
         format=pre.format,

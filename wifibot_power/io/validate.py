@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wifibot_power.errors import LogError
+from wifibot_power.io.holdgrid import HoldGrid, hold_energies_J, hold_grid
 from wifibot_power.io.options import MAX_SUPPLY_VOLTAGE_V, SAMPLE_PERIOD_RANGE_S
 from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem
 
@@ -80,6 +81,11 @@ BURST_WAIT_QUANTILE = 0.9
 #: ... which needs at least this many waits (1 / (1 - `BURST_WAIT_QUANTILE`)) to stand below
 #: the longest: fewer long steps are no pattern (a short log with one long pause is a gap).
 BURSTY_MIN_WAITS = 10
+#: Steps between gaps whose middle half (25th to 75th percentile) spreads over more than
+#: this share of their median [%] come from a logger that stamps rows as they arrive
+#: (`_stamped_on_arrival`): a clocked instrument's steps are equal to their rounding (0.0% on
+#: every analyser, REGBOT and BorealTC log), the phone apps' and the F1/10 car's spread 4-60%.
+ARRIVAL_SPREAD_PCT = 1.0
 #: Time stamps whose mean step (between gaps) is further than this from their median [%]
 #: are uneven (a logger stamping on arrival, e.g. ROS): the period is then their mean, so
 #: that durations and energies follow the stamps (the bar is MAX_GAP_PCT's: as much time
@@ -114,8 +120,30 @@ def check_samples(
     `line_of(i)` is the file line of sample i (for messages); `measured` holds the columns the
     power was computed from (clipping shows in a current column, not always in the product),
     `voltages` the names of those that are voltages (`SATURATION_ABOVE_MEDIAN`); `scale` what
-    the log says of its robot, to judge absurd power by (`check_power_scale`).
+    the log says of its robot, to judge absurd power by (`check_power_scale`). A reader
+    calls `check_log_samples`, which also gives the grid a stamping logger is read on.
     """
+    checked = check_log_samples(
+        file, time_s, power_W, line_of=line_of, first_data_line=first_data_line,
+        default_period_s=default_period_s, measured=measured, voltages=voltages, scale=scale,
+    )  # fmt: skip
+    return checked[0], checked[1]
+
+
+def check_log_samples(
+    file: str,
+    time_s: np.ndarray | None,
+    power_W: np.ndarray,
+    *,
+    line_of: Callable[[int], int] | None = None,
+    first_data_line: int = 2,
+    default_period_s: float = PAPER_SAMPLE_PERIOD_S,
+    measured: dict[str, np.ndarray] | None = None,
+    voltages: frozenset[str] = frozenset(),
+    scale: PowerScale | None = None,
+) -> tuple[float, list[Problem], HoldGrid | None]:
+    """`check_samples`, and the even grid (`holdgrid.hold_grid`) the samples are to be read
+    on when a logger stamps rows as they arrive (bursty or uneven stamps), else None."""
     if line_of is None:
         line_of = lambda index: first_data_line + index  # noqa: E731
     low_W, high_W = _check_power(file, power_W, line_of)
@@ -123,12 +151,19 @@ def check_samples(
     unjudged = check_power_scale(
         file, power_W, high_W, measured or {"power": power_W}, scale, line_of
     )
+    grid = None
     if time_s is None:
         period_s = default_period_s
         problems: list[Problem] = []
     else:
-        period_s, problems = _check_time(file, time_s, line_of, default_period_s)
+        period_s, problems, stamped_gaps = _check_time(file, time_s, line_of, default_period_s)
         _check_period(file, period_s)
+        if stamped_gaps is not None:  # the note on the stamps comes first: it says the grid
+            grid = hold_grid(time_s, stamped_gaps, period_s)
+            energies_J = hold_energies_J(time_s, power_W, stamped_gaps, period_s, grid)
+            problems[0] = _on_the_grid(problems[0], energies_J)
+            if not _grid_is_nearer(energies_J):
+                grid = None
     negative = _negative_samples(power_W, time_s, period_s, low_W)
     if negative is not None:
         problems.insert(0, negative)
@@ -139,7 +174,7 @@ def check_samples(
         peak = high_W if values is power_W else None
         voltage = name in scale.voltages
         _check_saturation(file, name, values, time_s, period_s, line_of, peak, voltage)
-    return period_s, problems
+    return period_s, problems, grid
 
 
 def check_speed(
@@ -190,12 +225,15 @@ def _check_motion(
 
 def _check_time(
     file: str, time_s: np.ndarray, line_of: Callable[[int], int], default_period_s: float
-) -> tuple[float, list[Problem]]:
+) -> tuple[float, list[Problem], np.ndarray | None]:
+    """The sample period and the problems of the time stamps; for a logger that stamps rows
+    as they arrive (bursty, or uneven: `_stamped_on_arrival`) also its gaps (the steps
+    after those samples), its first problem the note that says its pattern; else None."""
     if not time_s.size:
-        return default_period_s, []
+        return default_period_s, [], None
     if time_s.size < 2:
         _time_error(file, time_s, np.diff(time_s), line_of)
-        return default_period_s, []
+        return default_period_s, [], None
     # one diff serves every check on a clean log (the usual case): steps all finite and > 0
     # with finite ends mean every stamp is finite and time goes forwards; anything else is
     # found again, exactly as before, by the slow path
@@ -223,6 +261,13 @@ def _check_time(
     # less the gaps' steps (no pass over the steps)
     regular = step_s.size - gaps.size
     if regular and high_s - low_s > UNEVEN_PCT / 100.0 * spacing_s:
+        if reordered:
+            step_s = None
+            step_s = np.diff(time_s)
+            reordered = False
+        stamped = _stamped_on_arrival(file, time_s, step_s, spacing_s, line_of)
+        if stamped is not None:
+            return stamped
         gap_steps_s = float(np.sum(time_s[gaps + 1] - time_s[gaps]))
         mean_s = float(f"{(float(time_s[-1] - time_s[0]) - gap_steps_s) / regular:.10g}")
         if abs(mean_s - spacing_s) > UNEVEN_PCT / 100.0 * spacing_s:
@@ -244,8 +289,9 @@ def _check_time(
             )
     del step_s
     if not gaps.size:
-        return period_s, uneven
-    return period_s, uneven + _gap_problems(file, time_s, gaps, period_s, period_s, line_of)
+        return period_s, uneven, None
+    gap_list = _gap_problems(file, time_s, gaps, period_s, period_s, line_of)
+    return period_s, uneven + gap_list, None
 
 
 def _gap_problems(
@@ -256,11 +302,15 @@ def _gap_problems(
     spacing_s: float,
     line_of: Callable[[int], int],
     pattern: str = "",
+    *,
+    stamped: bool = False,
 ) -> list[Problem]:
     """The problems of the gaps after the samples `gaps` (each sample holds `period_s`; the
     rest of its step is missing), or the error when they are too long for the log's own
-    `spacing_s`: its sample period, or a bursty logger's longest regular wait (`pattern`
-    names it in the messages)."""
+    `spacing_s`: its sample period, or a stamping logger's longest regular step (`pattern`
+    names it in the messages). A logger that stamps rows as they arrive (`stamped`: a phone
+    app, a ROS bridge) is read whatever its gaps, their time missing, unless they hold more
+    time than its samples cover (`_mostly_missing`)."""
     missing_s = (time_s[gaps + 1] - time_s[gaps]) - period_s
     longest = int(np.argmax(missing_s))
     span_s = float(time_s[-1] - time_s[0]) + period_s
@@ -270,6 +320,11 @@ def _gap_problems(
         f"({missing_pct:.2g}% of the log), longest {missing_s[longest]:.4g} s after "
         f"t = {time_s[gaps[longest]]:.6g} s"
     )
+    if stamped:
+        covered_s = time_s.size * period_s
+        if float(missing_s.sum()) > covered_s:
+            _mostly_missing(file, summary, covered_s, line_of(int(gaps[longest]) + 1))
+        return _gap_list(time_s, gaps, missing_s, period_s, line_of, pattern)
     spacings = "sample periods" if not pattern else "of its waits"
     limit_s = max(MAX_GAP_S, MAX_GAP_PERIODS * spacing_s)
     too_much = missing_pct > MAX_GAP_PCT and float(missing_s.sum()) > MAX_GAP_PERIODS * spacing_s
@@ -283,6 +338,18 @@ def _gap_problems(
             f"the log and over {MAX_GAP_PERIODS} {spacings}, make energies wrong; "
             "re-record, or cut the log at the gap",
         )
+    return _gap_list(time_s, gaps, missing_s, period_s, line_of, pattern)
+
+
+def _gap_list(
+    time_s: np.ndarray,
+    gaps: np.ndarray,
+    missing_s: np.ndarray,
+    period_s: float,
+    line_of: Callable[[int], int],
+    pattern: str,
+) -> list[Problem]:
+    """One `gap` problem a gap: its line, where it starts and how much is missing."""
     return [
         Problem(
             "gap",
@@ -293,6 +360,68 @@ def _gap_problems(
         )
         for index, missing in zip(gaps, missing_s, strict=True)
     ]
+
+
+def _mostly_missing(file: str, summary: str, covered_s: float, line: int) -> None:
+    """The one gap rule of a logger that stamps rows as they arrive: its gaps may hold any
+    time (reported missing) as long as it is less than the time its samples cover; beyond,
+    the file is mostly absence (sessions hours apart in one file, a logger that lost the
+    robot), not one run."""
+    raise LogError(
+        f"{summary}: more time missing than the {covered_s:.4g} s its samples cover",
+        file=file,
+        where=f"line {line}",
+        fix="the file holds separate sessions, not one run: cut it at its longest gap (that "
+        "line) and read each part",
+    )
+
+
+def _stamped_on_arrival(
+    file: str,
+    time_s: np.ndarray,
+    step_s: np.ndarray,
+    median_s: float,
+    line_of: Callable[[int], int],
+) -> tuple[float, list[Problem], np.ndarray] | None:
+    """A logger that stamps rows as they arrive (a phone app over Bluetooth, a ROS node),
+    told by its steps between gaps: their middle half spreads over more than
+    `ARRIVAL_SPREAD_PCT` of the median (a clocked instrument's steps are equal to their
+    rounding: 0.0% on every analyser, REGBOT and BorealTC log; 4-60% on the phone apps and
+    the F1/10 car, docs/log-format.md). Judged by its own pattern, as a bursty logger is:
+    its longest regular step is the `BURST_WAIT_QUANTILE` of its steps, a step over
+    `GAP_FACTOR` times that is a gap (time missing, reported; `_gap_problems`), and the
+    sample period is the mean of the other steps, so that durations and energies follow
+    the stamps (the median would miscount both by the distance between the two: 0.65% on
+    euc_core/mten4/0). None for a clocked logger."""
+    between_s = step_s[step_s <= GAP_FACTOR * median_s]
+    q25_s, q75_s = (float(q) for q in np.quantile(between_s, [0.25, 0.75]))
+    if q75_s - q25_s <= ARRIVAL_SPREAD_PCT / 100.0 * median_s:
+        return None
+    longest_s = float(np.quantile(step_s, BURST_WAIT_QUANTILE))
+    gaps = np.flatnonzero(step_s > GAP_FACTOR * longest_s)
+    regular = step_s.size - gaps.size
+    gap_steps_s = float(np.sum(step_s[gaps]))
+    period_s = float(f"{(float(time_s[-1] - time_s[0]) - gap_steps_s) / regular:.10g}")
+    missing_s = gap_steps_s - gaps.size * period_s
+    kept_s = np.delete(step_s, gaps)
+    note = Problem(
+        "uneven",
+        f"uneven time stamps, as a logger writes rows when they arrive (steps of "
+        f"{1e3 * float(kept_s.min()):.3g}-{1e3 * float(kept_s.max()):.3g} ms between gaps, "
+        f"the middle half {1e3 * q25_s:.3g}-{1e3 * q75_s:.3g} ms): the sample period is "
+        f"their mean, {1e3 * period_s:.4g} ms, so that durations and energies follow the "
+        f"stamps (their median, {1e3 * median_s:.4g} ms, would count "
+        f"{100 * (median_s / period_s - 1):+.2g}% of both); {gaps.size} gap(s) beyond "
+        f"{GAP_FACTOR:g} x its 90th-percentile step, {1e3 * longest_s:.3g} ms: "
+        f"{missing_s:.4g} s missing (not counted)",
+    )
+    if not gaps.size:
+        return period_s, [note], gaps
+    pattern = f" (beyond this logger's steps of up to {1e3 * longest_s:.3g} ms; not counted)"
+    gap_list = _gap_problems(
+        file, time_s, gaps, period_s, longest_s, line_of, pattern, stamped=True
+    )
+    return period_s, [note, *gap_list], gaps
 
 
 def _is_bursty(time_s: np.ndarray, step_s: np.ndarray, gaps: np.ndarray) -> bool:
@@ -313,7 +442,7 @@ def _bursty(
     step_s: np.ndarray,
     waits: np.ndarray,
     line_of: Callable[[int], int],
-) -> tuple[float, list[Problem]]:
+) -> tuple[float, list[Problem], np.ndarray]:
     """A bursty log judged by its own pattern (log-format.md, "Bad input"): its waits (the
     steps `waits`, long against the median step) are its spacing; a step over `GAP_FACTOR`
     times its longest regular wait (the `BURST_WAIT_QUANTILE` of its waits) is a gap, and
@@ -340,14 +469,50 @@ def _bursty(
         f"bursty time stamps: rows in bursts (steps of {burst_ms}) with waits of "
         f"{float(waits_s.min()):.3g}-{float(waits_s.max()):.3g} s between them ({waits.size} of "
         f"{step_s.size} steps): judged by this pattern, not the median step; energy over the "
-        f"{covered_s:.6g} s the log covers, each sample holding the mean step, "
+        f"{covered_s:.6g} s the log covers, at its mean step, "
         f"{1e3 * period_s:.4g} ms; {gaps.size} gap(s) beyond waits of {GAP_FACTOR:g} x "
         f"{wait_s:.3g} s, {missing_s:.4g} s missing (not counted)",
     )
     if not gaps.size:
-        return period_s, [note]
+        return period_s, [note], gaps
     pattern = f" (beyond this bursty logger's waits of up to {wait_s:.3g} s; not counted)"
-    return period_s, [note, *_gap_problems(file, time_s, gaps, period_s, wait_s, line_of, pattern)]
+    gap_list = _gap_problems(file, time_s, gaps, period_s, wait_s, line_of, pattern, stamped=True)
+    return period_s, [note, *gap_list], gaps
+
+
+def _grid_is_nearer(energies_J: tuple[float, float, float]) -> bool:
+    """Whether a stamping logger's rows are read on the even grid (`holdgrid`): when each
+    row held for the mean step misses the hold integral by more than `UNEVEN_PCT` (the bar
+    of every energy the stamps can miscount) and the grid misses it by less. Else the rows
+    are kept as logged (the grid would drop the rows of a burst and shift the others by
+    up to a step, for no better energy: on a short log its rounding is as large)."""
+    hold_J, mean_J, grid_J = energies_J
+    if hold_J == 0.0 or not np.isfinite(hold_J):
+        return False
+    mean_off = abs(mean_J / hold_J - 1.0)
+    return mean_off > UNEVEN_PCT / 100.0 and abs(grid_J / hold_J - 1.0) < mean_off
+
+
+def _on_the_grid(note: Problem, energies_J: tuple[float, float, float]) -> Problem:
+    """`note` (a stamping logger's pattern) with how its rows are read said, measured on the
+    log itself against the hold integral (each row over its own step): each row held for
+    the mean step, or, where that is further off than `_grid_is_nearer` allows, on an even
+    grid by sample and hold (`holdgrid`)."""
+    hold_J, mean_J, grid_J = energies_J
+    if hold_J == 0.0 or not np.isfinite(hold_J):
+        return note
+    mean_pct = 100.0 * (mean_J / hold_J - 1.0)
+    grid_pct = 100.0 * (grid_J / hold_J - 1.0)
+    hold = f"the hold integral (each row over its own step, {hold_J:.6g} J)"
+    if _grid_is_nearer(energies_J):
+        how = (
+            f"read on an even grid at that step, each point the last row before it (sample "
+            f"and hold): the energy is {grid_pct:+.2g}% off {hold}, where each row held for "
+            f"the mean step would be {mean_pct:+.2g}% off"
+        )
+    else:
+        how = f"each row holding that step, the energy is {mean_pct:+.2g}% off {hold}"
+    return Problem(note.kind, f"{note.message}; {how}", note.t_start_s, note.duration_s)
 
 
 def _check_period(file: str, period_s: float) -> None:
