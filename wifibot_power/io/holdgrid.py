@@ -9,7 +9,7 @@ n x cov(P_i, dt_i): where the logger writes faster in some stretches than in oth
 power differs between them (the unicycle rides: up to 13%, euc_core/v9/4).
 
 So such a log is put on an even grid at T over the time it covers (the gaps' excess left
-out, `validate._gap_problems`): grid point k, at covered time k x T, takes the last row at
+out, `stamps._gap_problems`): grid point k, at covered time k x T, takes the last row at
 or before it, the zero-order hold the hold integral assumes (no value is made up: every
 point is a copy of a logged row). The grid has as many points as the log has rows, so the
 period and the covered time are those of the mean step; its energy is the hold integral's
