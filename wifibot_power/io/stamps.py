@@ -230,11 +230,7 @@ def _stamped_on_arrival(
     if q75_s - q25_s <= ARRIVAL_SPREAD_PCT / 100.0 * median_s:
         return None
     longest_s = float(np.quantile(step_s, BURST_WAIT_QUANTILE))
-    gaps = np.flatnonzero(step_s > GAP_FACTOR * longest_s)
-    regular = step_s.size - gaps.size
-    gap_steps_s = float(np.sum(step_s[gaps]))
-    period_s = float(f"{(float(time_s[-1] - time_s[0]) - gap_steps_s) / regular:.10g}")
-    missing_s = gap_steps_s - gaps.size * period_s
+    gaps, period_s, missing_s = _gaps_beyond(time_s, step_s, longest_s)
     kept_s = np.delete(step_s, gaps)
     note = Problem(
         "uneven",
@@ -247,13 +243,8 @@ def _stamped_on_arrival(
         f"{GAP_FACTOR:g} x its 90th-percentile step, {1e3 * longest_s:.3g} ms: "
         f"{missing_s:.4g} s missing (not counted)",
     )
-    if not gaps.size:
-        return period_s, [note], gaps
     pattern = f" (beyond this logger's steps of up to {1e3 * longest_s:.3g} ms; not counted)"
-    gap_list = _gap_problems(
-        file, time_s, gaps, period_s, longest_s, line_of, pattern, stamped=True
-    )
-    return period_s, [note, *gap_list], gaps
+    return _noted(file, time_s, gaps, period_s, longest_s, line_of, pattern, note)
 
 
 def _is_bursty(time_s: np.ndarray, step_s: np.ndarray, gaps: np.ndarray) -> bool:
@@ -284,13 +275,9 @@ def _bursty(
     power over the time the log covers."""
     waits_s = step_s[waits]
     wait_s = float(np.quantile(waits_s, BURST_WAIT_QUANTILE))
-    gaps = np.flatnonzero(step_s > GAP_FACTOR * wait_s)
-    regular = step_s.size - gaps.size
-    gap_steps_s = float(np.sum(step_s[gaps]))
-    period_s = float(f"{(float(time_s[-1] - time_s[0]) - gap_steps_s) / regular:.10g}")
+    gaps, period_s, missing_s = _gaps_beyond(time_s, step_s, wait_s)
     in_burst_s = np.delete(step_s, waits)
     covered_s = period_s * time_s.size
-    missing_s = gap_steps_s - gaps.size * period_s
     burst_ms = (
         f"{1e3 * float(in_burst_s.min()):.3g}-{1e3 * float(in_burst_s.max()):.3g} ms"
         if in_burst_s.size
@@ -305,10 +292,40 @@ def _bursty(
         f"{1e3 * period_s:.4g} ms; {gaps.size} gap(s) beyond waits of {GAP_FACTOR:g} x "
         f"{wait_s:.3g} s, {missing_s:.4g} s missing (not counted)",
     )
+    pattern = f" (beyond this bursty logger's waits of up to {wait_s:.3g} s; not counted)"
+    return _noted(file, time_s, gaps, period_s, wait_s, line_of, pattern, note)
+
+
+def _gaps_beyond(
+    time_s: np.ndarray, step_s: np.ndarray, longest_s: float
+) -> tuple[np.ndarray, float, float]:
+    """The gaps of a stamping logger whose longest regular step is `longest_s` (the steps
+    over `GAP_FACTOR` times it), its period (the mean of the other steps, to 10 digits) and
+    the time missing [s] (each gap's step beyond one period)."""
+    gaps = np.flatnonzero(step_s > GAP_FACTOR * longest_s)
+    regular = step_s.size - gaps.size
+    gap_steps_s = float(np.sum(step_s[gaps]))
+    period_s = float(f"{(float(time_s[-1] - time_s[0]) - gap_steps_s) / regular:.10g}")
+    return gaps, period_s, gap_steps_s - gaps.size * period_s
+
+
+def _noted(
+    file: str,
+    time_s: np.ndarray,
+    gaps: np.ndarray,
+    period_s: float,
+    spacing_s: float,
+    line_of: Callable[[int], int],
+    pattern: str,
+    note: Problem,
+) -> tuple[float, list[Problem], np.ndarray]:
+    """A stamping logger's period, its `note` and its gaps' problems (`_gap_problems`, judged
+    against its own longest regular step `spacing_s`), and the gaps."""
     if not gaps.size:
         return period_s, [note], gaps
-    pattern = f" (beyond this bursty logger's waits of up to {wait_s:.3g} s; not counted)"
-    gap_list = _gap_problems(file, time_s, gaps, period_s, wait_s, line_of, pattern, stamped=True)
+    gap_list = _gap_problems(
+        file, time_s, gaps, period_s, spacing_s, line_of, pattern, stamped=True
+    )
     return period_s, [note, *gap_list], gaps
 
 

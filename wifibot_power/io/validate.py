@@ -76,30 +76,13 @@ SATURATION_ABOVE_MEDIAN = 1.05
 
 
 def check_samples(
-    file: str,
-    time_s: np.ndarray | None,
-    power_W: np.ndarray,
-    *,
-    line_of: Callable[[int], int] | None = None,
-    first_data_line: int = 2,
-    default_period_s: float = PAPER_SAMPLE_PERIOD_S,
-    measured: dict[str, np.ndarray] | None = None,
-    voltages: frozenset[str] = frozenset(),
-    scale: PowerScale | None = None,
+    file: str, time_s: np.ndarray | None, power_W: np.ndarray, **options: object
 ) -> tuple[float, list[Problem]]:
-    """Validate samples; return the sample period [s] and the problems that did not stop reading.
-
-    `line_of(i)` is the file line of sample i (for messages); `measured` holds the columns the
-    power was computed from (clipping shows in a current column, not always in the product),
-    `voltages` the names of those that are voltages (`SATURATION_ABOVE_MEDIAN`); `scale` what
-    the log says of its robot, to judge absurd power by (`check_power_scale`). A reader
-    calls `check_log_samples`, which also gives the grid a stamping logger is read on.
-    """
-    checked = check_log_samples(
-        file, time_s, power_W, line_of=line_of, first_data_line=first_data_line,
-        default_period_s=default_period_s, measured=measured, voltages=voltages, scale=scale,
-    )  # fmt: skip
-    return checked[0], checked[1]
+    """Validate samples; return the sample period [s] and the problems that did not stop
+    reading: `check_log_samples` (its keyword options) without the grid, which a reader
+    needs and a check alone does not."""
+    period_s, problems, _ = check_log_samples(file, time_s, power_W, **options)
+    return period_s, problems
 
 
 def check_log_samples(
@@ -114,8 +97,15 @@ def check_log_samples(
     voltages: frozenset[str] = frozenset(),
     scale: PowerScale | None = None,
 ) -> tuple[float, list[Problem], HoldGrid | None]:
-    """`check_samples`, and the even grid (`holdgrid.hold_grid`) the samples are to be read
-    on when a logger stamps rows as they arrive (bursty or uneven stamps), else None."""
+    """Validate samples: the sample period [s], the problems that did not stop reading, and
+    the even grid (`holdgrid.hold_grid`) the samples are to be read on when a logger stamps
+    rows as they arrive (bursty or uneven stamps), else None.
+
+    `line_of(i)` is the file line of sample i (for messages); `measured` holds the columns the
+    power was computed from (clipping shows in a current column, not always in the product),
+    `voltages` the names of those that are voltages (`SATURATION_ABOVE_MEDIAN`); `scale` what
+    the log says of its robot, to judge absurd power by (`check_power_scale`).
+    """
     if line_of is None:
         line_of = lambda index: first_data_line + index  # noqa: E731
     low_W, high_W = _check_power(file, power_W, line_of)
