@@ -154,31 +154,10 @@ def simulate_command(
         return
     # checked before anything is simulated or written (cli.md: a usage error, exit 2)
     write = WriteOptions(columns=columns, compress=compress, decimals=decimals)
-    config = _grid_config(
-        speeds, trips, repeats, payloads, modes, mode_repeats, sample_period, realism_name,
-        noise, effect, seed,
-    )  # fmt: skip
-    _print_summary(write_simulation(config, out, write), json_out)
-
-
-def _grid_config(
-    speeds: str,
-    trips: str,
-    repeats: int,
-    payloads: str | None,
-    modes: str,
-    mode_repeats: int,
-    sample_period: float,
-    realism_name: str,
-    noise: float | None,
-    effect: list[str] | None,
-    seed: int,
-) -> SimConfig:
-    """`--drive grid`: the paper's experiment as the options give it (`simulate.SimConfig`)."""
     level = realism(realism_name)
     if noise is not None:
         level["noise_W"] = noise
-    return SimConfig(
+    config = SimConfig(
         speeds_mps=_floats(speeds, "--speeds"),
         trips=_trips(trips),
         repeats=repeats,
@@ -190,6 +169,7 @@ def _grid_config(
         effects=parse_effects(effect or []),
         seed=seed,
     )
+    _print_summary(write_simulation(config, out, write), json_out)
 
 
 def _print_summary(summary: dict[str, object], json_out: bool) -> None:
