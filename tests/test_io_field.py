@@ -158,14 +158,34 @@ def test_a_bursty_log_without_a_stall_misses_nothing(tmp_path):
     assert_allclose(run.mean_power_W, power_W.mean(), rtol=1e-12)
 
 
-def test_a_bursty_log_with_a_long_stall_is_refused_by_its_own_pattern(tmp_path):
-    """A minute without rows in a log that waits at most 3.6 s: not analysed."""
+def test_a_bursty_log_with_a_long_stall_is_read_with_the_stall_missing(tmp_path):
+    """A minute without rows in a log that waits at most 3.6 s (a phone that lost the wheel):
+    read, the minute missing (reported with its line), the energy over the time covered."""
     time_s = bursty_times(stall_after=None)
     time_s[601:] += 60.0
+    power_W = write_bursty(tmp_path / "phone.csv", time_s)
+    run = read_log(tmp_path / "phone.csv")
+    (gap,) = [p for p in run.problems if p.kind == "gap"]
+    assert gap.duration_s > 55.0 and "line 603" in gap.message  # the header is line 1
+    # energy over the covered time: the span less the missing minute, at the mean power
+    assert_allclose(run.duration_s + gap.duration_s, time_s[-1] - time_s[0] + run.sample_period_s)
+    assert_allclose(run.energy_J, power_W.mean() * run.duration_s, rtol=1e-9)
+
+
+def test_a_log_missing_more_time_than_it_covers_is_refused(tmp_path):
+    """Two sessions hours apart in one file (euc_core/mten4/2: 8.4 h between two rides of
+    43 min): more time missing than its samples cover; refused, saying to cut it there."""
+    time_s = bursty_times(stall_after=None)
+    covered_s = time_s[-1] - time_s[0]
+    time_s[601:] += 1.2 * covered_s
     write_bursty(tmp_path / "phone.csv", time_s)
-    with pytest.raises(LogError, match="beyond this bursty logger's waits") as error:
+    with pytest.raises(LogError, match="more time missing than the") as error:
         read_log(tmp_path / "phone.csv")
-    assert "cut the log at the gap" in str(error.value)
+    assert "line 603" in str(error.value) and "cut it at its longest gap" in str(error.value)
+    # a stall a little shorter than the covered time is read
+    time_s[601:] -= 0.4 * covered_s
+    write_bursty(tmp_path / "phone.csv", time_s)
+    assert read_log(tmp_path / "phone.csv").samples == time_s.size
 
 
 def test_a_logger_dropping_samples_now_and_then_is_not_bursty(tmp_path):
@@ -384,3 +404,26 @@ def test_a_single_time_stamp_gives_no_spacing_and_says_so(tmp_path):
     run = read_log(path)
     assert [p.kind for p in run.problems] == ["assumed_period"]
     assert run.sample_period_s == pytest.approx(0.1024e-3)
+
+
+def test_a_logger_whose_rate_changes_along_the_ride_keeps_the_hold_integral(tmp_path):
+    """A phone app writing every 0.1 s for 10 min at 200 W, then (its Bluetooth connection
+    interval changed) every 0.5 s for 10 min at 1000 W: by hand the ride holds
+    200 x 600 + 1000 x 600 = 720 kJ. Each row held for the mean step (6000 + 1200 rows over
+    1200 s: 0.1667 s) would give 200 x 6000 x 0.1667 + 1000 x 1200 x 0.1667 = 400 kJ, 44% low;
+    read on the even grid by sample and hold, it is the hold integral to the grid's rounding
+    (one jump of 800 W within one step: under 800 W x 0.17 s = 0.02%), and the note says so."""
+    rng = np.random.default_rng(4)
+    fast_s = np.arange(6000) * 0.1 + rng.uniform(-0.01, 0.01, 6000)
+    slow_s = 600.0 + np.arange(1200) * 0.5 + rng.uniform(-0.01, 0.01, 1200)
+    time_s = np.round(np.concatenate((fast_s, slow_s)) - fast_s[0], 4)
+    power_W = np.concatenate((np.full(6000, 200.0), np.full(1200, 1000.0)))
+    body = "".join(f"{t:.4f},{p:.1f}\n" for t, p in zip(time_s, power_W, strict=True))
+    (tmp_path / "rates.csv").write_text("time_s,power_W\n" + body)
+    run = read_log(tmp_path / "rates.csv")
+    hold_J = float(np.sum(power_W[:-1] * np.diff(time_s))) + 1000.0 * run.sample_period_s
+    assert hold_J == pytest.approx(720e3, rel=2e-3)
+    assert run.energy_J == pytest.approx(hold_J, rel=2e-4)
+    assert run.samples == time_s.size and set(np.unique(run.power_W)) == {200.0, 1000.0}
+    (note,) = [p for p in run.problems if p.kind in ("uneven", "bursty")]
+    assert "read on an even grid" in note.message and "would be -44% off" in note.message

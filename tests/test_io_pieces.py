@@ -1,4 +1,4 @@
-"""A compressed log is read in pieces of whole lines (`transport._Pieces`); wherever the
+"""A compressed log is read in pieces of whole lines (`pieces._Pieces`); wherever the
 reads end (inside a number, between \\r and \\n, inside a line longer than a read), the
 samples, problems and errors are those of the same text read as a plain file (which pyarrow
 reads itself, without pieces). Reads of 1-60 bytes here stand in for the 1 MiB of a real read.
@@ -15,7 +15,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from wifibot_power.errors import LogError
-from wifibot_power.io import read_log, transport
+from wifibot_power.io import pieces as pieces_module
+from wifibot_power.io import read_log
 
 HEAD = "# wbpower-log: 1\n# run_id: p\n# mode: idle\n# sample_period_s: 0.001\ntime_s,power_W\n"
 
@@ -37,8 +38,8 @@ def _both(tmp_path: Path, text: str, piece: int, search: int) -> tuple[object, o
     plain.write_bytes(text.encode())
     packed.write_bytes(gzip.compress(text.encode()))
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(transport, "_PIECE_BYTES", piece)
-        patch.setattr(transport, "_LINE_END_SEARCH", search)
+        patch.setattr(pieces_module, "_PIECE_BYTES", piece)
+        patch.setattr(pieces_module, "_LINE_END_SEARCH", search)
         return _read(plain), _read(packed)
 
 

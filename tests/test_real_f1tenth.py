@@ -25,7 +25,6 @@ import pandas as pd
 import pytest
 from scripts import load_script
 
-from wifibot_power.errors import WbpowerError
 from wifibot_power.io import read_log
 from wifibot_power.segment import segment_run
 
@@ -101,15 +100,19 @@ def test_the_columns_are_the_sources_and_the_speed_is_the_cars_odometry(folder: 
     assert frame["speed_mps"].mean() > 1.0
 
 
-def test_the_whole_log_is_refused_at_the_loggers_gap(folder: Path) -> None:
-    """1.6 s without a sample after t = 56.60 s (1.549 s missing beyond one period of the
-    mean step, 51 ms): more than 3 sample periods; the reader names the line and says to
-    cut the log there."""
-    with pytest.raises(WbpowerError) as caught:
-        read_log(folder / "ds5.csv.gz")
-    message = caught.value.one_line()
-    assert "line 1107" in message and "longest 1.549 s after t = 56.6002 s" in message
-    assert "cut the log at the gap" in message
+def test_the_whole_log_is_read_with_the_loggers_gaps_missing(folder: Path) -> None:
+    """The ROS logger stamps rows as they arrive (steps of 20-86 ms): judged by its own
+    pattern (issue 26), its 1.6 s without a sample after t = 56.60 s (line 1107) and two
+    shorter ones are time missing, reported with their lines, not a refusal; the energy is
+    that of the time covered. (Refused before: 'a gap over 0.1523 s'.)"""
+    run = read_log(folder / "ds5.csv.gz")
+    gaps = [p for p in run.problems if p.kind == "gap"]
+    longest = max(gaps, key=lambda p: p.duration_s)
+    assert "line 1107" in longest.message and "t = 56.6002 s" in longest.message
+    assert longest.duration_s == pytest.approx(1.6 - run.sample_period_s, abs=0.05)
+    missing_s = sum(p.duration_s for p in gaps)
+    span_s = run.time_s[-1] - run.time_s[0] + run.sample_period_s
+    assert run.duration_s + missing_s == pytest.approx(span_s, rel=1e-9)
 
 
 @pytest.mark.parametrize("name", SIDES)
@@ -117,22 +120,34 @@ def test_each_side_reads_as_input_current_times_voltage(folder: Path, name: str)
     frame = _frame(folder, name)
     run = read_log(folder / name)
     power_W = frame["voltage_V"].to_numpy() * frame["current_A"].to_numpy()
-    np.testing.assert_allclose(run.power_W, power_W, rtol=0, atol=1e-9)
-    np.testing.assert_array_equal(run.speed_mps, frame["speed_mps"].to_numpy())
+    (uneven,) = [p for p in run.problems if p.kind == "uneven"]
+    if "read on an even grid" in uneven.message:
+        # ds5_b: each row held for the mean step would miss the hold integral by 1.9%, over
+        # the 1% bar; the grid (-1.5%) is nearer (issue 26; io/holdgrid.py). Every sample is
+        # a logged row, in order, at an even step: none made up
+        t = frame["time_s"].to_numpy()
+        rows = np.searchsorted(t, run.time_s + 1e-9, side="right") - 1
+        assert np.all(np.diff(rows) >= 0) and rows[0] == 0
+        np.testing.assert_allclose(run.power_W, power_W[rows], rtol=0, atol=1e-9)
+        np.testing.assert_array_equal(run.speed_mps, frame["speed_mps"].to_numpy()[rows])
+        assert np.ptp(np.diff(run.time_s)) < 1e-9
+    else:
+        np.testing.assert_allclose(run.power_W, power_W, rtol=0, atol=1e-9)
+        np.testing.assert_array_equal(run.speed_mps, frame["speed_mps"].to_numpy())
     # regeneration is read as data and reported: 67, 38 and 33 samples below -1 W
     negative = [p for p in run.problems if p.kind == "negative"]
     assert len(negative) == 1 and f"{int(np.sum(power_W < -1.0))} sample(s)" in negative[0].message
-    # the stamps are uneven (steps of 20-82 ms): the period is their mean step, and the
-    # energy follows the stamps, sum P_i (t_i+1 - t_i): measured 0.3%, 1.5% and 1.3% off (at
-    # the median step, as before, 6.7%, 8.5% and 3.6% high), pinned at 2%
-    uneven = [p for p in run.problems if p.kind == "uneven"]
-    assert len(uneven) == 1
+    # the stamps are uneven (steps of 20-86 ms): the period is their mean step, and the
+    # energy follows the stamps, sum P_i (t_i+1 - t_i): measured +0.33%, -1.5% (on the grid;
+    # +1.9% each row held for the mean step) and -1.0% off (at the median step, as before
+    # issue 26, 6.7%, 8.5% and 3.6% high), pinned at 2%
     step_s = np.diff(frame["time_s"].to_numpy())
     stamps_J = np.sum(power_W[:-1] * step_s) + power_W[-1] * run.sample_period_s
     assert run.energy_J == pytest.approx(stamps_J, rel=0.02)
-    # and the ROS logger's longer steps show as short gaps (~30 ms beyond a ~51 ms period)
-    gaps = [p for p in run.problems if p.kind == "gap"]
-    assert gaps and max(p.duration_s for p in gaps) < 3 * run.sample_period_s
+    # and the ROS logger's longer steps (up to 86 ms) are its own pattern, not gaps: under
+    # 1.5 x its 90th-percentile step (~64 ms; issue 26, "judge gaps by the logger's own
+    # pattern"; before, 2-11 short gaps a side against 1.5 x the median step)
+    assert not [p for p in run.problems if p.kind == "gap"]
 
 
 @pytest.fixture(scope="module")

@@ -49,13 +49,14 @@ import os
 import re
 import time
 from collections.abc import Callable
-from datetime import datetime
 from pathlib import Path
 from typing import Generic, TypeVar
 
 from wifibot_power.errors import UsageError
 from wifibot_power.io.options import ReadOptions, codec_of, is_read_whole
-from wifibot_power.run import Problem, Run, RunMeta
+from wifibot_power.run import Run
+from wifibot_power.run_parquet import load_run as _load_run
+from wifibot_power.run_parquet import run_table
 
 #: Version of the entry layout; part of every key (2: the speed and channel columns; 3: the
 #: rate of turn and the per-sample surface).
@@ -63,7 +64,6 @@ CACHE_FORMAT = 3
 #: A file whose times are this close to when it was read may still change unseen [s].
 SETTLE_S = 2.0
 SETTLE_NS = int(SETTLE_S * 1e9)
-_METADATA_KEY = b"wbpower.run"
 _CONTENT_KEY = b"wbpower.content_sha256"
 #: What `ParseCache.kept_result` returns when nothing is kept for the content.
 MISSING = object()
@@ -72,13 +72,15 @@ T = TypeVar("T")
 
 @functools.lru_cache(maxsize=1)
 def reader_digest() -> str:
-    """SHA-256 of the source of everything a parse depends on (the io package, run.py, this)."""
+    """SHA-256 of the source of everything a parse depends on (the io package, run.py, this
+    and the table form it stores, run_parquet.py)."""
     package = Path(__file__).parent
     digest = hashlib.sha256(f"cache format {CACHE_FORMAT}".encode())
     for source in sorted(
         [
             *package.joinpath("io").rglob("*.py"),  # the formats/ modules too
             package / "run.py",
+            package / "run_parquet.py",
             package / "errors.py",
             Path(__file__),
         ]
@@ -492,86 +494,12 @@ def _write_validity(entry: Path, validity: dict[str, object]) -> None:
     )
 
 
-def _load_run(entry: Path, content_sha256: str) -> Run | None:
-    """The cached `Run`, or None when the entry is missing, unreadable or of other content."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq  # only for a parse that is read back: a warm fit needs none
-
-    try:
-        # one thread, as every CSV parse (transport._csv_options): pyarrow's threaded CSV
-        # reader can drop a table's last block silently; this reader is other code, not
-        # known to, but a cached run read short would be as quietly wrong, and the entries
-        # are small
-        table = pq.read_table(entry, use_threads=False)
-        stored = json.loads((table.schema.metadata or {})[_METADATA_KEY])
-        if stored["content_sha256"] != content_sha256:
-            return None  # a pair torn by concurrent writers: parse again
-        power_W = table["power_W"].to_numpy()
-        meta_values = dict(stored["meta"])
-        started = meta_values.get("started_at")
-        meta_values["started_at"] = datetime.fromisoformat(started) if started else None
-        meta = RunMeta(**meta_values)
-        # a regular axis is made when asked for (`Run.time_s`): the same floats
-        time_s = table["time_s"].to_numpy() if stored["time"] == "column" else None
-        problems = tuple(Problem(**p) for p in stored["problems"])
-        speed_mps = table["speed_mps"].to_numpy() if stored["speed"] else None
-        yaw_rate_radps = table["yaw_rate_radps"].to_numpy() if stored.get("yaw_rate") else None
-        surfaces = tuple(stored.get("surfaces") or ())
-        surface_index = table["surface_index"].to_numpy() if surfaces else None
-        channels_W = {name: table[f"channel:{name}"].to_numpy() for name in stored["channels"]}
-    except (OSError, KeyError, TypeError, ValueError, pa.ArrowException):
-        return None
-    return Run(
-        file=stored["file"],
-        format=stored["format"],
-        meta=meta,
-        stamps_s=time_s,
-        power_W=power_W,
-        problems=problems,
-        speed_mps=speed_mps,
-        yaw_rate_radps=yaw_rate_radps,
-        channels_W=channels_W,
-        surface_index=surface_index,
-        surface_names=surfaces,
-    )
-
-
 def _store(entry: Path, run: Run, validity: dict[str, object]) -> None:
-    """Write the parse (Parquet), then what it is valid for (JSON beside it)."""
-    import numpy as np
-    import pyarrow as pa
+    """Write the parse (Parquet, `run_parquet.run_table`), then what it is valid for (JSON
+    beside it)."""
     import pyarrow.parquet as pq
 
-    meta = dataclasses.asdict(run.meta)
-    meta["started_at"] = run.meta.started_at.isoformat() if run.meta.started_at else None
-    # a time column that is exactly sample index x period need not be stored
-    regular = run.stamps_s is None or np.array_equal(
-        run.stamps_s, np.arange(run.samples) * run.sample_period_s
-    )
-    header = {
-        "content_sha256": validity["content_sha256"],
-        "file": run.file,
-        "format": run.format,
-        "meta": meta,
-        "problems": [dataclasses.asdict(p) for p in run.problems],
-        "time": "arange" if regular else "column",
-        "speed": run.speed_mps is not None,
-        "yaw_rate": run.yaw_rate_radps is not None,
-        "surfaces": list(run.surface_names) if run.surface_index is not None else None,
-        "channels": list(run.channels_W),
-    }
-    columns = {"power_W": run.power_W}
-    if not regular:
-        columns["time_s"] = run.time_s
-    if run.speed_mps is not None:
-        columns["speed_mps"] = run.speed_mps
-    if run.yaw_rate_radps is not None:
-        columns["yaw_rate_radps"] = run.yaw_rate_radps
-    if run.surface_index is not None:
-        columns["surface_index"] = run.surface_index
-    for name, channel_W in run.channels_W.items():
-        columns[f"channel:{name}"] = channel_W
-    table = pa.table(columns).replace_schema_metadata({_METADATA_KEY: json.dumps(header)})
+    table = run_table(run, validity["content_sha256"])
     # no compression, dictionary or statistics: measured power does not compress, and this is
     # the fastest layout to read back
     written = _replace(

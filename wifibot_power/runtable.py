@@ -308,12 +308,40 @@ def usability(row: dict[str, object]) -> str | None:
         )
     if not np.isfinite(row["accel_mean_power_W"]):
         return "no acceleration phase found (check the log holds motion)"
+    fragment = _motion_fragment(row)
+    if fragment is not None:
+        return fragment
     if row.get("doubts"):
         return (
             f"{DOUBT_REASON}{row['doubts']} (check it with 'wbpower segment'; "
             "--keep-doubtful uses it anyway)"
         )
     return None
+
+
+#: A motion run's motion phases must last at least this share of the time its distance takes
+#: at its speed (`_motion_fragment`): the speed is the commanded (maximum) one
+#: (log-format.md), so at 1 no real run falls short; half leaves room for a speed given as a
+#: mean and for phase boundaries a sample off.
+MIN_MOTION_SHARE = 0.5
+
+
+def _motion_fragment(row: dict[str, object]) -> str | None:
+    """Why a motion run's measured energy would be a fragment of its motion, or None: its
+    motion phases last less than `MIN_MOTION_SHARE` of distance / speed (issue 26: a 14.3 m
+    run at 0.24 m/s whose power-only segmentation found 0.31 s of motion, 58 J of a 6.7 kJ
+    log, the rest labelled idle). Not a doubt: `--keep-doubtful` does not let it in."""
+    motion_s = float(row["duration_s"]) - float(row.get("idle_duration_s") or 0.0)
+    needed_s = float(row["distance_m"]) / float(row["speed_mps"])
+    if motion_s >= MIN_MOTION_SHARE * needed_s:
+        return None
+    return (
+        f"its motion phases last {motion_s:.3g} s, yet {float(row['distance_m']):.3g} m at "
+        f"{float(row['speed_mps']):.3g} m/s takes {needed_s:.3g} s: the segmentation found a "
+        f"fragment of the motion ({float(row['motion_energy_J']):.4g} J of the log's "
+        f"{float(row['energy_J']):.4g} J), not its energy (check it with 'wbpower segment'; "
+        "a speed column says where the robot moves)"
+    )
 
 
 def admit_doubtful(row: dict[str, object]) -> dict[str, object]:

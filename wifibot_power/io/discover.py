@@ -81,6 +81,30 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
     that name get a `default_run_id` from their paths (`_path_run_ids`): decided here, before
     any is read, so it is the same whatever order workers finish in.
     """
+    files, roots, manifests, named_manifests, skipped = _walk(paths)
+    # each path resolved once (a resolve is a few lstat calls and ~30 us: 1/6 of a warm
+    # `fit --cache` went into resolving the same 89 paths three times)
+    resolved = {f: f.resolve() for f in files}
+    overrides = _manifest_overrides(
+        paths, files, roots, manifests, named_manifests, skipped, set(resolved.values())
+    )
+    sources = []
+    missing = {Path(s.file) for s in skipped}
+    for file in files:  # a file named twice stays twice: the batch warns it is a duplicate
+        if file in missing:
+            continue  # already listed, naming the manifest row
+        real = resolved.get(file) or file.resolve()
+        if not file.exists() or is_log_name(file) or real in overrides or is_bag_folder(file):
+            values, origin = overrides.get(real, ({}, None))
+            sources.append(LogSource(file, values, origin))
+    return _path_run_ids(sources, roots, resolved), skipped
+
+
+def _walk(
+    paths: list[Path],
+) -> tuple[list[Path], dict[Path, Path], list[Path], set[Path], list[Skipped]]:
+    """The files under `paths` (a ROS 2 bag folder one file), the folder each was found in,
+    the manifests found and those named, and what is skipped (not a regular file)."""
     files: list[Path] = []
     #: a file found in a folder given, or listed by a manifest named: that folder, for its
     #: run_id from its path (`_path_run_ids`)
@@ -119,11 +143,22 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
             beside = path.parent / MANIFEST_NAME
             if beside.is_file():
                 manifests.append(beside)
+    return files, roots, manifests, named_manifests, skipped
+
+
+def _manifest_overrides(
+    paths: list[Path],
+    files: list[Path],
+    roots: dict[Path, Path],
+    manifests: list[Path],
+    named_manifests: set[Path],
+    skipped: list[Skipped],
+    wanted: set[Path],
+) -> dict[Path, tuple[dict[str, str], str]]:
+    """Each manifest row's values by the file it names, and where they come from; the files a
+    named manifest lists added to `files` (and `roots`), and each row that cannot be read
+    (outside its folder, a missing file) added to `skipped`."""
     overrides: dict[Path, tuple[dict[str, str], str]] = {}
-    # each path resolved once (a resolve is a few lstat calls and ~30 us: 1/6 of a warm
-    # `fit --cache` went into resolving the same 89 paths three times)
-    resolved = {f: f.resolve() for f in files}
-    wanted = set(resolved.values())
     only_files = all(not p.is_dir() for p in paths)
     for manifest in dict.fromkeys(manifests):
         try:
@@ -164,16 +199,7 @@ def find_logs(paths: list[Path]) -> tuple[list[LogSource], list[Skipped]]:
                         f"{manifest}: line {row.line}: names '{row.name}', {what}",
                     )
                 )
-    sources = []
-    missing = {Path(s.file) for s in skipped}
-    for file in files:  # a file named twice stays twice: the batch warns it is a duplicate
-        if file in missing:
-            continue  # already listed, naming the manifest row
-        real = resolved.get(file) or file.resolve()
-        if not file.exists() or is_log_name(file) or real in overrides or is_bag_folder(file):
-            values, origin = overrides.get(real, ({}, None))
-            sources.append(LogSource(file, values, origin))
-    return _path_run_ids(sources, roots, resolved), skipped
+    return overrides
 
 
 def not_a_regular_file(path: Path) -> str | None:

@@ -14,23 +14,27 @@ What is read where the spec is silent is described in docs/log-format.md.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from wifibot_power.errors import LogError
+from wifibot_power.io.column_options import (
+    _power_sources,
+    _speed_column,
+    _time_source,
+    _turning_columns,
+)
 from wifibot_power.io.columns import (
     PowerSource,
-    find_column,
-    time_unit_disagrees,
-    time_unit_of,
-    unit_scale,
 )
 from wifibot_power.io.formats import LogFormat, Preamble, TimeSource, file_format_of, format_of
 from wifibot_power.io.formats.base import SNIFF_LINES, TurningColumns
 from wifibot_power.io.formats.files import samples_to_run
+from wifibot_power.io.holdgrid import HoldGrid
 from wifibot_power.io.metadata import MAX_POWER_KEY, build_meta, max_power_W
-from wifibot_power.io.options import TIME_UNITS, ReadOptions, log_stem
+from wifibot_power.io.options import ReadOptions, log_stem
 from wifibot_power.io.transport import (
     Columns,
     Content,
@@ -45,12 +49,12 @@ from wifibot_power.io.transport import (
 from wifibot_power.io.validate import (
     PowerScale,
     check_channels,
+    check_log_samples,
     check_power_twice,
-    check_samples,
     check_speed,
     check_yaw_rate,
 )
-from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem, Run
+from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem, Run, RunMeta
 
 __all__ = ["read_bytes", "read_log"]
 
@@ -80,6 +84,60 @@ def read_log(
         require_regular(path)  # (a FIFO named *.jls would block its library's open forever)
         samples = file_format.read_samples(path, options)
         return samples_to_run(path, file_format, samples, options, overrides, origin)
+    text = _parse(path, options, data)
+    values, where, meta = _metadata(path, text, options, overrides, origin)
+    scale = _power_scale(
+        path, text.content, text.head, text.pre, text.sources, options, values, where
+    )
+    samples = _samples(path, text, options, values, meta)
+    period_s, problems, grid = _checked(path, text, samples, meta, scale)
+    if samples.time_s is not None and period_s != meta.sample_period_s:
+        values["sample_period_s"] = repr(period_s)
+        meta = build_meta(
+            values, file=str(path), stem=log_stem(path), where="metadata", origins=where
+        )
+    if grid is not None:  # a logger stamping rows as they arrive: read by sample and hold
+        samples.on_grid(grid)
+    return Run(
+        file=str(path),
+        format=text.pre.format,
+        meta=meta,
+        stamps_s=samples.time_s,  # None without a time column: `Run.time_s` makes the axis
+        power_W=samples.power_W,
+        problems=(
+            *_assumptions(text.sources, text.time_source, options, values, samples.size),
+            *text.time_problems,
+            *samples.turn_problems,
+            *problems,
+        ),
+        speed_mps=samples.speed_mps,
+        yaw_rate_radps=samples.yaw_rate_radps,
+        channels_W=samples.channels_W,
+        surface_index=samples.surface_index,
+        surface_names=samples.surface_names,
+    )
+
+
+@dataclass
+class _TextLog:
+    """A text log parsed (`_parse`): its content, layout, the columns that give each
+    quantity, and those columns read."""
+
+    content: Content
+    head: bytes
+    log_format: LogFormat
+    pre: Preamble
+    sources: list[PowerSource]
+    time_source: TimeSource | None
+    time_problems: list[Problem]
+    speed_column: str | None
+    turning: TurningColumns
+    columns: Columns
+
+
+def _parse(path: Path, options: ReadOptions, data: bytes | None) -> _TextLog:
+    """The text log's layout (its format's preamble), the columns the options and the format
+    name for each quantity, and those columns read as numbers."""
     named = tuple(
         c
         for c in (
@@ -105,167 +163,120 @@ def read_log(
     used += [c for c in (turning.yaw_rate, turning.speed_left, turning.speed_right) if c]
     labels = (turning.surface,) if turning.surface else ()
     columns = read_columns(path, content, pre, head, list(dict.fromkeys(used)), labels)
-    values = dict(pre.metadata)
-    where = {k: f"metadata {w}" for k, w in pre.metadata_where.items()}
+    return _TextLog(
+        content, head, log_format, pre, sources, time_source, time_problems, speed_column,
+        turning, columns,
+    )  # fmt: skip
+
+
+def _metadata(
+    path: Path,
+    text: _TextLog,
+    options: ReadOptions,
+    overrides: dict[str, str] | None,
+    origin: str | None,
+) -> tuple[dict[str, str], dict[str, str], RunMeta]:
+    """The run's metadata values (the manifest's win, then `--sample-period` where time is
+    not a column in a unit), where each was set, and the `RunMeta` built from them."""
+    values = dict(text.pre.metadata)
+    where = {k: f"metadata {w}" for k, w in text.pre.metadata_where.items()}
     for key, value in (overrides or {}).items():
         values[key] = value
         where[key] = origin or "manifest"
+    time_source = text.time_source
     if options.sample_period_s is not None and (time_source is None or time_source.index):
         values["sample_period_s"] = repr(options.sample_period_s)
         where["sample_period_s"] = "--sample-period"
-    log_format.check_metadata(path, values)
+    text.log_format.check_metadata(path, values)
     meta = build_meta(values, file=str(path), stem=log_stem(path), where="metadata", origins=where)
-    scale = _power_scale(path, content, head, pre, sources, options, values, where)
-    power_W, channels_W, measured, twice = _power(path, columns, sources, options.flip_current)
+    return values, where, meta
+
+
+@dataclass
+class _Samples:
+    """The per-sample arrays of a text log (`_samples`), and what their checks need."""
+
+    power_W: np.ndarray
+    channels_W: dict[str, np.ndarray]
+    measured: dict[str, np.ndarray] | None
+    twice: list
+    time_s: np.ndarray | None
+    speed_mps: np.ndarray | None
+    yaw_rate_radps: np.ndarray | None
+    turn_problems: list[Problem]
+    surface_index: np.ndarray | None
+    surface_names: tuple[str, ...]
+
+    @property
+    def size(self) -> int:
+        return int(self.power_W.size)
+
+    def on_grid(self, grid: HoldGrid) -> None:
+        """Every per-sample array taken at the grid's points (`holdgrid`), time its stamps."""
+        self.time_s = grid.stamps_s
+        self.power_W, self.speed_mps, self.yaw_rate_radps = map(
+            grid.take, (self.power_W, self.speed_mps, self.yaw_rate_radps)
+        )
+        self.channels_W = {name: grid.take(v) for name, v in self.channels_W.items()}
+        self.surface_index = grid.take(self.surface_index)
+
+
+def _samples(
+    path: Path, text: _TextLog, options: ReadOptions, values: dict[str, str], meta: RunMeta
+) -> _Samples:
+    """Power (and its channels), time, speed, rate of turn and surface from the columns read;
+    the columns' own arrays are let go (they live on in these only)."""
+    columns, turning = text.columns, text.turning
+    power_W, channels_W, measured, twice = _power(path, columns, text.sources, options.flip_current)
+    time_source = text.time_source
     if time_source is not None and time_source.index:
         _check_index(path, columns, time_source.column)
     time_s = _time(path, columns, time_source, meta.sample_period_s)
+    speed_column = text.speed_column
     speed_mps = _column(path, columns, (speed_column, 1.0)) if speed_column else None
     speed_mps, yaw_rate_radps, turn_problems = _turning(
         path, columns, turning, speed_mps, values, options
     )
     surface_index, surface_names = columns.labels.get(turning.surface or "", (None, ()))
     columns.values.clear()  # the arrays live on in power_W, measured and time_s only
-    period_s, problems = check_samples(
+    return _Samples(
+        power_W, channels_W, measured, twice, time_s, speed_mps, yaw_rate_radps,
+        turn_problems, surface_index, surface_names,
+    )  # fmt: skip
+
+
+def _checked(
+    path: Path, text: _TextLog, samples: _Samples, meta: RunMeta, scale: PowerScale
+) -> tuple[float, list[Problem], HoldGrid | None]:
+    """The sample checks every log gets (`check_log_samples`), then those of the power said
+    twice, the channels, the speed and the rate of turn: the period, the problems that did
+    not stop reading, and the grid of a logger stamping rows as they arrive."""
+    line_of = text.columns.lines.line_of
+    turning = text.turning
+    period_s, problems, grid = check_log_samples(
         str(path),
-        time_s,
-        power_W,
-        line_of=columns.lines.line_of,
+        samples.time_s,
+        samples.power_W,
+        line_of=line_of,
         default_period_s=meta.sample_period_s,
-        measured=measured,
+        measured=samples.measured,
         scale=scale,
     )
-    del measured
-    for said in twice:  # after `check_samples`: a unit mistake is named as such first
+    samples.measured = None
+    for said in samples.twice:  # after `check_samples`: a unit mistake is named as such first
         check_power_twice(str(path), *said)
-    del twice
-    check_channels(str(path), channels_W)
-    if speed_mps is not None:
-        named_speed = speed_column or f"{turning.speed_left}, {turning.speed_right}"
-        check_speed(str(path), named_speed, speed_mps, line_of=columns.lines.line_of)
-    if yaw_rate_radps is not None:
+    samples.twice = []
+    check_channels(str(path), samples.channels_W)
+    if samples.speed_mps is not None:
+        named_speed = text.speed_column or f"{turning.speed_left}, {turning.speed_right}"
+        check_speed(str(path), named_speed, samples.speed_mps, line_of=line_of)
+    if samples.yaw_rate_radps is not None:
         named_turn = turning.yaw_rate or f"{turning.speed_left}, {turning.speed_right}"
-        check_yaw_rate(str(path), named_turn, yaw_rate_radps, line_of=columns.lines.line_of)
-    if time_s is not None and period_s != meta.sample_period_s:
-        values["sample_period_s"] = repr(period_s)
-        meta = build_meta(
-            values, file=str(path), stem=log_stem(path), where="metadata", origins=where
-        )
-    return Run(
-        file=str(path),
-        format=pre.format,
-        meta=meta,
-        stamps_s=time_s,  # None without a time column: `Run.time_s` makes the axis if asked
-        power_W=power_W,
-        problems=(
-            *_assumptions(sources, time_source, options, values, power_W.size),
-            *time_problems,
-            *turn_problems,
-            *problems,
-        ),
-        speed_mps=speed_mps,
-        yaw_rate_radps=yaw_rate_radps,
-        channels_W=channels_W,
-        surface_index=surface_index,
-        surface_names=surface_names,
-    )
+        check_yaw_rate(str(path), named_turn, samples.yaw_rate_radps, line_of=line_of)
+    return period_s, problems, grid
 
 
-# -- the column options: the same for every format -------------------------------------------
-
-
-def _lookup(path: Path, pre: Preamble, wanted: str, option: str) -> str:
-    """The column an option names (case-insensitively), or an error naming the option."""
-    found = find_column(pre.header, wanted)
-    if found is None:
-        raise LogError(
-            f"no column '{wanted}' (columns: {', '.join(pre.header)})",
-            file=path,
-            where=f"line {pre.header_line + 1}",
-            fix=f"check {option}",
-        )
-    return found
-
-
-def _power_sources(
-    path: Path, log_format: LogFormat, pre: Preamble, options: ReadOptions
-) -> list[PowerSource]:
-    """The channels whose power, summed, is the robot's power: the columns the options name,
-    else the format's own."""
-    if options.power_columns:
-        return [
-            PowerSource(power=(name, unit_scale(name)), name=wanted)
-            for wanted in dict.fromkeys(options.power_columns)
-            for name in [_lookup(path, pre, wanted, "--power-column")]
-        ]
-    if not (options.current_column or options.voltage_column):
-        return log_format.power_sources(path, pre, options)
-    if not options.current_column:
-        raise LogError(
-            "--voltage-column needs --current-column too", file=path, fix="name both columns"
-        )
-    current = _lookup(path, pre, options.current_column, "--current-column")
-    if options.voltage_column:
-        voltage = _lookup(path, pre, options.voltage_column, "--voltage-column")
-        return [
-            PowerSource(
-                current=(current, unit_scale(current)), voltage=(voltage, unit_scale(voltage))
-            )
-        ]
-    if options.supply_voltage_V is None:
-        raise LogError(
-            "--current-column needs a voltage",
-            file=path,
-            fix="give --voltage-column or --supply-voltage",
-        )
-    return [
-        PowerSource(
-            current=(current, unit_scale(current)), supply_voltage_V=options.supply_voltage_V
-        )
-    ]
-
-
-def _time_source(
-    path: Path, log_format: LogFormat, pre: Preamble, options: ReadOptions
-) -> tuple[TimeSource | None, list[Problem]]:
-    """`--time-column` (in `--time-unit`, else the unit its name gives), else the format's."""
-    if not options.time_column:
-        return log_format.time_source(path, pre, options)
-    found = _lookup(path, pre, options.time_column, "--time-column")
-    named_s = time_unit_of(found)[1]
-    scale_s = TIME_UNITS[options.time_unit] if options.time_unit else named_s
-    if scale_s is None:
-        raise LogError(
-            f"the unit of time column '{found}' is unknown",
-            file=path,
-            where=f"line {pre.header_line + 1}",
-            fix="give --time-unit s|ms|us",
-        )
-    return TimeSource(found, scale_s), time_unit_disagrees(found, named_s, options.time_unit)
-
-
-def _speed_column(
-    path: Path, log_format: LogFormat, pre: Preamble, options: ReadOptions
-) -> str | None:
-    """The speed column (log-format.md, "Speed"): `--speed-column`, which must exist, else
-    the format's own (`speed_mps`) if the log has one."""
-    if options.speed_column:
-        return _lookup(path, pre, options.speed_column, "--speed-column")
-    return log_format.speed_column(pre)
-
-
-def _turning_columns(
-    path: Path, log_format: LogFormat, pre: Preamble, options: ReadOptions
-) -> TurningColumns:
-    """The turning columns (log-format.md, "Turning"): `--yaw-rate-column`, which must exist,
-    else the format's own rate of turn, else its two wheel speeds; and its `surface` column."""
-    own = log_format.turning_columns(pre)
-    if options.yaw_rate_column:
-        found = _lookup(path, pre, options.yaw_rate_column, "--yaw-rate-column")
-        return TurningColumns(yaw_rate=found, surface=own.surface)
-    if own.yaw_rate or not (own.speed_left and own.speed_right):
-        return TurningColumns(yaw_rate=own.yaw_rate, surface=own.surface)
-    return own
+# -- samples from the columns read (the columns each comes from: `column_options.py`) ----------
 
 
 def _turning(
@@ -327,9 +338,6 @@ def _track_width_m(path: Path, values: dict[str, str], options: ReadOptions) -> 
             fix="give --track-width M or a '# track_m: M' metadata line",
         )
     return track_m
-
-
-# -- samples from the columns read --------------------------------------------------------------
 
 
 def _column(path: Path, columns: Columns, spec: tuple[str, float]) -> np.ndarray:

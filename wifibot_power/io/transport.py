@@ -18,30 +18,45 @@ worked out only when a message needs one, by reading the file again.
 
 from __future__ import annotations
 
-import contextlib
-import csv
 import os
 import re
 import stat
-from collections.abc import Callable, Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
 from wifibot_power.errors import LogError
+from wifibot_power.io.csv_errors import (
+    _cut_line,
+    _header_only,
+    _long_line_error,
+    _parse_error,
+)
+from wifibot_power.io.csv_errors import cut_line_error as cut_line_error  # re-exported
+from wifibot_power.io.lines import LineMap, _line_start
+from wifibot_power.io.lines import iter_lines as iter_lines  # re-exported
+from wifibot_power.io.lines import scan_lines as scan_lines  # re-exported
 from wifibot_power.io.options import codec_of
+from wifibot_power.io.pieces import (
+    BLOCK_BYTES,
+    LineTooLongError,
+    _cut_start,
+    _find_long_line,
+    _Pieces,
+)
+from wifibot_power.io.pieces import MAX_LINE_BYTES as MAX_LINE_BYTES  # re-exported
 
 HEAD_BYTES = 1 << 16
 
-#: pyarrow parses blocks of this size one after the other and holds a few at once, whatever
-#: the file's size. 1 MiB: fastest on the corpus's 41 MB logs and the smallest parse buffers (16 MiB
-#: blocks hold ~70 MB of buffers; docs/log-format.md, "Memory").
-_BLOCK_BYTES = 1 << 20
+#: pyarrow's parse block (`pieces.BLOCK_BYTES`); a name of this module's, read by
+#: `_csv_options` when it runs (tests make it small)
+_BLOCK_BYTES = BLOCK_BYTES
 
 #: Columns below this size are not given back to the OS after the parse: pyarrow's pool keeps
 #: their blocks and the next parse reuses them. Giving them back cost 12-25% of parsing
@@ -71,13 +86,8 @@ _SCAN_BYTES = 1 << 20
 
 UTF8_BOM = b"\xef\xbb\xbf"
 
-LINE_END = re.compile(rb"\r\n|\r|\n")
 #: `LINE_END` for decoded text.
 _TEXT_LINE_END = re.compile(r"\r\n|\r|\n")
-
-_COLUMN_IN_MESSAGE = re.compile(r"column #(\d+)")
-
-_INVALID_VALUE = re.compile(r"invalid value '(.*)'")
 
 
 @contextmanager
@@ -261,314 +271,6 @@ def head_lines(path: Path, content: Content, head: bytes, limit: int | None = No
     return lines
 
 
-class LineMap:
-    """File line numbers (1-based) of data rows, worked out only when a message needs one, by
-    reading the content again up to `limit` bytes (where a cut last line starts)."""
-
-    def __init__(self, content: Content, header_line: int, limit: int | None = None) -> None:
-        self._content = content
-        self._header_line = header_line
-        self._limit = limit
-        self._rows: np.ndarray | None = None
-        self._line_ends = 0
-
-    def _scan(self) -> np.ndarray:
-        if self._rows is None:
-            self._rows, self._line_ends = scan_lines(
-                self._content.chunks(self._limit), self._header_line
-            )
-        return self._rows
-
-    def line_of(self, row: int) -> int:
-        """Line of data row `row` (pyarrow skips empty lines, so they are skipped here too)."""
-        rows = self._scan()
-        if not rows.size:
-            return self._header_line + 2
-        return int(rows[min(max(row, 0), rows.size - 1)])
-
-    def line_count(self) -> int:
-        """Line ends up to the limit (a \\r\\n counts once)."""
-        self._scan()
-        return self._line_ends
-
-    def find(self, match: Callable[[bytes], bool]) -> tuple[int, bytes] | None:
-        """First data line (1-based) for which `match(line bytes)` holds, and the line."""
-        for index, line in enumerate(iter_lines(self._content.chunks(self._limit))):
-            if index > self._header_line and line and match(line):
-                return index + 1, line
-        return None
-
-
-def iter_lines(chunks: Iterator[bytes]) -> Iterator[bytes]:
-    """The lines of the concatenated chunks, as `LINE_END.split` of the whole gives them."""
-    carry = b""
-    for chunk in chunks:
-        buffer = carry + chunk
-        # a \r at the end may be the first half of a \r\n: keep it for the next chunk
-        held = b"\r" if buffer.endswith(b"\r") else b""
-        parts = LINE_END.split(buffer[: len(buffer) - len(held)])
-        carry = parts.pop() + held
-        yield from parts
-    yield from LINE_END.split(carry)
-
-
-def scan_lines(chunks: Iterator[bytes], header_line: int) -> tuple[np.ndarray, int]:
-    """Line numbers (1-based) of the non-empty lines after line `header_line` (0-based), and
-    the number of line ends (\\r\\n, \\r or \\n, as pyarrow and `LINE_END` know them).
-    Vectorised over the bytes of each chunk; a line cut by a chunk's end is carried over."""
-    found: list[np.ndarray] = []
-    carry = b""
-    lines_before = 0  # complete lines in the chunks already done
-
-    def complete_lines(buffer: bytes) -> int:
-        """Note the data rows among the complete lines of `buffer`; return where they end."""
-        nonlocal lines_before
-        data = np.frombuffer(buffer, dtype=np.uint8)
-        is_cr, is_lf = data == 13, data == 10
-        after_cr = np.concatenate(([False], is_cr[:-1]))
-        starts = np.flatnonzero(is_cr | (is_lf & ~after_cr))  # first byte of each line end
-        if not starts.size:
-            return 0
-        before_lf = np.concatenate((is_lf[1:], [False]))
-        ends = starts + 1 + before_lf[starts]  # one past each line end
-        lengths = starts - np.concatenate(([0], ends[:-1]))
-        index = lines_before + np.arange(starts.size)
-        keep = (lengths > 0) & (index > header_line)
-        found.append(index[keep] + 1)
-        lines_before += int(starts.size)
-        return int(ends[-1])
-
-    for chunk in chunks:
-        buffer = carry + chunk
-        held = 1 if buffer.endswith(b"\r") else 0  # may be the first half of a \r\n
-        done = complete_lines(buffer[: len(buffer) - held])
-        carry = buffer[done:]
-    done = complete_lines(carry)
-    if carry[done:] and lines_before > header_line:
-        found.append(np.array([lines_before + 1]))  # a last line without a line end
-    rows = np.concatenate(found) if found else np.zeros(0, dtype=np.int64)
-    return rows, lines_before
-
-
-def _line_start(head: bytes, index: int) -> int:
-    """Byte offset of line `index` (0-based) in `head`."""
-    if index == 0:
-        return 0
-    for count, match in enumerate(LINE_END.finditer(head), start=1):
-        if count == index:
-            return match.end()
-    return len(head)
-
-
-#: The longest line read [bytes]: a log's line is a few dozen bytes (a few hundred with many
-#: channels); pyarrow parses in blocks of `_BLOCK_BYTES` and cannot parse a line longer than
-#: one. A longer line is an error naming it (`LineTooLongError`), found in time linear in its
-#: length (issue 29: a 200 MB line took 16.5 s, 1 GB over 300 s).
-MAX_LINE_BYTES = _BLOCK_BYTES
-
-
-class LineTooLongError(Exception):
-    """A line longer than `MAX_LINE_BYTES` starts at byte `start` of the content."""
-
-    def __init__(self, start: int) -> None:
-        super().__init__(start)
-        self.start = start
-
-
-def _long_line_error(path: Path, content: Content, pre: TextLayout, start: int) -> LogError:
-    line = LineMap(content, pre.header_line, start).line_count() + 1
-    return LogError(
-        f"line longer than {MAX_LINE_BYTES >> 20} MiB (a log's line is a few dozen bytes)",
-        file=path,
-        where=f"line {line}",
-        fix="the file is not a log, or its line ends are missing or not \\n, \\r\\n or \\r; "
-        "fix or delete that line",
-    )
-
-
-def _find_long_line(content: Content) -> int | None:
-    """Where the first line longer than `MAX_LINE_BYTES` starts, by one pass over the
-    content (vectorised per read), or None."""
-    offset = 0  # of the chunk in the content
-    line_start = 0
-    for chunk in content.chunks():
-        data = np.frombuffer(chunk, dtype=np.uint8)
-        ends = np.flatnonzero((data == 10) | (data == 13)) + offset
-        starts = np.concatenate(([line_start], ends + 1))
-        lengths = np.append(ends, offset + len(chunk)) - starts
-        if lengths.size and int(lengths.max()) > MAX_LINE_BYTES:
-            return int(starts[int(np.argmax(lengths > MAX_LINE_BYTES))])
-        line_start = int(starts[-1])
-        offset += len(chunk)
-    return None
-
-
-#: Bytes read at a time when the stream is watched for a cut last line (`_Pieces`): the
-#: parse's block size, so memory is as when pyarrow reads the file itself.
-_PIECE_BYTES = _BLOCK_BYTES
-
-#: Bytes searched from a piece's end for its last line end before the whole is searched.
-_LINE_END_SEARCH = 1 << 16
-
-
-def _last_line_end(buffer: pa.Buffer) -> int:
-    """Index of the last \\n or \\r in `buffer`, or -1: looked for in its last bytes (a
-    line is short), then in the whole."""
-    view = memoryview(buffer)
-    for start in (max(len(view) - _LINE_END_SEARCH, 0), 0):
-        part = bytes(view[start:])
-        last = max(part.rfind(b"\n"), part.rfind(b"\r"))
-        if last >= 0 or start == 0:
-            return start + last if last >= 0 else -1
-    return -1  # pragma: no cover - the loop always returns
-
-
-def _first_line_end(buffer: pa.Buffer) -> int:
-    """Index of the first \\n or \\r in `buffer`, or -1."""
-    view = memoryview(buffer)
-    for end in (min(len(view), _LINE_END_SEARCH), len(view)):
-        part = bytes(view[:end])
-        found = [k for k in (part.find(b"\n"), part.find(b"\r")) if k >= 0]
-        if found or end == len(view):
-            return min(found) if found else -1
-    return -1  # pragma: no cover - the loop always returns
-
-
-class _Pieces:
-    """The content as pieces of whole lines, for pyarrow to parse one after the other, less a
-    last line that has no line end.
-
-    A last data line with no line end is what a full disk or a cut copy leaves: it may hold a
-    shortened number (23.3102 -> 23.3), so it is never parsed, and the read stops with an
-    error (`_cut_line`). What follows the last line end read so far waits for the next
-    read; at the end, it is kept out if it is more than blanks and starts after
-    `header_start` (a header with no line end stays: "header only" follows). `cut_at` is then
-    where that line starts.
-
-    The stream is read here, into pyarrow buffers (a line cut by a read's end is joined in
-    a small piece of its own; nothing else is copied), and pyarrow parses each piece from a
-    buffer: no pyarrow thread ever calls back into Python (its readahead threads reading a
-    Python file object were the suspect when a test worker crashed twice in a .gz read).
-    The next piece is read (decompressed, outside the GIL) by one thread while pyarrow
-    parses the current one.
-    """
-
-    def __init__(self, stream: pa.NativeFile, header_start: int) -> None:
-        self._stream = stream
-        self._header_start = header_start
-        self._consumed = 0  # bytes taken from `stream` and looked at
-        self._carry = b""  # the bytes after the last line end seen (part of a line)
-        #: more of that line, read since: joined once its end comes (`_carried`), so a long
-        #: line costs time linear in its length, not quadratic
-        self._more: list[bytes] = []
-        self._more_bytes = 0
-        self._coming: Future[pa.Buffer] | None = None  # the read under way
-        self._ended = False
-        self.cut_at: int | None = None
-        #: the exception reading the stream raised
-        self.error: BaseException | None = None
-
-    def _read(self) -> pa.Buffer:
-        try:
-            return self._stream.read_buffer(_PIECE_BYTES)
-        except (OSError, pa.ArrowException) as exc:
-            self.error = exc
-            raise
-
-    def __iter__(self) -> Iterator[pa.Buffer]:
-        header_done = False  # whether a piece with the header's line end was handed out
-        ahead = ThreadPoolExecutor(max_workers=1)
-        try:
-            self._coming = ahead.submit(self._read)
-            while True:
-                chunk = self._coming.result()
-                self._coming = None
-                if not chunk.size:
-                    break
-                self._coming = ahead.submit(self._read)
-                start = self._consumed - len(self._carry) - self._more_bytes
-                self._consumed += chunk.size
-                last = _last_line_end(chunk)
-                # the first piece holds the whole header line (pyarrow skips up to it)
-                header_in = self._consumed - chunk.size + last >= self._header_start
-                if last < 0 or not (header_done or header_in):
-                    self._read_on(chunk, start)  # a line longer than a read
-                    continue
-                carry = self._carried()
-                self._carry = chunk.slice(last + 1).to_pybytes()
-                if not header_done:  # lines up to the header may span reads: one piece, once
-                    header_done = True
-                    yield pa.py_buffer(carry + chunk.slice(0, last + 1).to_pybytes())
-                elif carry:
-                    first = _first_line_end(chunk)
-                    yield pa.py_buffer(carry + chunk.slice(0, first + 1).to_pybytes())
-                    if first < last:
-                        yield chunk.slice(first + 1, last - first)
-                else:
-                    yield chunk.slice(0, last + 1)
-        finally:
-            ahead.shutdown(wait=True)  # no read left under way: the stream may be closed
-        self._end()
-
-    def _read_on(self, chunk: pa.Buffer, start: int) -> None:
-        """`chunk` holds no line end: more of the line that starts at `start`, kept until
-        its end comes; a line longer than `MAX_LINE_BYTES` stops the read (`LineTooLongError`)."""
-        self._more.append(chunk.to_pybytes())
-        self._more_bytes += chunk.size
-        if len(self._carry) + self._more_bytes > MAX_LINE_BYTES and start >= self._header_start:
-            raise LineTooLongError(start)
-
-    def _carried(self) -> bytes:
-        """The part-line carried over, whole (`_read_on`)."""
-        if self._more:
-            self._carry = b"".join([self._carry, *self._more])
-            self._more, self._more_bytes = [], 0
-        return self._carry
-
-    def _end(self) -> None:
-        self._carried()
-        self._ended = True
-        tail_start = self._consumed - len(self._carry)
-        if self._carry.strip() and tail_start > self._header_start:
-            self.cut_at = tail_start
-            self._carry = b""
-
-    def tail(self) -> bytes:
-        """What follows the last line end when it is not a cut line: parsed last."""
-        return self._carry
-
-    def drain(self) -> None:
-        """Read the rest of the stream (after a parse error, the iteration closed): an error
-        reading it wins, as when the whole stream was read ahead; `cut_at` is then known."""
-        if self._ended or self.error is not None:
-            return
-        with contextlib.suppress(OSError, pa.ArrowException):
-            chunk = self._coming.result() if self._coming is not None else self._read()
-            while chunk.size:
-                start = self._consumed - len(self._carry) - self._more_bytes
-                self._consumed += chunk.size
-                last = _last_line_end(chunk)
-                if last < 0:
-                    self._read_on(chunk, start)
-                else:
-                    self._more, self._more_bytes = [], 0
-                    self._carry = chunk.slice(last + 1).to_pybytes()
-                chunk = self._read()
-            self._end()
-
-
-def _cut_start(tail: bytes, size: int, header_start: int) -> int | None:
-    """Where a last data line without a line end starts (see `_HoldBackCutLine`), from the
-    content's last bytes `tail` and its `size`; -1 when the tail holds no line end at all."""
-    if not tail or tail.endswith((b"\n", b"\r")):
-        return None
-    last = max(tail.rfind(b"\n"), tail.rfind(b"\r"))
-    if last < 0 and len(tail) < size:
-        return -1  # a last line longer than the tail: let the stream find where it starts
-    start = size - len(tail) + last + 1
-    return start if tail[last + 1 :].strip() and start > header_start else None
-
-
 @dataclass
 class Columns:
     """The columns read from a log, as numpy arrays (a column of text is named, not held)."""
@@ -641,64 +343,14 @@ def read_columns(
     cut_at = -1 if tail is None else _cut_start(*tail, header_start)
     with read_errors(path):
         stream = content.open()
-    pieces: _Pieces | None = None
-    # a last line without a line end is never parsed; the lines before it are, so that an
-    # error earlier in the file is the one reported, whatever the source (file, .gz, bytes)
-    if cut_at is None:
-        source = stream  # pyarrow reads the file itself: no Python in the loop
-    elif cut_at >= 0 and content.data is not None:
-        source = pa.BufferReader(pa.py_buffer(content.data).slice(0, cut_at))
-    else:  # compressed, or cut: the stream is watched for a last line without a line end
-        pieces = _Pieces(stream, header_start)
+    source, pieces = _source(stream, content, cut_at, header_start)
     parts = iter(pieces) if pieces is not None else None
     try:
-        if pieces is None:
-            table = pacsv.read_csv(source, **_csv_options(pre, include_columns, True, labels))
-        else:
-            tables = [
-                pacsv.read_csv(
-                    pa.BufferReader(piece), **_csv_options(pre, include_columns, k == 0, labels)
-                )
-                for k, piece in enumerate(parts)
-            ]
-            if pieces.tail():  # blanks after the last line end (a cut line is never parsed)
-                options = _csv_options(pre, include_columns, not tables, labels)
-                tables.append(pacsv.read_csv(pa.BufferReader(pieces.tail()), **options))
-            table = (
-                pa.concat_tables(tables, memory_pool=_POOL)
-                if tables
-                else pacsv.read_csv(
-                    pa.BufferReader(b""), **_csv_options(pre, include_columns, True, labels)
-                )
-            )
-            del tables
+        table = _parse(source, pieces, parts, pre, include_columns, labels)
     except LineTooLongError as long:
         raise _long_line_error(path, content, pre, long.start) from None
     except (OSError, pa.ArrowException) as exc:
-        if "straddling object" in str(exc):  # pyarrow met a line longer than a block
-            start = _find_long_line(content)
-            if start is not None:
-                raise _long_line_error(path, content, pre, start) from None
-        if pieces is not None:
-            parts.close()  # the read under way is done: what it read is looked at next
-            pieces.drain()
-            cut_at = pieces.cut_at
-        read_error = pieces.error if pieces is not None else None
-        if read_error is None and pieces is None and not isinstance(exc, pa.ArrowInvalid):
-            read_error = exc  # the file itself (a disk error), not its text
-        if read_error is not None:
-            with read_errors(path):
-                raise read_error from None
-        if "Could not skip initial" in str(exc):  # the header is the last line, unended
-            raise _header_only(path, pre) from None
-        if isinstance(exc, pa.ArrowInvalid):
-            lines = LineMap(content, pre.header_line, cut_at)
-            raise _parse_error(path, pre, str(exc), lines) from None
-        raise LogError(
-            f"cannot parse the CSV ({str(exc)[:100]})",
-            file=path,
-            fix="check the delimiter and quoting",
-        ) from None
+        _parse_failed(path, content, pre, exc, pieces, parts, cut_at)
     finally:
         if parts is not None:
             parts.close()  # no read-ahead left inside the stream when it closes, whatever
@@ -710,6 +362,101 @@ def read_columns(
         raise _cut_line(path, content, pre, cut_at)
     if table.num_rows == 0:
         raise _header_only(path, pre)
+    held = [table]  # `_columns` holds the only reference: each column freed once copied
+    del table
+    return _columns(held, content, pre, labels)
+
+
+def _source(
+    stream: pa.NativeFile, content: Content, cut_at: int | None, header_start: int
+) -> tuple[pa.NativeFile | None, _Pieces | None]:
+    """What pyarrow parses: the stream itself, the content less a cut last line, or (None)
+    the stream's pieces (`_Pieces`, returned). A last line without a line end is never
+    parsed; the lines before it are, so that an error earlier in the file is the one
+    reported, whatever the source (file, .gz, bytes)."""
+    if cut_at is None:
+        return stream, None  # pyarrow reads the file itself: no Python in the loop
+    if cut_at >= 0 and content.data is not None:
+        return pa.BufferReader(pa.py_buffer(content.data).slice(0, cut_at)), None
+    # compressed, or cut: the stream is watched for a last line without a line end
+    return None, _Pieces(stream, header_start)
+
+
+def _parse(
+    source: pa.NativeFile | None,
+    pieces: _Pieces | None,
+    parts: Iterator[pa.Buffer] | None,
+    pre: TextLayout,
+    include_columns: list[str],
+    labels: tuple[str, ...],
+) -> pa.Table:
+    """pyarrow's table of `source`, or of the `pieces` (`parts`, their iterator) parsed in
+    turn and joined."""
+    if pieces is None:
+        return pacsv.read_csv(source, **_csv_options(pre, include_columns, True, labels))
+    tables = [
+        pacsv.read_csv(pa.BufferReader(piece), **_csv_options(pre, include_columns, k == 0, labels))
+        for k, piece in enumerate(parts)
+    ]
+    if pieces.tail():  # blanks after the last line end (a cut line is never parsed)
+        options = _csv_options(pre, include_columns, not tables, labels)
+        tables.append(pacsv.read_csv(pa.BufferReader(pieces.tail()), **options))
+    table = (
+        pa.concat_tables(tables, memory_pool=_POOL)
+        if tables
+        else pacsv.read_csv(
+            pa.BufferReader(b""), **_csv_options(pre, include_columns, True, labels)
+        )
+    )
+    del tables
+    return table
+
+
+def _parse_failed(
+    path: Path,
+    content: Content,
+    pre: TextLayout,
+    exc: OSError | pa.ArrowException,
+    pieces: _Pieces | None,
+    parts: Iterator[pa.Buffer] | None,
+    cut_at: int | None,
+) -> NoReturn:
+    """Raise the one-line error for a parse that failed with `exc`: a line longer than a
+    block, a read error of the file or stream, a header with no line end, text where a
+    number belongs, or the CSV as pyarrow could not read it."""
+    if "straddling object" in str(exc):  # pyarrow met a line longer than a block
+        start = _find_long_line(content)
+        if start is not None:
+            raise _long_line_error(path, content, pre, start) from None
+    if pieces is not None:
+        parts.close()  # the read under way is done: what it read is looked at next
+        pieces.drain()
+        cut_at = pieces.cut_at
+    read_error = pieces.error if pieces is not None else None
+    if read_error is None and pieces is None and not isinstance(exc, pa.ArrowInvalid):
+        read_error = exc  # the file itself (a disk error), not its text
+    if read_error is not None:
+        with read_errors(path):
+            raise read_error from None
+    if "Could not skip initial" in str(exc):  # the header is the last line, unended
+        raise _header_only(path, pre) from None
+    if isinstance(exc, pa.ArrowInvalid):
+        lines = LineMap(content, pre.header_line, cut_at)
+        raise _parse_error(path, pre, str(exc), lines) from None
+    raise LogError(
+        f"cannot parse the CSV ({str(exc)[:100]})",
+        file=path,
+        fix="check the delimiter and quoting",
+    ) from None
+
+
+def _columns(
+    held: list[pa.Table], content: Content, pre: TextLayout, labels: tuple[str, ...]
+) -> Columns:
+    """The columns of the table `held` (taken out of it: the caller keeps no reference) as
+    numpy arrays, one at a time, each dropped from the table once copied; its text columns
+    named; its `labels` as indices (`_label_index`)."""
+    table = held.pop()
     names = table.column_names
     numeric = (pa.types.is_floating, pa.types.is_integer)
     text = {f.name for f in table.schema if not any(is_type(f.type) for is_type in numeric)}
@@ -783,73 +530,3 @@ _NUMPY_OF = {
         (pa.uint64(), np.uint64),
     )
 }
-
-
-def _cut_line(path: Path, content: Content, pre: TextLayout, cut_at: int) -> LogError:
-    """The last line has no line end (log-format.md: a truncated last line is bad input)."""
-    return cut_line_error(path, LineMap(content, pre.header_line, cut_at).line_count() + 1)
-
-
-def cut_line_error(path: Path, line: int) -> LogError:
-    """`line`, the file's last, has no line end: a cut file, whose last number may be cut."""
-    return LogError(
-        "the last line has no line end: the file may be cut short, and a cut line can hold a "
-        "shortened number (23.3102 -> 23.3)",
-        file=path,
-        where=f"line {line}",
-        fix="re-copy the file; if the line is complete, end it with a line break, or delete "
-        "it to read the rest",
-    )
-
-
-def _header_only(path: Path, pre: TextLayout) -> LogError:
-    return LogError(
-        "header only: no samples",
-        file=path,
-        where=f"line {pre.header_line + 1}",
-        fix="the log holds no data; re-export it",
-    )
-
-
-def _parse_error(path: Path, pre: TextLayout, message: str, lines: LineMap) -> LogError:
-    first = (message.splitlines() or [""])[0]
-    col = _COLUMN_IN_MESSAGE.search(first)
-    value = _INVALID_VALUE.search(first)
-    if col and value and int(col.group(1)) < len(pre.header):
-        index, text = int(col.group(1)), value.group(1)
-        name = pre.header[index]
-
-        def holds(line: bytes) -> bool:
-            cells = _cells(line, pre.delimiter)
-            return index < len(cells) and cells[index].strip() == text.strip()
-
-        found = lines.find(holds)
-        where = f"line {found[0]}, column '{name}'" if found else f"column '{name}'"
-        return LogError(
-            f"'{text[:40]}' where a number belongs",
-            file=path,
-            where=where,
-            fix="fix or delete that line",
-        )
-    if "Expected" in first and "columns" in first:
-        expected = len(pre.header)
-        found = lines.find(lambda line: len(_cells(line, pre.delimiter)) != expected)
-        what = (
-            f"{len(_cells(found[1], pre.delimiter))} field(s) where the header has {expected}"
-            if found
-            else "a line with the wrong number of fields"
-        )
-        return LogError(
-            what,
-            file=path,
-            where=f"line {found[0]}" if found else None,
-            fix="the line is truncated or malformed; delete it or re-export the log",
-        )
-    return LogError(
-        f"cannot parse the CSV ({first[:100]})", file=path, fix="check the delimiter and quoting"
-    )
-
-
-def _cells(line: bytes, delimiter: str) -> list[str]:
-    text = line.decode("utf-8", "replace")
-    return next(csv.reader([text], delimiter=delimiter), [""])

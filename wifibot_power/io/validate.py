@@ -3,7 +3,8 @@
 Vectorised over samples. Errors name the file and the line. What is harmless and
 reported (a short gap) is returned as a `Problem`; what would make a number quietly
 wrong is an error. The thresholds are documented in
-docs/log-format.md ("What wbpower checks").
+docs/log-format.md ("What wbpower checks"). The time stamps' checks (period, gaps, a
+logger's own pattern) are in `stamps.py`.
 """
 
 from __future__ import annotations
@@ -14,7 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from wifibot_power.errors import LogError
-from wifibot_power.io.options import MAX_SUPPLY_VOLTAGE_V, SAMPLE_PERIOD_RANGE_S
+from wifibot_power.io.holdgrid import HoldGrid, hold_energies_J, hold_grid
+from wifibot_power.io.options import MAX_SUPPLY_VOLTAGE_V
+from wifibot_power.io.stamps import GAP_FACTOR as GAP_FACTOR  # re-exported
+from wifibot_power.io.stamps import MAX_GAP_PCT as MAX_GAP_PCT  # re-exported
+from wifibot_power.io.stamps import MAX_GAP_S as MAX_GAP_S  # re-exported
+from wifibot_power.io.stamps import _check_period, _check_time, _grid_is_nearer, _on_the_grid
+from wifibot_power.io.stamps import _median_10_digits as _median_10_digits  # re-exported
 from wifibot_power.run import PAPER_SAMPLE_PERIOD_S, Problem
 
 #: A median current above this is not in amperes (mA read as A) [A]: a battery vehicle's
@@ -56,35 +63,6 @@ REVERSED_ENERGY_SHARE = 2.0 / 3.0
 #: current sensor's offset) and driving at 40 W is not called reversed (flipping it would
 #: make it wrong).
 REVERSED_TIME_SHARE = 0.5
-#: A single dropped-sample gap longer than this stops the analysis [s] ...
-MAX_GAP_S = 0.05
-#: ... unless it is at most this many sample periods of the log's own spacing: a slow logger
-#: (~18 Hz: 55 ms a sample) that drops a sample, or three in a row, is not refused.
-MAX_GAP_PERIODS = 3
-#: Dropped samples adding up to more than this share of the log stop the analysis [%], when
-#: they also add up to more than `MAX_GAP_PERIODS` sample periods: else a short log from a
-#: slow logger (30 samples at 1 Hz) that drops one sample would be refused, which the spec
-#: says it is not.
-MAX_GAP_PCT = 1.0
-#: A step between time stamps above this many sample periods is a gap (jitter stays below).
-GAP_FACTOR = 1.5
-#: A logger writes in bursts (`_is_bursty`) when over this share of its steps are long (over
-#: `GAP_FACTOR` median steps) ...
-BURSTY_STEP_SHARE = 0.1
-#: ... and over this share of its time passes in them: waiting is what it mostly does (a
-#: logger dropping samples is read only with under `MAX_GAP_PCT` of its time dropped).
-BURSTY_TIME_SHARE = 0.5
-#: A bursty logger's longest regular wait: this quantile of its waits (a tenth of its waits
-#: may be longer: those over `GAP_FACTOR` times it are gaps).
-BURST_WAIT_QUANTILE = 0.9
-#: ... which needs at least this many waits (1 / (1 - `BURST_WAIT_QUANTILE`)) to stand below
-#: the longest: fewer long steps are no pattern (a short log with one long pause is a gap).
-BURSTY_MIN_WAITS = 10
-#: Time stamps whose mean step (between gaps) is further than this from their median [%]
-#: are uneven (a logger stamping on arrival, e.g. ROS): the period is then their mean, so
-#: that durations and energies follow the stamps (the bar is MAX_GAP_PCT's: as much time
-#: miscounted as gaps that make energies wrong).
-UNEVEN_PCT = 1.0
 #: Consecutive identical readings at a column's maximum that mean the range clipped.
 SATURATION_SAMPLES = 10
 #: A trace with more repeated consecutive values than this share is quantised or noise-free:
@@ -98,6 +76,16 @@ SATURATION_ABOVE_MEDIAN = 1.05
 
 
 def check_samples(
+    file: str, time_s: np.ndarray | None, power_W: np.ndarray, **options: object
+) -> tuple[float, list[Problem]]:
+    """Validate samples; return the sample period [s] and the problems that did not stop
+    reading: `check_log_samples` (its keyword options) without the grid, which a reader
+    needs and a check alone does not."""
+    period_s, problems, _ = check_log_samples(file, time_s, power_W, **options)
+    return period_s, problems
+
+
+def check_log_samples(
     file: str,
     time_s: np.ndarray | None,
     power_W: np.ndarray,
@@ -108,8 +96,10 @@ def check_samples(
     measured: dict[str, np.ndarray] | None = None,
     voltages: frozenset[str] = frozenset(),
     scale: PowerScale | None = None,
-) -> tuple[float, list[Problem]]:
-    """Validate samples; return the sample period [s] and the problems that did not stop reading.
+) -> tuple[float, list[Problem], HoldGrid | None]:
+    """Validate samples: the sample period [s], the problems that did not stop reading, and
+    the even grid (`holdgrid.hold_grid`) the samples are to be read on when a logger stamps
+    rows as they arrive (bursty or uneven stamps), else None.
 
     `line_of(i)` is the file line of sample i (for messages); `measured` holds the columns the
     power was computed from (clipping shows in a current column, not always in the product),
@@ -123,12 +113,19 @@ def check_samples(
     unjudged = check_power_scale(
         file, power_W, high_W, measured or {"power": power_W}, scale, line_of
     )
+    grid = None
     if time_s is None:
         period_s = default_period_s
         problems: list[Problem] = []
     else:
-        period_s, problems = _check_time(file, time_s, line_of, default_period_s)
+        period_s, problems, stamped_gaps = _check_time(file, time_s, line_of, default_period_s)
         _check_period(file, period_s)
+        if stamped_gaps is not None:  # the note on the stamps comes first: it says the grid
+            grid = hold_grid(time_s, stamped_gaps, period_s)
+            energies_J = hold_energies_J(time_s, power_W, stamped_gaps, period_s, grid)
+            problems[0] = _on_the_grid(problems[0], energies_J)
+            if not _grid_is_nearer(energies_J):
+                grid = None
     negative = _negative_samples(power_W, time_s, period_s, low_W)
     if negative is not None:
         problems.insert(0, negative)
@@ -139,7 +136,7 @@ def check_samples(
         peak = high_W if values is power_W else None
         voltage = name in scale.voltages
         _check_saturation(file, name, values, time_s, period_s, line_of, peak, voltage)
-    return period_s, problems
+    return period_s, problems, grid
 
 
 def check_speed(
@@ -186,237 +183,6 @@ def _check_motion(
             where=f"line {line_of(index)}, column '{name}'",
             fix=fix,
         )
-
-
-def _check_time(
-    file: str, time_s: np.ndarray, line_of: Callable[[int], int], default_period_s: float
-) -> tuple[float, list[Problem]]:
-    if not time_s.size:
-        return default_period_s, []
-    if time_s.size < 2:
-        _time_error(file, time_s, np.diff(time_s), line_of)
-        return default_period_s, []
-    # one diff serves every check on a clean log (the usual case): steps all finite and > 0
-    # with finite ends mean every stamp is finite and time goes forwards; anything else is
-    # found again, exactly as before, by the slow path
-    step_s = np.diff(time_s)
-    low_s, high_s = step_s.min(), step_s.max()
-    if not (np.isfinite(low_s) and np.isfinite(high_s) and np.isfinite(time_s[0]) and low_s > 0):
-        _time_error(file, time_s, step_s, line_of)
-    # time stamps carry far fewer than 10 significant digits: drop the float noise of the diff
-    period_s, reordered = _median_10_digits(step_s)
-    if abs(period_s - default_period_s) <= 1e-6 * default_period_s:
-        period_s = default_period_s  # the stated period, not its float-rounded echo
-    spacing_s = period_s  # the median step: gaps are judged against it
-    gaps = np.empty(0, dtype=np.intp)
-    if high_s > GAP_FACTOR * spacing_s:
-        if reordered:  # the median sorted the steps in place: a fresh diff (one held at a time)
-            step_s = None
-            step_s = np.diff(time_s)
-            reordered = False
-        gaps = np.flatnonzero(step_s > GAP_FACTOR * spacing_s)
-        if _is_bursty(time_s, step_s, gaps):
-            return _bursty(file, time_s, step_s, gaps, line_of)
-    uneven: list[Problem] = []
-    # the steps between gaps: their mean is within high - low of their median, so a log
-    # spaced evenly to 1% (every analyser's) is not looked at again; their sum is the span
-    # less the gaps' steps (no pass over the steps)
-    regular = step_s.size - gaps.size
-    if regular and high_s - low_s > UNEVEN_PCT / 100.0 * spacing_s:
-        gap_steps_s = float(np.sum(time_s[gaps + 1] - time_s[gaps]))
-        mean_s = float(f"{(float(time_s[-1] - time_s[0]) - gap_steps_s) / regular:.10g}")
-        if abs(mean_s - spacing_s) > UNEVEN_PCT / 100.0 * spacing_s:
-            period_s = mean_s
-            if reordered:
-                step_s = None
-                step_s = np.diff(time_s)
-            longest_s = float(np.max(step_s[step_s <= GAP_FACTOR * spacing_s]))
-            uneven.append(
-                Problem(
-                    "uneven",
-                    f"uneven time stamps (steps of {1e3 * float(low_s):.3g}-"
-                    f"{1e3 * longest_s:.3g} ms between gaps): the sample period is their "
-                    f"mean, {1e3 * mean_s:.4g} ms, so that durations and energies follow the "
-                    f"stamps (their median, {1e3 * spacing_s:.4g} ms, would count "
-                    f"{100 * (spacing_s / mean_s - 1) if mean_s else float('inf'):+.2g}% of "
-                    "both)",
-                )
-            )
-    del step_s
-    if not gaps.size:
-        return period_s, uneven
-    return period_s, uneven + _gap_problems(file, time_s, gaps, period_s, period_s, line_of)
-
-
-def _gap_problems(
-    file: str,
-    time_s: np.ndarray,
-    gaps: np.ndarray,
-    period_s: float,
-    spacing_s: float,
-    line_of: Callable[[int], int],
-    pattern: str = "",
-) -> list[Problem]:
-    """The problems of the gaps after the samples `gaps` (each sample holds `period_s`; the
-    rest of its step is missing), or the error when they are too long for the log's own
-    `spacing_s`: its sample period, or a bursty logger's longest regular wait (`pattern`
-    names it in the messages)."""
-    missing_s = (time_s[gaps + 1] - time_s[gaps]) - period_s
-    longest = int(np.argmax(missing_s))
-    span_s = float(time_s[-1] - time_s[0]) + period_s
-    missing_pct = 100.0 * float(missing_s.sum()) / (span_s if span_s > 0 else 1.0)
-    summary = (
-        f"{gaps.size} gap(s) of dropped samples{pattern}, {missing_s.sum():.4g} s in all "
-        f"({missing_pct:.2g}% of the log), longest {missing_s[longest]:.4g} s after "
-        f"t = {time_s[gaps[longest]]:.6g} s"
-    )
-    spacings = "sample periods" if not pattern else "of its waits"
-    limit_s = max(MAX_GAP_S, MAX_GAP_PERIODS * spacing_s)
-    too_much = missing_pct > MAX_GAP_PCT and float(missing_s.sum()) > MAX_GAP_PERIODS * spacing_s
-    if missing_s[longest] > limit_s or too_much:
-        raise LogError(
-            summary,
-            file=file,
-            where=f"line {line_of(int(gaps[longest]) + 1)}",
-            fix=f"a gap over {limit_s:.4g} s (the longer of {MAX_GAP_S:g} s and "
-            f"{MAX_GAP_PERIODS} {spacings}), or gaps adding up to over {MAX_GAP_PCT:g}% of "
-            f"the log and over {MAX_GAP_PERIODS} {spacings}, make energies wrong; "
-            "re-record, or cut the log at the gap",
-        )
-    return [
-        Problem(
-            "gap",
-            f"line {line_of(int(index) + 1)}: {missing * 1e3:.4g} ms of samples dropped after "
-            f"t = {time_s[index]:.6g} s{pattern}",
-            float(time_s[index]) + period_s,
-            float(missing),
-        )
-        for index, missing in zip(gaps, missing_s, strict=True)
-    ]
-
-
-def _is_bursty(time_s: np.ndarray, step_s: np.ndarray, gaps: np.ndarray) -> bool:
-    """A logger that writes in bursts (rows a few ms apart, then seconds of nothing: phone
-    apps, ROS bridges): its long steps are its habit, not dropped samples. Told by both
-    `BURSTY_STEP_SHARE` of the steps being long (at least `BURSTY_MIN_WAITS` of them) and
-    `BURSTY_TIME_SHARE` of the time passing in them; a logger that drops samples now and
-    then (under `MAX_GAP_PCT` of its time: what is read at all) is never taken for one."""
-    if gaps.size <= BURSTY_STEP_SHARE * step_s.size or gaps.size < BURSTY_MIN_WAITS:
-        return False
-    span_s = float(time_s[-1] - time_s[0])
-    return float(np.sum(step_s[gaps])) > BURSTY_TIME_SHARE * span_s
-
-
-def _bursty(
-    file: str,
-    time_s: np.ndarray,
-    step_s: np.ndarray,
-    waits: np.ndarray,
-    line_of: Callable[[int], int],
-) -> tuple[float, list[Problem]]:
-    """A bursty log judged by its own pattern (log-format.md, "Bad input"): its waits (the
-    steps `waits`, long against the median step) are its spacing; a step over `GAP_FACTOR`
-    times its longest regular wait (the `BURST_WAIT_QUANTILE` of its waits) is a gap, and
-    its time beyond one sample is reported missing, never counted as zero power nor as
-    covered. Each sample holds the mean step over the time covered (the gaps' excess left
-    out), so the run's energy (samples x that period, additive over phases) is its mean
-    power over the time the log covers."""
-    waits_s = step_s[waits]
-    wait_s = float(np.quantile(waits_s, BURST_WAIT_QUANTILE))
-    gaps = np.flatnonzero(step_s > GAP_FACTOR * wait_s)
-    regular = step_s.size - gaps.size
-    gap_steps_s = float(np.sum(step_s[gaps]))
-    period_s = float(f"{(float(time_s[-1] - time_s[0]) - gap_steps_s) / regular:.10g}")
-    in_burst_s = np.delete(step_s, waits)
-    covered_s = period_s * time_s.size
-    missing_s = gap_steps_s - gaps.size * period_s
-    burst_ms = (
-        f"{1e3 * float(in_burst_s.min()):.3g}-{1e3 * float(in_burst_s.max()):.3g} ms"
-        if in_burst_s.size
-        else "none"
-    )
-    note = Problem(
-        "bursty",
-        f"bursty time stamps: rows in bursts (steps of {burst_ms}) with waits of "
-        f"{float(waits_s.min()):.3g}-{float(waits_s.max()):.3g} s between them ({waits.size} of "
-        f"{step_s.size} steps): judged by this pattern, not the median step; energy over the "
-        f"{covered_s:.6g} s the log covers, each sample holding the mean step, "
-        f"{1e3 * period_s:.4g} ms; {gaps.size} gap(s) beyond waits of {GAP_FACTOR:g} x "
-        f"{wait_s:.3g} s, {missing_s:.4g} s missing (not counted)",
-    )
-    if not gaps.size:
-        return period_s, [note]
-    pattern = f" (beyond this bursty logger's waits of up to {wait_s:.3g} s; not counted)"
-    return period_s, [note, *_gap_problems(file, time_s, gaps, period_s, wait_s, line_of, pattern)]
-
-
-def _check_period(file: str, period_s: float) -> None:
-    """A sample period from the time stamps outside the plausible range: the time column is
-    in another unit than read (`time_us` holding seconds, `--time-unit` wrong)."""
-    low_s, high_s = SAMPLE_PERIOD_RANGE_S
-    if not low_s <= period_s <= high_s:
-        raise LogError(
-            f"the time stamps give a sample period of {period_s:.4g} s, outside the plausible "
-            f"{low_s:g}-{high_s:g} s",
-            file=file,
-            fix="the time column is in another unit than read: check its name and --time-unit",
-        )
-
-
-def _time_error(
-    file: str, time_s: np.ndarray, step_s: np.ndarray, line_of: Callable[[int], int]
-) -> None:
-    """Raise the error for time stamps that are not all finite or do not go forwards: the
-    first non-finite stamp, else the first step that is not forwards; else return."""
-    if not np.isfinite(time_s).all():
-        index = int(np.argmax(~np.isfinite(time_s)))
-        raise LogError(
-            "time is missing, NaN or inf",
-            file=file,
-            where=f"line {line_of(index)}",
-            fix="fix or delete that line",
-        )
-    if not (step_s <= 0).any():
-        return  # finite stamps whose steps overflow (1e308 apart): nothing wrong here
-    index = int(np.argmax(step_s <= 0))
-    what = "is duplicated" if step_s[index] == 0 else "goes backwards"
-    raise LogError(
-        f"time {what} (t = {time_s[index + 1]:.7g} s after {time_s[index]:.7g} s)",
-        file=file,
-        where=f"line {line_of(index + 1)}",
-        fix="the log is out of order or two logs were joined; sort or split it",
-    )
-
-
-#: Every this-many-th step is looked at to guess the median (`_median_10_digits`).
-_MEDIAN_STRIDE = 64
-
-
-def _median_10_digits(step_s: np.ndarray) -> tuple[float, bool]:
-    """`float(f"{np.median(step_s):.10g}")`, without sorting the steps when it can be had by
-    counting: the median of a strided subsample gives a guess `c` (10 significant digits);
-    if fewer than half the steps lie below the band of values that round to `c` and fewer
-    than half above it, both middle steps lie in that band, so their mean rounds to `c` too
-    (correctly rounded printing is monotonic). Two counting passes instead of a partial
-    sort (about 25 ns a step, as much as parsing a short line); when the guess misses (an
-    irregular log) the steps are sorted in place as before: the second value says whether
-    `step_s` was reordered so."""
-    n = step_s.size
-    guess = float(np.median(step_s[::_MEDIAN_STRIDE]))
-    rounded = f"{guess:.10g}"
-    center = float(rounded)
-    if np.isfinite(center) and center > 0:
-        unit = 10.0 ** (np.floor(np.log10(center)) - 9)  # one unit in the 10th digit
-        for share in (0.49, 0.049):  # narrower if the digit's unit changes below `center`
-            low, high = center - share * unit, center + share * unit
-            if f"{low:.10g}" == rounded and f"{high:.10g}" == rounded:
-                below = int(np.count_nonzero(step_s < low))
-                above = int(np.count_nonzero(step_s > high))
-                # the middle steps have ranks (n - 1) // 2 and n // 2 (0-based)
-                if below <= (n - 1) // 2 and above <= n - 1 - n // 2:
-                    return center, False
-                break
-    return float(f"{float(np.median(step_s, overwrite_input=True)):.10g}"), True
 
 
 def _check_power(

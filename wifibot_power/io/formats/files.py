@@ -25,7 +25,7 @@ import numpy as np
 from wifibot_power.errors import LogError
 from wifibot_power.io.metadata import build_meta
 from wifibot_power.io.options import ReadOptions, log_stem
-from wifibot_power.io.validate import ABSURD_SPEED_MPS, check_samples
+from wifibot_power.io.validate import ABSURD_SPEED_MPS, check_log_samples
 from wifibot_power.run import Problem, Run
 
 
@@ -96,7 +96,7 @@ def samples_to_run(
     meta = build_meta(values, file=str(path), stem=stem, where="metadata", origins=where)
     power_W = -samples.power_W if options.flip_current else samples.power_W
     try:
-        period_s, problems = check_samples(
+        period_s, problems, grid = check_log_samples(
             str(path),
             samples.time_s,
             power_W,
@@ -113,18 +113,24 @@ def samples_to_run(
     if samples.time_s is not None and period_s != meta.sample_period_s:
         values["sample_period_s"] = repr(period_s)
         meta = build_meta(values, file=str(path), stem=stem, where="metadata", origins=where)
+    time_s, speed_mps, yaw_rate_radps = samples.time_s, samples.speed_mps, samples.yaw_rate_radps
+    if grid is not None:  # a logger stamping rows as they arrive: read by sample and hold
+        time_s, power_W, speed_mps, yaw_rate_radps = (
+            grid.stamps_s,
+            *map(grid.take, (power_W, speed_mps, yaw_rate_radps)),
+        )
     return Run(
         file=str(path),
         format=file_format.name,
         meta=meta,
-        stamps_s=samples.time_s,
+        stamps_s=time_s,
         power_W=power_W,
         problems=(
             *samples.problems,
             *(p for p in problems if not (samples.gaps_reported and p.kind == "gap")),
         ),
-        speed_mps=samples.speed_mps,
-        yaw_rate_radps=samples.yaw_rate_radps,
+        speed_mps=speed_mps,
+        yaw_rate_radps=yaw_rate_radps,
     )
 
 

@@ -1,0 +1,119 @@
+"""Line numbers of a log's data rows, and its lines split as pyarrow splits them.
+
+Every line is split by one pattern, `LINE_END` (the line ends pyarrow knows: \\r\\n, \\r,
+\\n); `scan_lines` is its vectorised twin for counting, checked against it. Line numbers for
+messages are worked out only when a message needs one, by reading the file again
+(`LineMap`). Split out of `transport.py` (issue 24: one job a module).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from wifibot_power.io.transport import Content
+
+LINE_END = re.compile(rb"\r\n|\r|\n")
+
+
+class LineMap:
+    """File line numbers (1-based) of data rows, worked out only when a message needs one, by
+    reading the content again up to `limit` bytes (where a cut last line starts)."""
+
+    def __init__(self, content: Content, header_line: int, limit: int | None = None) -> None:
+        self._content = content
+        self._header_line = header_line
+        self._limit = limit
+        self._rows: np.ndarray | None = None
+        self._line_ends = 0
+
+    def _scan(self) -> np.ndarray:
+        if self._rows is None:
+            self._rows, self._line_ends = scan_lines(
+                self._content.chunks(self._limit), self._header_line
+            )
+        return self._rows
+
+    def line_of(self, row: int) -> int:
+        """Line of data row `row` (pyarrow skips empty lines, so they are skipped here too)."""
+        rows = self._scan()
+        if not rows.size:
+            return self._header_line + 2
+        return int(rows[min(max(row, 0), rows.size - 1)])
+
+    def line_count(self) -> int:
+        """Line ends up to the limit (a \\r\\n counts once)."""
+        self._scan()
+        return self._line_ends
+
+    def find(self, match: Callable[[bytes], bool]) -> tuple[int, bytes] | None:
+        """First data line (1-based) for which `match(line bytes)` holds, and the line."""
+        for index, line in enumerate(iter_lines(self._content.chunks(self._limit))):
+            if index > self._header_line and line and match(line):
+                return index + 1, line
+        return None
+
+
+def iter_lines(chunks: Iterator[bytes]) -> Iterator[bytes]:
+    """The lines of the concatenated chunks, as `LINE_END.split` of the whole gives them."""
+    carry = b""
+    for chunk in chunks:
+        buffer = carry + chunk
+        # a \r at the end may be the first half of a \r\n: keep it for the next chunk
+        held = b"\r" if buffer.endswith(b"\r") else b""
+        parts = LINE_END.split(buffer[: len(buffer) - len(held)])
+        carry = parts.pop() + held
+        yield from parts
+    yield from LINE_END.split(carry)
+
+
+def scan_lines(chunks: Iterator[bytes], header_line: int) -> tuple[np.ndarray, int]:
+    """Line numbers (1-based) of the non-empty lines after line `header_line` (0-based), and
+    the number of line ends (\\r\\n, \\r or \\n, as pyarrow and `LINE_END` know them).
+    Vectorised over the bytes of each chunk; a line cut by a chunk's end is carried over."""
+    found: list[np.ndarray] = []
+    carry = b""
+    lines_before = 0  # complete lines in the chunks already done
+
+    def complete_lines(buffer: bytes) -> int:
+        """Note the data rows among the complete lines of `buffer`; return where they end."""
+        nonlocal lines_before
+        data = np.frombuffer(buffer, dtype=np.uint8)
+        is_cr, is_lf = data == 13, data == 10
+        after_cr = np.concatenate(([False], is_cr[:-1]))
+        starts = np.flatnonzero(is_cr | (is_lf & ~after_cr))  # first byte of each line end
+        if not starts.size:
+            return 0
+        before_lf = np.concatenate((is_lf[1:], [False]))
+        ends = starts + 1 + before_lf[starts]  # one past each line end
+        lengths = starts - np.concatenate(([0], ends[:-1]))
+        index = lines_before + np.arange(starts.size)
+        keep = (lengths > 0) & (index > header_line)
+        found.append(index[keep] + 1)
+        lines_before += int(starts.size)
+        return int(ends[-1])
+
+    for chunk in chunks:
+        buffer = carry + chunk
+        held = 1 if buffer.endswith(b"\r") else 0  # may be the first half of a \r\n
+        done = complete_lines(buffer[: len(buffer) - held])
+        carry = buffer[done:]
+    done = complete_lines(carry)
+    if carry[done:] and lines_before > header_line:
+        found.append(np.array([lines_before + 1]))  # a last line without a line end
+    rows = np.concatenate(found) if found else np.zeros(0, dtype=np.int64)
+    return rows, lines_before
+
+
+def _line_start(head: bytes, index: int) -> int:
+    """Byte offset of line `index` (0-based) in `head`."""
+    if index == 0:
+        return 0
+    for count, match in enumerate(LINE_END.finditer(head), start=1):
+        if count == index:
+            return match.end()
+    return len(head)
