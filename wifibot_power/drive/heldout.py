@@ -20,7 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wifibot_power.drive.identify import identify, lag_search
+from wifibot_power.drive.gram import FoldGrams
+from wifibot_power.drive.identify import identify, lag_grid, lag_search
 from wifibot_power.drive.windows import RunWindows, assemble
 from wifibot_power.stats import t_quantile
 
@@ -76,8 +77,11 @@ def heldout_accuracy(
     clusters_by_run: bool,
     folds: int = FOLDS,
     seed: int = 0,
+    gram: bool = True,
 ) -> HeldOut | None:
-    """K-fold by trip (module docstring); None with fewer than `MIN_TRIPS` trips."""
+    """K-fold by trip (module docstring); None with fewer than `MIN_TRIPS` trips. `gram`: each
+    fold's lag search from the folds' sufficient statistics (gram.py), else by least squares
+    over the fold's windows (the same numbers up to the order of summation)."""
     whole = assemble(runs, 0, surfaces)
     trips = np.unique(whole.trip)
     if trips.size < MIN_TRIPS:
@@ -87,13 +91,15 @@ def heldout_accuracy(
     fold_of_trip = np.full(int(trip_base[-1]), -1)
     fold_of_trip[np.random.default_rng(seed).permutation(trips)] = np.arange(trips.size) % k
     measured, predicted, trip_ids, trip_surface = [], [], [], []
+    bases = trip_base[:-1]
+    fold_of = [fold_of_trip[rw.trip + base] for rw, base in zip(runs, bases, strict=True)]
+    grams = FoldGrams(runs, surfaces, np.concatenate(fold_of), k, lag_grid(runs)) if gram else None
     for fold in range(k):
-        bases = trip_base[:-1]
-        train = [fold_of_trip[rw.trip + base] != fold for rw, base in zip(runs, bases, strict=True)]
+        train = [f != fold for f in fold_of]
         test = [~mask for mask in train]
         if not any(mask.any() for mask in train) or not any(mask.any() for mask in test):
             continue
-        lag_bins, _ = lag_search(runs, surfaces, train)
+        lag_bins, _ = grams.search(fold) if grams else lag_search(runs, surfaces, train)
         fitted_on = assemble(runs, lag_bins, surfaces, only=train)
         clusters = fitted_on.run if clusters_by_run else fitted_on.trip
         model = identify(fitted_on, lag_bins, clusters)

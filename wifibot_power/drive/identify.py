@@ -104,13 +104,17 @@ class Identified:
         return design[:, self.kept] @ self.coef[self.kept]
 
 
+def lag_grid(runs: list[RunWindows]) -> np.ndarray:
+    """The whole lags [bins] the lag search tries: 0 to `MAX_LAG_S`."""
+    return np.arange(int(round(MAX_LAG_S / runs[0].stats.bin_s)) + 1)
+
+
 def lag_search(
     runs: list[RunWindows], surfaces: tuple[str, ...], only: list[np.ndarray] | None = None
 ) -> tuple[float, np.ndarray]:
     """The lag [bins] whose least squares fits best (on the windows `only` keeps; to a
     fraction of a bin), and each whole lag's sum of squares."""
-    bin_s = runs[0].stats.bin_s
-    lags = np.arange(int(round(MAX_LAG_S / bin_s)) + 1)
+    lags = lag_grid(runs)
     # the windows defined at every lag, so that each lag is judged on the same windows
     stacked = StackedPower(runs)
     common = stacked.ok if only is None else stacked.ok & np.concatenate(only)
@@ -131,6 +135,13 @@ def lag_search(
         coef = solve(y)
         return float(np.sum(np.square(y - X @ coef)))
 
+    return refine_lag(lags, sse_at)
+
+
+def refine_lag(lags: np.ndarray, sse_at) -> tuple[float, np.ndarray]:
+    """The lag search's choice from `sse_at(lag)`, the sum of squares at a lag [bins]: the
+    best whole lag of `lags`, then to a fraction of a bin; and each whole lag's sum of squares
+    (`lag_search`; gram.py gives the same `sse_at` from sufficient statistics)."""
     sse = np.array([sse_at(int(lag)) for lag in lags])
     if not np.isfinite(sse).any():
         return 0.0, sse
