@@ -307,6 +307,8 @@ def _determined(windows: Windows, clusters: np.ndarray) -> tuple[np.ndarray, lis
     kept = np.zeros(len(columns), dtype=bool)
     reasons: list[tuple[str, str]] = []
     proxy = windows.proxy if windows.proxy is not None else np.zeros(windows.size, bool)
+    # every screen below is least squares of one column on the kept ones: from X'X, made once
+    gram = X.T @ X
     for j in order:
         column = columns[j]
         term = _term(column)
@@ -327,9 +329,8 @@ def _determined(windows: Windows, clusters: np.ndarray) -> tuple[np.ndarray, lis
             reasons.append((column, _unseen_reason(column, n_clusters)))
             continue
         if kept.any():
-            base = X[:, kept]
-            coef = least_squares(base, X[:, j])
-            rest = X[:, j] - base @ coef
+            coef = _gram_solve(gram[np.ix_(kept, kept)], gram[kept, j])
+            rest = X[:, j] - X[:, kept] @ coef
             centred = X[:, j] - X[:, j].mean() if _term(column) != "idle_W" else X[:, j]
             total = float(np.sum(np.square(centred)))
             tolerance = float(np.sum(np.square(rest))) / total if total > 0 else 0.0
@@ -402,16 +403,30 @@ def _normal_equations(X: np.ndarray):
     return lambda y: (inverse @ (A.T @ y)) / scale
 
 
+def _gram_solve(xx: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """`least_squares` from X'X and X'y: the same unit-norm scaling and pseudo-inverse
+    (the same numbers up to the order of summation of the sums)."""
+    scale = np.sqrt(np.diag(xx)).copy()
+    scale[scale == 0] = 1.0
+    return (np.linalg.pinv(xx / np.outer(scale, scale)) @ (xy / scale)) / scale
+
+
 def _bounded_lstsq(X: np.ndarray, y: np.ndarray, non_negative: np.ndarray) -> np.ndarray:
     """Least squares with coef[j] >= 0 where `non_negative[j]`: Lawson & Hanson's active set
     on the normal equations (few columns). Columns are scaled to unit norm for conditioning."""
-    p = X.shape[1]
+    return bounded_from_gram(X.T @ X, X.T @ y, non_negative)
+
+
+def bounded_from_gram(xx: np.ndarray, xy: np.ndarray, non_negative: np.ndarray) -> np.ndarray:
+    """`_bounded_lstsq` from X'X and X'y only (the active set needs no more: the sum of
+    squares is y'y - 2 b'X'y + b'X'X b; Lawson & Hanson 1974, Ch. 23): the same solution up to
+    the order of summation, so a fit on some groups' windows is a sum of their sums."""
+    p = xx.shape[0]
     if p == 0:
         return np.zeros(0)
-    scale = np.sqrt(np.sum(np.square(X), axis=0))
+    scale = np.sqrt(np.diag(xx)).copy()
     scale[scale == 0] = 1.0
-    A = X / scale
-    gram, rhs = A.T @ A, A.T @ y
+    gram, rhs = xx / np.outer(scale, scale), xy / scale
     fixed = np.zeros(p, dtype=bool)  # held at 0
     coef = np.zeros(p)
     for _ in range(4 * p + 10):
@@ -447,16 +462,16 @@ def _cluster_cov(
     if p == 0 or G < 2 or n <= p:
         return np.full((p, p), np.nan), max(G - 1, 0), G
     gram = X.T @ X
-    # per-cluster sums by bincount, a column (pair) at a time: in the rows' order as np.add.at
-    # adds them, without its n x p x p temporary (gigabytes on a long corpus)
-    weighted = X * residual[:, None]
+    # per-cluster sums X_g'X_g and X_g'u_g, a cluster's rows at a time (a loop over clusters,
+    # not rows: one matrix product each, without an n x p x p temporary)
+    order = np.argsort(inverse, kind="stable")
+    ends = np.cumsum(np.bincount(inverse, minlength=G))
     scores = np.zeros((G, p))
     grams = np.zeros((G, p, p))
-    for i in range(p):
-        scores[:, i] = np.bincount(inverse, weights=weighted[:, i], minlength=G)
-        for j in range(i, p):
-            grams[:, i, j] = np.bincount(inverse, weights=X[:, i] * X[:, j], minlength=G)
-            grams[:, j, i] = grams[:, i, j]
+    for g, rows in enumerate(np.split(order, ends[:-1])):
+        Xg = X[rows]
+        grams[g] = Xg.T @ Xg
+        scores[g] = Xg.T @ residual[rows]
     left_out = gram[None, :, :] - grams
     # a cluster without which the design is singular (the only run turning on a surface):
     # the pseudo-inverse, which leaves that direction out of its change
