@@ -100,10 +100,14 @@ def heldout_accuracy(
         if not any(mask.any() for mask in train) or not any(mask.any() for mask in test):
             continue
         lag_bins, _ = grams.search(fold) if grams else lag_search(runs, surfaces, train)
-        fitted_on = assemble(runs, lag_bins, surfaces, only=train)
+        # the fold's windows and the held-out ones at its lag: one assembly, split by trip
+        # (the rows `assemble(..., only=train)` and `only=test` give, in the same order)
+        at_lag = assemble(runs, lag_bins, surfaces)
+        held_out = fold_of_trip[at_lag.trip] == fold
+        fitted_on = at_lag.take(~held_out)
         clusters = fitted_on.run if clusters_by_run else fitted_on.trip
         model = identify(fitted_on, lag_bins, clusters)
-        held = assemble(runs, lag_bins, surfaces, only=test)
+        held = at_lag.take(held_out)
         power_W = model.predict_W(held.design)
         for trip in np.unique(held.trip):
             rows = held.trip == trip
