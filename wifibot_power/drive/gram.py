@@ -4,7 +4,7 @@ regressors) to the power at each lag, on the windows of the other folds' trips. 
 needs only X'X, X'y and y'y: each fold's sums are made once, in one pass over the windows, for
 every whole lag (Y the power at each whole lag, a column each: X'Y and Y'Y); a fold's fit at a
 lag is then a p x p problem on the sum of the other folds' sums, whatever the number of
-windows. A lag between two whole bins is linear between them (windows.py, `_between_bins`:
+windows. A lag between two whole bins is linear between them (windows.py, `between_bins`:
 y = (1 - t) y_w + t y_w+1), so its X'y and y'y are the same combination of the whole lags'
 (the cross-products Y'Y included). The solve is `identify._normal_equations`' (unit-norm
 columns, the pseudo-inverse of the scaled Gram), the sum of squares y'y - 2 b'X'y + b'X'X b
@@ -33,13 +33,15 @@ class FoldGrams:
         fold_of_window: np.ndarray,
         folds: int,
         lags: np.ndarray,
+        stacked: StackedPower | None = None,
     ) -> None:
-        stacked = StackedPower(runs)
+        stacked = stacked or StackedPower(runs)
         common = stacked.ok.copy()
-        for lag in lags:
-            common &= stacked.power_at(int(lag))[1]
-        X = assemble(runs, 0, surfaces, only=stacked.split(common)).design
-        Y = np.column_stack([stacked.power_at(int(lag))[0][common] for lag in lags])
+        powers = [stacked.power_at(int(lag)) for lag in lags]
+        for _, defined in powers:
+            common &= defined
+        X = assemble(runs, 0, surfaces, only=stacked.split(common), stacked=stacked).design
+        Y = np.column_stack([power[common] for power, _ in powers])
         fold = fold_of_window[common]
         p, L = X.shape[1], lags.size
         self.lags = lags

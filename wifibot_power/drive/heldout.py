@@ -22,7 +22,7 @@ import numpy as np
 
 from wifibot_power.drive.gram import FoldGrams
 from wifibot_power.drive.identify import identify, lag_grid, lag_search
-from wifibot_power.drive.windows import RunWindows, assemble
+from wifibot_power.drive.windows import RunWindows, StackedPower, assemble
 from wifibot_power.stats import t_quantile
 
 #: Folds of the K-fold (fewer when there are fewer trips).
@@ -93,7 +93,12 @@ def heldout_accuracy(
     measured, predicted, trip_ids, trip_surface = [], [], [], []
     bases = trip_base[:-1]
     fold_of = [fold_of_trip[rw.trip + base] for rw, base in zip(runs, bases, strict=True)]
-    grams = FoldGrams(runs, surfaces, np.concatenate(fold_of), k, lag_grid(runs)) if gram else None
+    stacked = StackedPower(runs)
+    grams = (
+        FoldGrams(runs, surfaces, np.concatenate(fold_of), k, lag_grid(runs), stacked)
+        if gram
+        else None
+    )
     for fold in range(k):
         train = [f != fold for f in fold_of]
         test = [~mask for mask in train]
@@ -102,7 +107,7 @@ def heldout_accuracy(
         lag_bins, _ = grams.search(fold) if grams else lag_search(runs, surfaces, train)
         # the fold's windows and the held-out ones at its lag: one assembly, split by trip
         # (the rows `assemble(..., only=train)` and `only=test` give, in the same order)
-        at_lag = assemble(runs, lag_bins, surfaces)
+        at_lag = assemble(runs, lag_bins, surfaces, stacked=stacked)
         held_out = fold_of_trip[at_lag.trip] == fold
         fitted_on = at_lag.take(~held_out)
         clusters = fitted_on.run if clusters_by_run else fitted_on.trip

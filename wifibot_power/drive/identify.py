@@ -39,7 +39,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from wifibot_power.drive.terms import TERM_BY_NAME
-from wifibot_power.drive.windows import RunWindows, StackedPower, Windows, assemble
+from wifibot_power.drive.windows import (
+    RunWindows,
+    StackedPower,
+    Windows,
+    assemble,
+    between_bins,
+)
 from wifibot_power.stats import t_quantile
 
 #: Lags tried [s]: 0 to 1 s by one bin.
@@ -118,8 +124,10 @@ def lag_search(
     # the windows defined at every lag, so that each lag is judged on the same windows
     stacked = StackedPower(runs)
     common = stacked.ok if only is None else stacked.ok & np.concatenate(only)
-    for lag in lags:
-        common = common & stacked.power_at(int(lag))[1]
+    # each whole lag's power once (a fraction of a bin is between two of them)
+    whole = {int(lag): stacked.power_at(int(lag)) for lag in lags}
+    for _, defined in whole.values():
+        common = common & defined
 
     # every lag tried keeps the same windows (`common`; a fraction of a bin between two whole
     # lags tried): the design is made and factorised once, only the response moves with the lag
@@ -129,7 +137,7 @@ def lag_search(
     solve = _normal_equations(X)
 
     def sse_at(lag: float) -> float:
-        y = stacked.power_at(lag)[0][common]
+        y = between_bins(lambda w: whole[w] if w in whole else stacked.power_at(w), lag)[0][common]
         if y.size <= X.shape[1]:
             return np.inf
         coef = solve(y)
@@ -329,11 +337,13 @@ def _determined(windows: Windows, clusters: np.ndarray) -> tuple[np.ndarray, lis
             reasons.append((column, _unseen_reason(column, n_clusters)))
             continue
         if kept.any():
-            coef = _gram_solve(gram[np.ix_(kept, kept)], gram[kept, j])
-            rest = X[:, j] - X[:, kept] @ coef
+            base = gram[np.ix_(kept, kept)]
+            coef = _gram_solve(base, gram[kept, j])
+            # the residual's sum of squares x'x - 2 b'X'x + b'X'X b (>= 0 but for rounding)
+            rest_ss = max(float(gram[j, j] - 2.0 * coef @ gram[kept, j] + coef @ base @ coef), 0)
             centred = X[:, j] - X[:, j].mean() if _term(column) != "idle_W" else X[:, j]
             total = float(np.sum(np.square(centred)))
-            tolerance = float(np.sum(np.square(rest))) / total if total > 0 else 0.0
+            tolerance = rest_ss / total if total > 0 else 0.0
             if tolerance < MIN_TOLERANCE:
                 names = ", ".join(columns[k] for k in np.flatnonzero(kept))
                 reasons.append(

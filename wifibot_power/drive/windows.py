@@ -150,7 +150,7 @@ class RunWindows:
     def power_at(self, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
         """Each window's mean power `lag_bins` bins later [W] (a fraction of a bin: linear
         between the two whole bins), and whether it is defined."""
-        return _between_bins(self._power_at, lag_bins)
+        return between_bins(self._power_at, lag_bins)
 
     @cached_property
     def _power_sums(self) -> tuple[np.ndarray, np.ndarray]:
@@ -464,7 +464,7 @@ class StackedPower:
 
     def power_at(self, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
         """`RunWindows.power_at` of every run, stacked."""
-        return _between_bins(self._power_at, lag_bins)
+        return between_bins(self._power_at, lag_bins)
 
     def _power_at(self, lag_bins: int) -> tuple[np.ndarray, np.ndarray]:
         start = self.first + lag_bins
@@ -476,7 +476,7 @@ class StackedPower:
         return np.where(ok, mean, np.nan), ok
 
 
-def _between_bins(power_at_whole, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
+def between_bins(power_at_whole, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
     """The power at a lag of `lag_bins` from `power_at_whole(whole lag)`: a fraction of a bin is
     linear between the two whole bins, defined where both are."""
     whole = int(np.floor(lag_bins))
@@ -497,16 +497,17 @@ def assemble(
     lag_bins: float,
     surfaces: tuple[str, ...] | None = None,
     only: list[np.ndarray] | None = None,
+    stacked: StackedPower | None = None,
 ) -> Windows:
     """The windows of `runs` with the power `lag_bins` later: rows of every window whose
     regressors and power are defined (and, with `only`, that its run's mask keeps), columns
-    `design_columns(surfaces)`."""
+    `design_columns(surfaces)`. `stacked`: `StackedPower(runs)` when the caller has it."""
     if surfaces is None:
         surfaces = tuple(sorted({s for r in runs for s in r.stats.surfaces}))
     columns = design_columns(surfaces)
     position = {name: k for k, name in enumerate(surfaces)}
     # every run's windows side by side, kept or not in one pass (no loop over runs per column)
-    power, power_ok = StackedPower(runs).power_at(lag_bins)
+    power, power_ok = (stacked or StackedPower(runs)).power_at(lag_bins)
     keep = _joined([rw.ok for rw in runs]).astype(bool) & power_ok
     if only is not None:
         keep &= _joined(list(only)).astype(bool)
