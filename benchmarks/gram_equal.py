@@ -97,10 +97,11 @@ def main() -> int:
     parser.add_argument("new")
     parser.add_argument("--rtol", type=float, default=1e-9)
     parser.add_argument("--work", type=Path, default=None)
+    parser.add_argument("--extra", type=Path, action="append", default=[], help="another folder")
     args = parser.parse_args()
     work = args.work or Path(tempfile.mkdtemp(prefix="gram_equal_"))
     old_src, new_src = source(args.old, work), source(args.new, work)
-    sets = dict(SETS)
+    sets = dict(SETS) | {folder.name: folder for folder in args.extra}
     for seed in (1, 2):
         logs = work / f"free_seed{seed}"
         if not logs.exists():
