@@ -60,11 +60,22 @@ def test_fold_lag_search_from_sums_is_the_direct_search(runs) -> None:
     fractional = 0
     for fold in range(3):
         lag, sse = grams.search(fold)
-        direct_lag, direct_sse = lag_search(runs, surfaces, [f != fold for f in fold_of])
+        direct_lag, direct_sse = lag_search(
+            runs, surfaces, [f != fold for f in fold_of], gram=False
+        )
         assert_allclose(sse, direct_sse, rtol=1e-9)
         assert lag == pytest.approx(direct_lag, rel=1e-9, abs=1e-12)
         fractional += lag != round(lag)
     assert fractional  # the refinement between whole lags was exercised
+
+
+def test_lag_search_from_sums_is_the_direct_search(runs) -> None:
+    surfaces = tuple(sorted({s for rw in runs for s in rw.stats.surfaces}))
+    lag, sse = lag_search(runs, surfaces)
+    direct_lag, direct_sse = lag_search(runs, surfaces, gram=False)
+    assert_allclose(sse, direct_sse, rtol=1e-9)
+    assert lag == pytest.approx(direct_lag, rel=1e-9, abs=1e-12)
+    assert lag != round(lag)
 
 
 def test_heldout_from_sums_is_the_direct_heldout(runs) -> None:

@@ -116,11 +116,21 @@ def lag_grid(runs: list[RunWindows]) -> np.ndarray:
 
 
 def lag_search(
-    runs: list[RunWindows], surfaces: tuple[str, ...], only: list[np.ndarray] | None = None
+    runs: list[RunWindows],
+    surfaces: tuple[str, ...],
+    only: list[np.ndarray] | None = None,
+    gram: bool = True,
 ) -> tuple[float, np.ndarray]:
     """The lag [bins] whose least squares fits best (on the windows `only` keeps; to a
-    fraction of a bin), and each whole lag's sum of squares."""
+    fraction of a bin), and each whole lag's sum of squares. `gram`: from the sums X'X, X'Y,
+    Y'Y of one pass (gram.py), else by least squares over the windows at each lag tried (the
+    same numbers up to the order of summation)."""
     lags = lag_grid(runs)
+    if gram:
+        from wifibot_power.drive.gram import FoldGrams  # gram.py builds on this module
+
+        keep = StackedPower(runs).ok if only is None else np.concatenate(only).astype(bool)
+        return FoldGrams(runs, surfaces, np.where(keep, 0, -1), 1, lags).search(-1)
     # the windows defined at every lag, so that each lag is judged on the same windows
     stacked = StackedPower(runs)
     common = stacked.ok if only is None else stacked.ok & np.concatenate(only)
