@@ -22,7 +22,7 @@ import numpy as np
 
 from wifibot_power.drive.gram import FoldGrams
 from wifibot_power.drive.identify import identify, lag_grid, lag_search
-from wifibot_power.drive.windows import RunWindows, StackedPower, assemble
+from wifibot_power.drive.windows import RunWindows, StackedPower, assemble, at_any_lag
 from wifibot_power.stats import t_quantile
 
 #: Folds of the K-fold (fewer when there are fewer trips).
@@ -99,6 +99,7 @@ def heldout_accuracy(
         if gram
         else None
     )
+    windows_at = at_any_lag(runs, surfaces, stacked)
     for fold in range(k):
         train = [f != fold for f in fold_of]
         test = [~mask for mask in train]
@@ -107,7 +108,7 @@ def heldout_accuracy(
         lag_bins, _ = grams.search(fold) if grams else lag_search(runs, surfaces, train, gram=False)
         # the fold's windows and the held-out ones at its lag: one assembly, split by trip
         # (the rows `assemble(..., only=train)` and `only=test` give, in the same order)
-        at_lag = assemble(runs, lag_bins, surfaces, stacked=stacked)
+        at_lag = windows_at(lag_bins)
         held_out = fold_of_trip[at_lag.trip] == fold
         fitted_on = at_lag.take(~held_out)
         clusters = fitted_on.run if clusters_by_run else fitted_on.trip

@@ -23,7 +23,7 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -504,13 +504,34 @@ def assemble(
     `design_columns(surfaces)`. `stacked`: `StackedPower(runs)` when the caller has it."""
     if surfaces is None:
         surfaces = tuple(sorted({s for r in runs for s in r.stats.surfaces}))
-    columns = design_columns(surfaces)
-    position = {name: k for k, name in enumerate(surfaces)}
     # every run's windows side by side, kept or not in one pass (no loop over runs per column)
     power, power_ok = (stacked or StackedPower(runs)).power_at(lag_bins)
     keep = _joined([rw.ok for rw in runs]).astype(bool) & power_ok
     if only is not None:
         keep &= _joined(list(only)).astype(bool)
+    return _assemble_rows(runs, surfaces, keep, power)
+
+
+def at_any_lag(runs: list[RunWindows], surfaces: tuple[str, ...], stacked: StackedPower):
+    """`assemble(runs, lag, surfaces)` as a function of the lag, the regressors assembled once
+    (they do not move with the lag: only which windows have a power, and the power, do)."""
+    ok = stacked.ok
+    every = _assemble_rows(runs, surfaces, ok, np.zeros(ok.size))
+
+    def at(lag_bins: float) -> Windows:
+        power, power_ok = stacked.power_at(lag_bins)
+        rows = power_ok[ok]
+        return replace(every.take(rows), power_W=power[ok][rows])
+
+    return at
+
+
+def _assemble_rows(
+    runs: list[RunWindows], surfaces: tuple[str, ...], keep: np.ndarray, power: np.ndarray
+) -> Windows:
+    """`assemble`'s windows: the stacked windows `keep` holds, `power` their response."""
+    columns = design_columns(surfaces)
+    position = {name: k for k, name in enumerate(surfaces)}
     bases = np.cumsum([0] + [int(rw.trip[-1]) + 1 if rw.count else 0 for rw in runs])[:-1]
     names = tuple(runs[0].regressors()) if runs else ()
     joined = {
