@@ -88,3 +88,21 @@ def test_heldout_from_sums_is_the_direct_heldout(runs) -> None:
         [r.predicted_J for r in fast.runs], [r.predicted_J for r in slow.runs], rtol=1e-9
     )
     assert_allclose(fast.mape_pct, slow.mape_pct, rtol=1e-9)
+
+
+def test_search_over_the_windows_when_the_sums_cancel(runs, monkeypatch) -> None:
+    """A sum of squares too small against y'y to be taken from sums: the direct search."""
+    import wifibot_power.drive.gram as gram
+
+    surfaces = tuple(sorted({s for rw in runs for s in rw.stats.surfaces}))
+    fold_of = [np.zeros(rw.count, dtype=int) for rw in runs]
+    grams = FoldGrams(runs, surfaces, np.concatenate(fold_of), 1, lag_grid(runs))
+    assert grams.search(-1) is not None
+    monkeypatch.setattr(gram, "CANCELLATION", 1.0)  # every fit "cancels"
+    assert grams.search(-1) is None
+    calls = []
+    sums = gram.FoldGrams.search
+    monkeypatch.setattr(gram.FoldGrams, "search", lambda self, f: calls.append(f) or sums(self, f))
+    lag, sse = lag_search(runs, surfaces)
+    assert calls and sse.size == lag_grid(runs).size
+    assert lag == lag_search(runs, surfaces, gram=False)[0]  # the direct search's, exactly

@@ -9,7 +9,9 @@ y = (1 - t) y_w + t y_w+1), so its X'y and y'y are the same combination of the w
 (the cross-products Y'Y included). The solve is `identify._normal_equations`' (unit-norm
 columns, the pseudo-inverse of the scaled Gram), the sum of squares y'y - 2 b'X'y + b'X'X b
 (Lawson & Hanson 1974, "Solving Least Squares Problems", Ch. 1: the normal equations): the
-same numbers as the direct search up to the order of summation (benchmarks/gram_equal.py).
+same numbers as the direct search up to the order of summation (benchmarks/gram_equal.py)
+unless the fit is so close that the subtraction loses the digits (`CANCELLATION`): then the
+direct search.
 """
 
 from __future__ import annotations
@@ -18,6 +20,11 @@ import numpy as np
 
 from wifibot_power.drive.identify import refine_lag
 from wifibot_power.drive.windows import RunWindows, StackedPower, assemble
+
+#: The sum of squares from sums, y'y - 2b'X'y + b'X'Xb, loses the digits of y'y over it: below
+#: this share of y'y (under ~10 digits left) the search is made over the windows instead. The
+#: logs seen are at 2e-4 (the simulator's free driving, sample_logs) to 0.2 (F1/10).
+CANCELLATION = 1e-6
 
 
 class FoldGrams:
@@ -58,8 +65,9 @@ class FoldGrams:
             self.xy[f] = Xf.T @ Yf
             self.yy[f] = Yf.T @ Yf
 
-    def search(self, fold: int) -> tuple[float, np.ndarray]:
-        """`lag_search` on the windows of every fold but `fold`."""
+    def search(self, fold: int) -> tuple[float, np.ndarray] | None:
+        """`lag_search` on the windows of every fold but `fold`; None when a sum of squares is
+        under `CANCELLATION` of y'y (the caller then searches over the windows)."""
         train = np.arange(self.folds) != fold
         xx = self.xx[train].sum(axis=0)
         xy = self.xy[train].sum(axis=0)
@@ -73,6 +81,7 @@ class FoldGrams:
         scale[scale == 0] = 1.0
         inverse = np.linalg.pinv(xx / np.outer(scale, scale))
         last = self.lags.size - 1
+        share = [np.inf]  # the smallest sum of squares over y'y seen
 
         def sse_at(lag: float) -> float:
             if n <= p:
@@ -89,6 +98,10 @@ class FoldGrams:
             b_xy = xy @ weights
             b_yy = float(weights @ yy @ weights)
             coef = (inverse @ (b_xy / scale)) / scale
-            return float(b_yy - 2.0 * coef @ b_xy + coef @ xx @ coef)
+            sse = float(b_yy - 2.0 * coef @ b_xy + coef @ xx @ coef)
+            if b_yy > 0:
+                share[0] = min(share[0], sse / b_yy)
+            return sse
 
-        return refine_lag(self.lags, sse_at)
+        found = refine_lag(self.lags, sse_at)
+        return found if share[0] >= CANCELLATION else None

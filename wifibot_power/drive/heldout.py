@@ -105,7 +105,8 @@ def heldout_accuracy(
         test = [~mask for mask in train]
         if not any(mask.any() for mask in train) or not any(mask.any() for mask in test):
             continue
-        lag_bins, _ = grams.search(fold) if grams else lag_search(runs, surfaces, train, gram=False)
+        found = grams.search(fold) if grams else None
+        lag_bins, _ = found or lag_search(runs, surfaces, train, gram=False)
         # the fold's windows and the held-out ones at its lag: one assembly, split by trip
         # (the rows `assemble(..., only=train)` and `only=test` give, in the same order)
         at_lag = windows_at(lag_bins)

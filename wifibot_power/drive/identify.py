@@ -130,7 +130,9 @@ def lag_search(
         from wifibot_power.drive.gram import FoldGrams  # gram.py builds on this module
 
         keep = StackedPower(runs).ok if only is None else np.concatenate(only).astype(bool)
-        return FoldGrams(runs, surfaces, np.where(keep, 0, -1), 1, lags).search(-1)
+        found = FoldGrams(runs, surfaces, np.where(keep, 0, -1), 1, lags).search(-1)
+        if found is not None:
+            return found
     # the windows defined at every lag, so that each lag is judged on the same windows
     stacked = StackedPower(runs)
     common = stacked.ok if only is None else stacked.ok & np.concatenate(only)
