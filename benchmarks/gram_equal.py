@@ -8,9 +8,9 @@ Writes each revision's source (`git archive`) under --work, simulates two free-d
 /work/real_drive/borealtc/flooring and ../shared/real_logs/f1tenth (with this interpreter,
 the revision's source first on sys.path), and compares the two JSON documents: every string
 and every other non-number exactly, every number with `--rtol` (or within an absolute 1e-12:
-numbers that should be 0). Prints the largest relative difference per set and where it is, and exits 1
-when a set differs beyond the tolerance (gram.py: the held-out lag searches from sufficient
-statistics; main: by least squares over each fold's windows).
+numbers that should be 0). Prints the largest relative difference per set and where it is,
+and exits 1 when a set differs beyond the tolerance (gram.py: the lag searches from sufficient
+statistics; main: by least squares over the windows). --extra FOLDER adds a set.
 """
 
 from __future__ import annotations
