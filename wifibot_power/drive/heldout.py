@@ -20,8 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wifibot_power.drive.identify import identify, lag_search
-from wifibot_power.drive.windows import RunWindows, assemble
+from wifibot_power.drive.gram import FoldGrams
+from wifibot_power.drive.identify import identify, lag_grid, lag_search
+from wifibot_power.drive.windows import RunWindows, StackedPower, assemble, at_any_lag
 from wifibot_power.stats import t_quantile
 
 #: Folds of the K-fold (fewer when there are fewer trips).
@@ -76,8 +77,11 @@ def heldout_accuracy(
     clusters_by_run: bool,
     folds: int = FOLDS,
     seed: int = 0,
+    gram: bool = True,
 ) -> HeldOut | None:
-    """K-fold by trip (module docstring); None with fewer than `MIN_TRIPS` trips."""
+    """K-fold by trip (module docstring); None with fewer than `MIN_TRIPS` trips. `gram`: each
+    fold's lag search from the folds' sufficient statistics (gram.py), else by least squares
+    over the fold's windows (the same numbers up to the order of summation)."""
     whole = assemble(runs, 0, surfaces)
     trips = np.unique(whole.trip)
     if trips.size < MIN_TRIPS:
@@ -87,17 +91,30 @@ def heldout_accuracy(
     fold_of_trip = np.full(int(trip_base[-1]), -1)
     fold_of_trip[np.random.default_rng(seed).permutation(trips)] = np.arange(trips.size) % k
     measured, predicted, trip_ids, trip_surface = [], [], [], []
+    bases = trip_base[:-1]
+    fold_of = [fold_of_trip[rw.trip + base] for rw, base in zip(runs, bases, strict=True)]
+    stacked = StackedPower(runs)
+    grams = (
+        FoldGrams(runs, surfaces, np.concatenate(fold_of), k, lag_grid(runs), stacked)
+        if gram
+        else None
+    )
+    windows_at = at_any_lag(runs, surfaces, stacked)
     for fold in range(k):
-        bases = trip_base[:-1]
-        train = [fold_of_trip[rw.trip + base] != fold for rw, base in zip(runs, bases, strict=True)]
+        train = [f != fold for f in fold_of]
         test = [~mask for mask in train]
         if not any(mask.any() for mask in train) or not any(mask.any() for mask in test):
             continue
-        lag_bins, _ = lag_search(runs, surfaces, train)
-        fitted_on = assemble(runs, lag_bins, surfaces, only=train)
+        found = grams.search(fold) if grams else None
+        lag_bins, _ = found or lag_search(runs, surfaces, train, gram=False)
+        # the fold's windows and the held-out ones at its lag: one assembly, split by trip
+        # (the rows `assemble(..., only=train)` and `only=test` give, in the same order)
+        at_lag = windows_at(lag_bins)
+        held_out = fold_of_trip[at_lag.trip] == fold
+        fitted_on = at_lag.take(~held_out)
         clusters = fitted_on.run if clusters_by_run else fitted_on.trip
         model = identify(fitted_on, lag_bins, clusters)
-        held = assemble(runs, lag_bins, surfaces, only=test)
+        held = at_lag.take(held_out)
         power_W = model.predict_W(held.design)
         for trip in np.unique(held.trip):
             rows = held.trip == trip

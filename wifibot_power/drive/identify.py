@@ -39,7 +39,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from wifibot_power.drive.terms import TERM_BY_NAME
-from wifibot_power.drive.windows import RunWindows, StackedPower, Windows, assemble
+from wifibot_power.drive.windows import (
+    RunWindows,
+    StackedPower,
+    Windows,
+    assemble,
+    between_bins,
+)
 from wifibot_power.stats import t_quantile
 
 #: Lags tried [s]: 0 to 1 s by one bin.
@@ -104,18 +110,36 @@ class Identified:
         return design[:, self.kept] @ self.coef[self.kept]
 
 
+def lag_grid(runs: list[RunWindows]) -> np.ndarray:
+    """The whole lags [bins] the lag search tries: 0 to `MAX_LAG_S`."""
+    return np.arange(int(round(MAX_LAG_S / runs[0].stats.bin_s)) + 1)
+
+
 def lag_search(
-    runs: list[RunWindows], surfaces: tuple[str, ...], only: list[np.ndarray] | None = None
+    runs: list[RunWindows],
+    surfaces: tuple[str, ...],
+    only: list[np.ndarray] | None = None,
+    gram: bool = True,
 ) -> tuple[float, np.ndarray]:
     """The lag [bins] whose least squares fits best (on the windows `only` keeps; to a
-    fraction of a bin), and each whole lag's sum of squares."""
-    bin_s = runs[0].stats.bin_s
-    lags = np.arange(int(round(MAX_LAG_S / bin_s)) + 1)
+    fraction of a bin), and each whole lag's sum of squares. `gram`: from the sums X'X, X'Y,
+    Y'Y of one pass (gram.py), else by least squares over the windows at each lag tried (the
+    same numbers up to the order of summation)."""
+    lags = lag_grid(runs)
+    if gram:
+        from wifibot_power.drive.gram import FoldGrams  # gram.py builds on this module
+
+        keep = StackedPower(runs).ok if only is None else np.concatenate(only).astype(bool)
+        found = FoldGrams(runs, surfaces, np.where(keep, 0, -1), 1, lags).search(-1)
+        if found is not None:
+            return found
     # the windows defined at every lag, so that each lag is judged on the same windows
     stacked = StackedPower(runs)
     common = stacked.ok if only is None else stacked.ok & np.concatenate(only)
-    for lag in lags:
-        common = common & stacked.power_at(int(lag))[1]
+    # each whole lag's power once (a fraction of a bin is between two of them)
+    whole = {int(lag): stacked.power_at(int(lag)) for lag in lags}
+    for _, defined in whole.values():
+        common = common & defined
 
     # every lag tried keeps the same windows (`common`; a fraction of a bin between two whole
     # lags tried): the design is made and factorised once, only the response moves with the lag
@@ -125,12 +149,19 @@ def lag_search(
     solve = _normal_equations(X)
 
     def sse_at(lag: float) -> float:
-        y = stacked.power_at(lag)[0][common]
+        y = between_bins(lambda w: whole[w] if w in whole else stacked.power_at(w), lag)[0][common]
         if y.size <= X.shape[1]:
             return np.inf
         coef = solve(y)
         return float(np.sum(np.square(y - X @ coef)))
 
+    return refine_lag(lags, sse_at)
+
+
+def refine_lag(lags: np.ndarray, sse_at) -> tuple[float, np.ndarray]:
+    """The lag search's choice from `sse_at(lag)`, the sum of squares at a lag [bins]: the
+    best whole lag of `lags`, then to a fraction of a bin; and each whole lag's sum of squares
+    (`lag_search`; gram.py gives the same `sse_at` from sufficient statistics)."""
     sse = np.array([sse_at(int(lag)) for lag in lags])
     if not np.isfinite(sse).any():
         return 0.0, sse
@@ -296,6 +327,8 @@ def _determined(windows: Windows, clusters: np.ndarray) -> tuple[np.ndarray, lis
     kept = np.zeros(len(columns), dtype=bool)
     reasons: list[tuple[str, str]] = []
     proxy = windows.proxy if windows.proxy is not None else np.zeros(windows.size, bool)
+    # every screen below is least squares of one column on the kept ones: from X'X, made once
+    gram = X.T @ X
     for j in order:
         column = columns[j]
         term = _term(column)
@@ -316,12 +349,13 @@ def _determined(windows: Windows, clusters: np.ndarray) -> tuple[np.ndarray, lis
             reasons.append((column, _unseen_reason(column, n_clusters)))
             continue
         if kept.any():
-            base = X[:, kept]
-            coef = least_squares(base, X[:, j])
-            rest = X[:, j] - base @ coef
+            base = gram[np.ix_(kept, kept)]
+            coef = _gram_solve(base, gram[kept, j])
+            # the residual's sum of squares x'x - 2 b'X'x + b'X'X b (>= 0 but for rounding)
+            rest_ss = max(float(gram[j, j] - 2.0 * coef @ gram[kept, j] + coef @ base @ coef), 0)
             centred = X[:, j] - X[:, j].mean() if _term(column) != "idle_W" else X[:, j]
             total = float(np.sum(np.square(centred)))
-            tolerance = float(np.sum(np.square(rest))) / total if total > 0 else 0.0
+            tolerance = rest_ss / total if total > 0 else 0.0
             if tolerance < MIN_TOLERANCE:
                 names = ", ".join(columns[k] for k in np.flatnonzero(kept))
                 reasons.append(
@@ -391,16 +425,30 @@ def _normal_equations(X: np.ndarray):
     return lambda y: (inverse @ (A.T @ y)) / scale
 
 
+def _gram_solve(xx: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """`least_squares` from X'X and X'y: the same unit-norm scaling and pseudo-inverse
+    (the same numbers up to the order of summation of the sums)."""
+    scale = np.sqrt(np.diag(xx)).copy()
+    scale[scale == 0] = 1.0
+    return (np.linalg.pinv(xx / np.outer(scale, scale)) @ (xy / scale)) / scale
+
+
 def _bounded_lstsq(X: np.ndarray, y: np.ndarray, non_negative: np.ndarray) -> np.ndarray:
     """Least squares with coef[j] >= 0 where `non_negative[j]`: Lawson & Hanson's active set
     on the normal equations (few columns). Columns are scaled to unit norm for conditioning."""
-    p = X.shape[1]
+    return bounded_from_gram(X.T @ X, X.T @ y, non_negative)
+
+
+def bounded_from_gram(xx: np.ndarray, xy: np.ndarray, non_negative: np.ndarray) -> np.ndarray:
+    """`_bounded_lstsq` from X'X and X'y only (the active set needs no more: the sum of
+    squares is y'y - 2 b'X'y + b'X'X b; Lawson & Hanson 1974, Ch. 23): the same solution up to
+    the order of summation, so a fit on some groups' windows is a sum of their sums."""
+    p = xx.shape[0]
     if p == 0:
         return np.zeros(0)
-    scale = np.sqrt(np.sum(np.square(X), axis=0))
+    scale = np.sqrt(np.diag(xx)).copy()
     scale[scale == 0] = 1.0
-    A = X / scale
-    gram, rhs = A.T @ A, A.T @ y
+    gram, rhs = xx / np.outer(scale, scale), xy / scale
     fixed = np.zeros(p, dtype=bool)  # held at 0
     coef = np.zeros(p)
     for _ in range(4 * p + 10):
@@ -436,16 +484,16 @@ def _cluster_cov(
     if p == 0 or G < 2 or n <= p:
         return np.full((p, p), np.nan), max(G - 1, 0), G
     gram = X.T @ X
-    # per-cluster sums by bincount, a column (pair) at a time: in the rows' order as np.add.at
-    # adds them, without its n x p x p temporary (gigabytes on a long corpus)
-    weighted = X * residual[:, None]
+    # per-cluster sums X_g'X_g and X_g'u_g, a cluster's rows at a time (a loop over clusters,
+    # not rows: one matrix product each, without an n x p x p temporary)
+    order = np.argsort(inverse, kind="stable")
+    ends = np.cumsum(np.bincount(inverse, minlength=G))
     scores = np.zeros((G, p))
     grams = np.zeros((G, p, p))
-    for i in range(p):
-        scores[:, i] = np.bincount(inverse, weights=weighted[:, i], minlength=G)
-        for j in range(i, p):
-            grams[:, i, j] = np.bincount(inverse, weights=X[:, i] * X[:, j], minlength=G)
-            grams[:, j, i] = grams[:, i, j]
+    for g, rows in enumerate(np.split(order, ends[:-1])):
+        Xg = X[rows]
+        grams[g] = Xg.T @ Xg
+        scores[g] = Xg.T @ residual[rows]
     left_out = gram[None, :, :] - grams
     # a cluster without which the design is singular (the only run turning on a surface):
     # the pseudo-inverse, which leaves that direction out of its change

@@ -23,7 +23,7 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -150,7 +150,7 @@ class RunWindows:
     def power_at(self, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
         """Each window's mean power `lag_bins` bins later [W] (a fraction of a bin: linear
         between the two whole bins), and whether it is defined."""
-        return _between_bins(self._power_at, lag_bins)
+        return between_bins(self._power_at, lag_bins)
 
     @cached_property
     def _power_sums(self) -> tuple[np.ndarray, np.ndarray]:
@@ -464,7 +464,7 @@ class StackedPower:
 
     def power_at(self, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
         """`RunWindows.power_at` of every run, stacked."""
-        return _between_bins(self._power_at, lag_bins)
+        return between_bins(self._power_at, lag_bins)
 
     def _power_at(self, lag_bins: int) -> tuple[np.ndarray, np.ndarray]:
         start = self.first + lag_bins
@@ -476,7 +476,7 @@ class StackedPower:
         return np.where(ok, mean, np.nan), ok
 
 
-def _between_bins(power_at_whole, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
+def between_bins(power_at_whole, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
     """The power at a lag of `lag_bins` from `power_at_whole(whole lag)`: a fraction of a bin is
     linear between the two whole bins, defined where both are."""
     whole = int(np.floor(lag_bins))
@@ -497,19 +497,41 @@ def assemble(
     lag_bins: float,
     surfaces: tuple[str, ...] | None = None,
     only: list[np.ndarray] | None = None,
+    stacked: StackedPower | None = None,
 ) -> Windows:
     """The windows of `runs` with the power `lag_bins` later: rows of every window whose
     regressors and power are defined (and, with `only`, that its run's mask keeps), columns
-    `design_columns(surfaces)`."""
+    `design_columns(surfaces)`. `stacked`: `StackedPower(runs)` when the caller has it."""
     if surfaces is None:
         surfaces = tuple(sorted({s for r in runs for s in r.stats.surfaces}))
-    columns = design_columns(surfaces)
-    position = {name: k for k, name in enumerate(surfaces)}
     # every run's windows side by side, kept or not in one pass (no loop over runs per column)
-    power, power_ok = StackedPower(runs).power_at(lag_bins)
+    power, power_ok = (stacked or StackedPower(runs)).power_at(lag_bins)
     keep = _joined([rw.ok for rw in runs]).astype(bool) & power_ok
     if only is not None:
         keep &= _joined(list(only)).astype(bool)
+    return _assemble_rows(runs, surfaces, keep, power)
+
+
+def at_any_lag(runs: list[RunWindows], surfaces: tuple[str, ...], stacked: StackedPower):
+    """`assemble(runs, lag, surfaces)` as a function of the lag, the regressors assembled once
+    (they do not move with the lag: only which windows have a power, and the power, do)."""
+    ok = stacked.ok
+    every = _assemble_rows(runs, surfaces, ok, np.zeros(ok.size))
+
+    def at(lag_bins: float) -> Windows:
+        power, power_ok = stacked.power_at(lag_bins)
+        rows = power_ok[ok]
+        return replace(every.take(rows), power_W=power[ok][rows])
+
+    return at
+
+
+def _assemble_rows(
+    runs: list[RunWindows], surfaces: tuple[str, ...], keep: np.ndarray, power: np.ndarray
+) -> Windows:
+    """`assemble`'s windows: the stacked windows `keep` holds, `power` their response."""
+    columns = design_columns(surfaces)
+    position = {name: k for k, name in enumerate(surfaces)}
     bases = np.cumsum([0] + [int(rw.trip[-1]) + 1 if rw.count else 0 for rw in runs])[:-1]
     names = tuple(runs[0].regressors()) if runs else ()
     joined = {

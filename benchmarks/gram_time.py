@@ -1,0 +1,61 @@
+"""CPU time of `fit --json --jobs 0` at two revisions against a bare pyarrow parse, alternating.
+
+    python benchmarks/gram_time.py OLD_REV NEW_REV FOLDER [FOLDER ...] [--repeats 3]
+
+Each revision's source comes from `git archive` (as benchmarks/gram_equal.py), run with this
+interpreter; each round runs the bare parse (measure.BARE_PARSE), the old fit and the new fit
+of a folder one after the other (the machine's load falls on all three alike), and the medians
+of the CPU time of all their processes (measure.measure) are printed with the ratios
+fit / bare parse, the figure issue 25 bounds at 1.5.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from gram_equal import source  # noqa: E402
+from measure import BARE_PARSE, load_average, measure  # noqa: E402
+
+LAUNCH = (
+    "import sys; sys.path.insert(0, sys.argv.pop(1)); "
+    "from wifibot_power.cli import app; sys.argv[0] = 'wbpower'; app()"
+)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("old")
+    parser.add_argument("new")
+    parser.add_argument("folders", nargs="+", type=Path)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--work", type=Path, default=None)
+    args = parser.parse_args()
+    work = args.work or Path(tempfile.mkdtemp(prefix="gram_time_"))
+    srcs = {"old": source(args.old, work), "new": source(args.new, work)}
+    print(f"load average at the start: {load_average()}")
+    for folder in args.folders:
+        cpu: dict[str, list[float]] = {"bare": [], "old": [], "new": []}
+        for _ in range(args.repeats):
+            cpu["bare"].append(measure([sys.executable, "-c", BARE_PARSE, str(folder)]).cpu_s)
+            for name, src in srcs.items():
+                argv = [sys.executable, "-c", LAUNCH, str(src), "fit", str(folder)]
+                cpu[name].append(measure([*argv, "--json", "--jobs", "0"], ok_codes=(0, 1)).cpu_s)
+        med = {name: statistics.median(values) for name, values in cpu.items()}
+        print(
+            f"{folder}: CPU medians of {args.repeats} [s]: bare parse {med['bare']:.2f}, "
+            f"fit {args.old} {med['old']:.2f} ({med['old'] / med['bare']:.2f}x), "
+            f"fit {args.new} {med['new']:.2f} ({med['new'] / med['bare']:.2f}x); "
+            f"new / old {med['new'] / med['old']:.2f}"
+        )
+        print(f"  all runs: {cpu}")
+    print(f"load average at the end: {load_average()}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

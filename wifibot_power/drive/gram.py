@@ -1,0 +1,107 @@
+"""The held-out check's lag searches from sufficient statistics (heldout.py). A fold's lag search
+(identify.py, `lag_search`) fits the same design (the windows defined at every lag, lag 0's
+regressors) to the power at each lag, on the windows of the other folds' trips. Least squares
+needs only X'X, X'y and y'y: each fold's sums are made once, in one pass over the windows, for
+every whole lag (Y the power at each whole lag, a column each: X'Y and Y'Y); a fold's fit at a
+lag is then a p x p problem on the sum of the other folds' sums, whatever the number of
+windows. A lag between two whole bins is linear between them (windows.py, `between_bins`:
+y = (1 - t) y_w + t y_w+1), so its X'y and y'y are the same combination of the whole lags'
+(the cross-products Y'Y included). The solve is `identify._normal_equations`' (unit-norm
+columns, the pseudo-inverse of the scaled Gram), the sum of squares y'y - 2 b'X'y + b'X'X b
+(Lawson & Hanson 1974, "Solving Least Squares Problems", Ch. 1: the normal equations): the
+same numbers as the direct search up to the order of summation (benchmarks/gram_equal.py)
+unless the fit is so close that the subtraction loses the digits (`CANCELLATION`): then the
+direct search.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wifibot_power.drive.identify import refine_lag
+from wifibot_power.drive.windows import RunWindows, StackedPower, assemble
+
+#: The sum of squares from sums, y'y - 2b'X'y + b'X'Xb, loses the digits of y'y over it: below
+#: this share of y'y (under ~10 digits left) the search is made over the windows instead. The
+#: logs seen are at 2e-4 (the simulator's free driving, sample_logs) to 0.2 (F1/10).
+CANCELLATION = 1e-6
+
+
+class FoldGrams:
+    """Per-fold sums of the lag search's least squares (module docstring).
+
+    `runs`, `surfaces`: as `lag_search`'s; `fold_of_window`: per stacked window (StackedPower's
+    order) its fold, -1 for none; `lags`: the whole lags [bins] the search tries."""
+
+    def __init__(
+        self,
+        runs: list[RunWindows],
+        surfaces: tuple[str, ...],
+        fold_of_window: np.ndarray,
+        folds: int,
+        lags: np.ndarray,
+        stacked: StackedPower | None = None,
+    ) -> None:
+        stacked = stacked or StackedPower(runs)
+        common = stacked.ok.copy()
+        powers = [stacked.power_at(int(lag)) for lag in lags]
+        for _, defined in powers:
+            common &= defined
+        X = assemble(runs, 0, surfaces, only=stacked.split(common), stacked=stacked).design
+        Y = np.column_stack([power[common] for power, _ in powers])
+        fold = fold_of_window[common]
+        p, L = X.shape[1], lags.size
+        self.lags = lags
+        self.folds = folds
+        self.count = np.zeros(folds, dtype=np.int64)
+        self.xx = np.zeros((folds, p, p))
+        self.xy = np.zeros((folds, p, L))
+        self.yy = np.zeros((folds, L, L))
+        for f in range(folds):
+            rows = fold == f
+            Xf, Yf = X[rows], Y[rows]
+            self.count[f] = int(rows.sum())
+            self.xx[f] = Xf.T @ Xf
+            self.xy[f] = Xf.T @ Yf
+            self.yy[f] = Yf.T @ Yf
+
+    def search(self, fold: int) -> tuple[float, np.ndarray] | None:
+        """`lag_search` on the windows of every fold but `fold`; None when a sum of squares is
+        under `CANCELLATION` of y'y (the caller then searches over the windows)."""
+        train = np.arange(self.folds) != fold
+        xx = self.xx[train].sum(axis=0)
+        xy = self.xy[train].sum(axis=0)
+        yy = self.yy[train].sum(axis=0)
+        n = int(self.count[train].sum())
+        usable = np.diag(xx) != 0
+        xx = xx[np.ix_(usable, usable)]
+        xy = xy[usable]
+        p = int(usable.sum())
+        scale = np.sqrt(np.diag(xx)).copy()
+        scale[scale == 0] = 1.0
+        inverse = np.linalg.pinv(xx / np.outer(scale, scale))
+        last = self.lags.size - 1
+        share = [np.inf]  # the smallest sum of squares over y'y seen
+
+        def sse_at(lag: float) -> float:
+            if n <= p:
+                return np.inf
+            whole = int(np.floor(lag))
+            part = lag - whole
+            weights = np.zeros(self.lags.size)
+            if part <= 1e-9:
+                weights[whole] = 1.0
+            else:
+                if whole + 1 > last:
+                    return np.inf  # never asked: the search stays within its grid
+                weights[whole], weights[whole + 1] = 1 - part, part
+            b_xy = xy @ weights
+            b_yy = float(weights @ yy @ weights)
+            coef = (inverse @ (b_xy / scale)) / scale
+            sse = float(b_yy - 2.0 * coef @ b_xy + coef @ xx @ coef)
+            if b_yy > 0:
+                share[0] = min(share[0], sse / b_yy)
+            return sse
+
+        found = refine_lag(self.lags, sse_at)
+        return found if share[0] >= CANCELLATION else None
