@@ -219,3 +219,25 @@ def test_family_adapter(field_model):
     assert_allclose(predicted, measured, rtol=0.05)
     assert_allclose(measured, runs[0].energy_J, rtol=0.05)
     assert np.isnan(loaded.predict_energy_J(SimpleNamespace(models={})))
+
+
+def test_logs_without_a_surface_give_the_surface_terms_as_shared_ones():
+    """Logs that name no surface (all `unknown`): the per-surface terms (rolling, turning) are
+    the model's own terms, with no surface section; named, they sit under the surface."""
+    from dataclasses import replace
+
+    config = FreeDriveConfig(runs_per_surface=3, run_s=60.0, seed=4, surfaces=("asphalt",))
+    runs = [as_run(r) for r in simulate_free(config)]
+    named = fit_drive(runs)
+    assert "rolling_W_per_mps" in named.surfaces["asphalt"]
+    assert "rolling_W_per_mps" not in named.terms
+    anonymous = [
+        replace(
+            r, meta=replace(r.meta, extra={k: v for k, v in r.meta.extra.items() if k != "surface"})
+        )
+        for r in runs
+    ]
+    model = fit_drive(anonymous)
+    assert model.surfaces == {}
+    assert {"rolling_W_per_mps", "turning_Nm"} <= set(model.terms)
+    assert model.terms["rolling_W_per_mps"] == named.surfaces["asphalt"]["rolling_W_per_mps"]

@@ -210,3 +210,17 @@ def test_ramp_speed_is_taken_at_the_middle_of_each_sample():
     assert_allclose(accel, [0.5] * 4 + [0.0] * 2 + [-0.5] * 4, rtol=0, atol=1e-15)
     assert kind.tolist() == [1] * 4 + [2] * 2 + [3] * 4
     assert bounds.tolist() == [0, 4, 6, 10]
+
+
+@pytest.mark.parametrize(
+    ("options", "noise_W"),
+    [((), 0.3), (("--realism", "field"), 0.8), (("--noise", "0.55"), 0.55)],
+)
+def test_the_simulate_command_takes_the_noise_of_its_options(tmp_path, wbpower, options, noise_W):
+    """`--noise` overrides the realism level's noise (cli help: default 0.3, 0.8 with field);
+    truth.json says the noise the logs were written with."""
+    out = tmp_path / "logs"
+    small = ("--speeds", "0.5", "--trips", "2x1", "--repeats", "1", "--modes", "")
+    result = wbpower("simulate", "-o", out, *small, *options, "--json")
+    assert result.exit_code == 0, result.stderr
+    assert load_truth(out / "truth.json")["noise_W"] == noise_W

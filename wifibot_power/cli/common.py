@@ -5,12 +5,10 @@ from __future__ import annotations
 import contextvars
 import functools
 import inspect
-import json
 import os
 import sys
 import typing
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, TypeVar
@@ -18,9 +16,23 @@ from typing import TYPE_CHECKING, Annotated, TypeVar
 import typer
 
 from wifibot_power.cli import consoles
+from wifibot_power.cli.json_document import (  # noqa: F401 - re-exported: importers use common
+    DOCUMENT,
+    JsonDocument,
+    json_defaults,
+    json_usage_error,
+    print_json,
+)
+from wifibot_power.cli.json_document import one_line as _one_line
+from wifibot_power.cli.progress import (  # noqa: F401 - re-exported: importers use common
+    progress,
+    progress_done,
+    progress_on,
+    stage,
+)
 from wifibot_power.errors import UsageError, WbpowerError
 from wifibot_power.io import ReadOptions, Skipped
-from wifibot_power.outputs import json_safe, probe_folder, written
+from wifibot_power.outputs import probe_folder, written
 from wifibot_power.run import Problem
 from wifibot_power.signals import interrupted
 
@@ -299,13 +311,13 @@ def handles_errors(command: F) -> F:
     def wrapper(*args: object, **kwargs: object) -> object:
         written.clear()  # (several commands may run in one process: tests)
         document = JsonDocument() if kwargs.get("json_out") else None
-        token = _DOCUMENT.set(document)
+        token = DOCUMENT.set(document)
         said = _SAID_WRITTEN.set([])
         try:
             return _reporting_errors(_saying_written(command), *args, **kwargs)
         finally:
             progress_done()
-            _DOCUMENT.reset(token)
+            DOCUMENT.reset(token)
             _SAID_WRITTEN.reset(said)
             if document is not None:
                 document.emit()
@@ -356,88 +368,7 @@ def _reporting_errors(command: Callable[..., object], *args: object, **kwargs: o
     return None
 
 
-# -- --json: one document, however the command ends (cli.md) -------------------------------
-def _one_line(message: object) -> str:
-    return " ".join(str(message).split())
-
-
-@dataclass
-class JsonDocument:
-    """The one JSON document a command prints with `--json`, whatever happens (cli.md): what
-    it computed (`print_json`), `error` (the one-line message, null on success), `skipped`
-    (`[{file, reason}]`, every input left out) and `warnings` (every warning said on
-    stderr, the reader's included). `handles_errors` makes one per `--json` run and prints
-    it when the command ends, returns or fails; `fail`, `warn` and `report_skipped` fill it.
-    """
-
-    #: keys the document holds also when the command fails (`json_defaults`)
-    defaults: dict[str, object] = field(default_factory=dict)
-    #: what the command computed (`print_json`), None until it has
-    result: dict[str, object] | None = None
-    error: str | None = None
-    skipped: list[dict[str, str]] = field(default_factory=list)
-    warnings: list[str] = field(default_factory=list)
-    #: every output written (`say_written`): the document's `written`, when there is one
-    written: list[str] = field(default_factory=list)
-
-    def as_dict(self) -> dict[str, object]:
-        result = self.result or {}
-        skipped = list(result.get("skipped") or [])
-        skipped += [s for s in self.skipped if s not in skipped]
-        warnings = [str(w) for w in result.get("warnings") or []]
-        said = {_one_line(w) for w in warnings}
-        warnings += [w for w in self.warnings if w not in said]
-        document = {
-            **self.defaults,
-            **result,
-            "error": self.error,
-            "skipped": skipped,
-            "warnings": warnings,
-        }
-        if self.written:  # only with -o or --plot: a run that writes nothing has no key
-            document["written"] = list(self.written)
-        return document
-
-    def emit(self) -> None:
-        _write_json(self.as_dict())
-
-
-_DOCUMENT: contextvars.ContextVar[JsonDocument | None] = contextvars.ContextVar(
-    "json_document", default=None
-)
-
-
-def json_defaults(**keys: object) -> None:
-    """Keys the `--json` document holds also if the command fails from here on (e.g.
-    `inspect`'s empty `logs`); nothing without `--json`."""
-    document = _DOCUMENT.get()
-    if document is not None:
-        document.defaults.update(keys)
-
-
-def print_json(data: dict[str, object]) -> None:
-    """The command's result as its one JSON document on stdout: printed when the command
-    ends, with `error`, `skipped` and `warnings` (`JsonDocument`); at once outside a
-    command."""
-    document = _DOCUMENT.get()
-    if document is None:
-        _write_json(data)
-    else:
-        # made JSON now, inside the command: a value JSON cannot hold is the command's
-        # error (one line, exit 2), never a traceback from printing the document at the end
-        document.result = json.loads(json.dumps(json_safe(data), allow_nan=False))
-
-
-def _write_json(data: object) -> None:
-    sys.stdout.write(json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n")
-
-
-def json_usage_error(message: str) -> None:
-    """A usage error found while parsing the command line (before the command runs), as
-    the `--json` document: `fail` prints the line on stderr."""
-    _write_json({"error": _one_line(message), "skipped": [], "warnings": []})
-
-
+# -- output: the --json document (`cli/json_document.py`), -o DIR, errors, warnings ---------
 def check_out_dir(out: Path | None) -> None:
     """Refuse an `-o DIR` that cannot be written before any work is done (cli.md): an
     existing file, or a folder (or the nearest existing parent of one to create) that is not
@@ -463,7 +394,7 @@ def fail(message: str, code: int = EXIT_USAGE) -> None:
     """Print `wbpower: error: message` on stderr (one line) and exit; with `--json`, the
     message is the document's `error`."""
     one_line = _one_line(message)
-    document = _DOCUMENT.get()
+    document = DOCUMENT.get()
     if document is not None:
         document.error = one_line
     print(f"wbpower: error: {one_line}", file=sys.stderr)
@@ -480,7 +411,7 @@ def say_written(paths: Iterable[Path | str]) -> None:
     of `outputs.written` (`write_set`, `staged_folder`) when the command ends
     (`_saying_written`)."""
     said = _SAID_WRITTEN.get(None)
-    document = _DOCUMENT.get()
+    document = DOCUMENT.get()
     for path in map(str, paths):
         if said is not None:
             if path in said:
@@ -494,7 +425,7 @@ def say_written(paths: Iterable[Path | str]) -> None:
 def warn(message: str) -> None:
     """A warning: one line on stderr, and in the `--json` document's `warnings`."""
     one_line = _one_line(message)
-    document = _DOCUMENT.get()
+    document = DOCUMENT.get()
     if document is not None and one_line not in document.warnings:
         document.warnings.append(one_line)
     print(f"wbpower: warning: {one_line}", file=sys.stderr)
@@ -529,74 +460,12 @@ def warn_problems(file: str, problems: tuple[Problem, ...]) -> None:
 def report_skipped(skipped: list[Skipped]) -> int:
     """List skipped inputs on stderr, each with its own reason, and in the `--json`
     document's `skipped`; the exit code per cli.md."""
-    document = _DOCUMENT.get()
+    document = DOCUMENT.get()
     for item in skipped:
         if document is not None and item.as_dict() not in document.skipped:
             document.skipped.append(item.as_dict())
         print(f"wbpower: skipped: {_one_line(item.reason)}", file=sys.stderr)
     return EXIT_SKIPPED if skipped else EXIT_OK
-
-
-T = TypeVar("T")
-
-
-def progress_on() -> bool:
-    """Whether progress is drawn: stderr is a terminal and the command prints no `--json`
-    document (docs/cli-output.md, "Progress")."""
-    return sys.stderr.isatty() and _DOCUMENT.get() is None
-
-
-def progress(items: list[T], label: str, then: str | None = None) -> Iterable[T]:
-    """A progress bar over files (files done, MB/s) on stderr, for `map_runs(wrap=...)`,
-    and once the files are done, the spinner of the step that follows (`then`, e.g.
-    "fitting the models"); a single file shows the spinner `label` alone. Silent (a plain
-    list) unless `progress_on()`. rich loads only when something is drawn
-    (`cli/progress_bar.py`)."""
-    if not progress_on():
-        return items
-    from wifibot_power.cli import progress_bar
-
-    if len(items) < 2:
-        progress_bar.stage(label)
-        return _Then(items, then)
-    return progress_bar.FileProgress(items, label, then)
-
-
-@dataclass
-class _Then:
-    """One file: the spinner says `label` while it is read, `then` once it is done."""
-
-    items: list
-    then: str | None
-
-    def __iter__(self) -> Iterable:
-        return iter(self.items)
-
-    def done(self, item: object) -> None:
-        return None
-
-    def close(self) -> None:
-        if self.then:
-            stage(self.then)
-        else:
-            progress_done()
-
-
-def stage(label: str) -> None:
-    """Say on stderr, on a spinner line with its time, the step under way (`drawing the
-    figures`); silent unless `progress_on()`. `progress_done()` ends it."""
-    if progress_on():
-        from wifibot_power.cli import progress_bar
-
-        progress_bar.stage(label)
-
-
-def progress_done() -> None:
-    """End the progress line, if any: called before the command prints its result, and by
-    `handles_errors` when the command ends, however it ends."""
-    bar = sys.modules.get("wifibot_power.cli.progress_bar")  # loaded only if one was drawn
-    if bar is not None:
-        bar.stop()
 
 
 # -- batch options: parallel files and the parse cache ----------------------------------

@@ -79,18 +79,78 @@ def _trips(text: str) -> tuple[tuple[float, int], ...]:
     return tuple(trips)
 
 
+#: the longer options of `simulate`, declared apart to keep the command short
+Effect = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--effect",
+        help=f"NAME[=SIZE], repeatable: {', '.join(EFFECTS)} (the causes diagnose names).",
+    ),
+]
+Realism = Annotated[
+    str,
+    typer.Option(
+        "--realism",
+        help=f"{'|'.join(REALISM)}: 'field' adds what real logs carry (PWM tone, run-to-run "
+        "spread, 0.8 W noise); 'wbpower docs simulator'.",
+    ),
+]
+Noise = Annotated[
+    float | None,
+    typer.Option(
+        "--noise",
+        min=0.0,
+        help="Analyser noise per 0.1024 ms sample [W] (default 0.3; 0.8 with field).",
+    ),
+]
+Drive = Annotated[
+    str,
+    typer.Option(
+        "--drive",
+        help="grid: the paper's experiment; free: a skid-steer robot driven freely (turns, "
+        "stops, reversing) with speed and yaw-rate columns ('wbpower docs drive-model').",
+    ),
+]
+
+
+def _grid_config(
+    *,
+    effect: list[str] | None,
+    seed: int,
+    speeds: str,
+    trips: str,
+    repeats: int,
+    payloads: str | None,
+    modes: str,
+    mode_repeats: int,
+    sample_period: float,
+    realism_name: str,
+    noise: float | None,
+) -> SimConfig:
+    """`--drive grid`: the paper's experiment as `simulate`'s options ask for it."""
+    level = realism(realism_name)
+    if noise is not None:
+        level["noise_W"] = noise
+    return SimConfig(
+        speeds_mps=_floats(speeds, "--speeds"),
+        trips=_trips(trips),
+        repeats=repeats,
+        payloads_kg=_floats(payloads, "--payloads") if payloads else None,
+        modes=tuple(m.strip() for m in modes.split(",") if m.strip()),
+        mode_repeats=mode_repeats,
+        sample_period_s=sample_period,
+        **level,
+        effects=parse_effects(effect or []),
+        seed=seed,
+    )
+
+
 @app.command("simulate", **command_help("simulate"))
 @handles_errors
 @with_wide_option
 def simulate_command(
     out: Annotated[Path, typer.Option("-o", "--out", help="Folder to write the logs into.")],
-    effect: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--effect",
-            help=f"NAME[=SIZE], repeatable: {', '.join(EFFECTS)} (the causes diagnose names).",
-        ),
-    ] = None,
+    effect: Effect = None,
     seed: Annotated[int, typer.Option(help="Random seed: same seed, same logs.")] = 0,
     speeds: Annotated[
         str, typer.Option(help="Speeds [m/s], comma-separated.")
@@ -110,22 +170,8 @@ def simulate_command(
     sample_period: Annotated[
         float, typer.Option("--sample-period", min=1e-6, help="Sample period [s].")
     ] = 0.1024e-3,
-    realism_name: Annotated[
-        str,
-        typer.Option(
-            "--realism",
-            help=f"{'|'.join(REALISM)}: 'field' adds what real logs carry (PWM tone, run-to-run "
-            "spread, 0.8 W noise); 'wbpower docs simulator'.",
-        ),
-    ] = "lab",
-    noise: Annotated[
-        float | None,
-        typer.Option(
-            "--noise",
-            min=0.0,
-            help="Analyser noise per 0.1024 ms sample [W] (default 0.3; 0.8 with field).",
-        ),
-    ] = None,
+    realism_name: Realism = "lab",
+    noise: Noise = None,
     columns: Annotated[
         str, typer.Option(help=f"{'|'.join(COLUMN_SETS)}: time, voltage, current, power or power.")
     ] = "full",
@@ -135,14 +181,7 @@ def simulate_command(
     decimals: Annotated[
         int, typer.Option(min=1, max=9, help="Decimals written for power [W].")
     ] = 4,
-    drive: Annotated[
-        str,
-        typer.Option(
-            "--drive",
-            help="grid: the paper's experiment; free: a skid-steer robot driven freely (turns, "
-            "stops, reversing) with speed and yaw-rate columns ('wbpower docs drive-model').",
-        ),
-    ] = "grid",
+    drive: Drive = "grid",
     surfaces: Annotated[
         str, typer.Option(help="With --drive free: the surfaces, comma-separated.")
     ] = "asphalt,grass",
@@ -152,8 +191,7 @@ def simulate_command(
     json_out: JsonFlag = False,
 ) -> None:
     """Write synthetic logs of a physical Wifibot model, with runs.csv and truth.json."""
-    # long only by its signature: typer reads the command's 18 options from it (issue 24
-    # allows it); the body is short and the simulation lives in `wifibot_power.simulate`
+    # the simulation lives in `wifibot_power.simulate`; the grid's config in `_grid_config`
     check_out_dir(out)
     if drive not in ("grid", "free"):
         raise typer.BadParameter("--drive takes grid or free")
@@ -165,20 +203,18 @@ def simulate_command(
         return
     # checked before anything is simulated or written (cli.md: a usage error, exit 2)
     write = WriteOptions(columns=columns, compress=compress, decimals=decimals)
-    level = realism(realism_name)
-    if noise is not None:
-        level["noise_W"] = noise
-    config = SimConfig(
-        speeds_mps=_floats(speeds, "--speeds"),
-        trips=_trips(trips),
-        repeats=repeats,
-        payloads_kg=_floats(payloads, "--payloads") if payloads else None,
-        modes=tuple(m.strip() for m in modes.split(",") if m.strip()),
-        mode_repeats=mode_repeats,
-        sample_period_s=sample_period,
-        **level,
-        effects=parse_effects(effect or []),
+    config = _grid_config(
+        effect=effect,
         seed=seed,
+        speeds=speeds,
+        trips=trips,
+        repeats=repeats,
+        payloads=payloads,
+        modes=modes,
+        mode_repeats=mode_repeats,
+        sample_period=sample_period,
+        realism_name=realism_name,
+        noise=noise,
     )
     summary = write_simulation(
         config, out, write, on_run=lambda k, n: stage(f"simulating: {k} of {n} runs done")

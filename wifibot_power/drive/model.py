@@ -20,6 +20,7 @@ from wifibot_power.drive.terms import TERM_BY_NAME, TERMS
 from wifibot_power.drive.windows import WINDOW_S, assemble, run_windows
 
 if TYPE_CHECKING:
+    from wifibot_power.drive.identify import Identified
     from wifibot_power.phases import Segmentation
     from wifibot_power.run import Run
 
@@ -246,6 +247,33 @@ def fit_drive_stats(
         )
     clusters = windows.run if by_run else windows.trip
     fitted = identify(windows, lag_bins, clusters)
+    warnings += _data_warnings(stats)
+    heldout = heldout_accuracy(runs, surfaces, by_run, seed=seed)
+    if heldout is None:
+        warnings.append("fewer than 4 trips: no held-out accuracy")
+    terms, per_surface = _terms(fitted, surfaces)
+    k = np.flatnonzero(fitted.kept)
+    return DriveModel(
+        terms=terms,
+        surfaces=per_surface,
+        lag_s=lag_bins * runs[0].stats.bin_s,
+        n_runs=len(runs),
+        heldout=heldout,
+        not_determined=tuple(reason for _, reason in fitted.not_determined),
+        warnings=tuple(warnings),
+        columns=fitted.columns,
+        coef=tuple(float(c) for c in fitted.coef),
+        cov=tuple(tuple(float(v) for v in row) for row in fitted.cov) if k.size else (),
+        window_s=windows.window_s,
+        surface_names=surfaces,
+        dof=fitted.dof,
+    )
+
+
+def _data_warnings(stats: list[DriveStats]) -> list[str]:
+    """What the logs' data make the fit assume (a log without turning, speeds from phases,
+    current-only logs): a warning each, in the model's `warnings`."""
+    warnings: list[str] = []
     if any(not s.has_turning for s in stats) and any(s.has_turning for s in stats):
         warnings.append(
             "some logs have no turning column: their windows count as driving straight, which "
@@ -275,9 +303,14 @@ def fit_drive_stats(
                 else ""
             )
         )
-    heldout = heldout_accuracy(runs, surfaces, by_run, seed=seed)
-    if heldout is None:
-        warnings.append("fewer than 4 trips: no held-out accuracy")
+    return warnings
+
+
+def _terms(
+    fitted: Identified, surfaces: tuple[str, ...]
+) -> tuple[dict[str, TermValue], dict[str, dict[str, TermValue]]]:
+    """The shown terms of a fit with their 95 % intervals and units: the shared ones, and
+    those of each named surface (`name[surface]` columns)."""
     ci = fitted.ci95()
     named_surfaces = surfaces != (UNKNOWN_SURFACE,)
     terms: dict[str, TermValue] = {}
@@ -291,22 +324,7 @@ def fit_drive_stats(
             per_surface.setdefault(rest[:-1], {})[name] = value
         else:
             terms[name] = value
-    k = np.flatnonzero(fitted.kept)
-    return DriveModel(
-        terms=terms,
-        surfaces=per_surface,
-        lag_s=lag_bins * runs[0].stats.bin_s,
-        n_runs=len(runs),
-        heldout=heldout,
-        not_determined=tuple(reason for _, reason in fitted.not_determined),
-        warnings=tuple(warnings),
-        columns=fitted.columns,
-        coef=tuple(float(c) for c in fitted.coef),
-        cov=tuple(tuple(float(v) for v in row) for row in fitted.cov) if k.size else (),
-        window_s=windows.window_s,
-        surface_names=surfaces,
-        dof=fitted.dof,
-    )
+    return terms, per_surface
 
 
 def _unit(name: str) -> str:

@@ -24,6 +24,7 @@ from wifibot_power.figures.style import (
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
 
     from wifibot_power.model import PowerModel
     from wifibot_power.overhead import StopAndGo
@@ -313,9 +314,7 @@ def figure7(
     range) the paper's are not drawn again, and the legend says they coincide: it lists
     only what shows. One legend, under the panels. `scenario`: the other inputs
     (`lifetime.network_lifetime` keywords)."""
-    from matplotlib.lines import Line2D
-
-    from wifibot_power.lifetime import TABLE2, lifetime_sweep
+    from wifibot_power.lifetime import TABLE2
     from wifibot_power.model import paper_model
 
     paper = paper or paper_model()
@@ -325,8 +324,48 @@ def figure7(
     figure = new_figure(5.5 * columns, 3.8 * ((n + 1) // 2) + 0.6)
     axes = np.atleast_1d(figure.subplots((n + 1) // 2, columns)).ravel()
     models = [model] + ([paper] if model != paper else [])
-    # every curve: (sweep, rate) -> (x, gain of each model)
-    curves: dict[tuple[str, float], tuple[np.ndarray, list[np.ndarray]]] = {}
+    curves = _figure7_curves(models, sweeps, rates, scenario)
+    coincide, differ_pp = _figure7_coincide(curves, sweeps, len(models))
+    shown_rates: list[float] = []
+    for ax, sweep in zip(axes, sweeps, strict=False):
+        shown_rates += _figure7_panel(ax, sweep, curves, rates, coincide)
+    for ax in axes[n:]:
+        ax.set_axis_off()
+    handles = _figure7_legend(model, models, sweeps, shown_rates, coincide, differ_pp)
+    figure.legend(
+        handles=handles,
+        loc="outside lower center",
+        ncol=min(len(handles), 6),
+        fontsize=8,
+        frameon=False,
+    )
+    # Eq. 7-11 take the model's idle power as the whole robot's at rest (its embedded
+    # system); a log of the motors alone reads ~0 W there (REGBOT: 0.14-1.4 W, a gain of
+    # 34% beside the paper's 3-4%), so the figure says which idle power each line stands on
+    idle = ", ".join(f"{_label(m)} {m.idle_W:.3g} W" for m in models)
+    figure.suptitle(
+        "Figure 7: network lifetime gain with B relaying (Eq. 7-11)\n"
+        f"idle power (the robot's at rest, radio off): {idle}",
+        fontsize=10,
+    )
+    return figure
+
+
+#: figure 7's curves: (sweep, rate) -> (x on the panel's axis, lifetime gain [%] of each model)
+_Curves = dict[tuple[str, float], tuple[np.ndarray, list[np.ndarray]]]
+
+
+def _figure7_curves(
+    models: list[PowerModel],
+    sweeps: Sequence[str],
+    rates: tuple[float, ...],
+    scenario: dict[str, float | None],
+) -> _Curves:
+    """Every curve of figure 7: each model's lifetime gain (`lifetime.lifetime_sweep`, Eq.
+    7-11) along each sweep, a curve per data rate (the data-rate sweep: one, over the rates)."""
+    from wifibot_power.lifetime import lifetime_sweep
+
+    curves: _Curves = {}
     for sweep in sweeps:
         _, scale = SWEEP_AXES[sweep]
         for rate in rates if sweep != "rate" else (0.0,):
@@ -337,8 +376,14 @@ def figure7(
                 x = np.array([getattr(r, attribute) for r in rows]) * scale
                 gains.append(np.array([r.improvement_pct for r in rows], dtype=np.float64))
             curves[(sweep, rate)] = (x, gains)
+    return curves
+
+
+def _figure7_coincide(curves: _Curves, sweeps: Sequence[str], n_models: int) -> tuple[bool, float]:
+    """Whether the two models' curves coincide (every gap within `COINCIDE_FRACTION` of its
+    panel's range), and the largest gap between them [% points]."""
     differ_pp = 0.0  # the largest difference between the models, in % points
-    coincide = len(models) == 2
+    coincide = n_models == 2
     for sweep in sweeps:
         mine = [g for (s, _), (_, gs) in curves.items() if s == sweep for g in gs]
         every = np.concatenate(mine) if mine else np.zeros(0)
@@ -348,43 +393,63 @@ def figure7(
                 gap = float(np.nanmax(np.abs(gs[0] - gs[1]))) if gs[0].size else 0.0
                 differ_pp = max(differ_pp, gap)
                 coincide &= gap <= COINCIDE_FRACTION * max(span, 1e-9)
+    return coincide, differ_pp
+
+
+def _figure7_panel(
+    ax: Axes, sweep: str, curves: _Curves, rates: tuple[float, ...], coincide: bool
+) -> list[float]:
+    """Draw one panel of figure 7 (the data-rate panel: a point per rate, the paper's a
+    ring; the others: a line per rate, the paper's dashed unless they coincide); the rates
+    it shows, for the legend."""
     shown_rates: list[float] = []
-    for ax, sweep in zip(axes, sweeps, strict=False):
-        label, _ = SWEEP_AXES[sweep]
-        if sweep == "rate":
-            x, gains = curves[(sweep, 0.0)]
-            for xi, gi in zip(x, gains[0], strict=True):  # a point per rate, no line
-                ax.plot(xi, gi, "o", ls="none", color=_rate_colour(xi), ms=7, gid="model:0")
-                shown_rates.append(float(xi))
-            if len(gains) == 2:
-                ax.plot(
-                    x,
-                    gains[1],
-                    "o",
-                    ls="none",
-                    mfc="none",
-                    mec=PAPER_COLOUR,
-                    ms=12,
-                    mew=1.2,
-                    gid="model:1",
-                )
-            ax.set_xticks(x)
-        else:
-            for rate in rates:
-                x, gains = curves[(sweep, rate)]
-                colour = _rate_colour(rate)
-                ax.plot(x, gains[0], "-", color=colour, lw=1.6, gid="model:0")
-                if len(gains) == 2 and not coincide:
-                    ax.plot(x, gains[1], "--", color=colour, lw=1.2, gid="model:1")
-                shown_rates.append(float(rate))
-        if sweep == "dist":
-            ax.set_xscale("symlog", linthresh=1.0)
-        ax.set_xlabel(label)
-        ax.set_ylabel("lifetime gain [%]")
-        ax.grid(True, alpha=0.3)
-    for ax in axes[n:]:
-        ax.set_axis_off()
-    # one legend for every panel: a colour per rate, then what the line styles mean
+    label, _ = SWEEP_AXES[sweep]
+    if sweep == "rate":
+        x, gains = curves[(sweep, 0.0)]
+        for xi, gi in zip(x, gains[0], strict=True):  # a point per rate, no line
+            ax.plot(xi, gi, "o", ls="none", color=_rate_colour(xi), ms=7, gid="model:0")
+            shown_rates.append(float(xi))
+        if len(gains) == 2:
+            ax.plot(
+                x,
+                gains[1],
+                "o",
+                ls="none",
+                mfc="none",
+                mec=PAPER_COLOUR,
+                ms=12,
+                mew=1.2,
+                gid="model:1",
+            )
+        ax.set_xticks(x)
+    else:
+        for rate in rates:
+            x, gains = curves[(sweep, rate)]
+            colour = _rate_colour(rate)
+            ax.plot(x, gains[0], "-", color=colour, lw=1.6, gid="model:0")
+            if len(gains) == 2 and not coincide:
+                ax.plot(x, gains[1], "--", color=colour, lw=1.2, gid="model:1")
+            shown_rates.append(float(rate))
+    if sweep == "dist":
+        ax.set_xscale("symlog", linthresh=1.0)
+    ax.set_xlabel(label)
+    ax.set_ylabel("lifetime gain [%]")
+    ax.grid(True, alpha=0.3)
+    return shown_rates
+
+
+def _figure7_legend(
+    model: PowerModel,
+    models: list[PowerModel],
+    sweeps: Sequence[str],
+    shown_rates: list[float],
+    coincide: bool,
+    differ_pp: float,
+) -> list[Line2D]:
+    """Figure 7's one legend for every panel: a colour per rate shown, then what the line
+    styles mean (only what shows: the paper's lines are not drawn where they coincide)."""
+    from matplotlib.lines import Line2D
+
     handles = [
         Line2D([], [], color=_rate_colour(r), lw=2, marker="o", ms=5, label=f"{r:g} Mbit/s")
         for r in dict.fromkeys(shown_rates)
@@ -430,23 +495,7 @@ def figure7(
                 label="paper (ring)",
             )
         )
-    figure.legend(
-        handles=handles,
-        loc="outside lower center",
-        ncol=min(len(handles), 6),
-        fontsize=8,
-        frameon=False,
-    )
-    # Eq. 7-11 take the model's idle power as the whole robot's at rest (its embedded
-    # system); a log of the motors alone reads ~0 W there (REGBOT: 0.14-1.4 W, a gain of
-    # 34% beside the paper's 3-4%), so the figure says which idle power each line stands on
-    idle = ", ".join(f"{_label(m)} {m.idle_W:.3g} W" for m in models)
-    figure.suptitle(
-        "Figure 7: network lifetime gain with B relaying (Eq. 7-11)\n"
-        f"idle power (the robot's at rest, radio off): {idle}",
-        fontsize=10,
-    )
-    return figure
+    return handles
 
 
 def _rate_colour(rate: float) -> str:
