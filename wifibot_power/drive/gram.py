@@ -18,13 +18,38 @@ from __future__ import annotations
 
 import numpy as np
 
-from wifibot_power.drive.identify import refine_lag
 from wifibot_power.drive.windows import RunWindows, StackedPower, assemble
 
 #: The sum of squares from sums, y'y - 2b'X'y + b'X'Xb, loses the digits of y'y over it: below
 #: this share of y'y (under ~10 digits left) the search is made over the windows instead. The
 #: logs seen are at 2e-4 (the simulator's free driving, sample_logs) to 0.2 (F1/10).
 CANCELLATION = 1e-6
+
+
+def refine_lag(lags: np.ndarray, sse_at) -> tuple[float, np.ndarray]:
+    """The lag search's choice from `sse_at(lag)`, the sum of squares at a lag [bins]: the
+    best whole lag of `lags`, then to a fraction of a bin; and each whole lag's sum of squares
+    (identify.lag_search over the windows; `FoldGrams.search` from sufficient statistics)."""
+    sse = np.array([sse_at(int(lag)) for lag in lags])
+    if not np.isfinite(sse).any():
+        return 0.0, sse
+    best = int(np.argmin(sse))
+    if not (0 < best < lags.size - 1 and np.isfinite(sse[best - 1 : best + 2]).all()):
+        return float(lags[best]), sse
+    # to a fraction of a bin (the inertial terms move by ~10% a bin of lag): the vertex of
+    # the parabola through the best lag and its neighbours, then again through it and the
+    # points half a bin either side (the sum of squares is a parabola only near its minimum)
+    step = 1.0
+    centre, values = float(best), tuple(sse[best - 1 : best + 2])
+    for _ in range(2):
+        below, at, above = values
+        curvature = below - 2 * at + above
+        if not curvature > 0:
+            break
+        centre += step * float(np.clip(0.5 * (below - above) / curvature, -0.5, 0.5))
+        step /= 2
+        values = (sse_at(centre - step), sse_at(centre), sse_at(centre + step))
+    return centre, sse
 
 
 class FoldGrams:

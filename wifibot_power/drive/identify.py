@@ -38,6 +38,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from wifibot_power.drive.gram import FoldGrams, refine_lag
 from wifibot_power.drive.terms import TERM_BY_NAME
 from wifibot_power.drive.windows import (
     RunWindows,
@@ -127,8 +128,6 @@ def lag_search(
     same numbers up to the order of summation)."""
     lags = lag_grid(runs)
     if gram:
-        from wifibot_power.drive.gram import FoldGrams  # gram.py builds on this module
-
         keep = StackedPower(runs).ok if only is None else np.concatenate(only).astype(bool)
         found = FoldGrams(runs, surfaces, np.where(keep, 0, -1), 1, lags).search(-1)
         if found is not None:
@@ -156,32 +155,6 @@ def lag_search(
         return float(np.sum(np.square(y - X @ coef)))
 
     return refine_lag(lags, sse_at)
-
-
-def refine_lag(lags: np.ndarray, sse_at) -> tuple[float, np.ndarray]:
-    """The lag search's choice from `sse_at(lag)`, the sum of squares at a lag [bins]: the
-    best whole lag of `lags`, then to a fraction of a bin; and each whole lag's sum of squares
-    (`lag_search`; gram.py gives the same `sse_at` from sufficient statistics)."""
-    sse = np.array([sse_at(int(lag)) for lag in lags])
-    if not np.isfinite(sse).any():
-        return 0.0, sse
-    best = int(np.argmin(sse))
-    if not (0 < best < lags.size - 1 and np.isfinite(sse[best - 1 : best + 2]).all()):
-        return float(lags[best]), sse
-    # to a fraction of a bin (the inertial terms move by ~10% a bin of lag): the vertex of
-    # the parabola through the best lag and its neighbours, then again through it and the
-    # points half a bin either side (the sum of squares is a parabola only near its minimum)
-    step = 1.0
-    centre, values = float(best), tuple(sse[best - 1 : best + 2])
-    for _ in range(2):
-        below, at, above = values
-        curvature = below - 2 * at + above
-        if not curvature > 0:
-            break
-        centre += step * float(np.clip(0.5 * (below - above) / curvature, -0.5, 0.5))
-        step /= 2
-        values = (sse_at(centre - step), sse_at(centre), sse_at(centre + step))
-    return centre, sse
 
 
 def identify(windows: Windows, lag_bins: float, clusters: np.ndarray) -> Identified:
