@@ -66,6 +66,10 @@ def test_a_term_the_data_push_below_its_bound_is_not_determined():
     assert "quadratic_W_per_mps2" not in model.terms
     reason = _reason(model, "quadratic_W_per_mps2")
     assert "held at its physical bound 0" in reason and "W/(m/s)^2" in reason
+    # the data push it below 0: the reason says so, with the unbounded least squares' value
+    assert "these logs would make it negative" in reason
+    unbounded = float(reason.split("without the bounds: ")[1].split()[0])
+    assert unbounded < 0
     _assert_bounded_intervals(model)
     # it stays out of the model.json section's terms, and the others keep their numbers
     assert "quadratic_W_per_mps2" not in model.to_json()["terms"]

@@ -181,12 +181,18 @@ def _honest(windows: Windows, fitted: Identified, clusters: np.ndarray) -> Ident
         unbounded = dict(zip(np.flatnonzero(fitted.kept), free, strict=True))
         for j in np.flatnonzero(pinned):
             unit = TERM_BY_NAME[_term(columns[j])].unit
+            # why no positive value fits better: the data push it below 0, or (its own
+            # least squares positive) the other terms' bounds leave it nothing to explain
+            why = (
+                "these logs would make it negative"
+                if unbounded[j] < 0
+                else "the other terms' bounds leave it nothing to explain"
+            )
             reasons.append(
                 (
                     columns[j],
-                    f"{columns[j]}: held at its physical bound 0 by the fit (no positive value "
-                    f"fits these logs better; least squares without the bounds: "
-                    f"{unbounded[j]:.3g} {unit}): not measured",
+                    f"{columns[j]}: held at its physical bound 0 by the fit ({why}; least "
+                    f"squares without the bounds: {unbounded[j]:.3g} {unit}): no value given",
                 )
             )
         fitted = _fit_kept(windows, fitted.lag_bins, clusters, fitted.kept & ~pinned, reasons)
