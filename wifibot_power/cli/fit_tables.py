@@ -181,7 +181,7 @@ def print_drive_tables(result: FitResult) -> None:
         f"{summary['lag_s']:.2f} s (95% CI: cluster-robust, by run or trip)",
         _DRIVE_TERM_COLUMNS,
         cells,
-        caption=f"not determined:{not_determined}{said}",
+        notes=f"not determined:{not_determined}{said}",
     )
     held = summary["heldout"]
     if held is not None:

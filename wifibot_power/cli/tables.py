@@ -175,13 +175,32 @@ def print_table(
     *,
     caption: str | None = None,
     row_styles: Sequence[str | None] | None = None,
+    notes: str | None = None,
 ) -> None:
     """Print the table(s) for the console's width; with `--wide`, one table at its full width
-    (wider than the terminal if it must be); with `MARKDOWN`, one Markdown table."""
+    (wider than the terminal if it must be); with `MARKDOWN`, one Markdown table. `notes`
+    (long text: reasons a line each) follow the table at the console's width: a caption
+    wraps to the table's own width, which made a few reasons 20 lines of 54 columns."""
     if MARKDOWN.get():
         text = markdown_table(title, cols, rows, caption=caption)
         console.print(text, markup=False, highlight=False, soft_wrap=True)
+        if notes:
+            console.print(notes, markup=False, highlight=False, soft_wrap=True)
         return
+    _print_tables(console, title, cols, rows, caption, row_styles)
+    if notes:
+        console.print(notes, markup=False, highlight=False)
+
+
+def _print_tables(
+    console: Console,
+    title: str,
+    cols: Sequence[Col],
+    rows: Sequence[Sequence[str]],
+    caption: str | None,
+    row_styles: Sequence[str | None] | None,
+) -> None:
+    """The table(s) of `print_table` in a terminal."""
     wide = WIDE.get()
     made = tables(
         title, cols, rows, width=console.width, wide=wide, caption=caption, row_styles=row_styles
