@@ -9,6 +9,7 @@ import os
 import sys
 import typing
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, TypeVar
@@ -313,12 +314,16 @@ def handles_errors(command: F) -> F:
         document = JsonDocument() if kwargs.get("json_out") else None
         token = DOCUMENT.set(document)
         said = _SAID_WRITTEN.set([])
+        problem_files, problems_left = _PROBLEM_FILES.set({}), _PROBLEMS_LEFT.set({})
         try:
             return _reporting_errors(_saying_written(command), *args, **kwargs)
         finally:
             progress_done()
+            _say_problems_left()
             DOCUMENT.reset(token)
             _SAID_WRITTEN.reset(said)
+            _PROBLEM_FILES.reset(problem_files)
+            _PROBLEMS_LEFT.reset(problems_left)
             if document is not None:
                 document.emit()
 
@@ -433,18 +438,54 @@ def warn(message: str) -> None:
 
 #: problems of one kind said one by one per file; the rest in one line (`warn_problems`)
 PROBLEMS_SAID = 3
+#: files whose problems of a kind are said; those of later files are counted, and said in
+#: one line per kind when the command ends (`_say_problems_left`)
+PROBLEM_FILES_SAID = 3
+#: kinds said for every file whatever the batch: each names the other file it concerns
+EVERY_FILE_KINDS = frozenset({"duplicate"})
+
+
+@dataclass
+class _ProblemsLeft:
+    """Problems of one kind in the files after the first `PROBLEM_FILES_SAID` of a batch."""
+
+    files: int = 0
+    problems: int = 0
+    duration_s: float = 0.0
+
+
+#: kind -> the files with problems of that kind said so far, and what was left unsaid
+_PROBLEM_FILES: contextvars.ContextVar[dict[str, set[str]] | None] = contextvars.ContextVar(
+    "problem_files", default=None
+)
+_PROBLEMS_LEFT: contextvars.ContextVar[dict[str, _ProblemsLeft] | None] = contextvars.ContextVar(
+    "problems_left", default=None
+)
 
 
 def warn_problems(file: str, problems: tuple[Problem, ...]) -> None:
     """What reading a log found but did not stop it (short gaps): a warning line each on
     stderr, naming the file (as `inspect` prints them), the first `PROBLEMS_SAID` of each
     kind, then one line for the rest of that kind with their count and time in all (a field
-    logger's hour of 20 Hz drop-outs made ~120 lines a file). Every one stays in `inspect
-    --json`'s `problems`."""
+    logger's hour of 20 Hz drop-outs made ~120 lines a file). In a batch, only the first
+    `PROBLEM_FILES_SAID` files with problems of a kind are said so; the others' are counted
+    and said in one line per kind when the command ends (200 field logs made 800 lines).
+    Every one stays in `inspect --json`'s `problems`."""
     by_kind: dict[str, list[Problem]] = {}
     for problem in problems:
         by_kind.setdefault(problem.kind, []).append(problem)
+    said_files = _PROBLEM_FILES.get()
+    left = _PROBLEMS_LEFT.get()
     for kind, items in by_kind.items():
+        if said_files is not None and left is not None and kind not in EVERY_FILE_KINDS:
+            files = said_files.setdefault(kind, set())
+            if file not in files and len(files) >= PROBLEM_FILES_SAID:
+                tally = left.setdefault(kind, _ProblemsLeft())
+                tally.files += 1
+                tally.problems += len(items)
+                tally.duration_s += sum(p.duration_s or 0.0 for p in items)
+                continue
+            files.add(file)
         for problem in items[:PROBLEMS_SAID]:
             warn(f"{file}: {problem.message}")
         rest = items[PROBLEMS_SAID:]
@@ -455,6 +496,16 @@ def warn_problems(file: str, problems: tuple[Problem, ...]) -> None:
                 f"{file}: and {len(rest)} more of kind '{kind}' like these{in_all} (each in "
                 "'wbpower inspect FILE --json', problems)"
             )
+
+
+def _say_problems_left() -> None:
+    """One warning per kind for the problems `warn_problems` counted and did not say."""
+    for kind, tally in (_PROBLEMS_LEFT.get() or {}).items():
+        in_all = f", {tally.duration_s:.4g} s in all" if tally.duration_s > 0 else ""
+        warn(
+            f"and {tally.problems} more problem(s) of kind '{kind}' in {tally.files} more "
+            f"file(s){in_all} (each file's in 'wbpower inspect FILE --json', problems)"
+        )
 
 
 def report_skipped(skipped: list[Skipped]) -> int:
