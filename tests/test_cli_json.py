@@ -198,13 +198,15 @@ def _bad_files(folder: Path, logs: Path) -> None:
     (folder / "same_run_id.csv").write_text(
         re.sub(r"# run_id: .*", "# run_id: v0.30_d10_s1_r1", text)
     )
-    # a motion log cut 3 s into its motion: it starts moving (a doubted segmentation)
+    # a motion log cut 3 s into its motion: it starts moving (a doubted segmentation); 1 mW
+    # added to each reading, so that it is another recording, not a piece of the log beside
+    # it (which is analysed once, as that log: test_pipeline_pieces.py)
     text = gzip.open(logs / "v0.50_d10_s1_r1.csv.gz", "rt").read().splitlines()
     head = [line.replace("v0.50_d10_s1_r1", "starts") for line in text if line.startswith("#")]
     rows = [line for line in text if not line.startswith("#")]
     power = np.array(rows[1:], dtype=float)
     moving = int(np.argmax(power > power[:200].mean() + 8))
-    body = rows[1:][moving + 3000 :]
+    body = [f"{value + 0.001:.4f}" for value in power[moving + 3000 :]]
     (folder / "starts_moving.csv").write_text("\n".join([*head, rows[0], *body]) + "\n")
 
 

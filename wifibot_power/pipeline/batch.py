@@ -29,8 +29,8 @@ from wifibot_power.io.options import ReadOptions
 from wifibot_power.pipeline.duplicates import (
     Outcome,
     ProblemHook,
+    batch_fingerprint,
     duplicate_keys,
-    run_fingerprint,
     settle,
 )
 from wifibot_power.run import Problem, Run
@@ -152,7 +152,7 @@ def _one_log(
     def with_problems(run: Run) -> Outcome[T]:
         # a kept result may serve a later batch: it keeps its fingerprint too
         identify = batch or memo is not None
-        fingerprint = run_fingerprint(run) if identify else None
+        fingerprint = batch_fingerprint(run) if identify else None
         return run.problems, fingerprint, run.meta.run_id, work(run)
 
     def one(source: LogSource) -> tuple[bool, Outcome[T] | Skipped]:
@@ -233,7 +233,9 @@ def keeping_problems(memo: ResultMemo[T]) -> ResultMemo[Outcome[T]]:
     # the kept key is the run's fingerprint (a kept SHA-256 identity, as before, is a miss),
     # and a result kept without its run_id is a miss
     return ResultMemo(
-        key=f"{memo.key} +problems +fingerprint +run_id", to_json=to_json, from_json=from_json
+        key=f"{memo.key} +problems +fingerprint +pieces +run_id",
+        to_json=to_json,
+        from_json=from_json,
     )
 
 

@@ -8,6 +8,12 @@ keeps the first of each. Only logs whose fingerprints are equal are read again, 
 `run_identity` (a SHA-256 of the samples): two logs are duplicates when those are equal,
 never on the fingerprint alone.
 
+A log whose samples are part of another log of the batch (a piece cut from it: the F1/10
+excerpts, BorealTC's snow runs pro_12 and pro_13) is left out alike, said as a "piece"
+problem; two logs that share a stretch of samples are both kept, the later with an
+"overlap" problem (`pipeline.pieces`: each worker's fingerprint carries its run's piece
+signature).
+
 A run_id names one run of the batch: of two different logs that give one run_id in their
 metadata or the manifest, the later is left out, listed in `skipped` with both files named:
 never merged into one run. Copies are found first, so a copy (which has its original's
@@ -23,6 +29,7 @@ from typing import TYPE_CHECKING, TypeVar
 
 from wifibot_power.io.discover import LogSource, Skipped
 from wifibot_power.io.options import ReadOptions
+from wifibot_power.pipeline import pieces  # no numpy until used: loaded before workers fork
 from wifibot_power.run import Problem, Run
 
 if TYPE_CHECKING:
@@ -82,6 +89,12 @@ def run_fingerprint(run: Run) -> str:
     return "/".join(parts)
 
 
+def batch_fingerprint(run: Run) -> str:
+    """What a worker returns to find copies and pieces: `run_fingerprint`, then the run's
+    piece signature (`pipeline.pieces`; both are the samples' alone)."""
+    return f"{run_fingerprint(run)}#{pieces.piece_signature(run).encode()}"
+
+
 def duplicate_keys(
     sources: list[LogSource],
     outcomes: list[tuple[bool, object]],
@@ -119,7 +132,7 @@ def duplicate_keys(
                 run = read_log(source.path, options, source.read_overrides, origin=source.origin)
         except Exception:  # noqa: BLE001 - analysed already: not compared, kept as distinct
             return f"unread {k}"
-        if run_fingerprint(run) != fingerprints[k]:  # changed since it was analysed
+        if batch_fingerprint(run) != fingerprints[k]:  # changed since it was analysed
             return f"changed {k}"
         return f"identity {run_identity(run)}"
 
@@ -138,32 +151,96 @@ def settle(
     on_problems: ProblemHook | None = None,
 ) -> list[object]:
     """The results of the batch, one per recording and per run_id, in the order of the logs:
-    a failed log's `Skipped` goes to `skipped`; a copy of a log before it is left out and
-    said as a "duplicate" problem; a different log with the run_id of a log before it is
-    left out as a `Skipped` naming both. `on_problems(file, problems)` is called for each
-    log read with problems (a copy's is its "duplicate")."""
+    a failed log's `Skipped` goes to `skipped`; a copy of a log before it, or a piece of
+    another log, is left out and said as a "duplicate" or "piece" problem; a log sharing
+    samples with another keeps an "overlap" problem; a different log with the run_id of a
+    log before it is left out as a `Skipped` naming both. `on_problems(file, problems)` is
+    called for each log read with problems."""
+    copies = _copies(keys)
+    piece_of, shared = _pieces(sources, outcomes, copies)
     results: list[object] = []
-    first_of: dict[str, str] = {}  # duplicate key -> the first file with it
     run_of: dict[str, str] = {}  # run_id -> the file of the run kept with it
-    for source, (ok, value), identity in zip(sources, outcomes, keys, strict=True):
+    for k, (source, (ok, value)) in enumerate(zip(sources, outcomes, strict=True)):
         if not ok:
             skipped.append(value)  # type: ignore[arg-type]
             continue
         problems, _, run_id, result = value  # type: ignore[misc]
         file = str(source.path)
-        if identity is not None and identity in first_of:  # a copy first: analysed once
-            problems = (_duplicate(first_of[identity], file),)
+        if k in copies:  # a copy first: analysed once
+            problems = (_duplicate(str(sources[copies[k]].path), file),)
+        elif k in piece_of:
+            problems = (piece_of[k],)
         elif run_id in run_of:  # another log: two runs under one name cannot be told apart
             skipped.append(_same_run_id(run_of[run_id], file, run_id))
             continue
         else:
             results.append(result)
             run_of[run_id] = file
-            if identity is not None:
-                first_of[identity] = file
+            problems = (*problems, *shared.get(k, ()))
         if problems and on_problems is not None:
             on_problems(file, problems)
     return results
+
+
+def _copies(keys: Sequence[str | None]) -> dict[int, int]:
+    """Each log that is a copy of a log before it -> that log's index."""
+    first_of: dict[str, int] = {}
+    copies: dict[int, int] = {}
+    for k, key in enumerate(keys):
+        if key is None:
+            continue
+        if key in first_of:
+            copies[k] = first_of[key]
+        else:
+            first_of[key] = k
+    return copies
+
+
+def _pieces(
+    sources: Sequence[LogSource], outcomes: Sequence[tuple[bool, object]], copies: dict[int, int]
+) -> tuple[dict[int, Problem], dict[int, list[Problem]]]:
+    """The logs that are pieces of another (index -> its "piece" problem) and those that
+    share samples with another ("overlap" problems), among the logs read, copies aside."""
+    signatures: list[str | None] = [None] * len(sources)
+    for k, (ok, value) in enumerate(outcomes):
+        fingerprint = value[1] if ok else None  # type: ignore[index]
+        if k not in copies and fingerprint is not None and "#" in fingerprint:
+            signatures[k] = fingerprint.split("#", 1)[1]
+    piece_of: dict[int, Problem] = {}
+    shared: dict[int, list[Problem]] = {}
+    for found in pieces.overlaps(signatures):
+        other = str(sources[found.other].path)
+        if found.is_piece:
+            piece_of.setdefault(found.this, _piece(other, found.offset))
+        elif found.this > found.other:  # said of the later log
+            shared.setdefault(found.this, []).append(_overlap(other, found.share, ours=True))
+        else:
+            this = str(sources[found.this].path)
+            shared.setdefault(found.other, []).append(_overlap(this, found.share, ours=False))
+    return piece_of, shared
+
+
+def _piece(other: str, offset: int) -> Problem:
+    return Problem(
+        "piece",
+        f"its samples are part of {other} (from its sample {offset}): analysed once, as "
+        f"{other} (give a recording once, whole or in pieces, not both)",
+    )
+
+
+def _overlap(other: str, share: float, *, ours: bool) -> Problem:
+    """`share` of the shorter log's samples are in the longer: this log's (`ours`) or
+    `other`'s."""
+    whose = (
+        f"about {share:.0%} of its samples are also in {other}"
+        if ours
+        else (f"it holds about {share:.0%} of the samples of {other}")
+    )
+    return Problem(
+        "overlap",
+        f"{whose}: a fit counts them twice, and the held-out check may test on samples it "
+        "was fitted on (give each stretch of a recording once)",
+    )
 
 
 def _same_run_id(first: str, this: str, run_id: str) -> Skipped:
