@@ -282,7 +282,7 @@ def main(argv: list[str]) -> None:
             many = int(arg.split("=", 1)[1])
     out: list[str] = [
         f"Printed by `.venv/bin/python benchmarks/validate_drive.py --seeds={seeds} "
-        f"--many={many}`{' --write-docs' if '--write-docs' in argv else ''}."
+        f"--many={many}{' --write-docs' if '--write-docs' in argv else ''}`."
     ]
     slow = {"sample_period_s": 1 / 6.5, "yaw_noise_radps": 0.03}
     coverage_suite(out, "Field realism (20 Hz logger)", range(many), realism="field")
