@@ -303,12 +303,10 @@ def main(argv: list[str]) -> None:
     text = "\n".join(out) + "\n"
     print(text, end="")
     if "--write-docs" in argv:
-        doc = DOCS.read_text()
-        if BEGIN not in doc or END not in doc:
-            raise SystemExit(f"{DOCS}: no {BEGIN} ... {END} markers")
-        head, _, rest = doc.partition(BEGIN)
-        _, _, tail = rest.partition(END)
-        DOCS.write_text(f"{head}{BEGIN}\n{text}{END}{tail}")
+        sys.path.insert(0, str(ROOT / "benchmarks"))
+        from validate_drive_real import write_between
+
+        write_between(DOCS, BEGIN, END, text)
 
 
 if __name__ == "__main__":
