@@ -2,19 +2,25 @@
 quote.
 
 1. The simulator (`simulate --drive free`, drive/simulate.py) at field realism, 2 surfaces,
-   12 runs of 90 s a seed, seeds 0..N-1 (default 20): how often each term's 95% interval
-   holds its true value, the mean estimate beside the truth, the lag found; held-out run
-   energy MAPE, median APE and how often the 90% intervals hold the measured energy.
-2. Stress rows, same size, 10 seeds each: a 6.5 Hz logger with odometry-grade rate of turn
-   (0.03 rad/s noise), and the lab (1 kHz, exact speed).
+   12 runs of 90 s a seed. First the identification alone over seeds 0..M-1 (default 200:
+   enough that 95% and 85% coverage are told apart, the Wilson interval of each share
+   printed): how often each term's 95% interval holds its true value, its bias in standard
+   errors and the seeds' spread over the mean standard error (a bias or a too narrow
+   interval). Then the whole fit over seeds 0..N-1 (default 20): the same per term, the lag
+   found, held-out run energy MAPE, median APE and how often the 90% intervals hold the
+   measured energy.
+2. Stress rows: a 6.5 Hz logger with odometry-grade rate of turn (0.03 rad/s noise; M/2 and
+   N/2 seeds), and the lab (1 kHz, exact speed; N/4 seeds).
 3. The paper's step runs (sample_logs/): the speed is their phases' trapezoid
    (stats.speed_from_phases); the drive model's mean acceleration and cruise power at each
    speed beside the paper model's lines P_acc(v), P_v(v) fitted to the same logs, with
    intervals; held-out energy error beside the paper model's (diagnose's baseline).
 
-    .venv/bin/python benchmarks/validate_drive.py [--seeds=N] [--no-steps]
+    .venv/bin/python benchmarks/validate_drive.py [--seeds=N] [--many=M] [--no-stress]
+        [--no-steps] [--write-docs]
 
-About 3 minutes for 20 seeds on 2 shared cores.
+`--write-docs` puts what it prints into docs/drive-model.md between its "simulator
+validation" markers. About 6 minutes with the defaults on 2 shared cores.
 """
 
 from __future__ import annotations
@@ -29,7 +35,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT)]
 
 from wifibot_power.drive import fit_drive  # noqa: E402
+from wifibot_power.drive.identify import identify, lag_search  # noqa: E402
 from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free  # noqa: E402
+from wifibot_power.drive.stats import drive_stats  # noqa: E402
+from wifibot_power.drive.windows import assemble, run_windows  # noqa: E402
+from wifibot_power.stats import t_quantile  # noqa: E402
 
 
 def _terms(model, config):
@@ -41,7 +51,85 @@ def _terms(model, config):
             yield f"{name}[{surface}]", value, model.surfaces.get(surface, {}).get(name)
 
 
-def simulator_suite(label: str, seeds: range, **config_args) -> None:
+def wilson95(hits: int, n: int) -> tuple[float, float]:
+    """The Wilson score 95% interval of a proportion hits/n [%] (Wilson 1927; Brown, Cai &
+    DasGupta 2001 recommend it over the normal approximation for n of tens to hundreds)."""
+    z = 1.959964
+    p = hits / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return 100 * (centre - half), 100 * (centre + half)
+
+
+def _identified(config: FreeDriveConfig):
+    """The identification alone (lag search and `identify`, as `fit_drive_stats` does it,
+    without its held-out folds): per true term, (estimate, standard error, interval holds)."""
+    stats = [drive_stats(as_run(r)) for r in simulate_free(config)]
+    runs = [run_windows(s) for s in stats]
+    surfaces = tuple(sorted({s for rw in runs for s in rw.stats.surfaces}))
+    lag_bins, _ = lag_search(runs, surfaces)
+    windows = assemble(runs, lag_bins, surfaces)
+    fitted = identify(windows, lag_bins, windows.run)
+    truth = config.truth()
+    true = dict(truth["terms"])
+    for surface, named in truth["surfaces"].items():
+        true.update({f"{name}[{surface}]": value for name, value in named.items()})
+    se = fitted.half_width() / t_quantile(0.975, fitted.dof)
+    ci = fitted.ci95()
+    out = {}
+    for j, column in enumerate(fitted.columns):
+        if column in true:
+            held = bool(ci[j, 0] <= true[column] <= ci[j, 1])
+            out[column] = (true[column], float(fitted.coef[j]), float(se[j]), held)
+    return out, lag_bins * runs[0].stats.bin_s
+
+
+def coverage_suite(out: list[str], label: str, seeds: range, **config_args) -> None:
+    """How often each term's 95% interval holds its truth over many seeds, with the Wilson
+    interval of that share, and whether a miss is a bias (mean - truth in standard errors)
+    or a too narrow interval (the seeds' sd over the mean standard error)."""
+    rows: dict[str, list[tuple[float, float, float, bool]]] = {}
+    lags = []
+    started = time.perf_counter()
+    for seed in seeds:
+        config = FreeDriveConfig(seed=seed, runs_per_surface=6, run_s=90.0, **config_args)
+        found, lag_s = _identified(config)
+        lags.append(lag_s)
+        for name, row in found.items():
+            rows.setdefault(name, []).append(row)
+    took = time.perf_counter() - started
+    out += [
+        f"\n### {label}: identification over {len(seeds)} seeds x 12 runs of 90 s, {took:.0f} s\n",
+        "| term | true | mean estimate | bias [SE] | sd over seeds / mean SE | "
+        "95% interval holds truth | its 95% interval |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    every = []
+    for name, values in rows.items():
+        true, estimate, se, held = (np.array(v, dtype=float) for v in zip(*values, strict=True))
+        hits = int(held.sum())
+        every.append(held)
+        low, high = wilson95(hits, held.size)
+        bias_se = (np.nanmean(estimate) - true[0]) / np.nanmean(se)
+        spread = np.nanstd(estimate, ddof=1) / np.nanmean(se)
+        out.append(
+            f"| {name} | {true[0]:g} | {np.nanmean(estimate):.3f} | {bias_se:+.2f} | "
+            f"{spread:.2f} | {100 * hits / held.size:.0f}% ({hits}/{held.size}) | "
+            f"{low:.0f}-{high:.0f}% |"
+        )
+    held = np.concatenate(every)
+    low, high = wilson95(int(held.sum()), held.size)
+    out.append(
+        f"| all terms | | | | | {100 * held.mean():.1f}% ({int(held.sum())}/{held.size}) | "
+        f"{low:.1f}-{high:.1f}% |"
+    )
+    out.append(
+        f"\nlag found: {np.mean(lags):.4f} s (sd over seeds {np.std(lags, ddof=1):.4f}; true "
+        f"{FreeDriveConfig().lag_s:g} s)"
+    )
+
+
+def simulator_suite(out: list[str], label: str, seeds: range, **config_args) -> None:
     hits: dict[str, list[bool]] = {}
     values: dict[str, list[float]] = {}
     truth_of: dict[str, float] = {}
@@ -61,37 +149,44 @@ def simulator_suite(label: str, seeds: range, **config_args) -> None:
         coverage.append(model.heldout.coverage_pi90_pct)
         n_trips.append(len(model.heldout.runs))
     took = time.perf_counter() - started
-    print(f"\n## {label}: {len(seeds)} seeds x 12 runs of 90 s, {took:.0f} s\n")
-    print("| term | true | mean estimate | sd over seeds | 95% interval holds truth |")
-    print("|---|---:|---:|---:|---:|")
+    out += [
+        f"\n### {label}: the whole fit over {len(seeds)} seeds x 12 runs of 90 s, {took:.0f} s\n",
+        "| term | true | mean estimate | sd over seeds | 95% interval holds truth |",
+        "|---|---:|---:|---:|---:|",
+    ]
     for name, got in hits.items():
         estimates = np.array(values[name])
-        print(
+        out.append(
             f"| {name} | {truth_of[name]:g} | {np.nanmean(estimates):.3f} | "
             f"{np.nanstd(estimates, ddof=1):.3f} | {100 * np.mean(got):.0f}% "
             f"({sum(got)}/{len(got)}) |"
         )
     all_hits = np.concatenate([np.array(h) for h in hits.values()])
-    print(f"| all terms | | | | {100 * all_hits.mean():.1f}% ({all_hits.sum()}/{all_hits.size}) |")
-    print(
+    out.append(
+        f"| all terms | | | | {100 * all_hits.mean():.1f}% ({all_hits.sum()}/{all_hits.size}) |"
+    )
+    trips = int(np.sum(n_trips))
+    held = int(round(np.sum(np.array(coverage) / 100 * np.array(n_trips))))
+    low, high = wilson95(held, trips)
+    out += [
         f"\nlag found: {np.mean(lags):.3f} s (sd {np.std(lags, ddof=1):.3f}; true "
-        f"{FreeDriveConfig().lag_s:g} s)"
-    )
-    print(
-        f"held-out trips ({np.sum(n_trips)} over the seeds, K-fold by trip): MAPE "
+        f"{FreeDriveConfig().lag_s:g} s)",
+        f"held-out trips ({trips} over the seeds, K-fold by trip): MAPE "
         f"{np.mean(mape):.2f}% (seeds: {np.min(mape):.2f}-{np.max(mape):.2f}%), median APE "
-        f"{np.mean(median):.2f}%, 90% intervals hold the measured energy in "
-        f"{np.mean(coverage):.1f}% (seeds: {np.min(coverage):.0f}-{np.max(coverage):.0f}%)"
-    )
+        f"{np.mean(median):.2f}%, 90% intervals hold the measured energy of {held} "
+        f"({100 * held / trips:.1f}%, Wilson 95% {low:.1f}-{high:.1f}%; seeds: "
+        f"{np.min(coverage):.0f}-{np.max(coverage):.0f}%)",
+    ]
 
 
-def step_suite() -> None:
+def step_suite(out: list[str]) -> None:
     from wifibot_power import diagnose_logs, fit_logs
     from wifibot_power.drive.profile import step_phase_powers
     from wifibot_power.io.discover import find_logs
     from wifibot_power.io.reader import read_log
     from wifibot_power.segment import segment_run
 
+    say = out.append
     logs = ROOT / "sample_logs"
     started = time.perf_counter()
     sources, _ = find_logs([logs])
@@ -106,19 +201,19 @@ def step_suite() -> None:
     paper = fit_logs([logs])
     table, _ = paper.tables()
     motion = table[table["usable"] & (table["mode"] == "motion")]
-    print(f"\n## The paper's step runs (sample_logs): {len(runs)} motion runs, "
+    say(f"\n## The paper's step runs (sample_logs): {len(runs)} motion runs, "
           f"{time.perf_counter() - started:.0f} s\n")  # fmt: skip
-    print("drive model terms (speed = the phases' trapezoid):")
+    say("drive model terms (speed = the phases' trapezoid):")
     for name, term in model.terms.items():
-        print(f"- {name}: {term.value:.3f} [{term.ci95[0]:.3f}, {term.ci95[1]:.3f}] {term.unit}")
+        say(f"- {name}: {term.value:.3f} [{term.ci95[0]:.3f}, {term.ci95[1]:.3f}] {term.unit}")
     for reason in model.not_determined:
-        print(f"- not determined: {reason}")
-    print(f"- lag {model.lag_s:.3f} s; warnings: {'; '.join(model.warnings) or 'none'}")
-    print(
+        say(f"- not determined: {reason}")
+    say(f"- lag {model.lag_s:.3f} s; warnings: {'; '.join(model.warnings) or 'none'}")
+    say(
         "\n| v [m/s] | t_acc [s] | P_acc paper fit [W] | P_acc drive [W] | within | "
         "P_v paper fit [W] | P_v drive [W] | within |"
     )
-    print("|---:|---:|---:|---:|:---:|---:|---:|:---:|")
+    say("|---:|---:|---:|---:|:---:|---:|---:|:---:|")
     for speed in sorted(motion["speed_mps"].round(2).unique()):
         rows = motion[motion["speed_mps"].round(2) == speed]
         t_acc = float(rows["t_acc_s"].mean())
@@ -136,7 +231,7 @@ def step_suite() -> None:
                 f"{value:.2f} [{d_low:.2f}, {d_high:.2f}]",
                 "yes" if overlap else "**no**",
             ]
-        print("| " + " | ".join(cells) + " |")
+        say("| " + " | ".join(cells) + " |")
     held = model.heldout
     baseline = diagnose_logs([logs])
     # like with like: the drive model's held-out error in J over each run's motion energy
@@ -147,7 +242,7 @@ def step_suite() -> None:
         for r in held.runs
         if r.run_id in motion_J
     ]
-    print(
+    say(
         f"\nheld-out energy error: drive model MAPE {held.mape_pct:.2f}% (median "
         f"{held.median_ape_pct:.2f}%, {len(held.runs)} trips incl. idle, 90% intervals hold "
         f"{held.coverage_pi90_pct:.0f}%); paper model (diagnose baseline, motion energy per "
@@ -173,23 +268,45 @@ def _line_band(speed, power, at: float) -> tuple[float, float]:
     return mid - half, mid + half
 
 
+DOCS = ROOT / "docs" / "drive-model.md"
+BEGIN, END = "<!-- simulator validation: begin -->", "<!-- simulator validation: end -->"
+
+
 def main(argv: list[str]) -> None:
     seeds = 20
+    many = 200
     for arg in argv:
         if arg.startswith("--seeds="):
             seeds = int(arg.split("=", 1)[1])
-    simulator_suite("Field realism (20 Hz logger)", range(seeds), realism="field")
+        if arg.startswith("--many="):
+            many = int(arg.split("=", 1)[1])
+    out: list[str] = [
+        f"Printed by `.venv/bin/python benchmarks/validate_drive.py --seeds={seeds} "
+        f"--many={many}{' --write-docs' if '--write-docs' in argv else ''}`."
+    ]
+    slow = {"sample_period_s": 1 / 6.5, "yaw_noise_radps": 0.03}
+    coverage_suite(out, "Field realism (20 Hz logger)", range(many), realism="field")
+    simulator_suite(out, "Field realism (20 Hz logger)", range(seeds), realism="field")
     if "--no-stress" not in argv:
-        slow = {"sample_period_s": 1 / 6.5, "yaw_noise_radps": 0.03}
-        simulator_suite(
-            "Stress: 6.5 Hz logger, odometry-grade rate of turn",
-            range(100, 100 + max(seeds // 2, 3)),
-            realism="field",
+        label = "Stress: 6.5 Hz logger, odometry-grade rate of turn"
+        coverage_suite(
+            out, label, range(100, 100 + max(many // 2, 3)), realism="field",
             realism_overrides=slow,
-        )
-        simulator_suite("Lab (1 kHz)", range(200, 200 + max(seeds // 4, 3)), realism="lab")
+        )  # fmt: skip
+        simulator_suite(
+            out, label, range(100, 100 + max(seeds // 2, 3)), realism="field",
+            realism_overrides=slow,
+        )  # fmt: skip
+        simulator_suite(out, "Lab (1 kHz)", range(200, 200 + max(seeds // 4, 3)), realism="lab")
     if "--no-steps" not in argv:
-        step_suite()
+        step_suite(out)
+    text = "\n".join(out) + "\n"
+    print(text, end="")
+    if "--write-docs" in argv:
+        sys.path.insert(0, str(ROOT / "benchmarks"))
+        from validate_drive_real import write_between
+
+        write_between(DOCS, BEGIN, END, text)
 
 
 if __name__ == "__main__":

@@ -733,13 +733,19 @@ def main(argv: list[str] | None = None) -> int:
     text = report()
     print(text, end="")
     if args.write_docs:
-        doc = DOCS.read_text()
-        if BEGIN not in doc or END not in doc:
-            raise SystemExit(f"{DOCS}: no {BEGIN} ... {END} markers")
-        head, _, rest = doc.partition(BEGIN)
-        _, _, tail = rest.partition(END)
-        DOCS.write_text(f"{head}{BEGIN}\n{text}{END}{tail}")
+        write_between(DOCS, BEGIN, END, text)
     return 0
+
+
+def write_between(path: Path, begin: str, end: str, text: str) -> None:
+    """Replace what `path` holds between its `begin` and `end` marker lines with `text` (the
+    docs' generated tables: validate_drive.py uses it too)."""
+    doc = path.read_text()
+    if begin not in doc or end not in doc:
+        raise SystemExit(f"{path}: no {begin} ... {end} markers")
+    head, _, rest = doc.partition(begin)
+    _, _, tail = rest.partition(end)
+    path.write_text(f"{head}{begin}\n{text}{end}{tail}")
 
 
 if __name__ == "__main__":

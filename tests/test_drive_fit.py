@@ -149,7 +149,8 @@ def _check_profile(logs, model) -> None:
     doc = json.loads(result.stdout)
     low, high = doc["pi90_J"]
     assert low < doc["measured_J"] < high
-    assert abs(sum(doc["terms_J"].values()) - doc["energy_J"]) < 1e-6 * doc["energy_J"]
+    shares_J = sum(doc["terms_J"].values()) + doc["undetermined_J"]
+    assert abs(shares_J - doc["energy_J"]) < 1e-6 * doc["energy_J"]
 
 
 def _check_exports(model) -> None:
@@ -251,7 +252,10 @@ def test_drive_power_figure_and_report_on_free_driving(free, tmp_path):
         stats = drive_stats(read_log(logs / f"{trace.run_id}.csv"))
         measured_J, in_sample_J = drive.run_energy_J(stats)
         window_s = float(np.diff(trace.time_s).min())
-        assert abs(trace.measured_W.sum() * window_s - measured_J) < 1e-6 * measured_J
+        # (the same windows; the power at the fold's lag, which is the model's to 0.002 bin:
+        # the windows' sum moves by that times the power at the run's ends, 0.005 J of
+        # 2614 J here; one window more or less would be 6-44 J)
+        assert abs(trace.measured_W.sum() * window_s - measured_J) < 1e-5 * measured_J
         heldout_J = trace.predicted_W.sum() * window_s
         assert abs(heldout_J - in_sample_J) > 1e-3 * measured_J
         assert not np.allclose(trace.predicted_W, trace.measured_W)

@@ -68,17 +68,24 @@ def test_step_runs_give_the_terms_and_the_phase_powers():
     assert any("trapezoid" in w for w in model.warnings)
 
 
-def _hand_model() -> DriveModel:
+def _hand_model(undetermined: tuple[str, ...] = ()) -> DriveModel:
     # the columns of a model.json written before turning_coulomb_W was a term: the model is
-    # put on this version's design (that term not determined) and predicts as it did
+    # put on this version's design (that term not determined) and predicts as it did;
+    # `undetermined`: terms kept in the fit but reported as not determined (too loose)
     columns = (
         "idle_W", "drive_on_W", "rolling_W_per_mps[floor]", "quadratic_W_per_mps2",
         "effective_mass_kg", "braking_mass_kg", "turning_Nm[floor]",
     )  # fmt: skip
     coef = (10.0, 2.0, 20.0, 0.0, 30.0, 5.0, 40.0)
+    shown = {
+        column.split("[")[0]: TermValue(value, (value - 1, value + 1), "")
+        for column, value in zip(columns, coef, strict=True)
+        if column.split("[")[0] not in undetermined
+    }
+    per_surface = {"rolling_W_per_mps", "turning_Nm"}
     return DriveModel(
-        terms={"idle_W": TermValue(10.0, (9.0, 11.0), "W")},
-        surfaces={},
+        terms={k: v for k, v in shown.items() if k not in per_surface},
+        surfaces={"floor": {k: v for k, v in shown.items() if k in per_surface}},
         lag_s=0.0,
         n_runs=1,
         heldout=None,
@@ -112,7 +119,26 @@ def test_route_energy_and_its_terms_by_hand():
     assert_allclose(result.distance_m, 4.0, rtol=0.01)
     assert result.pi90_J is None and set(result.summary()) == {
         "energy_J", "pi90_J", "time_s", "distance_m", "mean_power_W", "terms_J",
+        "undetermined_J", "undetermined_terms",
     }  # fmt: skip
+    assert result.undetermined_J == 0 and result.undetermined_terms == ()
+
+
+def test_route_energy_gives_no_share_to_an_undetermined_term_under_its_name():
+    # braking and turning kept in the fit but reported as not determined: their shares are
+    # one sum beside the determined terms, the energy unchanged (it was listed under each
+    # term's name, like a determined term's)
+    t = np.arange(0, 20, 0.01)
+    yaw = np.where((t >= 4) & (t < 10), 0.5, 0.0)
+    v = np.where((t >= 12) & (t < 16), 1.0, 0.0)
+    every = route_energy(_hand_model(), t, v, yaw)
+    result = route_energy(_hand_model(("braking_mass_kg", "turning_Nm")), t, v, yaw)
+    assert_allclose(result.energy_J, every.energy_J, rtol=1e-12)
+    assert {"braking_mass_kg", "turning_Nm"}.isdisjoint(result.terms_J)
+    assert result.undetermined_terms == ("braking_mass_kg", "turning_Nm")
+    # by hand: 40 N m x 0.5 rad/s x 6 s - 5 x 1/2
+    assert_allclose(result.undetermined_J, 120 - 2.5, rtol=0.02)
+    assert_allclose(sum(result.terms_J.values()) + result.undetermined_J, result.energy_J)
 
 
 def test_energy_profile_command(tmp_path):
@@ -139,6 +165,14 @@ def test_energy_profile_command(tmp_path):
     assert answer["pi90_J"] is None and "turning_Nm" in answer["terms_J"]
     table = runner.invoke(app, args)
     assert table.exit_code == 0 and "total" in table.stdout
+    assert "not determined" not in table.stdout
+    model_json.write_text(json.dumps({"drive": _hand_model(("braking_mass_kg",)).to_json()}))
+    answer = json.loads(runner.invoke(app, [*args, "--json"]).stdout)
+    assert "braking_mass_kg" not in answer["terms_J"]
+    assert answer["undetermined_terms"] == ["braking_mass_kg"]
+    assert_allclose(answer["undetermined_J"], -2.5, rtol=0.02)
+    table = runner.invoke(app, args)
+    assert "not determined (braking_mass_kg)" in table.stdout
     bad = runner.invoke(app, ["energy", "--profile", str(route), "--model", "paper"])
     assert bad.exit_code == 2 and "drive model" in bad.output
     route.write_text("time_s,speed\n0,1\n1,1\n")

@@ -257,6 +257,9 @@ def _route(profile: Path, model: str, json_out: bool) -> None:
     pi = summary["pi90_J"]
     caption = f"90% interval {pi[0]:.1f}-{pi[1]:.1f} J" if pi else "no held-out interval"
     rows = [[name, f"{joules:.1f}"] for name, joules in result.terms_J.items()]
+    if result.undetermined_terms:  # one share: the logs could not tell these terms apart
+        label = f"not determined ({', '.join(result.undetermined_terms)})"
+        rows.append([label, f"{result.undetermined_J:.1f}"])
     rows.append(["total", f"{result.energy_J:.1f}"])
     title = f"{result.distance_m:.1f} m in {result.time_s:.1f} s, mean {result.mean_power_W:.2f} W"
     if run is not None:

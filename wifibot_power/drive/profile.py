@@ -3,8 +3,14 @@ route's time, speed and optionally rate of turn and surface go through the same 
 windows as a log (stats.py, windows.py), and the model's terms give each window's power.
 
 - `energy_J`: the sum over windows of the predicted mean power times the window's duration;
-- `terms_J`: how much of it each term accounts for (its coefficient times its regressor,
-  summed: the terms add up to `energy_J`);
+- `terms_J`: how much of it each determined term accounts for (its coefficient times its
+  regressor, summed), by the term's name;
+- `undetermined_J`: the share of the terms the logs did not determine (reported as not
+  determined, too loose to mean anything, but kept in the fit: identify.py `_honest`), one
+  sum, not split by name: the data could not tell them apart from the others, so a share
+  under a term's name would be a number that only looks exact. `undetermined_terms` names
+  them; `terms_J` and `undetermined_J` add up to `energy_J` (cli.md is silent on such terms:
+  the two keys are added to its object);
 - `pi90_J`: a 90% prediction interval for the energy a run of this route would measure, from
   the run-to-run spread of held-out errors (heldout.py): energy x (1 +- t(0.95, n-1) x rms x
   sqrt(1 + 1/n)); none when the model has no held-out accuracy;
@@ -38,6 +44,8 @@ class RouteEnergy:
     mean_ci95_W: tuple[float, float]
     terms_J: dict[str, float]
     warnings: tuple[str, ...] = ()
+    undetermined_J: float = 0.0
+    undetermined_terms: tuple[str, ...] = ()
 
     def summary(self) -> dict[str, object]:
         """cli.md's `energy --profile --json` object."""
@@ -48,6 +56,8 @@ class RouteEnergy:
             "distance_m": self.distance_m,
             "mean_power_W": self.mean_power_W,
             "terms_J": dict(self.terms_J),
+            "undetermined_J": self.undetermined_J,
+            "undetermined_terms": list(self.undetermined_terms),
         }
 
 
@@ -88,12 +98,9 @@ def route_energy(
     kept = np.isfinite(coef)
     contributions_J = windows.design[:, kept] * coef[kept] * windows.window_s
     energy_J = float(contributions_J.sum())
-    terms_J: dict[str, float] = {}
-    for column, joules in zip(
-        np.array(model.columns)[kept], contributions_J.sum(axis=0), strict=True
-    ):
-        name = str(column).split("[", 1)[0]
-        terms_J[name] = terms_J.get(name, 0.0) + float(joules)
+    terms_J, undetermined_J, undetermined = _shares(
+        model, surface, np.array(model.columns)[kept], contributions_J.sum(axis=0)
+    )
     used = np.any(windows.design[:, ~kept] != 0, axis=0)
     for column in np.array(model.columns)[~kept][used]:
         warnings.append(f"the route needs {column}, which the logs did not determine: left out")
@@ -117,7 +124,31 @@ def route_energy(
         mean_ci95_W=(mean_W - half_W, mean_W + half_W),
         terms_J=terms_J,
         warnings=tuple(warnings),
+        undetermined_J=undetermined_J,
+        undetermined_terms=undetermined,
     )
+
+
+def _shares(
+    model: DriveModel, surface: str, columns: np.ndarray, joules: np.ndarray
+) -> tuple[dict[str, float], float, tuple[str, ...]]:
+    """Each fitted column's energy [J] under its term's name where the model reports the term
+    (`model.terms`, or the surface's `model.surfaces`), else summed into one undetermined
+    share with the names of its terms (module docstring)."""
+    shown = set(model.terms) | set(model.surfaces.get(surface, {}))
+    terms_J: dict[str, float] = {}
+    undetermined_J = 0.0
+    undetermined: list[str] = []
+    for column, share_J in zip(columns, joules, strict=True):
+        name, _, rest = str(column).partition("[")
+        if rest and rest[:-1] != surface:  # another surface's column: 0 on this route
+            continue
+        if name in shown:
+            terms_J[name] = terms_J.get(name, 0.0) + float(share_J)
+        else:
+            undetermined_J += float(share_J)
+            undetermined += [] if name in undetermined else [name]
+    return terms_J, undetermined_J, tuple(undetermined)
 
 
 def step_phase_powers(
