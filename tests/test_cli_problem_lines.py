@@ -81,3 +81,16 @@ def test_duplicates_are_said_for_every_file(tmp_path, wbpower):
     duplicates = [line for line in result.stderr.splitlines() if "the same samples as" in line]
     assert len(duplicates) == n_files - 1, result.stderr
     assert "more problem(s) of kind 'duplicate'" not in result.stderr
+
+
+def test_one_file_past_the_first_few_is_said_as_any_file(tmp_path, wbpower):
+    """One more file with problems of a kind than `PROBLEM_FILES_SAID`: its own lines (a
+    count of one file's problems would say less in as many lines)."""
+    from wifibot_power.cli.common import PROBLEM_FILES_SAID
+
+    for i in range(PROBLEM_FILES_SAID + 1):
+        _log_with_drop_outs(tmp_path / f"log{i}.csv", 1, offset_W=i)
+    result = wbpower("inspect", tmp_path)
+    assert "more problem(s)" not in result.stderr
+    for i in range(PROBLEM_FILES_SAID + 1):
+        assert f"log{i}.csv: line " in result.stderr, result.stderr

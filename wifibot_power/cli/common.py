@@ -452,6 +452,8 @@ class _ProblemsLeft:
     files: int = 0
     problems: int = 0
     duration_s: float = 0.0
+    #: the first such file and its problems: said as any file's when it is the only one
+    first: tuple[str, list[Problem]] | None = None
 
 
 #: kind -> the files with problems of that kind said so far, and what was left unsaid
@@ -481,26 +483,36 @@ def warn_problems(file: str, problems: tuple[Problem, ...]) -> None:
             files = said_files.setdefault(kind, set())
             if file not in files and len(files) >= PROBLEM_FILES_SAID:
                 tally = left.setdefault(kind, _ProblemsLeft())
+                tally.first = tally.first or (file, items)
                 tally.files += 1
                 tally.problems += len(items)
                 tally.duration_s += sum(p.duration_s or 0.0 for p in items)
                 continue
             files.add(file)
-        for problem in items[:PROBLEMS_SAID]:
-            warn(f"{file}: {problem.message}")
-        rest = items[PROBLEMS_SAID:]
-        if rest:
-            durations = [p.duration_s for p in rest if p.duration_s is not None]
-            in_all = f", {sum(durations):.4g} s in all" if durations else ""
-            warn(
-                f"{file}: and {len(rest)} more of kind '{kind}' like these{in_all} (each in "
-                "'wbpower inspect FILE --json', problems)"
-            )
+        _say_file_problems(file, kind, items)
+
+
+def _say_file_problems(file: str, kind: str, items: list[Problem]) -> None:
+    """A file's problems of one kind: the first `PROBLEMS_SAID`, then one line for the rest."""
+    for problem in items[:PROBLEMS_SAID]:
+        warn(f"{file}: {problem.message}")
+    rest = items[PROBLEMS_SAID:]
+    if rest:
+        durations = [p.duration_s for p in rest if p.duration_s is not None]
+        in_all = f", {sum(durations):.4g} s in all" if durations else ""
+        warn(
+            f"{file}: and {len(rest)} more of kind '{kind}' like these{in_all} (each in "
+            "'wbpower inspect FILE --json', problems)"
+        )
 
 
 def _say_problems_left() -> None:
-    """One warning per kind for the problems `warn_problems` counted and did not say."""
+    """One warning per kind for the problems `warn_problems` counted and did not say (one
+    file's are said as any file's: a count would say less in as many lines)."""
     for kind, tally in (_PROBLEMS_LEFT.get() or {}).items():
+        if tally.files == 1 and tally.first is not None:
+            _say_file_problems(tally.first[0], kind, tally.first[1])
+            continue
         in_all = f", {tally.duration_s:.4g} s in all" if tally.duration_s > 0 else ""
         warn(
             f"and {tally.problems} more problem(s) of kind '{kind}' in {tally.files} more "
