@@ -147,7 +147,11 @@ def _diagnosis(
         baseline_pred = refit_pred
     else:
         baseline_model = reference
-        baseline_pred = predict_motion_energy_J(reference, batch.motion)
+        # as given: it knows nothing of a run's own idle level, so it is judged on the
+        # energies as measured (the offsets `_run_table` adds back are taken off here)
+        baseline_pred = predict_motion_energy_J(reference, batch.motion) - batch.motion[
+            IDLE_OFFSET_J
+        ].to_numpy(np.float64)
     baseline_rmse, baseline_mape = rmse_mape(measured, baseline_pred)
     # causes are selected against the paper-form model refitted to these logs, whatever
     # the reported baseline is
