@@ -98,15 +98,16 @@ class SpeedQuadratic(Cause):
         # acceleration rows only: a row of acceleration and cruise together is mostly cruise
         mixed, _ = mixed_rows(table.runs, [*table.given, self.name])
         accel_only[:n] = np.where(mixed, 0.0, X[:n, j])
+        # the split with acceleration's k2 as a coefficient of its own: its sign's test
+        own = X.copy()
+        own[:n, j] = np.where(mixed, X[:n, j], 0.0)
+        p_negative = 1.0 - ols(np.column_stack([own, accel_only]), y).p_greater(X.shape[1])
+        # and with the acceleration-only extra k2 beside the common one: the difference
         split = ols(np.column_stack([X, accel_only]), y)
         k2_cruise = float(split.coef[j])
         k2_accel = k2_cruise + float(split.coef[-1])
         p_diff = split.p_two_sided(X.shape[1])
         differ = p_diff < CHECK_ALPHA and abs(k2_accel - k2_cruise) > SAME_FRACTION * abs(k2_cruise)
-        # the same split with acceleration's k2 as a coefficient of its own: its sign's test
-        own = X.copy()
-        own[:n, j] = np.where(mixed, X[:n, j], 0.0)
-        p_negative = 1.0 - ols(np.column_stack([own, accel_only]), y).p_greater(X.shape[1])
         ok = k2_cruise > 0 and not differ and not p_negative < CHECK_ALPHA
         return Check(
             "same k2 > 0 in acceleration and cruise",
