@@ -62,3 +62,35 @@ def test_thermal_drift_at_field_realism_is_named_with_its_interval_above_zero():
     assert [f.cause for f in result.findings] == ["thermal_drift"]
     (finding,) = result.findings
     assert finding.gain_ci95[0] > 0
+
+
+def test_refer_to_batch_idle_moves_each_motion_run_by_its_own_offset():
+    """By hand: idle levels 24.0 and 23.0 W (mean 23.5): offsets +0.5 and -0.5 W off every
+    phase mean, and off each phase's energy times its duration (energy / mean); a motion
+    run without idle phases and a run of another mode are left as they are."""
+    import pandas as pd
+
+    from wifibot_power.diagnose.idle import IDLE_OFFSET_J, refer_to_batch_idle
+
+    runs = pd.DataFrame(
+        {
+            "mode": ["motion", "motion", "motion", "idle"],
+            "idle_mean_power_W": [24.0, 23.0, float("nan"), 23.3],
+            "idle_duration_s": [5.0, 5.0, 0.0, 60.0],
+            "accel_mean_power_W": [30.0, 30.0, 30.0, float("nan")],
+            "accel_energy_J": [30.0, 60.0, 30.0, 0.0],
+            "cruise_mean_power_W": [28.0, 28.0, 28.0, float("nan")],
+            "cruise_energy_J": [280.0, 280.0, 280.0, 0.0],
+            "decel_mean_power_W": [float("nan")] * 4,
+            "decel_energy_J": [0.0] * 4,
+            "motion_energy_J": [310.0, 340.0, 310.0, 0.0],
+        }
+    )
+    out = refer_to_batch_idle(runs)
+    np.testing.assert_allclose(out["accel_mean_power_W"][:3], [29.5, 30.5, 30.0])
+    np.testing.assert_allclose(out["cruise_energy_J"][:3], [280 - 0.5 * 10, 280 + 0.5 * 10, 280])
+    np.testing.assert_allclose(out["accel_energy_J"][:3], [30 - 0.5 * 1, 60 + 0.5 * 2, 30])
+    np.testing.assert_allclose(out[IDLE_OFFSET_J], [0.5 * 11, -0.5 * 12, 0.0, 0.0])
+    np.testing.assert_allclose(out["motion_energy_J"], [310 - 5.5, 340 + 6.0, 310.0, 0.0])
+    np.testing.assert_allclose(out["idle_mean_power_W"][:2], [23.5, 23.5])
+    assert out["idle_mean_power_W"][3] == 23.3 and out["idle_offset_W"][3] == 0.0

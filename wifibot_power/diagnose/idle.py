@@ -18,7 +18,7 @@ its intercepts; the per-run offset is a known, measured part of each run, as
 `thermal_drift.above_idle_ratio` already takes it). The batch's level is the mean of its
 motion runs' own levels. A run without idle phases keeps its values (offset 0). The
 diagnosis reports energies as measured: the offsets are added back to the measured and
-the predicted energies alike (`offset_J`), which leaves every error as it is.
+the predicted energies alike (`IDLE_OFFSET_J`), which leaves every error as it is.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ def refer_to_batch_idle(runs: pd.DataFrame) -> pd.DataFrame:
     for mean, energy in PHASES:
         mean_W, energy_J = runs[mean].to_numpy(np.float64), runs[energy].to_numpy(np.float64)
         with np.errstate(invalid="ignore", divide="ignore"):
-            seconds = np.nan_to_num(energy_J / mean_W)
+            seconds = np.nan_to_num(energy_J / mean_W, nan=0.0, posinf=0.0, neginf=0.0)
         motion_s += seconds
         runs[mean] = mean_W - offset_W
         runs[energy] = energy_J - offset_W * seconds
