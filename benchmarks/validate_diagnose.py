@@ -82,23 +82,20 @@ def case(args: tuple[str, tuple[str, ...], int, dict[str, float]]) -> dict:
 
 def irreducible_rmse_J(sims: list, idle_W: float) -> float:
     """RMSE of the motion energy that no model of the runs' configurations can predict,
-    approximately: each run's idle offset over its motor-on time (less the batch's mean
-    offset, which the fitted lines take up) and its share of the run-to-run spread of
-    motion power (`simulate --realism field`; both 0 in the lab). 1 - this / the baseline
-    RMSE approximates the most a held-out gain can be; the fitted lines' own error is left
-    out, so a model can come out a few points above it (null batches: -6 to 10%)."""
-    offsets, on_s, spread_J = [], [], []
+    approximately: each run's share of the run-to-run spread of motion power (`simulate
+    --realism field`; 0 in the lab). Each run's idle offset is not in it: diagnose measures
+    it in the run's own idle phases and takes it off (diagnose/idle.py). 1 - this / the
+    baseline RMSE approximates the most a held-out gain can be; the fitted lines' own error
+    is left out, so a model can come out a few points above it."""
+    spread_J = []
     for sim in sims:
         if sim.run.meta.mode != "motion":
             continue
         truth = sim.truth
         offset_W, spread = truth.get("idle_offset_W", 0.0), truth.get("motion_spread_rel", 0.0)
         above_J = truth["motion_energy_J"] - (idle_W + offset_W) * truth["motor_on_s"]
-        offsets.append(offset_W)
-        on_s.append(truth["motor_on_s"])
         spread_J.append(above_J * spread / (1.0 + spread))
-    offsets_W = np.asarray(offsets) - np.mean(offsets)
-    misses = offsets_W * np.asarray(on_s) + np.asarray(spread_J)
+    misses = np.asarray(spread_J)
     return float(np.sqrt(np.mean(np.square(misses))))
 
 

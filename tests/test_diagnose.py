@@ -168,16 +168,52 @@ def test_a_ripple_too_small_to_name_is_a_note_not_unexplained():
     assert any(n.text.startswith("cruise_ripple") for n in result.notes)
 
 
+def _moving(sim) -> np.ndarray:
+    """The samples of a simulated run's true motion phases."""
+    dt_s, mask = sim.run.sample_period_s, np.zeros(sim.run.power_W.size, dtype=bool)
+    for phase in sim.truth["phases"]:
+        if phase["phase"] != "idle":
+            mask[round(phase["t_start_s"] / dt_s) : round(phase["t_end_s"] / dt_s)] = True
+    return mask
+
+
 def test_a_heldout_run_does_not_change_its_own_baseline_prediction():
-    config = SimConfig(**GRID, seed=71)
-    runs = [s.run for s in simulate_runs(config)]
+    """Its motion power 20% higher: its measured energy moves, the prediction made without
+    its fold does not (its idle phases, which the prediction reads, are left as they were)."""
+    sims = simulate_runs(SimConfig(**GRID, seed=71))
+    runs = [s.run for s in sims]
     before = diagnose_runs(runs).runs.set_index("run_id")
-    victim = next(r for r in runs if r.meta.mode == "motion")
-    changed = [replace(r, power_W=r.power_W * 1.2) if r is victim else r for r in runs]
+    victim = next(s for s in sims if s.run.meta.mode == "motion")
+    boosted = victim.run.power_W * np.where(_moving(victim), 1.2, 1.0)
+    changed = [replace(r, power_W=boosted) if r is victim.run else r for r in runs]
     after = diagnose_runs(changed).runs.set_index("run_id")
-    run_id = victim.meta.run_id
+    run_id = victim.run.meta.run_id
     assert after.loc[run_id, "measured_energy_J"] > before.loc[run_id, "measured_energy_J"] * 1.1
-    assert after.loc[run_id, "baseline_energy_J"] == before.loc[run_id, "baseline_energy_J"]
+    assert after.loc[run_id, "baseline_energy_J"] == pytest.approx(
+        before.loc[run_id, "baseline_energy_J"], rel=1e-6
+    )
+
+
+def test_a_runs_own_idle_level_moves_its_prediction_by_that_level_over_its_motion():
+    """diagnose/idle.py: a run's whole trace 0.5 W higher (its electronics' draw that run)
+    is not motion: its measured energy and both predictions move by 0.5 W times its time in
+    motion, its errors do not, and no other run's prediction moves. Taking the referral out
+    (or adding the offset back to one side only) fails this."""
+    sims = simulate_runs(SimConfig(**GRID, seed=71))
+    runs = [s.run for s in sims]
+    before = diagnose_runs(runs).runs.set_index("run_id")
+    victim = next(s for s in sims if s.run.meta.mode == "motion")
+    changed = [replace(r, power_W=r.power_W + 0.5) if r is victim.run else r for r in runs]
+    after = diagnose_runs(changed).runs.set_index("run_id")
+    run_id = victim.run.meta.run_id
+    motion_s = _moving(victim).sum() * victim.run.sample_period_s
+    for column in ("measured_energy_J", "baseline_energy_J", "extended_energy_J"):
+        moved = after.loc[run_id, column] - before.loc[run_id, column]
+        assert moved == pytest.approx(0.5 * motion_s, rel=0.01), column
+    others = after.index != run_id
+    np.testing.assert_allclose(
+        after.loc[others, "baseline_energy_J"], before.loc[others, "baseline_energy_J"], rtol=1e-6
+    )
 
 
 def test_a_given_model_is_the_baseline_as_it_is():

@@ -275,3 +275,22 @@ def test_diagnose_loads_pandas_beside_its_workers_not_before(tmp_path) -> None:
     assert len(tasks) >= 6 and all(pid != parent for pid, _ in tasks)
     assert {inherited for _, inherited in tasks} == {"False"}
     assert (loaded_before, loaded_after) == ("False", "True")
+
+
+def test_a_true_k2_whose_acceleration_estimate_reads_negative_is_still_named():
+    """speed_quadratic (6.08 W/(m/s)²) beside start_transient (4.36 J) at field realism,
+    seed 3 (validate_offcat's pair): acceleration's own k2 reads -0.15 beside 5.76 in
+    cruise, its standard error ~3 (difference p = 0.07). The check once failed on that sign
+    alone; it fails only when acceleration's k2 is shown below zero or different."""
+    from test_diagnose_idle import FIELD
+
+    from wifibot_power.diagnose import diagnose_runs
+    from wifibot_power.simulate import SimConfig, simulate_runs
+
+    effects = {"speed_quadratic": 6.082208291569159, "start_transient": 4.362050556457076}
+    sims = simulate_runs(SimConfig(**FIELD, effects=effects, seed=3))
+    result = diagnose_runs([s.run for s in sims])
+    assert sorted(f.cause for f in result.findings) == ["speed_quadratic", "start_transient"]
+    (finding,) = [f for f in result.findings if f.cause == "speed_quadratic"]
+    (same,) = [c for c in finding.checks if c.check.startswith("same k2")]
+    assert same.passed and "k2 -0.1" in same.detail, same.detail

@@ -22,6 +22,7 @@ from wifibot_power.diagnose.folds import (
     missing_data,
     rmse_mape,
 )
+from wifibot_power.diagnose.idle import IDLE_OFFSET_J, refer_to_batch_idle
 from wifibot_power.diagnose.intervals import energy_errors, gain_ci95, gain_deals
 from wifibot_power.diagnose.result import (
     KEPT_IN_DOUBT,
@@ -94,7 +95,8 @@ def diagnose_summaries(
     for row in runs[~runs["usable"]].itertuples():
         skipped.append(Skipped(str(row.file), f"{row.file}: {row.skip_reason}"))
     doubted = doubted_motion_reason(runs)
-    runs = runs[runs["usable"]]
+    # each motion run on the batch's idle level: its own idle draw is not motion (`idle`)
+    runs = refer_to_batch_idle(runs[runs["usable"]])
     motion = motion_runs(runs)
     if not enough_to_choose(motion):
         raise _too_few(motion, skipped)
@@ -145,7 +147,11 @@ def _diagnosis(
         baseline_pred = refit_pred
     else:
         baseline_model = reference
-        baseline_pred = predict_motion_energy_J(reference, batch.motion)
+        # as given: it knows nothing of a run's own idle level, so it is judged on the
+        # energies as measured (the offsets `_run_table` adds back are taken off here)
+        baseline_pred = predict_motion_energy_J(reference, batch.motion) - batch.motion[
+            IDLE_OFFSET_J
+        ].to_numpy(np.float64)
     baseline_rmse, baseline_mape = rmse_mape(measured, baseline_pred)
     # causes are selected against the paper-form model refitted to these logs, whatever
     # the reported baseline is
@@ -279,7 +285,9 @@ def _findings(
 
 def _run_table(batch: Batch, baseline_pred: np.ndarray, extended_pred: np.ndarray) -> pd.DataFrame:
     """A row per motion run: its configuration, fold, measured, baseline and extended
-    energy and errors, and the columns each cause's figure panels read."""
+    energy and errors, and the columns each cause's figure panels read. Energies as
+    measured: each run's idle offset (`idle`), taken off to compare runs, is added back to
+    the measured and the predicted energies alike."""
     table = batch.motion[
         [
             "run_id",
@@ -293,7 +301,9 @@ def _run_table(batch: Batch, baseline_pred: np.ndarray, extended_pred: np.ndarra
             *(c for cause in CAUSES.values() for c in cause.table_columns),
         ]
     ].copy()
-    measured = batch.measured
+    back_J = batch.motion[IDLE_OFFSET_J].to_numpy(np.float64)
+    measured = batch.measured + back_J
+    baseline_pred, extended_pred = baseline_pred + back_J, extended_pred + back_J
     table["fold"] = batch.folds
     table["measured_energy_J"] = measured
     table["baseline_energy_J"] = baseline_pred
