@@ -443,7 +443,7 @@ def sets() -> dict[str, list[Path]]:
     found = {}
     root = real_drive_root()
     for folder in sorted(p for p in root.glob("*") if p.is_dir()):
-        files = sorted(folder.rglob("*.csv.gz"))
+        files = without_pieces(sorted(folder.rglob("*.csv.gz")))
         if files:
             found[folder.name] = files
     sys.path.insert(0, str(HERE / "real_logs"))
@@ -453,6 +453,27 @@ def sets() -> dict[str, list[Path]]:
     if f1 is not None:  # the three sides of the logger's gaps (the whole log has them)
         found["f1tenth"] = [f1 / n for n in ("ds5_a.csv.gz", "ds5_b.csv.gz", "ds5_c.csv.gz")]
     return found
+
+
+def without_pieces(files: list[Path]) -> list[Path]:
+    """`files` less each that is a piece of another (wbpower's rule, pipeline/pieces.py: as
+    `fit` leaves them out): BorealTC's snow run pro_12 is the first 183 rows of pro_13, and a
+    trip in both would sit in a fit and its held-out fold at once. Said on stderr."""
+    from wifibot_power.errors import WbpowerError  # noqa: PLC0415
+    from wifibot_power.io import read_log as read_run  # noqa: PLC0415
+    from wifibot_power.pipeline.pieces import overlaps, piece_signature  # noqa: PLC0415
+
+    def signature(path: Path) -> str | None:
+        try:
+            return piece_signature(read_run(path)).encode()
+        except WbpowerError:  # a log wbpower refuses (several sessions in one): kept here
+            return None
+
+    signatures = [signature(path) for path in files]
+    pieces = {o.this: o.other for o in overlaps(signatures) if o.is_piece}
+    for this, other in sorted(pieces.items()):
+        print(f"left out: {files[this]} is a piece of {files[other]}", file=sys.stderr)
+    return [path for k, path in enumerate(files) if k not in pieces]
 
 
 #: a Husky motor's current standing still [A] (convert_borealtc.py): a side at or under it
