@@ -1,6 +1,7 @@
 """The per-file part of `fit` (issue 25: "fit of a free-driving corpus within 1.5x a bare pyarrow
 parse") timed against the bare parse of the same files, alternating, each in a fresh process
-measured as `make bench` measures (`measure.measure`: wall, CPU of all its processes).
+measured as `make bench` measures (`measure.measure`: wall, CPU of all its processes, peak
+memory of its process tree).
 
 The per-file part is `pipeline.gather` with fit's plan, `--jobs 0`: every log read, checked,
 segmented where its mode asks, reduced to its record (the run row, phases, each model family's
@@ -54,8 +55,8 @@ def main() -> None:
         for side in order:
             times[side].append(measure(sides[side]))
         line = "  ".join(
-            f"{side} {times[side][-1].wall_s:5.2f} s (CPU {times[side][-1].cpu_s:5.2f})"
-            for side in sides
+            f"{side} {t.wall_s:5.2f} s (CPU {t.cpu_s:5.2f}, peak {t.peak_tree_pss_MB:4.0f} MB)"
+            for side, t in ((side, times[side][-1]) for side in sides)
         )
         print(f"  {line}", flush=True)
     bare = times["bare"]
