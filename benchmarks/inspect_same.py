@@ -18,42 +18,26 @@ from __future__ import annotations
 
 import gzip
 import os
-import subprocess
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-#: the real logs (WBPOWER_REAL_LOGS; run both checkouts with the same, as absolute paths are
-#: in the answers), the real free-driving logs, the bench corpus (WBPOWER_BENCH_CORPUS)
-SHARED = Path(os.environ.get("WBPOWER_REAL_LOGS", ROOT.parent / "shared" / "real_logs")).resolve()
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from golden import ROOT, SHARED, wbpower  # noqa: E402  (paths in the answers made alike)
+
+#: the real free-driving logs, and the bench corpus (WBPOWER_BENCH_CORPUS); the real logs are
+#: golden.py's SHARED (WBPOWER_REAL_LOGS)
 REAL_DRIVE = Path("/work/real_drive")
 BENCH_DRIVE = Path(os.environ.get("WBPOWER_BENCH_CORPUS", ROOT / "bench_corpus")) / "drive"
 
 
-def wbpower(out: Path, name: str, *args: str, cwd: Path = ROOT) -> None:
-    """`python -m wifibot_power ARGS` in `cwd`: stdout, stderr, exit code to OUT/NAME.txt."""
-    env = dict(os.environ, COLUMNS="200", PYTHONPATH=str(ROOT))
-    done = subprocess.run(
-        [sys.executable, "-m", "wifibot_power", *args],
-        cwd=cwd,
-        env=env,
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    text = f"exit {done.returncode}\n--- stdout\n{done.stdout}--- stderr\n{done.stderr}"
-    (out / f"{name}.txt").write_text(text)
-
-
-def logs(folder: Path, cwd: Path | None = None) -> list[str]:
-    """The log files under `folder` (sorted; not the manifests and READMEs), relative to
-    `cwd` when given (the same names whichever checkout runs this)."""
+def logs(folder: Path) -> list[str]:
+    """The log files under `folder` (sorted; not the manifests and READMEs)."""
     found = [
         p
         for p in sorted(folder.rglob("*"))
         if p.is_file() and p.name.endswith((".csv", ".csv.gz", ".csv.zst")) and p.name != "runs.csv"
     ]
-    return [str(p.relative_to(cwd) if cwd else p) for p in found]
+    return [str(p) for p in found]
 
 
 def variants(work: Path) -> list[str]:
@@ -70,7 +54,7 @@ def variants(work: Path) -> list[str]:
     (work / "empty_lines.csv").write_bytes(b"".join(spaced))
     (work / "zipped.csv.gz").write_bytes(gzip.compress(data, mtime=0))
     names = ("crlf.csv", "empty_lines.csv", "zipped.csv.gz")
-    return [str(first.relative_to(work.parent)), *(f"{work.name}/{n}" for n in names)]
+    return [str(first), *(str(work / name) for name in names)]
 
 
 def main() -> None:
@@ -78,7 +62,7 @@ def main() -> None:
     work = out / "_work"
     work.mkdir(parents=True, exist_ok=True)
     sets = {
-        "sample_logs": logs(ROOT / "sample_logs", ROOT),
+        "sample_logs": logs(ROOT / "sample_logs"),
         "real_logs": logs(SHARED),
         **{f"real_drive_{d.name}": logs(d) for d in sorted(REAL_DRIVE.glob("*")) if d.is_dir()},
         "bench_drive": logs(BENCH_DRIVE)[:6],
@@ -88,7 +72,7 @@ def main() -> None:
         if name == "variants":  # the same samples: one at a time (a batch reads copies once)
             for file in files:
                 stem = Path(file).name.split(".")[0]
-                wbpower(out, f"inspect_variant_{stem}", "inspect", file, "--json", cwd=out)
+                wbpower(out, f"inspect_variant_{stem}", "inspect", file, "--json")
         elif files:
             wbpower(out, f"inspect_{name}", "inspect", *files, "--json")
         print(f"inspect_same: {name}: {len(files)} logs", flush=True)
