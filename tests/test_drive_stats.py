@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wifibot_power.drive.stats import BIN_S, _sample_noise, drive_stats
+from wifibot_power.drive.stats import BIN_S, _median, _sample_noise, drive_stats
 from wifibot_power.run import Run, RunMeta
 
 
@@ -41,3 +41,31 @@ def test_a_slow_loggers_bins_take_the_surface_and_power_of_the_sample_they_fall_
     # 0-8 (centres up to 0.425 s, before the middle of sample 4 at 0.45 s) hold 10 W
     assert np.all(stats.power_W[:9] == 10.0)
     assert np.all(stats.power_W[11:] == 20.0)  # centres from 0.575 s: after sample 5's middle
+
+
+def test_the_median_by_counting_is_the_median():
+    # 130 steps, 60 of 0 then 70 of 0.02 (a quantized speed): the middle values (ranks 64 and
+    # 65) are both 0.02; every 64th value (indices 0, 64, 128: 0, 0.02, 0.02) guesses 0.02
+    steps = np.array([0.0] * 60 + [0.02] * 70)
+    assert _median(steps.copy()) == 0.02
+    assert _median(steps[::-1].copy()) == 0.02
+    # 70 zeros and 60 of 0.02, zeros at every even index: every 64th is 0, the median
+    alternating = np.where(np.arange(130) % 2 == 0, 0.0, 0.02)
+    alternating[np.flatnonzero(alternating == 0.02)[:5]] = 0.0
+    assert _median(alternating.copy()) == 0.0
+    # a guess below the median: zeros where every 64th value looks (60 zeros, 70 of 0.02):
+    # too many values above it, so not taken; the median is 0.02
+    guessed_low = np.full(130, 0.02)
+    guessed_low[[0, 64, 128]] = 0.0
+    guessed_low[1:58] = 0.0
+    assert _median(guessed_low.copy()) == 0.02
+    # a guess above it: 0.02 where every 64th looks (60 of 0.02, 70 zeros): the median is 0
+    guessed_high = np.zeros(130)
+    guessed_high[[0, 64, 128]] = 0.02
+    guessed_high[1:58] = 0.02
+    assert _median(guessed_high.copy()) == 0.0
+    # continuous values (none repeats): the sort, as np.median
+    rng = np.random.default_rng(3)
+    for size in (2, 3, 64, 65, 1001, 72_000):
+        values = np.abs(rng.normal(size=size))
+        assert _median(values.copy()) == np.median(values)

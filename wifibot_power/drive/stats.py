@@ -213,7 +213,27 @@ def _sample_noise(values: np.ndarray) -> float:
         steps = steps[np.isfinite(steps)]
     if steps.size < 2:
         return 0.0
-    return float(np.median(steps, overwrite_input=True) / 0.6745 / np.sqrt(2.0))
+    return float(_median(steps) / 0.6745 / np.sqrt(2.0))
+
+
+#: Every this-many-th value is looked at to guess a median (`_median`).
+_MEDIAN_STRIDE = 64
+
+
+def _median(values: np.ndarray) -> float:
+    """`np.median(values)` of finite values (reordered in place), by counting when it can:
+    if fewer than half the values lie below a guess `g` (the median of every
+    `_MEDIAN_STRIDE`-th) and fewer than half above it, both middle values of the sorted
+    values are `g`, and so is their mean. A quantized speed's steps (a few distinct values)
+    are so two counting passes instead of a partial sort; else the sort, as before."""
+    n = values.size
+    guess = float(np.median(values[::_MEDIAN_STRIDE]))
+    below = int(np.count_nonzero(values < guess))
+    above = int(np.count_nonzero(values > guess))
+    # the middle values have ranks (n - 1) // 2 and n // 2 (0-based)
+    if below <= (n - 1) // 2 and above <= n - 1 - n // 2:
+        return guess
+    return float(np.median(values, overwrite_input=True))
 
 
 def _surfaces(run: Run) -> tuple[np.ndarray, tuple[str, ...]]:
