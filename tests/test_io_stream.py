@@ -21,6 +21,7 @@ from hypothesis import strategies as st
 
 from wifibot_power.errors import LogError
 from wifibot_power.io import read_log
+from wifibot_power.io.lines import LineMap, plain_lines
 from wifibot_power.io.transport import iter_lines as _iter_lines
 from wifibot_power.io.transport import scan_lines as _scan_lines
 
@@ -70,6 +71,52 @@ def test_line_scan_in_chunks_matches_the_split_of_the_whole(text, chunk, header_
     assert found.tolist() == rows
     assert line_ends == len(lines) - 1
     assert list(_iter_lines(iter(_chunked(text, chunk)))) == lines
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    text=st.lists(
+        st.sampled_from([b"a", b",", b"\n", b"\n", b"a,a\n", b"\r", b""]), max_size=60
+    ).map(b"".join),
+    chunk=st.integers(1, 9),
+    header_line=st.integers(0, 4),
+)
+def test_plain_line_count_agrees_with_the_scan(text, chunk, header_line):
+    # the shortcut for logs whose lines end in \n and have no empty data line: the same
+    # numbers as the scan, and taken exactly when the text is so
+    lines = re.split(rb"\r\n|\r|\n", text)
+    rows = [k + 1 for k in range(header_line + 1, len(lines)) if lines[k]]
+    plain = plain_lines(iter(_chunked(text, chunk)), header_line)
+    empty_after_header = any(not line for line in lines[header_line + 1 : -1])
+    if b"\r" in text or empty_after_header:
+        assert plain is None
+        return
+    assert plain is not None
+    count, line_ends = plain
+    assert line_ends == len(lines) - 1
+    assert rows == list(range(header_line + 2, header_line + 2 + count))
+
+
+class _Text:
+    """A content of `text` in chunks of `size` (what `LineMap` reads)."""
+
+    def __init__(self, text: bytes, size: int) -> None:
+        self.text, self.size = text, size
+
+    def chunks(self, limit=None):
+        return iter(_chunked(self.text[:limit], self.size))
+
+
+@pytest.mark.parametrize(
+    "text",
+    [b"h\n1\n2\n3\n", b"h\n1\n\n2\n3", b"h\r\n1\r\n2\r\n3\r\n", b"h\n", b"h\n1\n2\n3"],
+)
+def test_line_map_numbers_rows_either_way(text):
+    # rows 0, 1, 2 (and beyond the last: the last; before the first: the first)
+    lines = LineMap(_Text(text, 3), header_line=0)
+    special = {b"h\n": [2, 2, 2, 2, 2], b"h\n1\n\n2\n3": [2, 2, 4, 5, 5]}
+    expected = special.get(text, [2, 2, 3, 4, 4])
+    assert [lines.line_of(row) for row in (-1, 0, 1, 2, 3)] == expected
 
 
 def test_line_numbers_past_the_first_block(tmp_path):

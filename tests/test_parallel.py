@@ -406,3 +406,57 @@ def _alive(pid: int) -> bool:
     except OSError:
         return False
     return state != "Z"
+
+
+#: Arrays of a file's size allocated, touched and freed over and over, as a worker does file
+#: after file (40 rounds of 6 x 600 KB); the page faults that took.
+_CHURN_PAGES = 6 * 75_000 * 8 / 4096
+
+
+def _churn_faults() -> int:
+    import resource
+
+    np.ones(80_000).sum()  # numpy's own first allocations, before counting
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    for _ in range(40):
+        arrays = [np.ones(75_000) for _ in range(6)]
+        del arrays
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
+
+
+_CHURN = """
+import sys
+from wifibot_power import parallel
+from tests.test_parallel import _churn_faults
+if sys.argv[1] == "pinned":
+    assert parallel.pin_malloc_thresholds()
+print(_churn_faults())
+"""
+
+
+@needs_fork
+def test_workers_keep_freed_memory_for_the_next_file() -> None:
+    """A worker's freed arrays are reused, not given back to the OS and faulted in again file
+    after file (`pin_malloc_thresholds`): 40 rounds of 3.6 MB of arrays fault each page in
+    about once, not once a round (glibc's default trims the heap's top each round)."""
+    import subprocess
+    import sys
+
+    def faults(mode: str) -> int:
+        done = subprocess.run(
+            [sys.executable, "-c", _CHURN, mode],
+            capture_output=True,
+            text=True,
+            check=True,
+            cwd=Path(__file__).resolve().parent.parent,
+        )
+        return int(done.stdout)
+
+    assert faults("default") > 20 * _CHURN_PAGES  # the churn this is about: ~40 x the pages
+    assert faults("pinned") < 3 * _CHURN_PAGES
+    # and every forked worker has them pinned
+    assert parallel.map_ordered([0, 1], _worker_churn_faults, jobs=2) == [True, True]
+
+
+def _worker_churn_faults(_: int) -> bool:
+    return _churn_faults() < 3 * _CHURN_PAGES

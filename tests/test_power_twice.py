@@ -111,3 +111,21 @@ def test_channels_and_the_analyser_export_are_checked_too(tmp_path):
     )
     with pytest.raises(LogError, match="'Power avg 1' disagrees with 'Volt avg 1'"):
         read_log(n6705)
+
+
+def test_the_rounding_of_the_numbers_as_written_is_allowed_for(tmp_path):
+    # 12 V written to the volt, 0.06 A to the centiamp, 0.62 W to 0.1 mW: V x I as written is
+    # 0.72 W, 0.10 W a sample over the power column; the tolerance allows 5% of 0.72 W, 0.036 W,
+    # and the rounding up to 0.5 (12 x 0.01 + 0.06 x 1 + 0.0001) = 0.09005 W more: read.
+    # (Without the rounding, or without its 12 V x 0.01 A term, it would be refused.)
+    path = tmp_path / "coarse.csv"
+
+    def write(power: str) -> Path:
+        rows = "".join(f"{k * 0.01:.2f},12,0.06,{power}\n" for k in range(N))
+        path.write_text("time_s,voltage_V,current_A,power_W\n" + rows)
+        return path
+
+    assert read_log(write("0.62")).power_W[0] == 0.62
+    # the same with the power 0.55 W: 0.17 W a sample apart, beyond both: refused
+    with pytest.raises(LogError, match="disagrees"):
+        read_log(write("0.55"))

@@ -150,9 +150,9 @@ def drive_stats(run: Run, segmentation: Segmentation | None = None) -> DriveStat
         first = _first_sample(which, n_bins)
         bin_surface = np.where(first >= 0, surface_index[np.maximum(first, 0)], 0)
     else:
-        binned = _held(time_s - time_s[0], n_bins, period_s, run.power_W, speed_mps, yaw_radps)
-        centre_s = (np.arange(n_bins) + 0.5) * BIN_S
-        at = np.clip(np.searchsorted(time_s - time_s[0], centre_s, "right") - 1, 0, None)
+        offset_s = time_s - time_s[0]
+        at = _sample_at_centres(offset_s, n_bins)  # found once for the bins and their surface
+        binned = _held(offset_s, at, period_s, run.power_W, speed_mps, yaw_radps)
         bin_surface = surface_index[at]
     power_W, bin_speed_mps, bin_yaw_radps = binned
     energy_J, _ = run.energy_and_mean()
@@ -209,10 +209,31 @@ def _sample_noise(values: np.ndarray) -> float:
     white noise's standard deviation), over the differences of known samples (a bag's speed
     is NaN where its odometry has no recent message: rosbag.py)."""
     steps = np.abs(np.diff(values))
-    steps = steps[np.isfinite(steps)]
+    if not np.isfinite(np.sum(steps)):  # (a finite sum: every step is finite)
+        steps = steps[np.isfinite(steps)]
     if steps.size < 2:
         return 0.0
-    return float(np.median(steps) / 0.6745 / np.sqrt(2.0))
+    return float(_median(steps) / 0.6745 / np.sqrt(2.0))
+
+
+#: Every this-many-th value is looked at to guess a median (`_median`).
+_MEDIAN_STRIDE = 64
+
+
+def _median(values: np.ndarray) -> float:
+    """`np.median(values)` of finite values (reordered in place), by counting when it can:
+    if fewer than half the values lie below a guess `g` (the median of every
+    `_MEDIAN_STRIDE`-th) and fewer than half above it, both middle values of the sorted
+    values are `g`, and so is their mean. A quantized speed's steps (a few distinct values)
+    are so two counting passes instead of a partial sort; else the sort, as before."""
+    n = values.size
+    guess = float(np.median(values[::_MEDIAN_STRIDE]))
+    below = int(np.count_nonzero(values < guess))
+    above = int(np.count_nonzero(values > guess))
+    # the middle values have ranks (n - 1) // 2 and n // 2 (0-based)
+    if below <= (n - 1) // 2 and above <= n - 1 - n // 2:
+        return guess
+    return float(np.median(values, overwrite_input=True))
 
 
 def _surfaces(run: Run) -> tuple[np.ndarray, tuple[str, ...]]:
@@ -255,18 +276,26 @@ def _first_sample(which: np.ndarray, n_bins: int) -> np.ndarray:
     return first
 
 
+def _sample_at_centres(offset_s: np.ndarray, n_bins: int) -> np.ndarray:
+    """The sample at each bin's centre: the last stamped at or before it (the first sample
+    for a centre before every stamp)."""
+    centre_s = (np.arange(n_bins) + 0.5) * BIN_S
+    return np.clip(np.searchsorted(offset_s, centre_s, "right") - 1, 0, offset_s.size - 1)
+
+
 def _held(
     offset_s: np.ndarray,
-    n_bins: int,
+    at: np.ndarray,
     period_s: float,
     power_W: np.ndarray,
     speed_mps: np.ndarray,
     yaw_radps: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A slow logger's samples on the bins: power held over each sample's period (the
-    rectangle rule), speed and rate of turn interpolated; NaN inside a gap."""
+    """A slow logger's samples on the bins (`at`: the sample at each bin's centre,
+    `_sample_at_centres`): power held over each sample's period (the rectangle rule), speed
+    and rate of turn interpolated; NaN inside a gap."""
+    n_bins = at.size
     centre_s = (np.arange(n_bins) + 0.5) * BIN_S
-    at = np.clip(np.searchsorted(offset_s, centre_s, "right") - 1, 0, offset_s.size - 1)
     step_s = np.diff(offset_s, append=offset_s[-1] + period_s)
     gap = (step_s[at] > GAP_FACTOR * period_s) & (centre_s - offset_s[at] > period_s)
     # a sample is the mean over its period (as power's, run.py): placed at the period's middle;
@@ -314,4 +343,8 @@ def _bin_of(offset_s: np.ndarray, n_bins: int) -> np.ndarray:
     nudged by 1e-7 of a bin, or 0.15 s / 0.05 s = 2.9999999999999996 would put every such
     sample in the bin before (a jitter of samples between bins that biased the inertial terms
     by ~1% on 100 Hz logs)."""
-    return np.minimum(np.floor(offset_s / BIN_S + 1e-7).astype(np.intp), n_bins - 1)
+    quotient = offset_s / BIN_S
+    quotient += 1e-7
+    np.floor(quotient, out=quotient)  # (in place: one temporary, not four)
+    which = quotient.astype(np.intp)
+    return np.minimum(which, n_bins - 1, out=which)

@@ -29,21 +29,30 @@ class LineMap:
         self._header_line = header_line
         self._limit = limit
         self._rows: np.ndarray | None = None
+        #: the number of data rows when they are the lines after the header one for one
+        #: (`plain_lines`): row k is then on line header_line + 2 + k, no array needed
+        self._plain: int | None = None
         self._line_ends = 0
 
-    def _scan(self) -> np.ndarray:
-        if self._rows is None:
+    def _scan(self) -> None:
+        if self._rows is not None or self._plain is not None:
+            return
+        plain = plain_lines(self._content.chunks(self._limit), self._header_line)
+        if plain is not None:
+            self._plain, self._line_ends = plain
+        else:
             self._rows, self._line_ends = scan_lines(
                 self._content.chunks(self._limit), self._header_line
             )
-        return self._rows
 
     def line_of(self, row: int) -> int:
         """Line of data row `row` (pyarrow skips empty lines, so they are skipped here too)."""
-        rows = self._scan()
-        if not rows.size:
+        self._scan()
+        count = self._plain if self._rows is None else self._rows.size
+        if not count:
             return self._header_line + 2
-        return int(rows[min(max(row, 0), rows.size - 1)])
+        row = min(max(row, 0), count - 1)
+        return self._header_line + 2 + row if self._rows is None else int(self._rows[row])
 
     def line_count(self) -> int:
         """Line ends up to the limit (a \\r\\n counts once)."""
@@ -69,6 +78,47 @@ def iter_lines(chunks: Iterator[bytes]) -> Iterator[bytes]:
         carry = parts.pop() + held
         yield from parts
     yield from LINE_END.split(carry)
+
+
+def plain_lines(chunks: Iterator[bytes], header_line: int) -> tuple[int, int] | None:
+    """`(data rows, line ends)` when every line ends in \\n alone and no line after line
+    `header_line` (0-based) is empty: the data rows are then the lines after the header one
+    for one, as `scan_lines` would number them; None otherwise (a \\r anywhere, an empty
+    line after the header: `scan_lines` numbers those). One mask of the \\n bytes a chunk,
+    ~10x faster than the scan's masks and offsets on a 2 MB log."""
+    line_ends = 0  # \n seen before the chunk
+    after_header = False  # whether the chunk starts after the header's line end
+    last_lf = False  # whether the byte before the chunk is a \n
+    for chunk in chunks:
+        if b"\r" in chunk:
+            return None
+        is_lf = np.frombuffer(chunk, dtype=np.uint8) == 10
+        start = 0  # where the data lines start in the chunk
+        if not after_header:
+            start = _after_line(chunk, header_line - line_ends)
+            after_header = start >= 0
+        if after_header:
+            # an empty data line: its \n right after another (the header's included)
+            tail = is_lf[max(start - 1, 0) :]
+            if (start == 0 and last_lf and is_lf[0]) or np.any(tail[1:] & tail[:-1]):
+                return None
+        line_ends += int(np.count_nonzero(is_lf))
+        last_lf = bool(is_lf[-1])
+    rows = max(line_ends - header_line - 1, 0)
+    if not last_lf and line_ends > header_line:
+        rows += 1  # a last line without a line end (`scan_lines` counts it)
+    return rows, line_ends
+
+
+def _after_line(chunk: bytes, index: int) -> int:
+    """Offset in `chunk` just after the line end of its line `index` (0-based, counted from
+    the chunk's start), or -1 when that line end is not in the chunk."""
+    at = -1
+    for _ in range(index + 1):
+        at = chunk.find(b"\n", at + 1)
+        if at < 0:
+            return -1
+    return at + 1
 
 
 def scan_lines(chunks: Iterator[bytes], header_line: int) -> tuple[np.ndarray, int]:

@@ -505,16 +505,23 @@ def check_power_twice(
         voltage,
     )
     product_W = current_A * voltage_V
-    both = np.isfinite(power_W) & np.isfinite(product_W)
+    both = np.isfinite(power_W)
+    both &= np.isfinite(product_W)
     column_J = float(np.sum(power_W, where=both))  # per sample: energy / sample period
     product_J = float(np.sum(product_W, where=both))
-    scale_J = max(
-        float(np.sum(np.abs(power_W), where=both)), float(np.sum(np.abs(product_W), where=both))
-    )
-    # the numbers as written are rounded: V x I is off by up to half a step of each
+    size_W = np.abs(power_W)  # (two full-size temporaries in all, each used again)
+    scale_J = float(np.sum(size_W, where=both))
+    scale_J = max(scale_J, float(np.sum(np.abs(product_W, out=product_W), where=both)))
+    # the numbers as written are rounded: V x I is off by up to half a step of each,
+    # 0.5 (|V| step_A + |I| step_V + step_W), summed in that order
     step_V, step_A, step_W = (_written_step(x) for x in (voltage_V, current_A, power_W))
-    rounding_W = 0.5 * (np.abs(voltage_V) * step_A + np.abs(current_A) * step_V + step_W)
-    rounding_J = float(np.sum(rounding_W, where=both)) + 0.5 * step_V * step_A * both.sum()
+    rounding_W = np.abs(voltage_V, out=product_W)
+    rounding_W *= step_A
+    rounding_W += np.multiply(np.abs(current_A, out=size_W), step_V, out=size_W)
+    rounding_W += step_W
+    rounding_W *= 0.5
+    rounding_J = float(np.sum(rounding_W, where=both))
+    rounding_J += 0.5 * step_V * step_A * np.count_nonzero(both)
     if abs(column_J - product_J) <= POWER_TWICE_TOLERANCE * scale_J + rounding_J:
         return
     ratio = f"{column_J / product_J:.4g}x" if product_J else "not 0 where they give 0"

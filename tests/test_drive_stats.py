@@ -1,0 +1,71 @@
+"""The drive model's per-run statistics as the workers compute them (drive/stats.py): the
+noise of a speed column with missing samples, and a slow logger's bins with their surfaces.
+
+Expected values are worked out by hand from the samples built here."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wifibot_power.drive.stats import BIN_S, _median, _sample_noise, drive_stats
+from wifibot_power.run import Run, RunMeta
+
+
+def test_sample_noise_leaves_out_the_steps_next_to_a_missing_sample():
+    # steps 1, (nan, nan), 0.5, 2, 0.5: the median of |1, 0.5, 2, 0.5| is 0.75
+    values = np.array([0.0, 1.0, np.nan, 3.0, 3.5, 1.5, 2.0])
+    assert _sample_noise(values) == 0.75 / 0.6745 / np.sqrt(2.0)
+    assert _sample_noise(np.array([1.0, np.nan, np.nan])) == 0.0  # no step at all
+    values = np.array([0.0, 2.0, 2.5, 2.5])  # steps 2, 0.5, 0: median 0.5, all finite
+    assert _sample_noise(values) == 0.5 / 0.6745 / np.sqrt(2.0)
+
+
+def test_a_slow_loggers_bins_take_the_surface_and_power_of_the_sample_they_fall_in():
+    # 10 Hz (twice a bin): 10 samples, the last 4 on "grass" (a surface column), power 10 W
+    # then 20 W from sample 5 on; bin k's centre (k + 0.5) x 50 ms falls in sample k // 2
+    period_s = 0.1
+    t = np.arange(10) * period_s
+    power_W = np.where(np.arange(10) >= 5, 20.0, 10.0)
+    meta = RunMeta(run_id="slow", sample_period_s=period_s)
+    surface_index = np.array([0] * 6 + [1] * 4, dtype=np.int16)
+    run = Run(
+        "slow.csv", "wbpower-csv", meta, t, power_W, speed_mps=0 * t,
+        surface_index=surface_index, surface_names=("asphalt", "grass"),
+    )  # fmt: skip
+    stats = drive_stats(run)
+    assert stats.bins == round(10 * period_s / BIN_S) == 20
+    assert stats.surfaces[:2] == ("asphalt", "grass")
+    expected_surface = [0] * 12 + [1] * 8  # bins 12-19: samples 6-9
+    assert stats.surface_index.tolist() == expected_surface
+    # power interpolated between the middles of the sample periods (0.05 s + 0.1 s k): bins
+    # 0-8 (centres up to 0.425 s, before the middle of sample 4 at 0.45 s) hold 10 W
+    assert np.all(stats.power_W[:9] == 10.0)
+    assert np.all(stats.power_W[11:] == 20.0)  # centres from 0.575 s: after sample 5's middle
+
+
+def test_the_median_by_counting_is_the_median():
+    # 130 steps, 60 of 0 then 70 of 0.02 (a quantized speed): the middle values (ranks 64 and
+    # 65) are both 0.02; every 64th value (indices 0, 64, 128: 0, 0.02, 0.02) guesses 0.02
+    steps = np.array([0.0] * 60 + [0.02] * 70)
+    assert _median(steps.copy()) == 0.02
+    assert _median(steps[::-1].copy()) == 0.02
+    # 70 zeros and 60 of 0.02, zeros at every even index: every 64th is 0, the median
+    alternating = np.where(np.arange(130) % 2 == 0, 0.0, 0.02)
+    alternating[np.flatnonzero(alternating == 0.02)[:5]] = 0.0
+    assert _median(alternating.copy()) == 0.0
+    # a guess below the median: zeros where every 64th value looks (60 zeros, 70 of 0.02):
+    # too many values above it, so not taken; the median is 0.02
+    guessed_low = np.full(130, 0.02)
+    guessed_low[[0, 64, 128]] = 0.0
+    guessed_low[1:58] = 0.0
+    assert _median(guessed_low.copy()) == 0.02
+    # a guess above it: 0.02 where every 64th looks (60 of 0.02, 70 zeros): the median is 0
+    guessed_high = np.zeros(130)
+    guessed_high[[0, 64, 128]] = 0.02
+    guessed_high[1:58] = 0.02
+    assert _median(guessed_high.copy()) == 0.0
+    # continuous values (none repeats): the sort, as np.median
+    rng = np.random.default_rng(3)
+    for size in (2, 3, 64, 65, 1001, 72_000):
+        values = np.abs(rng.normal(size=size))
+        assert _median(values.copy()) == np.median(values)
