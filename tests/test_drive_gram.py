@@ -56,7 +56,7 @@ def test_fold_lag_search_from_sums_is_the_direct_search(runs) -> None:
     folds' sums are those of least squares over the fold's windows."""
     surfaces = tuple(sorted({s for rw in runs for s in rw.stats.surfaces}))
     fold_of = [np.arange(rw.count) * 3 // rw.count for rw in runs]  # 3 folds a run
-    grams = FoldGrams(runs, surfaces, np.concatenate(fold_of), 3, lag_grid(runs))
+    grams = FoldGrams.from_windows(runs, surfaces, np.concatenate(fold_of), 3, lag_grid(runs))
     fractional = 0
     for fold in range(3):
         lag, sse = grams.search(fold)
@@ -96,7 +96,7 @@ def test_search_over_the_windows_when_the_sums_cancel(runs, monkeypatch) -> None
 
     surfaces = tuple(sorted({s for rw in runs for s in rw.stats.surfaces}))
     fold_of = [np.zeros(rw.count, dtype=int) for rw in runs]
-    grams = FoldGrams(runs, surfaces, np.concatenate(fold_of), 1, lag_grid(runs))
+    grams = FoldGrams.from_windows(runs, surfaces, np.concatenate(fold_of), 1, lag_grid(runs))
     assert grams.search(-1) is not None
     monkeypatch.setattr(gram, "CANCELLATION", 1.0)  # every fit "cancels"
     assert grams.search(-1) is None

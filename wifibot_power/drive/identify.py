@@ -125,7 +125,7 @@ def lag_search(
     lags = lag_grid(runs)
     if gram:
         keep = StackedPower(runs).ok if only is None else np.concatenate(only).astype(bool)
-        found = FoldGrams(runs, surfaces, np.where(keep, 0, -1), 1, lags).search(-1)
+        found = FoldGrams.from_windows(runs, surfaces, np.where(keep, 0, -1), 1, lags).search(-1)
         if found is not None:
             return found
     # the windows defined at every lag, so that each lag is judged on the same windows

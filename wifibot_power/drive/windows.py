@@ -516,7 +516,7 @@ def at_any_lag(runs: list[RunWindows], surfaces: tuple[str, ...], stacked: Stack
     """`assemble(runs, lag, surfaces)` as a function of the lag, the regressors assembled once
     (they do not move with the lag: only which windows have a power, and the power, do)."""
     ok = stacked.ok
-    every = _assemble_rows(runs, surfaces, ok, np.zeros(ok.size))
+    every = regressor_rows(runs, surfaces, ok)
 
     def at(lag_bins: float) -> Windows:
         power, power_ok = stacked.power_at(lag_bins)
@@ -524,6 +524,15 @@ def at_any_lag(runs: list[RunWindows], surfaces: tuple[str, ...], stacked: Stack
         return replace(every.take(rows), power_W=power[ok][rows])
 
     return at
+
+
+def regressor_rows(
+    runs: list[RunWindows], surfaces: tuple[str, ...], ok: np.ndarray | None = None
+) -> Windows:
+    """Every window of `runs` whose regressors are defined (`ok`: the stacked `RunWindows.ok`
+    when the caller has it), with a power of 0: the design, whatever the lag."""
+    ok = _joined([rw.ok for rw in runs]).astype(bool) if ok is None else ok
+    return _assemble_rows(runs, surfaces, ok, np.zeros(ok.size))
 
 
 def _assemble_rows(
