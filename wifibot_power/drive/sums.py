@@ -100,7 +100,7 @@ def run_sums(rw: RunWindows) -> RunSums:
     columns = design_columns(surfaces)
     rows = regressor_rows([rw], surfaces)
     lags = lag_grid([rw])
-    Y = np.column_stack([rw.power_at(int(lag))[0][rw.ok] for lag in lags])
+    Y = rw.power_at_lags(lags)[rw.ok]
     common = np.isfinite(Y).all(axis=1)
     trips = int(rw.trip[-1]) + 1 if rw.count else 0
     X, R, Yc = rows.design[common], rows.design_rate[common], Y[common]

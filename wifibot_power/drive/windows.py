@@ -175,15 +175,21 @@ class RunWindows:
         return self.stats.surface_index[np.arange(self.count) * self.n]
 
     def _power_at(self, lag_bins: int) -> tuple[np.ndarray, np.ndarray]:
+        mean = self.power_at_lags(np.array([lag_bins]))[:, 0]
+        return mean, np.isfinite(mean)
+
+    def power_at_lags(self, lags: np.ndarray) -> np.ndarray:
+        """Each window's mean power at each whole lag of `lags` [bins], a column each [W];
+        NaN where not defined (past the run's end, or over a drop-out)."""
         power = self.stats.power_W
-        start = np.arange(self.count) * self.n + lag_bins
+        start = (np.arange(self.count) * self.n)[:, None] + np.asarray(lags)[None, :]
         inside = start + self.n <= power.size
         bad, total = self._power_sums
         end = np.minimum(start + self.n, power.size)
         start = np.minimum(start, power.size)
         ok = inside & (bad[end] - bad[start] == 0)
         mean = (total[end] - total[start]) / self.n
-        return np.where(ok, mean, np.nan), ok
+        return np.where(ok, mean, np.nan)
 
 
 def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
