@@ -103,10 +103,18 @@ def run_sums(rw: RunWindows) -> RunSums:
     Y = rw.power_at_lags(lags)[rw.ok]
     common = np.isfinite(Y).all(axis=1)
     trips = int(rw.trip[-1]) + 1 if rw.count else 0
-    X, R, Yc = rows.design[common], rows.design_rate[common], Y[common]
+    p = len(columns)
+    # Z = [X R Y] over the common windows, made in place (no stacking copies)
+    Z = np.empty((int(common.sum()), 2 * p + lags.size))
+    Z[:, :p], Z[:, p : 2 * p], Z[:, 2 * p :] = (
+        rows.design[common],
+        rows.design_rate[common],
+        Y[common],
+    )
+    X, Yc = Z[:, :p], Z[:, 2 * p :]
     trip = rows.trip[common]
     seen = seen_columns(X, columns)
-    per_trip = _trip_sums(np.hstack((X, R)), Yc, trip, trips)
+    per_trip = _trip_sums(Z, 2 * p, trip, trips)
     S = len(surfaces)
     on_surface = np.bincount(trip * S + rows.surface[common], minlength=trips * S)
     seen_f = seen.astype(np.float64)
@@ -143,18 +151,19 @@ def run_sums(rw: RunWindows) -> RunSums:
     )
 
 
-def _trip_sums(W: np.ndarray, Y: np.ndarray, trip: np.ndarray, trips: int):
-    """Per trip (rows sorted by trip): W'W, W'Y, and Y's squares and next-lag products."""
-    q, L = W.shape[1], Y.shape[1]
+def _trip_sums(Z: np.ndarray, q: int, trip: np.ndarray, trips: int):
+    """Per trip (rows sorted by trip) of Z = [W Y], W its first `q` columns: W'W, W'Y, and Y's
+    squares and next-lag products."""
+    L = Z.shape[1] - q
     ww = np.zeros((trips, q, q))
     wy = np.zeros((trips, q, L))
     yy = np.zeros((trips, 2, L))
     bounds = np.searchsorted(trip, np.arange(trips + 1))
-    Z = np.hstack((W, Y))
     for g in np.flatnonzero(np.diff(bounds)):  # a loop over trips, each one matrix product
-        a, b = bounds[g], bounds[g + 1]
-        wz = W[a:b].T @ Z[a:b]
+        rows = Z[bounds[g] : bounds[g + 1]]
+        wz = rows[:, :q].T @ rows
         ww[g], wy[g] = wz[:, :q], wz[:, q:]
+    Y = Z[:, q:]
     yy[:, 0] = _group_sum(np.square(Y), trip, trips)
     yy[:, 1, :-1] = _group_sum(Y[:, :-1] * Y[:, 1:], trip, trips)
     return ww, wy, yy

@@ -181,15 +181,27 @@ class RunWindows:
     def power_at_lags(self, lags: np.ndarray) -> np.ndarray:
         """Each window's mean power at each whole lag of `lags` [bins], a column each [W];
         NaN where not defined (past the run's end, or over a drop-out)."""
-        power = self.stats.power_W
-        start = (np.arange(self.count) * self.n)[:, None] + np.asarray(lags)[None, :]
-        inside = start + self.n <= power.size
+        lags = np.asarray(lags, dtype=np.intp)
+        if not self.count or not lags.size:
+            return np.full((self.count, lags.size), np.nan)
+        means = self._span_means
+        # window i at lag l starts at bin i n + l: every start a strided slice
+        size = (self.count - 1) * self.n + int(lags.max()) + 1
+        padded = np.full(max(size, means.size), np.nan)
+        padded[: means.size] = means
+        step = self.n
+        return np.column_stack([padded[lag : lag + self.count * step : step] for lag in lags])
+
+    @cached_property
+    def _span_means(self) -> np.ndarray:
+        """The mean power over the `n` bins from each bin on [W] (NaN over a drop-out; none
+        past the run's end): a window's power at any lag is one of these."""
         bad, total = self._power_sums
-        end = np.minimum(start + self.n, power.size)
-        start = np.minimum(start, power.size)
-        ok = inside & (bad[end] - bad[start] == 0)
-        mean = (total[end] - total[start]) / self.n
-        return np.where(ok, mean, np.nan)
+        n = self.n
+        if total.size <= n:
+            return np.zeros(0)
+        span = (total[n:] - total[:-n]) / n
+        return np.where(bad[n:] - bad[:-n] == 0, span, np.nan)
 
 
 def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
