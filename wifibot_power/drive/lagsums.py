@@ -237,11 +237,14 @@ class SumMoments:
         at, table = self.at, self.at.table
         cluster_of_trip = self._cluster_of_trip()
         has_rows = self.train & (at.count > 0)
-        clusters, index = np.unique(cluster_of_trip[has_rows], return_inverse=True)
-        G, Q = clusters.size, 2 * self.P
-        ww, wy = np.zeros((G, Q, Q)), np.zeros((G, Q))
-        np.add.at(ww, index, table.ww[has_rows])
-        np.add.at(wy, index, at.wy[has_rows])
+        # trips in order, clusters (runs, or trips) in order: each cluster's trips a stretch
+        cluster = cluster_of_trip[has_rows]
+        clusters, starts = np.unique(cluster, return_index=True)
+        if not clusters.size:
+            Q = 2 * self.P
+            return np.zeros((0, Q, Q)), np.zeros((0, Q))
+        ww = np.add.reduceat(table.ww[has_rows], starts, axis=0)
+        wy = np.add.reduceat(at.wy[has_rows], starts, axis=0)
         edge_cluster = np.searchsorted(clusters, cluster_of_trip[at.edge_trip[self.edge]])
         W = np.hstack((at.edge_x[self.edge], at.edge_r[self.edge]))
         y = at.edge_y[self.edge]
