@@ -199,8 +199,9 @@ def _accuracy(
         ape = np.abs(measured_J - predicted_J) / np.abs(measured_J) * 100.0
     ape = ape[np.isfinite(ape)]
     rows = []
+    run_of = np.searchsorted(trip_base, trip_ids, side="right") - 1
     for j, trip in enumerate(trip_ids):
-        r = int(np.searchsorted(trip_base, trip, side="right") - 1)
+        r = int(run_of[j])
         local = trip - int(trip_base[r])
         run_id = run_ids[r]
         several = int(trip_base[r + 1] - trip_base[r]) > 1

@@ -23,7 +23,7 @@ import numpy as np
 from wifibot_power.drive.gram import FoldGrams
 from wifibot_power.drive.identify import _gram_solve
 from wifibot_power.drive.moments import seen_columns
-from wifibot_power.drive.sums import RunSums
+from wifibot_power.drive.sums import RunSums, group_sum
 from wifibot_power.drive.windows import design_columns
 
 
@@ -46,7 +46,8 @@ class SumsTable:
         self.force_form = bool(self.proxy_run.all())
         self.trip_windows = np.concatenate([s.trip_windows for s in sums])
         self.count = np.concatenate([s.count for s in sums])
-        self.ww, self.wy = np.zeros((T, 2 * P, 2 * P)), np.zeros((T, 2 * P, L))
+        #: per trip [X R]'[X R] (T, 2P, 2P); [X R]'Y a lag at a time (L, T, 2P)
+        self.ww, self.wy = np.zeros((T, 2 * P, 2 * P)), np.zeros((L, T, 2 * P))
         self.yy = np.concatenate([s.yy for s in sums])
         self.seen, self.on_surface = np.zeros((T, P), np.int64), np.zeros((T, S), np.int64)
         self.seen_xx, self.seen_y = np.zeros(P), np.zeros((P, L))
@@ -58,7 +59,7 @@ class SumsTable:
             place = np.array([surfaces.index(name) for name in s.surfaces], dtype=np.intp)
             rows = slice(self.trip_base[r], self.trip_base[r + 1])
             self.ww[rows, both[:, None], both[None, :]] = s.ww
-            self.wy[rows, both, :] = s.wy
+            self.wy[:, rows, both] = s.wy.transpose(2, 0, 1)
             self.seen[rows, col] = s.seen
             self.on_surface[rows, place] = s.on_surface
             self.seen_xx[col] += s.seen_xx
@@ -78,6 +79,9 @@ class SumsTable:
         self.cross_x = np.concatenate([x for x, _ in cross])
         self.cross_y = np.concatenate([y for _, y in cross])
         self.edge = tuple(np.concatenate(parts) for parts in zip(*edges, strict=True))
+        #: per trip X'X (contiguous: the folds' sums), and every trip's
+        self.xx = np.ascontiguousarray(self.ww[:, :P, :P])
+        self.xx_all = self.xx.sum(axis=0)
 
     @property
     def trips(self) -> int:
@@ -92,8 +96,8 @@ class SumsTable:
         for f in range(folds):
             rows = fold_of_trip == f
             count[f] = int(self.count[rows].sum())
-            xx[f] = self.ww[rows, :P, :P].sum(axis=0)
-            xy[f] = self.wy[rows, :P].sum(axis=0)
+            xx[f] = self.xx[rows].sum(axis=0)
+            xy[f] = self.wy[:, rows, :P].sum(axis=1).T
             yy[f] = self.yy[rows].sum(axis=0)
         return FoldGrams(count, xx, xy, yy, lags)
 
@@ -131,7 +135,12 @@ class LagSums:
         self.table = table
         self.whole, self.part, self.weights = lag_weights(lag_bins, table.lags)
         P, T = len(table.columns), table.trips
-        self.wy = table.wy @ self.weights  # (T, 2P): W'y of the common windows
+        # (T, 2P): W'y of the common windows
+        if self.part:
+            w, t = self.whole, self.part
+            self.wy = (1 - t) * table.wy[w] + t * table.wy[w + 1]
+        else:
+            self.wy = table.wy[self.whole]
         edge_x, edge_r, edge_y, edge_trip, edge_surface = table.edge
         low = edge_y[:, self.whole]
         if self.part:
@@ -145,11 +154,11 @@ class LagSums:
         edge_seen = seen_columns(self.edge_x, table.columns)
         self.edge_seen = edge_seen
         self.count = table.count + np.bincount(self.edge_trip, minlength=T)
-        self.sum_x = table.ww[:, 0, :P].copy()  # the idle row: each column's sum
-        np.add.at(self.sum_x, self.edge_trip, self.edge_x)
+        # (the edge windows are in trip order: the runs' in turn, each run's in order)
+        # the idle row of W'W: each column's sum
+        self.sum_x = table.ww[:, 0, :P] + group_sum(self.edge_x, self.edge_trip, T)
         self.sum_y = self.wy[:, 0] + np.bincount(self.edge_trip, self.edge_y, minlength=T)
-        self.seen = table.seen.copy()
-        np.add.at(self.seen, self.edge_trip, edge_seen.astype(np.int64))
+        self.seen = table.seen + group_sum(edge_seen.astype(np.int64), self.edge_trip, T)
         S = len(table.surfaces)
         self.on_surface = table.on_surface + np.bincount(
             self.edge_trip * S + edge_surface[defined], minlength=T * S
@@ -176,7 +185,9 @@ class SumMoments:
         self.edge = edge
         self.n = int(at.count[train].sum())
         ex = at.edge_x[edge]
-        self.gram = table.ww[train, :P, :P].sum(axis=0) + ex.T @ ex
+        # every trip's X'X less those of the trips left out (a fold's: a tenth)
+        left_out = table.xx[~train].sum(axis=0)
+        self.gram = (table.xx_all - left_out if (~train).any() else table.xx_all) + ex.T @ ex
         self.xy = at.wy[train, :P].sum(axis=0) + ex.T @ at.edge_y[edge]
         runs_with_rows = np.bincount(table.run_of_trip[train], at.count[train], len(table.run_ids))
         proxy = table.proxy_run[runs_with_rows > 0]
@@ -189,10 +200,9 @@ class SumMoments:
 
     def seen_clusters(self) -> np.ndarray:
         """Per column: the clusters with a window where its regressor is seen."""
-        cluster = self._cluster_of_trip()[self.train]
-        per_cluster = np.zeros((int(cluster.max()) + 1 if cluster.size else 0, self.P))
-        np.add.at(per_cluster, cluster, self.at.seen[self.train])
-        return (per_cluster > 0).sum(axis=0)
+        cluster = self._cluster_of_trip()[self.train]  # in order
+        groups = int(cluster.max()) + 1 if cluster.size else 0
+        return (group_sum(self.at.seen[self.train], cluster, groups) > 0).sum(axis=0)
 
     def centred_ss(self, j: int) -> float:
         """Column j's sum of squares about its mean: x'x - (sum x)^2 / n."""

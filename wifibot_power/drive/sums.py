@@ -135,7 +135,7 @@ def run_sums(rw: RunWindows) -> RunSums:
         ww=per_trip[0],
         wy=per_trip[1],
         yy=per_trip[2],
-        seen=_group_sum(seen.astype(np.int64), trip, trips),
+        seen=group_sum(seen.astype(np.int64), trip, trips),
         on_surface=on_surface.reshape(trips, S),
         seen_xx=np.sum(seen * np.square(X), axis=0),
         seen_y=seen_f.T @ Yc,
@@ -164,13 +164,14 @@ def _trip_sums(Z: np.ndarray, q: int, trip: np.ndarray, trips: int):
         wz = rows[:, :q].T @ rows
         ww[g], wy[g] = wz[:, :q], wz[:, q:]
     Y = Z[:, q:]
-    yy[:, 0] = _group_sum(np.square(Y), trip, trips)
-    yy[:, 1, :-1] = _group_sum(Y[:, :-1] * Y[:, 1:], trip, trips)
+    yy[:, 0] = group_sum(np.square(Y), trip, trips)
+    yy[:, 1, :-1] = group_sum(Y[:, :-1] * Y[:, 1:], trip, trips)
     return ww, wy, yy
 
 
-def _group_sum(values: np.ndarray, group: np.ndarray, groups: int) -> np.ndarray:
-    """Sums of `values`' rows by `group` (sorted), a row per group (0 for an empty one)."""
+def group_sum(values: np.ndarray, group: np.ndarray, groups: int) -> np.ndarray:
+    """Sums of `values`' rows by `group` (sorted, in 0..groups-1), a row per group (0 for an
+    empty one)."""
     out = np.zeros((groups, *values.shape[1:]), dtype=values.dtype)
     bounds = np.searchsorted(group, np.arange(groups + 1))
     filled = np.flatnonzero(np.diff(bounds))
