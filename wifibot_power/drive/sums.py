@@ -100,8 +100,9 @@ def run_sums(rw: RunWindows) -> RunSums:
     columns = design_columns(surfaces)
     rows = regressor_rows([rw], surfaces)
     lags = lag_grid([rw])
-    Y = rw.power_at_lags(lags)[rw.ok]
-    common = np.isfinite(Y).all(axis=1)
+    Y = rw.power_at_lags(lags)
+    defined = np.isfinite(Y).all(axis=1)
+    common = defined[rw.ok]  # over the rows (the windows whose regressors are defined)
     trips = int(rw.trip[-1]) + 1 if rw.count else 0
     p = len(columns)
     # Z = [X R Y] over the common windows, made in place (no stacking copies)
@@ -109,7 +110,7 @@ def run_sums(rw: RunWindows) -> RunSums:
     Z[:, :p], Z[:, p : 2 * p], Z[:, 2 * p :] = (
         rows.design[common],
         rows.design_rate[common],
-        Y[common],
+        Y[rw.ok & defined],
     )
     X, Yc = Z[:, :p], Z[:, 2 * p :]
     trip = rows.trip[common]
@@ -117,11 +118,13 @@ def run_sums(rw: RunWindows) -> RunSums:
     per_trip = _trip_sums(Z, 2 * p, trip, trips)
     S = len(surfaces)
     on_surface = np.bincount(trip * S + rows.surface[common], minlength=trips * S)
-    seen_f = seen.astype(np.float64)
+    # per column over the windows that see it: sum Y, Y^2, Y_l Y_l+1 and |Y|
+    L = lags.size
+    seen_f = seen.astype(np.float64).T
     next_product = Yc[:, :-1] * Yc[:, 1:]
-    seen_yy = np.zeros((len(columns), 2, lags.size))
-    seen_yy[:, 0] = seen_f.T @ np.square(Yc)
-    seen_yy[:, 1, :-1] = seen_f.T @ next_product
+    seen_yy = np.zeros((len(columns), 2, L))
+    seen_yy[:, 0] = seen_f @ np.square(Yc)
+    seen_yy[:, 1, :-1] = seen_f @ next_product
     crossing = (next_product < 0).any(axis=1)
     edge = ~common
     return RunSums(
@@ -138,14 +141,14 @@ def run_sums(rw: RunWindows) -> RunSums:
         seen=group_sum(seen.astype(np.int64), trip, trips),
         on_surface=on_surface.reshape(trips, S),
         seen_xx=np.sum(seen * np.square(X), axis=0),
-        seen_y=seen_f.T @ Yc,
+        seen_y=seen_f @ Yc,
         seen_yy=seen_yy,
-        seen_abs=seen_f.T @ np.abs(Yc),
+        seen_abs=seen_f @ np.abs(Yc),
         cross_x=X[crossing],
         cross_y=Yc[crossing],
         edge_x=rows.design[edge],
         edge_r=rows.design_rate[edge],
-        edge_y=Y[edge],
+        edge_y=Y[rw.ok & ~defined],
         edge_trip=rows.trip[edge],
         edge_surface=rows.surface[edge],
     )
@@ -153,7 +156,8 @@ def run_sums(rw: RunWindows) -> RunSums:
 
 def _trip_sums(Z: np.ndarray, q: int, trip: np.ndarray, trips: int):
     """Per trip (rows sorted by trip) of Z = [W Y], W its first `q` columns: W'W, W'Y, and Y's
-    squares and next-lag products."""
+    squares and next-lag products. (W'Z, not Z'Z: numpy makes Z'Z a symmetric rank update
+    that OpenBLAS spreads over threads, ~6x slower at these sizes.)"""
     L = Z.shape[1] - q
     ww = np.zeros((trips, q, q))
     wy = np.zeros((trips, q, L))
