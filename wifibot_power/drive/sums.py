@@ -100,8 +100,7 @@ def run_sums(rw: RunWindows) -> RunSums:
     columns = design_columns(surfaces)
     rows = regressor_rows([rw], surfaces)
     lags = lag_grid([rw])
-    Y = rw.power_at_lags(lags)
-    defined = np.isfinite(Y).all(axis=1)
+    defined = _defined_at_every_lag(rw, lags.size)
     common = defined[rw.ok]  # over the rows (the windows whose regressors are defined)
     trips = int(rw.trip[-1]) + 1 if rw.count else 0
     p = len(columns)
@@ -110,7 +109,7 @@ def run_sums(rw: RunWindows) -> RunSums:
     Z[:, :p], Z[:, p : 2 * p], Z[:, 2 * p :] = (
         rows.design[common],
         rows.design_rate[common],
-        Y[rw.ok & defined],
+        rw.power_at_lags(lags, np.flatnonzero(rw.ok & defined)),
     )
     X, Yc = Z[:, :p], Z[:, 2 * p :]
     trip = rows.trip[common]
@@ -148,10 +147,21 @@ def run_sums(rw: RunWindows) -> RunSums:
         cross_y=Yc[crossing],
         edge_x=rows.design[edge],
         edge_r=rows.design_rate[edge],
-        edge_y=Y[rw.ok & ~defined],
+        edge_y=rw.power_at_lags(lags, np.flatnonzero(rw.ok & ~defined)),
         edge_trip=rows.trip[edge],
         edge_surface=rows.surface[edge],
     )
+
+
+def _defined_at_every_lag(rw: RunWindows, lags: int) -> np.ndarray:
+    """Per window: its power is defined at every whole lag below `lags` (`RunWindows.power_at`):
+    no drop-out in the bins from its start to `lags - 1` bins past its end, all in the run."""
+    bad, _ = rw._power_sums
+    start = np.arange(rw.count) * rw.n
+    end = start + rw.n + lags - 1
+    inside = end <= rw.stats.bins
+    end = np.minimum(end, rw.stats.bins)
+    return inside & (bad[end] - bad[start] == 0)
 
 
 def _trip_sums(Z: np.ndarray, q: int, trip: np.ndarray, trips: int):

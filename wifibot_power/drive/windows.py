@@ -178,19 +178,20 @@ class RunWindows:
         mean = self.power_at_lags(np.array([lag_bins]))[:, 0]
         return mean, np.isfinite(mean)
 
-    def power_at_lags(self, lags: np.ndarray) -> np.ndarray:
-        """Each window's mean power at each whole lag of `lags` [bins], a column each [W];
-        NaN where not defined (past the run's end, or over a drop-out)."""
+    def power_at_lags(self, lags: np.ndarray, windows: np.ndarray | None = None) -> np.ndarray:
+        """Each window's (of `windows`, indices; else every one) mean power at each whole lag
+        of `lags` [bins], a column each [W]; NaN where not defined (past the run's end, or
+        over a drop-out)."""
         lags = np.asarray(lags, dtype=np.intp)
-        if not self.count or not lags.size:
-            return np.full((self.count, lags.size), np.nan)
+        windows = np.arange(self.count) if windows is None else np.asarray(windows)
+        if not windows.size or not lags.size:
+            return np.full((windows.size, lags.size), np.nan)
         means = self._span_means
-        # window i at lag l starts at bin i n + l: every start a strided slice
-        size = (self.count - 1) * self.n + int(lags.max()) + 1
+        # window i at lag l starts at bin i n + l
+        size = int(windows.max()) * self.n + int(lags.max()) + 1
         padded = np.full(max(size, means.size), np.nan)
         padded[: means.size] = means
-        step = self.n
-        return np.column_stack([padded[lag : lag + self.count * step : step] for lag in lags])
+        return padded[(windows * self.n)[:, None] + lags[None, :]]
 
     @cached_property
     def _span_means(self) -> np.ndarray:
