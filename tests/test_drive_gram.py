@@ -10,6 +10,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.optimize import lsq_linear
 
+import wifibot_power.drive.model as model_module
 from wifibot_power.drive import drive_stats
 from wifibot_power.drive.gram import FoldGrams
 from wifibot_power.drive.heldout import heldout_accuracy
@@ -222,3 +223,22 @@ def test_fold_sums_from_trips_are_the_fold_sums_of_the_windows(field_stats) -> N
         direct_lag, direct_sse = from_windows.search(fold)
         assert_allclose(sse, direct_sse, rtol=1e-9)
         assert lag == pytest.approx(direct_lag, rel=1e-9)
+
+
+def test_fit_from_sums_searches_the_windows_where_the_sums_cancel(field_stats, monkeypatch) -> None:
+    """Where every lag search's sum of squares "cancels" (gram.CANCELLATION), the fit from
+    sums searches those lags over the windows (as the direct fit does) and still equals it."""
+    import wifibot_power.drive.gram as gram
+
+    stats = field_stats[0][:6]
+    monkeypatch.setattr(gram, "CANCELLATION", 1.0)
+    calls = []
+    lag_search_direct = model_module.lag_search
+    monkeypatch.setattr(
+        model_module,
+        "lag_search",
+        lambda *a, **k: calls.append(k) or lag_search_direct(*a, **k),
+    )
+    fast = fit_drive_stats(stats)
+    assert len(calls) >= 5  # the whole fit's and the folds' searches, over the windows
+    _numbers_equal(fast.summary(), fit_drive_stats(stats, direct=True).summary())

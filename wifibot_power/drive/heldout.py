@@ -131,12 +131,16 @@ def heldout_accuracy(
 
 
 def heldout_from_sums(
-    table: SumsTable, clusters_by_run: bool, folds: int = FOLDS, seed: int = 0
+    table: SumsTable,
+    clusters_by_run: bool,
+    folds: int = FOLDS,
+    seed: int = 0,
+    search_windows=None,
 ) -> HeldOut | None:
     """`heldout_accuracy` from the batch's per-trip sums (lagsums.py): the same folds, lags,
-    fits and held-out energies up to the order of summation. Raises `CancellationError` when
-    a fold's lag search cannot be made from sums (gram.py `CANCELLATION`: the caller fits
-    from the windows)."""
+    fits and held-out energies up to the order of summation. A fold whose lag search cannot
+    be made from sums (gram.py `CANCELLATION`) is searched over its windows:
+    `search_windows(train)`, `train` a bool per trip (`model.py`)."""
     trips = np.flatnonzero(table.at_lag(0).count > 0)  # the trips with a window at lag 0
     if trips.size < MIN_TRIPS:
         return None
@@ -149,9 +153,7 @@ def heldout_from_sums(
         train = fold_of_trip != fold
         if not (table.trip_windows[train].any() and table.trip_windows[~train].any()):
             continue
-        found = grams.search(fold)
-        if found is None:
-            raise CancellationError(fold)
+        found = grams.search(fold) or search_windows(train)
         at = table.at_lag(found[0])
         model = identify_moments(at.moments(train, clusters_by_run), found[0], True)
         held = np.flatnonzero(~train & (at.count > 0))
@@ -164,10 +166,6 @@ def heldout_from_sums(
     if len(measured) < MIN_TRIPS:
         return None
     return _accuracy(table.run_ids, table.trip_base, measured, predicted, trip_ids, trip_surface)
-
-
-class CancellationError(Exception):
-    """A lag search's sum of squares too small to be taken from sums (gram.py)."""
 
 
 def lag_grid_of(table: SumsTable) -> np.ndarray:

@@ -14,7 +14,6 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 
 from wifibot_power.drive.heldout import (
-    CancellationError,
     HeldOut,
     HeldOutRun,
     heldout_accuracy,
@@ -257,10 +256,8 @@ def fit_drive_stats(
         kept = [(s, m) for s, m in zip(pairs, run_sums, strict=True) if m.windows]
         if not kept:
             return None
-        try:
-            return _fit_from_sums([s for (s, _), _ in kept], [m for _, m in kept], seed)
-        except CancellationError:
-            pass  # fit from the windows
+        stats = [s for (s, _), _ in kept]
+        return _fit_from_sums(stats, [m for _, m in kept], window_s, seed)
     return _fit_from_windows([s for s, _ in pairs], window_s, seed, direct)
 
 
@@ -269,20 +266,40 @@ def _window_of(stats: DriveStats, window_s: float) -> float:
     return max(int(round(window_s / stats.bin_s)), 1) * stats.bin_s
 
 
-def _fit_from_sums(stats: list[DriveStats], sums: list[RunSums], seed: int) -> DriveModel:
-    """`fit_drive_stats` from the runs' sums (lagsums.py). Raises `CancellationError` where a
-    lag search cannot be made from sums."""
+def _fit_from_sums(
+    stats: list[DriveStats], sums: list[RunSums], window_s: float, seed: int
+) -> DriveModel:
+    """`fit_drive_stats` from the runs' sums (lagsums.py); a lag search whose sum of squares
+    cannot be taken from sums (gram.py `CANCELLATION`) is made over the windows, as
+    `lag_search` does."""
     surfaces = tuple(sorted({name for m in sums for name in m.surfaces}))
     table = SumsTable(sums, surfaces)
+    search_windows = _window_search(stats, window_s, surfaces, table.trip_base)
     everything = np.ones(table.trips, dtype=bool)
-    found = table.fold_grams(np.zeros(table.trips, int), 1, lag_grid_of(table)).search(-1)
-    if found is None:
-        raise CancellationError(-1)
-    lag_bins = found[0]
+    grams = table.fold_grams(np.zeros(table.trips, int), 1, lag_grid_of(table))
+    lag_bins = (grams.search(-1) or search_windows(None))[0]
     by_run = len(sums) >= MIN_RUN_CLUSTERS
     fitted = identify_moments(table.at_lag(lag_bins).moments(everything, by_run), lag_bins)
-    heldout = heldout_from_sums(table, by_run, seed=seed)
+    heldout = heldout_from_sums(table, by_run, seed=seed, search_windows=search_windows)
     return _model(stats, fitted, heldout, lag_bins, table.window_s, surfaces)
+
+
+def _window_search(
+    stats: list[DriveStats], window_s: float, surfaces: tuple[str, ...], trip_base: np.ndarray
+):
+    """`search(train)`: the lag search by least squares over the windows of the `train` trips
+    (a bool per trip; None: every trip), the windows made at the first call."""
+    runs: list = []
+
+    def search(train: np.ndarray | None) -> tuple[float, np.ndarray]:
+        if not runs:
+            runs.extend(run_windows(s, window_s) for s in stats)
+        only = None
+        if train is not None:
+            only = [train[rw.trip + base] for rw, base in zip(runs, trip_base, strict=False)]
+        return lag_search(runs, surfaces, only, gram=False)
+
+    return search
 
 
 def _fit_from_windows(
