@@ -242,8 +242,7 @@ def fit_drive_stats(
     speed. See identify.py and heldout.py for the method. `sums`: each run's `RunSums` as
     the workers made them (sums.py; made here when missing); the fit reads only these
     (lagsums.py). `direct`: fit from the windows instead, every lag searched by least
-    squares over them (the reference the sums are tested against; also the fallback where a
-    sum of squares is too small to be taken from sums: gram.py `CANCELLATION`)."""
+    squares over them (the reference the sums are tested against)."""
     given = list(sums) if sums is not None else [None] * len(stats_list)
     pairs = [(s, m) for s, m in zip(stats_list, given, strict=True) if s is not None]
     if not pairs:
