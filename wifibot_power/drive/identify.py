@@ -75,7 +75,7 @@ class Identified:
     clusters: int
     lag_bins: float
     not_determined: tuple[tuple[str, str], ...]  # (column, reason)
-    residual_W: np.ndarray  # per window
+    residual_W: np.ndarray | None  # per window (None: fitted from sums, lagsums.py)
     #: bool per column: reported as a term (kept, and its interval not too loose to mean
     #: anything: `_honest`); None: every kept column
     reported: np.ndarray | None = None
