@@ -187,11 +187,13 @@ class RunWindows:
         if not windows.size or not lags.size:
             return np.full((windows.size, lags.size), np.nan)
         means = self._span_means
-        # window i at lag l starts at bin i n + l
-        size = int(windows.max()) * self.n + int(lags.max()) + 1
-        padded = np.full(max(size, means.size), np.nan)
-        padded[: means.size] = means
-        return padded[(windows * self.n)[:, None] + lags[None, :]]
+        # window i at lag l starts at bin i n + l; none starts past the run's last span
+        start = (windows * self.n)[:, None] + lags[None, :]
+        if not means.size:
+            return np.full(start.shape, np.nan)
+        out = means[np.minimum(start, means.size - 1)]
+        out[start >= means.size] = np.nan
+        return out
 
     @cached_property
     def _span_means(self) -> np.ndarray:
@@ -586,7 +588,7 @@ def _assemble_rows(
         regressor = REGRESSOR_OF[term_name]
         if regressor is None:
             return np.ones((power.size, 1)) if not prefix else np.zeros((power.size, 1))
-        values = np.nan_to_num(joined[prefix + regressor])[:, None]
+        values = np.nan_to_num(joined[prefix + regressor], copy=False)[:, None]
         return one_hot * values if TERM_BY_NAME[term_name].per_surface else values
 
     design = np.hstack([block(term.name, "") for term in TERMS])
