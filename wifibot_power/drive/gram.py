@@ -6,7 +6,7 @@ every whole lag (Y the power at each whole lag, a column each: X'Y and Y'Y); a f
 lag is then a p x p problem on the sum of the other folds' sums, whatever the number of
 windows. A lag between two whole bins is linear between them (windows.py, `between_bins`:
 y = (1 - t) y_w + t y_w+1), so its X'y and y'y are the same combination of the whole lags'
-(the cross-products Y'Y included). The solve is `identify._normal_equations`' (unit-norm
+(the cross-products Y'Y included). The solve is `moments._normal_equations`' (unit-norm
 columns, the pseudo-inverse of the scaled Gram), the sum of squares y'y - 2 b'X'y + b'X'X b
 (Lawson & Hanson 1974, "Solving Least Squares Problems", Ch. 1: the normal equations): the
 same numbers as the direct search up to the order of summation (benchmarks/gram_equal.py)

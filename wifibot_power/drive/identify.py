@@ -39,7 +39,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from wifibot_power.drive.gram import FoldGrams, refine_lag
-from wifibot_power.drive.moments import WindowMoments, cluster_jackknife, term_of
+from wifibot_power.drive.moments import (
+    WindowMoments,
+    _gram_solve,
+    _normal_equations,
+    cluster_jackknife,
+    least_squares,  # noqa: F401  (its home was here: tests import it from identify)
+    term_of,
+)
 from wifibot_power.drive.terms import TERM_BY_NAME
 from wifibot_power.drive.windows import (
     RunWindows,
@@ -376,30 +383,6 @@ def _unseen_reason(column: str, n_clusters: int) -> str:
         f"{column}: seen in only {n_clusters} run(s) or trip(s){where} (at least "
         f"{MIN_CLUSTERS} are needed for an interval)"
     )
-
-
-def least_squares(X: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Least squares by the normal equations of unit-norm columns (a few columns, thousands of
-    rows: ~50x faster than an SVD here, and as exact at these condition numbers); the
-    pseudo-inverse where a column is a combination of others."""
-    return _normal_equations(X)(y)
-
-
-def _normal_equations(X: np.ndarray):
-    """`least_squares(X, .)` with X factorised once: a function of y."""
-    scale = np.sqrt(np.sum(np.square(X), axis=0))
-    scale[scale == 0] = 1.0
-    A = X / scale
-    inverse = np.linalg.pinv(A.T @ A)
-    return lambda y: (inverse @ (A.T @ y)) / scale
-
-
-def _gram_solve(xx: np.ndarray, xy: np.ndarray) -> np.ndarray:
-    """`least_squares` from X'X and X'y: the same unit-norm scaling and pseudo-inverse
-    (the same numbers up to the order of summation of the sums)."""
-    scale = np.sqrt(np.diag(xx)).copy()
-    scale[scale == 0] = 1.0
-    return (np.linalg.pinv(xx / np.outer(scale, scale)) @ (xy / scale)) / scale
 
 
 def bounded_from_gram(xx: np.ndarray, xy: np.ndarray, non_negative: np.ndarray) -> np.ndarray:

@@ -21,8 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from wifibot_power.drive.gram import FoldGrams
-from wifibot_power.drive.identify import _gram_solve
-from wifibot_power.drive.moments import seen_columns
+from wifibot_power.drive.moments import _gram_solve, seen_columns
 from wifibot_power.drive.sums import RunSums, group_sum
 from wifibot_power.drive.windows import design_columns
 

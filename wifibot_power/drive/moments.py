@@ -65,6 +65,30 @@ def cluster_jackknife(
     return (G - 1) / G * centred.T @ centred, G - 1, G
 
 
+def least_squares(X: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Least squares by the normal equations of unit-norm columns (a few columns, thousands of
+    rows: ~50x faster than an SVD here, and as exact at these condition numbers); the
+    pseudo-inverse where a column is a combination of others."""
+    return _normal_equations(X)(y)
+
+
+def _normal_equations(X: np.ndarray):
+    """`least_squares(X, .)` with X factorised once: a function of y."""
+    scale = np.sqrt(np.sum(np.square(X), axis=0))
+    scale[scale == 0] = 1.0
+    A = X / scale
+    inverse = np.linalg.pinv(A.T @ A)
+    return lambda y: (inverse @ (A.T @ y)) / scale
+
+
+def _gram_solve(xx: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """`least_squares` from X'X and X'y: the same unit-norm scaling and pseudo-inverse
+    (the same numbers up to the order of summation of the sums)."""
+    scale = np.sqrt(np.diag(xx)).copy()
+    scale[scale == 0] = 1.0
+    return (np.linalg.pinv(xx / np.outer(scale, scale)) @ (xy / scale)) / scale
+
+
 class WindowMoments:
     """`Moments` of `windows` (rows) with `clusters` (per window), computed from the rows."""
 
@@ -98,9 +122,7 @@ class WindowMoments:
         return X.T @ X, X.T @ self.windows.power_W
 
     def unbounded(self, kept: np.ndarray) -> np.ndarray:
-        """Least squares without bounds on the `kept` columns (identify.least_squares)."""
-        from wifibot_power.drive.identify import least_squares
-
+        """Least squares without bounds on the `kept` columns (`least_squares`)."""
         return least_squares(self.windows.design[:, kept], self.windows.power_W)
 
     def jackknife_sums(self, kept: np.ndarray, coef_k: np.ndarray):
