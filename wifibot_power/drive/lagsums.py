@@ -84,6 +84,7 @@ class SumsTable:
 
     @property
     def trips(self) -> int:
+        """Every run's trips (T)."""
         return int(self.trip_base[-1])
 
     def fold_grams(self, fold_of_trip: np.ndarray, folds: int, lags: np.ndarray) -> FoldGrams:
@@ -101,6 +102,7 @@ class SumsTable:
         return FoldGrams(count, xx, xy, yy, lags)
 
     def at_lag(self, lag_bins: float) -> LagSums:
+        """Each trip's sums with the power `lag_bins` later (`LagSums`)."""
         return LagSums(self, lag_bins)
 
 
@@ -194,6 +196,7 @@ class SumMoments:
         self.proxy_all = bool(proxy.size and proxy.all())
 
     def _cluster_of_trip(self) -> np.ndarray:
+        """Each trip's cluster: its run's index (`by_run`) or its own."""
         table = self.at.table
         return table.run_of_trip if self.by_run else np.arange(table.trips)
 

@@ -78,14 +78,17 @@ class RunSums:
 
     @property
     def columns(self) -> tuple[str, ...]:
+        """The run's design columns (its own surfaces')."""
         return design_columns(self.surfaces)
 
     @property
     def windows(self) -> int:
+        """Every window of the run, defined or not."""
         return int(self.trip_windows.sum())
 
     @property
     def lags(self) -> int:
+        """The whole lags the sums hold a column for (L)."""
         return int(self.wy.shape[2])
 
 

@@ -175,6 +175,7 @@ class RunWindows:
         return self.stats.surface_index[np.arange(self.count) * self.n]
 
     def _power_at(self, lag_bins: int) -> tuple[np.ndarray, np.ndarray]:
+        """`power_at` at a whole lag."""
         mean = self.power_at_lags(np.array([lag_bins]))[:, 0]
         return mean, np.isfinite(mean)
 

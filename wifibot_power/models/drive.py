@@ -65,6 +65,7 @@ class WorkerStats:
         self.sums = sums
 
     def __getattr__(self, name: str) -> object:
+        """The bins' attribute (`DriveStats`), for what reads a run's drive statistics."""
         if name.startswith("__") or name in ("stats", "sums"):
             raise AttributeError(name)
         return getattr(self.stats, name)
