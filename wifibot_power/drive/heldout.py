@@ -16,14 +16,20 @@ intervals hold the measured energy: the check that they mean what they say.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from wifibot_power.drive.gram import FoldGrams
 from wifibot_power.drive.identify import identify, identify_moments, lag_grid, lag_search
 from wifibot_power.drive.lagsums import SumsTable
-from wifibot_power.drive.windows import RunWindows, StackedPower, assemble, at_any_lag
+from wifibot_power.drive.windows import (
+    RunWindows,
+    StackedPower,
+    Windows,
+    assemble,
+    regressor_rows,
+)
 from wifibot_power.stats import t_quantile
 
 #: Folds of the K-fold (fewer when there are fewer trips).
@@ -171,6 +177,20 @@ def heldout_from_sums(
 def lag_grid_of(table: SumsTable) -> np.ndarray:
     """The whole lags [bins] the searches try (identify.lag_grid): a column of the sums each."""
     return np.arange(table.lags)
+
+
+def at_any_lag(runs: list[RunWindows], surfaces: tuple[str, ...], stacked: StackedPower):
+    """`assemble(runs, lag, surfaces)` as a function of the lag, the regressors assembled once
+    (they do not move with the lag: only which windows have a power, and the power, do)."""
+    ok = stacked.ok
+    every = regressor_rows(runs, surfaces, ok)
+
+    def at(lag_bins: float) -> Windows:
+        power, power_ok = stacked.power_at(lag_bins)
+        rows = power_ok[ok]
+        return replace(every.take(rows), power_W=power[ok][rows])
+
+    return at
 
 
 def _accuracy(

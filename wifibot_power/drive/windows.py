@@ -23,7 +23,7 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
@@ -510,6 +510,12 @@ def between_bins(power_at_whole, lag_bins: float) -> tuple[np.ndarray, np.ndarra
     return (1 - part) * low + part * high, low_ok & high_ok
 
 
+def _finite(values: np.ndarray) -> np.ndarray:
+    """`np.nan_to_num(values)` in place (NaN 0, an infinity the largest float), without its
+    cost where every value is finite."""
+    return values if np.isfinite(values).all() else np.nan_to_num(values, copy=False)
+
+
 def _joined(parts: list[np.ndarray]) -> np.ndarray:
     return np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)
 
@@ -532,20 +538,6 @@ def assemble(
     if only is not None:
         keep &= _joined(list(only)).astype(bool)
     return _assemble_rows(runs, surfaces, keep, power)
-
-
-def at_any_lag(runs: list[RunWindows], surfaces: tuple[str, ...], stacked: StackedPower):
-    """`assemble(runs, lag, surfaces)` as a function of the lag, the regressors assembled once
-    (they do not move with the lag: only which windows have a power, and the power, do)."""
-    ok = stacked.ok
-    every = regressor_rows(runs, surfaces, ok)
-
-    def at(lag_bins: float) -> Windows:
-        power, power_ok = stacked.power_at(lag_bins)
-        rows = power_ok[ok]
-        return replace(every.take(rows), power_W=power[ok][rows])
-
-    return at
 
 
 def regressor_rows(
@@ -589,7 +581,7 @@ def _assemble_rows(
         regressor = REGRESSOR_OF[term_name]
         if regressor is None:
             return np.ones((power.size, 1)) if not prefix else np.zeros((power.size, 1))
-        values = np.nan_to_num(joined[prefix + regressor], copy=False)[:, None]
+        values = _finite(joined[prefix + regressor])[:, None]
         return one_hot * values if TERM_BY_NAME[term_name].per_surface else values
 
     design = np.hstack([block(term.name, "") for term in TERMS])
