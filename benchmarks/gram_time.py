@@ -1,12 +1,13 @@
-"""CPU time of `fit --json --jobs 0` at two revisions against a bare pyarrow parse, alternating.
+"""Wall and CPU time of `fit --json --jobs 0` at two revisions against a bare pyarrow parse,
+alternating.
 
     python benchmarks/gram_time.py OLD_REV NEW_REV FOLDER [FOLDER ...] [--repeats 3]
 
 Each revision's source comes from `git archive` (as benchmarks/gram_equal.py), run with this
 interpreter; each round runs the bare parse (measure.BARE_PARSE), the old fit and the new fit
 of a folder one after the other (the machine's load falls on all three alike), and the medians
-of the CPU time of all their processes (measure.measure) are printed with the ratios
-fit / bare parse, the figure issue 25 bounds at 1.5.
+of the wall time and of the CPU time of all their processes (measure.measure) are printed with
+the ratios fit / bare parse, the figure issue 25 bounds at 1.5.
 """
 
 from __future__ import annotations
@@ -39,20 +40,22 @@ def main() -> int:
     srcs = {"old": source(args.old, work), "new": source(args.new, work)}
     print(f"load average at the start: {load_average()}")
     for folder in args.folders:
-        cpu: dict[str, list[float]] = {"bare": [], "old": [], "new": []}
+        runs: dict[str, list] = {"bare": [], "old": [], "new": []}
         for _ in range(args.repeats):
-            cpu["bare"].append(measure([sys.executable, "-c", BARE_PARSE, str(folder)]).cpu_s)
+            runs["bare"].append(measure([sys.executable, "-c", BARE_PARSE, str(folder)]))
             for name, src in srcs.items():
                 argv = [sys.executable, "-c", LAUNCH, str(src), "fit", str(folder)]
-                cpu[name].append(measure([*argv, "--json", "--jobs", "0"], ok_codes=(0, 1)).cpu_s)
-        med = {name: statistics.median(values) for name, values in cpu.items()}
-        print(
-            f"{folder}: CPU medians of {args.repeats} [s]: bare parse {med['bare']:.2f}, "
-            f"fit {args.old} {med['old']:.2f} ({med['old'] / med['bare']:.2f}x), "
-            f"fit {args.new} {med['new']:.2f} ({med['new'] / med['bare']:.2f}x); "
-            f"new / old {med['new'] / med['old']:.2f}"
-        )
-        print(f"  all runs: {cpu}")
+                runs[name].append(measure([*argv, "--json", "--jobs", "0"], ok_codes=(0, 1)))
+        for what in ("wall_s", "cpu_s"):
+            med = {n: statistics.median(getattr(m, what) for m in ms) for n, ms in runs.items()}
+            print(
+                f"{folder}: {what} medians of {args.repeats}: bare parse {med['bare']:.2f}, "
+                f"fit {args.old} {med['old']:.2f} ({med['old'] / med['bare']:.2f}x), "
+                f"fit {args.new} {med['new']:.2f} ({med['new'] / med['bare']:.2f}x); "
+                f"new / old {med['new'] / med['old']:.2f}"
+            )
+            every = {n: [round(getattr(m, what), 2) for m in ms] for n, ms in runs.items()}
+            print(f"  all runs: {every}")
     print(f"load average at the end: {load_average()}")
     return 0
 

@@ -6,7 +6,7 @@ every whole lag (Y the power at each whole lag, a column each: X'Y and Y'Y); a f
 lag is then a p x p problem on the sum of the other folds' sums, whatever the number of
 windows. A lag between two whole bins is linear between them (windows.py, `between_bins`:
 y = (1 - t) y_w + t y_w+1), so its X'y and y'y are the same combination of the whole lags'
-(the cross-products Y'Y included). The solve is `identify._normal_equations`' (unit-norm
+(the cross-products Y'Y included). The solve is `moments._normal_equations`' (unit-norm
 columns, the pseudo-inverse of the scaled Gram), the sum of squares y'y - 2 b'X'y + b'X'X b
 (Lawson & Hanson 1974, "Solving Least Squares Problems", Ch. 1: the normal equations): the
 same numbers as the direct search up to the order of summation (benchmarks/gram_equal.py)
@@ -53,20 +53,35 @@ def refine_lag(lags: np.ndarray, sse_at) -> tuple[float, np.ndarray]:
 
 
 class FoldGrams:
-    """Per-fold sums of the lag search's least squares (module docstring).
-
-    `runs`, `surfaces`: as `lag_search`'s; `fold_of_window`: per stacked window (StackedPower's
-    order) its fold, -1 for none; `lags`: the whole lags [bins] the search tries."""
+    """Per-fold sums of the lag search's least squares (module docstring): per fold its
+    windows (`count`), X'X (`xx`), X'Y (`xy`, a column per whole lag of `lags`) and Y's band
+    (`yy`: Y_l'Y_l and Y_l'Y_l+1, the two rows; a lag between two whole bins needs no more)."""
 
     def __init__(
         self,
+        count: np.ndarray,
+        xx: np.ndarray,
+        xy: np.ndarray,
+        yy: np.ndarray,
+        lags: np.ndarray,
+    ) -> None:
+        self.count, self.xx, self.xy, self.yy = count, xx, xy, yy
+        self.lags = lags
+        self.folds = count.size
+
+    @classmethod
+    def from_windows(
+        cls,
         runs: list[RunWindows],
         surfaces: tuple[str, ...],
         fold_of_window: np.ndarray,
         folds: int,
         lags: np.ndarray,
         stacked: StackedPower | None = None,
-    ) -> None:
+    ) -> FoldGrams:
+        """From the windows: `runs`, `surfaces` as `lag_search`'s; `fold_of_window` per
+        stacked window (StackedPower's order) its fold, -1 for none (lagsums.py: from the
+        workers' per-trip sums)."""
         stacked = stacked or StackedPower(runs)
         common = stacked.ok.copy()
         powers = [stacked.power_at(int(lag)) for lag in lags]
@@ -76,19 +91,17 @@ class FoldGrams:
         Y = np.column_stack([power[common] for power, _ in powers])
         fold = fold_of_window[common]
         p, L = X.shape[1], lags.size
-        self.lags = lags
-        self.folds = folds
-        self.count = np.zeros(folds, dtype=np.int64)
-        self.xx = np.zeros((folds, p, p))
-        self.xy = np.zeros((folds, p, L))
-        self.yy = np.zeros((folds, L, L))
+        count = np.zeros(folds, dtype=np.int64)
+        xx, xy, yy = np.zeros((folds, p, p)), np.zeros((folds, p, L)), np.zeros((folds, 2, L))
         for f in range(folds):
             rows = fold == f
             Xf, Yf = X[rows], Y[rows]
-            self.count[f] = int(rows.sum())
-            self.xx[f] = Xf.T @ Xf
-            self.xy[f] = Xf.T @ Yf
-            self.yy[f] = Yf.T @ Yf
+            count[f] = int(rows.sum())
+            xx[f] = Xf.T @ Xf
+            xy[f] = Xf.T @ Yf
+            yy[f, 0] = np.sum(np.square(Yf), axis=0)
+            yy[f, 1, :-1] = np.sum(Yf[:, :-1] * Yf[:, 1:], axis=0)
+        return cls(count, xx, xy, yy, lags)
 
     def search(self, fold: int) -> tuple[float, np.ndarray] | None:
         """`lag_search` on the windows of every fold but `fold`; None when a sum of squares is
@@ -116,12 +129,17 @@ class FoldGrams:
             weights = np.zeros(self.lags.size)
             if part <= 1e-9:
                 weights[whole] = 1.0
+                b_yy = float(yy[0, whole])
             else:
                 if whole + 1 > last:
                     return np.inf  # never asked: the search stays within its grid
                 weights[whole], weights[whole + 1] = 1 - part, part
+                b_yy = float(
+                    (1 - part) ** 2 * yy[0, whole]
+                    + 2 * part * (1 - part) * yy[1, whole]
+                    + part**2 * yy[0, whole + 1]
+                )
             b_xy = xy @ weights
-            b_yy = float(weights @ yy @ weights)
             coef = (inverse @ (b_xy / scale)) / scale
             sse = float(b_yy - 2.0 * coef @ b_xy + coef @ xx @ coef)
             if b_yy > 0:

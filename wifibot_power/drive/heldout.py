@@ -16,13 +16,20 @@ intervals hold the measured energy: the check that they mean what they say.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from wifibot_power.drive.gram import FoldGrams
-from wifibot_power.drive.identify import identify, lag_grid, lag_search
-from wifibot_power.drive.windows import RunWindows, StackedPower, assemble, at_any_lag
+from wifibot_power.drive.identify import identify, identify_moments, lag_grid, lag_search
+from wifibot_power.drive.lagsums import SumsTable
+from wifibot_power.drive.windows import (
+    RunWindows,
+    StackedPower,
+    Windows,
+    assemble,
+    regressor_rows,
+)
 from wifibot_power.stats import t_quantile
 
 #: Folds of the K-fold (fewer when there are fewer trips).
@@ -95,7 +102,7 @@ def heldout_accuracy(
     fold_of = [fold_of_trip[rw.trip + base] for rw, base in zip(runs, bases, strict=True)]
     stacked = StackedPower(runs)
     grams = (
-        FoldGrams(runs, surfaces, np.concatenate(fold_of), k, lag_grid(runs), stacked)
+        FoldGrams.from_windows(runs, surfaces, np.concatenate(fold_of), k, lag_grid(runs), stacked)
         if gram
         else None
     )
@@ -125,11 +132,69 @@ def heldout_accuracy(
             trip_surface.append(surfaces[int(values[np.argmax(counts)])])
     if len(measured) < MIN_TRIPS:
         return None
-    return _accuracy(runs, trip_base, measured, predicted, trip_ids, trip_surface)
+    run_ids = tuple(rw.stats.run_id for rw in runs)
+    return _accuracy(run_ids, trip_base, measured, predicted, trip_ids, trip_surface)
+
+
+def heldout_from_sums(
+    table: SumsTable,
+    clusters_by_run: bool,
+    folds: int = FOLDS,
+    seed: int = 0,
+    search_windows=None,
+) -> HeldOut | None:
+    """`heldout_accuracy` from the batch's per-trip sums (lagsums.py): the same folds, lags,
+    fits and held-out energies up to the order of summation. A fold whose lag search cannot
+    be made from sums (gram.py `CANCELLATION`) is searched over its windows:
+    `search_windows(train)`, `train` a bool per trip (`model.py`)."""
+    trips = np.flatnonzero(table.at_lag(0).count > 0)  # the trips with a window at lag 0
+    if trips.size < MIN_TRIPS:
+        return None
+    k = min(folds, trips.size)
+    fold_of_trip = np.full(table.trips, -1)
+    fold_of_trip[np.random.default_rng(seed).permutation(trips)] = np.arange(trips.size) % k
+    grams = table.fold_grams(fold_of_trip, k, lag_grid_of(table))
+    measured, predicted, trip_ids, trip_surface = [], [], [], []
+    for fold in range(k):
+        train = fold_of_trip != fold
+        if not (table.trip_windows[train].any() and table.trip_windows[~train].any()):
+            continue
+        found = grams.search(fold) or search_windows(train)
+        at = table.at_lag(found[0])
+        model = identify_moments(at.moments(train, clusters_by_run), found[0], True)
+        held = np.flatnonzero(~train & (at.count > 0))
+        kept = model.kept
+        power_J = at.sum_x[np.ix_(held, kept)] @ model.coef[kept] * table.window_s
+        measured += [float(v) * table.window_s for v in at.sum_y[held]]
+        predicted += [float(v) for v in power_J]
+        trip_ids += [int(t) for t in held]
+        trip_surface += [table.surfaces[int(i)] for i in np.argmax(at.on_surface[held], axis=1)]
+    if len(measured) < MIN_TRIPS:
+        return None
+    return _accuracy(table.run_ids, table.trip_base, measured, predicted, trip_ids, trip_surface)
+
+
+def lag_grid_of(table: SumsTable) -> np.ndarray:
+    """The whole lags [bins] the searches try (identify.lag_grid): a column of the sums each."""
+    return np.arange(table.lags)
+
+
+def at_any_lag(runs: list[RunWindows], surfaces: tuple[str, ...], stacked: StackedPower):
+    """`assemble(runs, lag, surfaces)` as a function of the lag, the regressors assembled once
+    (they do not move with the lag: only which windows have a power, and the power, do)."""
+    ok = stacked.ok
+    every = regressor_rows(runs, surfaces, ok)
+
+    def at(lag_bins: float) -> Windows:
+        power, power_ok = stacked.power_at(lag_bins)
+        rows = power_ok[ok]
+        return replace(every.take(rows), power_W=power[ok][rows])
+
+    return at
 
 
 def _accuracy(
-    runs: list[RunWindows],
+    run_ids: tuple[str, ...],
     trip_base: np.ndarray,
     measured: list[float],
     predicted: list[float],
@@ -152,11 +217,12 @@ def _accuracy(
         ape = np.abs(measured_J - predicted_J) / np.abs(measured_J) * 100.0
     ape = ape[np.isfinite(ape)]
     rows = []
+    run_of = np.searchsorted(trip_base, trip_ids, side="right") - 1
     for j, trip in enumerate(trip_ids):
-        r = int(np.searchsorted(trip_base, trip, side="right") - 1)
+        r = int(run_of[j])
         local = trip - int(trip_base[r])
-        run_id = runs[r].stats.run_id
-        several = int(runs[r].trip[-1]) > 0
+        run_id = run_ids[r]
+        several = int(trip_base[r + 1] - trip_base[r]) > 1
         rows.append(
             HeldOutRun(
                 run_id=f"{run_id}#{local + 1}" if several else run_id,

@@ -39,6 +39,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from wifibot_power.drive.gram import FoldGrams, refine_lag
+from wifibot_power.drive.moments import (
+    WindowMoments,
+    _gram_solve,
+    _normal_equations,
+    cluster_jackknife,
+    least_squares,  # noqa: F401  (its home was here: tests import it from identify)
+    term_of,
+)
 from wifibot_power.drive.terms import TERM_BY_NAME
 from wifibot_power.drive.windows import (
     RunWindows,
@@ -55,11 +63,6 @@ MAX_LAG_S = 1.0
 MIN_TOLERANCE = 1e-2
 #: A term must be seen (its regressor non-zero) in windows of at least this many clusters.
 MIN_CLUSTERS = 2
-#: Mean |yaw rate| [rad/s] a window must have to count as turning, |v| [m/s] as moving, and
-#: |a v| [m^2/s^3] as speeding up or braking.
-TURNING_RADPS = 0.1
-MOVING_MPS = 0.05
-ACCELERATING_M2PS3 = 0.02
 #: A term is not determined when its 95% interval's half-width, times its regressor's typical
 #: (root mean square) size in the windows where it acts, is more than this share of the
 #: standard deviation of the power over those windows (idle: of the mean power): the data
@@ -79,7 +82,7 @@ class Identified:
     clusters: int
     lag_bins: float
     not_determined: tuple[tuple[str, str], ...]  # (column, reason)
-    residual_W: np.ndarray  # per window
+    residual_W: np.ndarray | None  # per window (None: fitted from sums, lagsums.py)
     #: bool per column: reported as a term (kept, and its interval not too loose to mean
     #: anything: `_honest`); None: every kept column
     reported: np.ndarray | None = None
@@ -129,7 +132,7 @@ def lag_search(
     lags = lag_grid(runs)
     if gram:
         keep = StackedPower(runs).ok if only is None else np.concatenate(only).astype(bool)
-        found = FoldGrams(runs, surfaces, np.where(keep, 0, -1), 1, lags).search(-1)
+        found = FoldGrams.from_windows(runs, surfaces, np.where(keep, 0, -1), 1, lags).search(-1)
         if found is not None:
             return found
     # the windows defined at every lag, so that each lag is judged on the same windows
@@ -163,11 +166,20 @@ def identify(windows: Windows, lag_bins: float, clusters: np.ndarray) -> Identif
     spans over half the mean power was tried and made held-out energy worse on real logs
     (BorealTC 29.7% -> 38.2% MAPE, the unicycles' wAPE 11.9% -> 21.6%). One too loose to
     mean anything is reported as not determined (`_honest`), not given a number."""
-    kept, reasons = _determined(windows, clusters)
-    return _honest(windows, _fit_kept(windows, lag_bins, clusters, kept, reasons), clusters)
+    return identify_moments(WindowMoments(windows, clusters), lag_bins)
 
 
-def _honest(windows: Windows, fitted: Identified, clusters: np.ndarray) -> Identified:
+def identify_moments(moments, lag_bins: float, coefficients_only: bool = False) -> Identified:
+    """`identify` from `moments` (moments.py: the windows' sums, made from the rows or from
+    per-trip sums). `coefficients_only`: the coefficients and what is kept, without the
+    covariance and the loose-interval check (a held-out fold predicts with the coefficients
+    alone: the same predictions)."""
+    kept, reasons = _determined(moments)
+    fitted = _fit_kept(moments, lag_bins, kept, reasons, coefficients_only)
+    return _honest(moments, fitted, coefficients_only)
+
+
+def _honest(moments, fitted: Identified, coefficients_only: bool = False) -> Identified:
     """The terms the fit can honestly report (module docstring): a term held at its bound
     leaves the fit (its coefficient is 0 either way: the others' are unchanged, their
     covariance is the one without it), and a term whose interval is looser than any power
@@ -177,7 +189,7 @@ def _honest(windows: Windows, fitted: Identified, clusters: np.ndarray) -> Ident
     pinned = fitted.kept & bounds & (fitted.coef == 0)
     reasons = list(fitted.not_determined)
     if pinned.any():
-        free = least_squares(windows.design[:, fitted.kept], windows.power_W)
+        free = moments.unbounded(fitted.kept)
         unbounded = dict(zip(np.flatnonzero(fitted.kept), free, strict=True))
         for j in np.flatnonzero(pinned):
             unit = TERM_BY_NAME[_term(columns[j])].unit
@@ -195,23 +207,23 @@ def _honest(windows: Windows, fitted: Identified, clusters: np.ndarray) -> Ident
                     f"squares without the bounds: {unbounded[j]:.3g} {unit}): no value given",
                 )
             )
-        fitted = _fit_kept(windows, fitted.lag_bins, clusters, fitted.kept & ~pinned, reasons)
+        fitted = _fit_kept(
+            moments, fitted.lag_bins, fitted.kept & ~pinned, reasons, coefficients_only
+        )
         reasons = list(fitted.not_determined)
+    if coefficients_only:
+        return replace(fitted, not_determined=tuple(reasons))
     half = fitted.half_width()
     reported = fitted.kept.copy()
     for j in np.flatnonzero(fitted.kept):
-        seen = _seen(windows, j)
-        if seen.sum() < 2 or not np.isfinite(half[j]):
+        idle = _term(columns[j]) == "idle_W"
+        count, typical, spread_W = moments.seen_spread(j, idle)
+        if count < 2 or not np.isfinite(half[j]):
             continue
         # the term's share of a window where it acts: what its interval leaves open, against
         # how much the power itself varies over those windows (idle, a constant share, against
         # the power's level: a robot whose power hardly varies still has a measured idle)
-        typical = float(np.sqrt(np.mean(np.square(windows.design[seen, j]))))
         open_W = half[j] * typical
-        if _term(columns[j]) == "idle_W":
-            spread_W = float(np.mean(np.abs(windows.power_W[seen])))
-        else:
-            spread_W = float(np.std(windows.power_W[seen]))
         if open_W > LOOSE_SHARE * spread_W:
             unit = TERM_BY_NAME[_term(columns[j])].unit
             reported[j] = False
@@ -222,7 +234,7 @@ def _honest(windows: Windows, fitted: Identified, clusters: np.ndarray) -> Ident
                     f"(95%) leaves ± {open_W:.3g} W open where it acts, more than the power "
                     + (
                         f"it is part of ({spread_W:.3g} W mean)"
-                        if _term(columns[j]) == "idle_W"
+                        if idle
                         else f"varies there (sd {spread_W:.3g} W)"
                     )
                     + ": these logs do not tell it apart from the other terms (it stays in "
@@ -255,28 +267,34 @@ PREFERENCE_FORCE_FORM = ("rolling_W_per_mps", "idle_W", *PREFERENCE[2:])
 
 
 def _fit_kept(
-    windows: Windows,
+    moments,
     lag_bins: float,
-    clusters: np.ndarray,
     kept: np.ndarray,
     reasons: list[tuple[str, str]],
+    coefficients_only: bool = False,
 ) -> Identified:
-    X, y = windows.design, windows.power_W
-    columns = windows.columns
+    """The bounded least squares of the `kept` columns and (unless `coefficients_only`) their
+    cluster jackknife covariance, the lag's uncertainty carried in (below)."""
+    columns = moments.columns
     bounds = np.array([TERM_BY_NAME[_term(c)].non_negative for c in columns])
     coef = np.full(len(columns), np.nan)
-    Xk = X[:, kept]
-    coef_k = _bounded_lstsq(Xk, y, bounds[kept])
+    xx, xy = moments.gram_xy(kept)
+    coef_k = bounded_from_gram(xx, xy, bounds[kept])
     coef[kept] = coef_k
-    residual = y - Xk @ coef_k
-    # the lag was estimated from these same windows: its uncertainty is carried into the
-    # coefficients' by the joint sandwich of (coefficients, lag), the lag's column being
-    # how the fitted power moves with it (the regressors' rate of change times the
-    # coefficients: a Gauss-Newton linearisation)
-    lag_column = windows.design_rate[:, kept] @ coef_k
-    joint = np.column_stack((Xk, lag_column)) if np.any(lag_column) else Xk
-    cov, dof, groups = _cluster_cov(joint, residual, clusters)
-    cov = cov[: Xk.shape[1], : Xk.shape[1]]
+    p = int(kept.sum())
+    cov, dof, groups = np.full((p, p), np.nan), 0, 0
+    if not coefficients_only:
+        # the lag was estimated from these same windows: its uncertainty is carried into the
+        # coefficients' by the joint sandwich of (coefficients, lag), the lag's column being
+        # how the fitted power moves with it (the regressors' rate of change times the
+        # coefficients: a Gauss-Newton linearisation)
+        sums, joint_p, groups = moments.jackknife_sums(kept, coef_k)
+        dof = max(groups - 1, 0)
+        if sums is not None:
+            cov, dof, groups = cluster_jackknife(*sums)
+        else:
+            cov = np.full((joint_p, joint_p), np.nan)
+        cov = cov[:p, :p]
     return Identified(
         columns=columns,
         kept=kept,
@@ -286,34 +304,32 @@ def _fit_kept(
         clusters=groups,
         lag_bins=lag_bins,
         not_determined=tuple(reasons),
-        residual_W=residual,
+        residual_W=moments.residual_W,
     )
 
 
-def _term(column: str) -> str:
-    return column.split("[", 1)[0]
+_term = term_of
 
 
-def _determined(windows: Windows, clusters: np.ndarray) -> tuple[np.ndarray, list]:
+def _determined(moments) -> tuple[np.ndarray, list]:
     """Which columns the data determine, and why each other one is not (module docstring).
     Columns are tried in order of how much power they usually carry: idle, rolling, turning,
     speeding up, braking, then the step on moving and v^2, so collinearity drops the weaker
     term (one speed only: |v|, the step and v^2 are one regressor, and |v| is kept)."""
-    X = windows.design
-    columns = windows.columns
-    preference = PREFERENCE_FORCE_FORM if windows.force_form else PREFERENCE
+    columns = moments.columns
+    preference = PREFERENCE_FORCE_FORM if moments.force_form else PREFERENCE
     order = sorted(range(len(columns)), key=lambda j: preference.index(_term(columns[j])))
     kept = np.zeros(len(columns), dtype=bool)
     reasons: list[tuple[str, str]] = []
-    proxy = windows.proxy if windows.proxy is not None else np.zeros(windows.size, bool)
+    seen_clusters = moments.seen_clusters()
     # every screen below is least squares of one column on the kept ones: from X'X, made once
-    gram = X.T @ X
+    gram = moments.gram
     for j in order:
         column = columns[j]
         term = _term(column)
-        if term == "turning_coulomb_W" and not proxy.any():
+        if term == "turning_coulomb_W" and not moments.proxy_any:
             continue  # a term of the force form only: not one of a power log's model
-        if term == "drive_on_W" and proxy.size and proxy.all():
+        if term == "drive_on_W" and moments.proxy_all:
             reasons.append(
                 (
                     column,
@@ -322,8 +338,7 @@ def _determined(windows: Windows, clusters: np.ndarray) -> tuple[np.ndarray, lis
                 )
             )
             continue
-        seen = _seen(windows, j)
-        n_clusters = np.unique(clusters[seen]).size if seen.any() else 0
+        n_clusters = int(seen_clusters[j])
         if n_clusters < MIN_CLUSTERS:
             reasons.append((column, _unseen_reason(column, n_clusters)))
             continue
@@ -332,8 +347,7 @@ def _determined(windows: Windows, clusters: np.ndarray) -> tuple[np.ndarray, lis
             coef = _gram_solve(base, gram[kept, j])
             # the residual's sum of squares x'x - 2 b'X'x + b'X'X b (>= 0 but for rounding)
             rest_ss = max(float(gram[j, j] - 2.0 * coef @ gram[kept, j] + coef @ base @ coef), 0)
-            centred = X[:, j] - X[:, j].mean() if _term(column) != "idle_W" else X[:, j]
-            total = float(np.sum(np.square(centred)))
+            total = float(gram[j, j]) if term == "idle_W" else moments.centred_ss(j)
             tolerance = rest_ss / total if total > 0 else 0.0
             if tolerance < MIN_TOLERANCE:
                 names = ", ".join(columns[k] for k in np.flatnonzero(kept))
@@ -348,23 +362,6 @@ def _determined(windows: Windows, clusters: np.ndarray) -> tuple[np.ndarray, lis
                 continue
         kept[j] = True
     return kept, reasons
-
-
-def _seen(windows: Windows, j: int) -> np.ndarray:
-    """Windows where column j's regressor is clearly non-zero."""
-    term = _term(windows.columns[j])
-    value = np.abs(windows.design[:, j])
-    threshold = {
-        "idle_W": 0.5,
-        "drive_on_W": 0.5,
-        "rolling_W_per_mps": MOVING_MPS,
-        "quadratic_W_per_mps2": MOVING_MPS**2,
-        "effective_mass_kg": ACCELERATING_M2PS3,
-        "braking_mass_kg": ACCELERATING_M2PS3,
-        "turning_Nm": TURNING_RADPS,
-        "turning_coulomb_W": 0.5,
-    }[term]
-    return value > threshold
 
 
 def _unseen_reason(column: str, n_clusters: int) -> str:
@@ -388,40 +385,11 @@ def _unseen_reason(column: str, n_clusters: int) -> str:
     )
 
 
-def least_squares(X: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Least squares by the normal equations of unit-norm columns (a few columns, thousands of
-    rows: ~50x faster than an SVD here, and as exact at these condition numbers); the
-    pseudo-inverse where a column is a combination of others."""
-    return _normal_equations(X)(y)
-
-
-def _normal_equations(X: np.ndarray):
-    """`least_squares(X, .)` with X factorised once: a function of y."""
-    scale = np.sqrt(np.sum(np.square(X), axis=0))
-    scale[scale == 0] = 1.0
-    A = X / scale
-    inverse = np.linalg.pinv(A.T @ A)
-    return lambda y: (inverse @ (A.T @ y)) / scale
-
-
-def _gram_solve(xx: np.ndarray, xy: np.ndarray) -> np.ndarray:
-    """`least_squares` from X'X and X'y: the same unit-norm scaling and pseudo-inverse
-    (the same numbers up to the order of summation of the sums)."""
-    scale = np.sqrt(np.diag(xx)).copy()
-    scale[scale == 0] = 1.0
-    return (np.linalg.pinv(xx / np.outer(scale, scale)) @ (xy / scale)) / scale
-
-
-def _bounded_lstsq(X: np.ndarray, y: np.ndarray, non_negative: np.ndarray) -> np.ndarray:
-    """Least squares with coef[j] >= 0 where `non_negative[j]`: Lawson & Hanson's active set
-    on the normal equations (few columns). Columns are scaled to unit norm for conditioning."""
-    return bounded_from_gram(X.T @ X, X.T @ y, non_negative)
-
-
 def bounded_from_gram(xx: np.ndarray, xy: np.ndarray, non_negative: np.ndarray) -> np.ndarray:
-    """`_bounded_lstsq` from X'X and X'y only (the active set needs no more: the sum of
-    squares is y'y - 2 b'X'y + b'X'X b; Lawson & Hanson 1974, Ch. 23): the same solution up to
-    the order of summation, so a fit on some groups' windows is a sum of their sums."""
+    """Least squares with coef[j] >= 0 where `non_negative[j]`, from X'X and X'y only:
+    Lawson & Hanson's active set on the normal equations (few columns; the sum of squares is
+    y'y - 2 b'X'y + b'X'X b; Lawson & Hanson 1974, Ch. 23), columns scaled to unit norm for
+    conditioning. A fit on some groups' windows is a sum of their sums."""
     p = xx.shape[0]
     if p == 0:
         return np.zeros(0)
@@ -444,38 +412,3 @@ def bounded_from_gram(xx: np.ndarray, xy: np.ndarray, non_negative: np.ndarray) 
             break
         fixed[np.flatnonzero(release)[np.argmax(gradient[release])]] = False
     return coef / scale
-
-
-def _cluster_cov(
-    X: np.ndarray, residual: np.ndarray, clusters: np.ndarray
-) -> tuple[np.ndarray, int, int]:
-    """The cluster jackknife covariance (CR3; Cameron & Miller 2015, Sec. VI.B; MacKinnon,
-    Nielsen & Webb 2023, "Cluster-robust inference: a guide to empirical practice", J.
-    Econometrics 232(2), Eq. 19): (G-1)/G sum_g (d_g - mean d)(d_g - mean d)' with d_g the
-    change of the coefficients when cluster g is left out, d_g = (X'X - X_g'X_g)^-1 X_g'u_g
-    (exact for least squares; p x p solves only). The CR1 sandwich was tried first: with a
-    dozen runs and eight terms it is biased low (its intervals held the simulator's true
-    braking term in 6 of 10 seeds); the jackknife's are what few clusters call for. Returns
-    the covariance, its degrees of freedom G - 1 and G."""
-    n, p = X.shape
-    groups, inverse = np.unique(clusters, return_inverse=True)
-    G = groups.size
-    if p == 0 or G < 2 or n <= p:
-        return np.full((p, p), np.nan), max(G - 1, 0), G
-    gram = X.T @ X
-    # per-cluster sums X_g'X_g and X_g'u_g, a cluster's rows at a time (a loop over clusters,
-    # not rows: one matrix product each, without an n x p x p temporary)
-    order = np.argsort(inverse, kind="stable")
-    ends = np.cumsum(np.bincount(inverse, minlength=G))
-    scores = np.zeros((G, p))
-    grams = np.zeros((G, p, p))
-    for g, rows in enumerate(np.split(order, ends[:-1])):
-        Xg = X[rows]
-        grams[g] = Xg.T @ Xg
-        scores[g] = Xg.T @ residual[rows]
-    left_out = gram[None, :, :] - grams
-    # a cluster without which the design is singular (the only run turning on a surface):
-    # the pseudo-inverse, which leaves that direction out of its change
-    changes = np.einsum("gij,gj->gi", np.linalg.pinv(left_out), scores)
-    centred = changes - changes.mean(axis=0)
-    return (G - 1) / G * centred.T @ centred, G - 1, G

@@ -13,9 +13,17 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from wifibot_power.drive.heldout import HeldOut, HeldOutRun, heldout_accuracy
-from wifibot_power.drive.identify import identify, lag_search
+from wifibot_power.drive.heldout import (
+    HeldOut,
+    HeldOutRun,
+    heldout_accuracy,
+    heldout_from_sums,
+    lag_grid_of,
+)
+from wifibot_power.drive.identify import identify, identify_moments, lag_search
+from wifibot_power.drive.lagsums import SumsTable
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
+from wifibot_power.drive.sums import RunSums, sums_of
 from wifibot_power.drive.terms import TERM_BY_NAME, TERMS
 from wifibot_power.drive.windows import WINDOW_S, assemble, run_windows
 
@@ -223,32 +231,112 @@ def fit_drive(
 
 
 def fit_drive_stats(
-    stats_list: Sequence[DriveStats | None], *, window_s: float = WINDOW_S, seed: int = 0
+    stats_list: Sequence[DriveStats | None],
+    *,
+    window_s: float = WINDOW_S,
+    seed: int = 0,
+    sums: Sequence[RunSums | None] | None = None,
+    direct: bool = False,
 ) -> DriveModel | None:
     """The drive model from per-run statistics (`stats.drive_stats`); None when none has a
-    speed. See identify.py and heldout.py for the method."""
-    stats = [s for s in stats_list if s is not None]
-    if not stats:
+    speed. See identify.py and heldout.py for the method. `sums`: each run's `RunSums` as
+    the workers made them (sums.py; made here when missing); the fit reads only these
+    (lagsums.py). `direct`: fit from the windows instead, every lag searched by least
+    squares over them (the reference the sums are tested against)."""
+    given = list(sums) if sums is not None else [None] * len(stats_list)
+    pairs = [(s, m) for s, m in zip(stats_list, given, strict=True) if s is not None]
+    if not pairs:
         return None
-    warnings: list[str] = []
-    runs = [run_windows(s, window_s) for s in stats]
+    if not direct:
+        run_sums = [
+            m if m is not None and m.window_s == _window_of(s, window_s) else sums_of(s, window_s)
+            for s, m in pairs
+        ]
+        kept = [(s, m) for s, m in zip(pairs, run_sums, strict=True) if m.windows]
+        if not kept:
+            return None
+        stats = [s for (s, _), _ in kept]
+        return _fit_from_sums(stats, [m for _, m in kept], window_s, seed)
+    return _fit_from_windows([s for s, _ in pairs], window_s, seed, direct)
+
+
+def _window_of(stats: DriveStats, window_s: float) -> float:
+    """The window [s] `run_windows(stats, window_s)` makes (a whole number of bins)."""
+    return max(int(round(window_s / stats.bin_s)), 1) * stats.bin_s
+
+
+def _fit_from_sums(
+    stats: list[DriveStats], sums: list[RunSums], window_s: float, seed: int
+) -> DriveModel:
+    """`fit_drive_stats` from the runs' sums (lagsums.py); a lag search whose sum of squares
+    cannot be taken from sums (gram.py `CANCELLATION`) is made over the windows, as
+    `lag_search` does."""
+    surfaces = tuple(sorted({name for m in sums for name in m.surfaces}))
+    table = SumsTable(sums, surfaces)
+    search_windows = _window_search(stats, window_s, surfaces, table.trip_base)
+    everything = np.ones(table.trips, dtype=bool)
+    grams = table.fold_grams(np.zeros(table.trips, int), 1, lag_grid_of(table))
+    lag_bins = (grams.search(-1) or search_windows(None))[0]
+    by_run = len(sums) >= MIN_RUN_CLUSTERS
+    fitted = identify_moments(table.at_lag(lag_bins).moments(everything, by_run), lag_bins)
+    heldout = heldout_from_sums(table, by_run, seed=seed, search_windows=search_windows)
+    return _model(stats, fitted, heldout, lag_bins, table.window_s, surfaces)
+
+
+def _window_search(
+    stats: list[DriveStats], window_s: float, surfaces: tuple[str, ...], trip_base: np.ndarray
+):
+    """`search(train)`: the lag search by least squares over the windows of the `train` trips
+    (a bool per trip; None: every trip), the windows made at the first call."""
+    runs: list = []
+
+    def search(train: np.ndarray | None) -> tuple[float, np.ndarray]:
+        if not runs:
+            runs.extend(run_windows(s, window_s) for s in stats)
+        only = None
+        if train is not None:
+            only = [train[rw.trip + base] for rw, base in zip(runs, trip_base, strict=False)]
+        return lag_search(runs, surfaces, only, gram=False)
+
+    return search
+
+
+def _fit_from_windows(
+    stats_list: list[DriveStats], window_s: float, seed: int, direct: bool
+) -> DriveModel | None:
+    """`fit_drive_stats` from the windows (its `direct`)."""
+    runs = [run_windows(s, window_s) for s in stats_list]
     runs = [rw for rw in runs if rw.count]
     if not runs:
         return None
     surfaces = tuple(sorted({s for rw in runs for s in rw.stats.surfaces}))
-    lag_bins, _ = lag_search(runs, surfaces)
+    lag_bins, _ = lag_search(runs, surfaces, gram=not direct)
     windows = assemble(runs, lag_bins, surfaces)
     by_run = len(runs) >= MIN_RUN_CLUSTERS
-    if not by_run:
+    clusters = windows.run if by_run else windows.trip
+    fitted = identify(windows, lag_bins, clusters)
+    heldout = heldout_accuracy(runs, surfaces, by_run, seed=seed, gram=not direct)
+    stats = [rw.stats for rw in runs]
+    return _model(stats, fitted, heldout, lag_bins, windows.window_s, surfaces)
+
+
+def _model(
+    stats: list[DriveStats],
+    fitted: Identified,
+    heldout: HeldOut | None,
+    lag_bins: float,
+    window_s: float,
+    surfaces: tuple[str, ...],
+) -> DriveModel:
+    """The `DriveModel` of a fit over `stats`' runs (each with a window), with its warnings."""
+    warnings: list[str] = []
+    if len(stats) < MIN_RUN_CLUSTERS:
         warnings.append(
-            f"only {len(runs)} run(s): the intervals are robust by trip (the runs cut at their "
+            f"only {len(stats)} run(s): the intervals are robust by trip (the runs cut at their "
             f"stops), not by run (>= {MIN_RUN_CLUSTERS} runs); trips of one log share its slow "
             "drifts, so the intervals may be too narrow"
         )
-    clusters = windows.run if by_run else windows.trip
-    fitted = identify(windows, lag_bins, clusters)
     warnings += _data_warnings(stats)
-    heldout = heldout_accuracy(runs, surfaces, by_run, seed=seed)
     if heldout is None:
         warnings.append("fewer than 4 trips: no held-out accuracy")
     terms, per_surface = _terms(fitted, surfaces)
@@ -256,15 +344,15 @@ def fit_drive_stats(
     return DriveModel(
         terms=terms,
         surfaces=per_surface,
-        lag_s=lag_bins * runs[0].stats.bin_s,
-        n_runs=len(runs),
+        lag_s=lag_bins * stats[0].bin_s,
+        n_runs=len(stats),
         heldout=heldout,
         not_determined=tuple(reason for _, reason in fitted.not_determined),
         warnings=tuple(warnings),
         columns=fitted.columns,
         coef=tuple(float(c) for c in fitted.coef),
         cov=tuple(tuple(float(v) for v in row) for row in fitted.cov) if k.size else (),
-        window_s=windows.window_s,
+        window_s=window_s,
         surface_names=surfaces,
         dof=fitted.dof,
     )

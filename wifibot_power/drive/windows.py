@@ -24,7 +24,7 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
@@ -183,15 +183,37 @@ class RunWindows:
         return self.stats.surface_index[np.arange(self.count) * self.n]
 
     def _power_at(self, lag_bins: int) -> tuple[np.ndarray, np.ndarray]:
-        power = self.stats.power_W
-        start = np.arange(self.count) * self.n + lag_bins
-        inside = start + self.n <= power.size
+        """`power_at` at a whole lag."""
+        mean = self.power_at_lags(np.array([lag_bins]))[:, 0]
+        return mean, np.isfinite(mean)
+
+    def power_at_lags(self, lags: np.ndarray, windows: np.ndarray | None = None) -> np.ndarray:
+        """Each window's (of `windows`, indices; else every one) mean power at each whole lag
+        of `lags` [bins], a column each [W]; NaN where not defined (past the run's end, or
+        over a drop-out)."""
+        lags = np.asarray(lags, dtype=np.intp)
+        windows = np.arange(self.count) if windows is None else np.asarray(windows)
+        if not windows.size or not lags.size:
+            return np.full((windows.size, lags.size), np.nan)
+        means = self._span_means
+        # window i at lag l starts at bin i n + l; none starts past the run's last span
+        start = (windows * self.n)[:, None] + lags[None, :]
+        if not means.size:
+            return np.full(start.shape, np.nan)
+        out = means[np.minimum(start, means.size - 1)]
+        out[start >= means.size] = np.nan
+        return out
+
+    @cached_property
+    def _span_means(self) -> np.ndarray:
+        """The mean power over the `n` bins from each bin on [W] (NaN over a drop-out; none
+        past the run's end): a window's power at any lag is one of these."""
         bad, total = self._power_sums
-        end = np.minimum(start + self.n, power.size)
-        start = np.minimum(start, power.size)
-        ok = inside & (bad[end] - bad[start] == 0)
-        mean = (total[end] - total[start]) / self.n
-        return np.where(ok, mean, np.nan), ok
+        n = self.n
+        if total.size <= n:
+            return np.zeros(0)
+        span = (total[n:] - total[:-n]) / n
+        return np.where(bad[n:] - bad[:-n] == 0, span, np.nan)
 
 
 def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
@@ -656,6 +678,12 @@ def between_bins(power_at_whole, lag_bins: float) -> tuple[np.ndarray, np.ndarra
     return (1 - part) * low + part * high, low_ok & high_ok
 
 
+def _finite(values: np.ndarray) -> np.ndarray:
+    """`np.nan_to_num(values)` in place (NaN 0, an infinity the largest float), without its
+    cost where every value is finite."""
+    return values if np.isfinite(values).all() else np.nan_to_num(values, copy=False)
+
+
 def _joined(parts: list[np.ndarray]) -> np.ndarray:
     return np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)
 
@@ -680,18 +708,13 @@ def assemble(
     return _assemble_rows(runs, surfaces, keep, power)
 
 
-def at_any_lag(runs: list[RunWindows], surfaces: tuple[str, ...], stacked: StackedPower):
-    """`assemble(runs, lag, surfaces)` as a function of the lag, the regressors assembled once
-    (they do not move with the lag: only which windows have a power, and the power, do)."""
-    ok = stacked.ok
-    every = _assemble_rows(runs, surfaces, ok, np.zeros(ok.size))
-
-    def at(lag_bins: float) -> Windows:
-        power, power_ok = stacked.power_at(lag_bins)
-        rows = power_ok[ok]
-        return replace(every.take(rows), power_W=power[ok][rows])
-
-    return at
+def regressor_rows(
+    runs: list[RunWindows], surfaces: tuple[str, ...], ok: np.ndarray | None = None
+) -> Windows:
+    """Every window of `runs` whose regressors are defined (`ok`: the stacked `RunWindows.ok`
+    when the caller has it), with a power of 0: the design, whatever the lag."""
+    ok = _joined([rw.ok for rw in runs]).astype(bool) if ok is None else ok
+    return _assemble_rows(runs, surfaces, ok, np.zeros(ok.size))
 
 
 def _assemble_rows(
@@ -726,7 +749,7 @@ def _assemble_rows(
         regressor = REGRESSOR_OF[term_name]
         if regressor is None:
             return np.ones((power.size, 1)) if not prefix else np.zeros((power.size, 1))
-        values = np.nan_to_num(joined[prefix + regressor])[:, None]
+        values = _finite(joined[prefix + regressor])[:, None]
         return one_hot * values if TERM_BY_NAME[term_name].per_surface else values
 
     design = np.hstack([block(term.name, "") for term in TERMS])

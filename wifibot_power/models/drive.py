@@ -5,7 +5,9 @@ Nothing here computes; it names what the pipeline calls:
 - `name`: its section of `fit --json` and model.json, "drive";
 - `run_stats(run, segmentation)`: in the worker, the run reduced to bins
   (`drive.stats.drive_stats`: small, picklable; None without a speed, or a step run's speed
-  from its phases); `stats_to_json`/`stats_from_json` for the cache;
+  from its phases) and its per-trip sums (`drive.sums.sums_of`: what the fit reads, made where
+  the runs are spread over the workers: `WorkerStats`); `stats_to_json`/`stats_from_json`
+  for the cache (the bins only: a kept run's sums are made again when a fit needs them);
 - `fit(records, options)`: the model from every run's statistics (each record's
   `models["drive"]`; `drive.model.fit_drive_stats`; None when no run had a speed);
 - `load(section, file=)`: model.json's section back to the model (`DriveModel.from_json`).
@@ -30,6 +32,7 @@ from wifibot_power.models.base import FitOptions, FittedModel, ModelFamily
 if TYPE_CHECKING:
     from wifibot_power.drive.model import DriveModel
     from wifibot_power.drive.stats import DriveStats
+    from wifibot_power.drive.sums import RunSums
     from wifibot_power.phases import Segmentation
     from wifibot_power.run import Run
 
@@ -49,6 +52,21 @@ class KeptStats:
 
     def __getattr__(self, name: str) -> object:
         if name.startswith("__") or name in ("kept", "stats"):
+            raise AttributeError(name)
+        return getattr(self.stats, name)
+
+
+class WorkerStats:
+    """A run's drive statistics as the worker made them: its bins (`stats`, a `DriveStats`)
+    and its per-trip sums (`sums`, a `drive.sums.RunSums`); any other attribute is the bins'."""
+
+    def __init__(self, stats: DriveStats, sums: RunSums) -> None:
+        self.stats = stats
+        self.sums = sums
+
+    def __getattr__(self, name: str) -> object:
+        """The bins' attribute (`DriveStats`), for what reads a run's drive statistics."""
+        if name.startswith("__") or name in ("stats", "sums"):
             raise AttributeError(name)
         return getattr(self.stats, name)
 
@@ -90,17 +108,21 @@ class DriveFamily(ModelFamily):
 
     name: ClassVar[str] = "drive"
 
-    def run_stats(self, run: Run, segmentation: Segmentation | None) -> DriveStats | None:
+    def run_stats(self, run: Run, segmentation: Segmentation | None) -> WorkerStats | None:
         from wifibot_power.drive.stats import drive_stats
+        from wifibot_power.drive.sums import sums_of
 
         # an empty segmentation (a run of unknown mode the pipeline did not segment) has no
         # phases to reconstruct a speed from: the run's own speed column, if any, is used
-        return drive_stats(run, segmentation if segmentation and segmentation.phases else None)
+        stats = drive_stats(run, segmentation if segmentation and segmentation.phases else None)
+        return None if stats is None else WorkerStats(stats, sums_of(stats))
 
-    def stats_to_json(self, stats: DriveStats | KeptStats | None) -> object:
+    def stats_to_json(self, stats: DriveStats | WorkerStats | KeptStats | None) -> object:
         if stats is None:
             return None
-        return stats.kept if isinstance(stats, KeptStats) else stats.to_json()
+        if isinstance(stats, KeptStats):
+            return stats.kept
+        return getattr(stats, "stats", stats).to_json()
 
     def stats_from_json(self, kept: object) -> KeptStats | None:
         return None if kept is None else KeptStats(kept)  # type: ignore[arg-type]
@@ -112,7 +134,10 @@ class DriveFamily(ModelFamily):
         from wifibot_power.drive.model import fit_drive_stats
 
         del options  # nothing of the paper's options applies to the drive model
-        return fit_drive_stats([drive_stats_of(record) for record in records])
+        return fit_drive_stats(
+            [drive_stats_of(record) for record in records],
+            sums=[drive_sums_of(record) for record in records],
+        )
 
     def load(self, data: dict, *, file: str = "model.json") -> DriveModel:
         from wifibot_power.drive.model import DriveModel
@@ -129,10 +154,21 @@ class DriveFamily(ModelFamily):
 def drive_stats_of(record: object) -> DriveStats | None:
     """A record's drive statistics (`record.models["drive"]`, as computed or as kept), or the
     statistics themselves; None for a run without them."""
-    stats = record if record is None or hasattr(record, "bin_s") else None
-    if stats is None:
-        stats = getattr(record, "models", {}).get(DriveFamily.name)
-    return stats.stats if isinstance(stats, KeptStats) else stats
+    stats = _family_stats(record)
+    return stats.stats if isinstance(stats, KeptStats | WorkerStats) else stats
+
+
+def drive_sums_of(record: object) -> RunSums | None:
+    """A record's per-trip sums as its worker made them (None: not made, or a kept run)."""
+    stats = _family_stats(record)
+    return stats.sums if isinstance(stats, WorkerStats) else None
+
+
+def _family_stats(record: object) -> object:
+    """The record's `models["drive"]` (or the record itself when it is the statistics)."""
+    if record is None or isinstance(record, WorkerStats) or hasattr(record, "bin_s"):
+        return record
+    return getattr(record, "models", {}).get(DriveFamily.name)
 
 
 FAMILY = DriveFamily()

@@ -1,0 +1,197 @@
+"""A run's per-trip sums of the drive model's least squares (`RunSums`), made in the worker
+beside its bins (`models.drive.DriveFamily.run_stats`), so that the parent fits, searches the
+lag and checks every held-out fold from sums of a few hundred numbers a trip instead of
+passes over every window (lagsums.py; docs/drive-model.md, "From sufficient statistics").
+
+The design X (a window's regressors, lag 0's) and its rate R (`Windows.design_rate`) do not
+move with the lag; only the response does (the mean power `lag` bins later) and which windows
+have one (none across a drop-out or past the run's end). So, over the windows whose power is
+defined at every whole lag the search tries ("common": all but a few a run), each trip keeps
+W'W and W'Y (W = [X R], Y the power at each whole lag, a column each), Y's squares and its
+products with the next lag's (a lag between two whole bins is linear between them:
+windows.py `between_bins`), how many windows see each regressor (identify.py's screens) and
+how many lie on each surface. The run keeps, per column, the power's sums over the windows
+where the column is seen (the loose-term check), and the windows whose power changes sign
+between two whole lags (|power| is not linear between them). The few windows defined at some
+lags only ("edge") are kept as rows, added at the lag a fit uses.
+
+Columns are the run's own (`design_columns(surfaces)`, its surfaces): lagsums.py places them
+among the batch's. Sums of the same windows in another order: the same numbers up to the
+order of summation (benchmarks/gram_equal.py, tests/test_drive_gram.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from wifibot_power.drive.identify import lag_grid
+from wifibot_power.drive.moments import seen_columns
+from wifibot_power.drive.stats import DriveStats
+from wifibot_power.drive.windows import (
+    WINDOW_S,
+    RunWindows,
+    design_columns,
+    regressor_rows,
+    run_windows,
+)
+
+
+@dataclass(frozen=True, eq=False)
+class RunSums:
+    """One run's sums (module docstring). p: the run's design columns, L: the whole lags
+    tried, T: its trips; "common" windows are those with a power at every whole lag."""
+
+    run_id: str
+    surfaces: tuple[str, ...]
+    bin_s: float
+    window_s: float
+    proxy: bool
+    #: (T,) every window of each trip (defined or not), and its common windows
+    trip_windows: np.ndarray
+    count: np.ndarray
+    #: per trip over its common windows: W'W (T, 2p, 2p), W'Y (T, 2p, L), Y_l'Y_l and
+    #: Y_l'Y_l+1 (T, 2, L; the last of the second row 0), windows seeing each column (T, p)
+    #: and on each surface (T, S)
+    ww: np.ndarray
+    wy: np.ndarray
+    yy: np.ndarray
+    seen: np.ndarray
+    on_surface: np.ndarray
+    #: per column over the run's common windows that see it: sum x^2 (p), sum Y (p, L), sum
+    #: Y^2 and Y_l Y_l+1 (p, 2, L), sum |Y| (p, L)
+    seen_xx: np.ndarray
+    seen_y: np.ndarray
+    seen_yy: np.ndarray
+    seen_abs: np.ndarray
+    #: common windows whose power changes sign between two whole lags: X (c, p), Y (c, L)
+    cross_x: np.ndarray
+    cross_y: np.ndarray
+    #: windows with a power at some whole lags only: X, R (e, p), Y (e, L; NaN where not
+    #: defined), trip (e), surface (e, an index into `surfaces`)
+    edge_x: np.ndarray
+    edge_r: np.ndarray
+    edge_y: np.ndarray
+    edge_trip: np.ndarray
+    edge_surface: np.ndarray
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """The run's design columns (its own surfaces')."""
+        return design_columns(self.surfaces)
+
+    @property
+    def windows(self) -> int:
+        """Every window of the run, defined or not."""
+        return int(self.trip_windows.sum())
+
+    @property
+    def lags(self) -> int:
+        """The whole lags the sums hold a column for (L)."""
+        return int(self.wy.shape[2])
+
+
+def sums_of(stats: DriveStats, window_s: float = WINDOW_S) -> RunSums:
+    """`run_sums` of a run's bins."""
+    return run_sums(run_windows(stats, window_s))
+
+
+def run_sums(rw: RunWindows) -> RunSums:
+    """The run's sums (module docstring)."""
+    surfaces = rw.stats.surfaces
+    columns = design_columns(surfaces)
+    rows = regressor_rows([rw], surfaces)
+    lags = lag_grid([rw])
+    defined = _defined_at_every_lag(rw, lags.size)
+    common = defined[rw.ok]  # over the rows (the windows whose regressors are defined)
+    trips = int(rw.trip[-1]) + 1 if rw.count else 0
+    p = len(columns)
+    # Z = [X R Y] over the common windows, made in place (no stacking copies)
+    Z = np.empty((int(common.sum()), 2 * p + lags.size))
+    Z[:, :p], Z[:, p : 2 * p], Z[:, 2 * p :] = (
+        rows.design[common],
+        rows.design_rate[common],
+        rw.power_at_lags(lags, np.flatnonzero(rw.ok & defined)),
+    )
+    X, Yc = Z[:, :p], Z[:, 2 * p :]
+    trip = rows.trip[common]
+    seen = seen_columns(X, columns)
+    per_trip = _trip_sums(Z, 2 * p, trip, trips)
+    S = len(surfaces)
+    on_surface = np.bincount(trip * S + rows.surface[common], minlength=trips * S)
+    # per column over the windows that see it: sum Y, Y^2, Y_l Y_l+1 and |Y|
+    L = lags.size
+    seen_f = seen.astype(np.float64).T
+    next_product = Yc[:, :-1] * Yc[:, 1:]
+    seen_yy = np.zeros((len(columns), 2, L))
+    seen_yy[:, 0] = seen_f @ np.square(Yc)
+    seen_yy[:, 1, :-1] = seen_f @ next_product
+    crossing = (next_product < 0).any(axis=1)
+    edge = ~common
+    return RunSums(
+        run_id=rw.stats.run_id,
+        surfaces=surfaces,
+        bin_s=rw.stats.bin_s,
+        window_s=rw.n * rw.stats.bin_s,
+        proxy=bool(rw.stats.current_proxy),
+        trip_windows=np.bincount(rw.trip, minlength=trips),
+        count=np.bincount(trip, minlength=trips),
+        ww=per_trip[0],
+        wy=per_trip[1],
+        yy=per_trip[2],
+        seen=group_sum(seen.astype(np.int64), trip, trips),
+        on_surface=on_surface.reshape(trips, S),
+        seen_xx=np.sum(seen * np.square(X), axis=0),
+        seen_y=seen_f @ Yc,
+        seen_yy=seen_yy,
+        seen_abs=seen_f @ np.abs(Yc),
+        cross_x=X[crossing],
+        cross_y=Yc[crossing],
+        edge_x=rows.design[edge],
+        edge_r=rows.design_rate[edge],
+        edge_y=rw.power_at_lags(lags, np.flatnonzero(rw.ok & ~defined)),
+        edge_trip=rows.trip[edge],
+        edge_surface=rows.surface[edge],
+    )
+
+
+def _defined_at_every_lag(rw: RunWindows, lags: int) -> np.ndarray:
+    """Per window: its power is defined at every whole lag below `lags` (`RunWindows.power_at`):
+    no drop-out in the bins from its start to `lags - 1` bins past its end, all in the run."""
+    bad, _ = rw._power_sums
+    start = np.arange(rw.count) * rw.n
+    end = start + rw.n + lags - 1
+    inside = end <= rw.stats.bins
+    end = np.minimum(end, rw.stats.bins)
+    return inside & (bad[end] - bad[start] == 0)
+
+
+def _trip_sums(Z: np.ndarray, q: int, trip: np.ndarray, trips: int):
+    """Per trip (rows sorted by trip) of Z = [W Y], W its first `q` columns: W'W, W'Y, and Y's
+    squares and next-lag products. (W'Z, not Z'Z: numpy makes Z'Z a symmetric rank update
+    that OpenBLAS spreads over threads, ~6x slower at these sizes.)"""
+    L = Z.shape[1] - q
+    ww = np.zeros((trips, q, q))
+    wy = np.zeros((trips, q, L))
+    yy = np.zeros((trips, 2, L))
+    bounds = np.searchsorted(trip, np.arange(trips + 1))
+    for g in np.flatnonzero(np.diff(bounds)):  # a loop over trips, each one matrix product
+        rows = Z[bounds[g] : bounds[g + 1]]
+        wz = rows[:, :q].T @ rows
+        ww[g], wy[g] = wz[:, :q], wz[:, q:]
+    Y = Z[:, q:]
+    yy[:, 0] = group_sum(np.square(Y), trip, trips)
+    yy[:, 1, :-1] = group_sum(Y[:, :-1] * Y[:, 1:], trip, trips)
+    return ww, wy, yy
+
+
+def group_sum(values: np.ndarray, group: np.ndarray, groups: int) -> np.ndarray:
+    """Sums of `values`' rows by `group` (sorted, in 0..groups-1), a row per group (0 for an
+    empty one)."""
+    out = np.zeros((groups, *values.shape[1:]), dtype=values.dtype)
+    bounds = np.searchsorted(group, np.arange(groups + 1))
+    filled = np.flatnonzero(np.diff(bounds))
+    if filled.size:
+        out[filled] = np.add.reduceat(values, bounds[filled], axis=0)
+    return out
