@@ -1,5 +1,5 @@
 """The inertial regressors' edge speeds, the speed noise they are corrected for, and the
-|x| of a noisy window mean (drive/windows.py; docs/drive-model.md, "Validation")."""
+|x| of a noisy window mean (drive/regressors.py; docs/drive-model.md, "Validation")."""
 
 from __future__ import annotations
 
@@ -7,8 +7,7 @@ import numpy as np
 from numpy.testing import assert_allclose
 
 from wifibot_power.drive import fit_drive
-from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
-from wifibot_power.drive.windows import (
+from wifibot_power.drive.regressors import (
     ZERO_READING,
     _denoised_abs,
     _edge_means,
@@ -19,6 +18,7 @@ from wifibot_power.drive.windows import (
     sample_gain,
     speed_noise_per_sample,
 )
+from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
 
 
 def _cubic_bins(bins: int, bin_s: float):

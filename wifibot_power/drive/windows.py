@@ -4,13 +4,8 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
 
 - Speed terms: the means over the window's bins of |v|, v^2 and |yaw rate| (bins already
   average a fast logger's samples).
-- The inertial terms need a v, and a differentiated quantized speed is mostly noise. The
-  window mean of a v is exactly the change of v^2/2 over the window divided by its duration
-  (d(v^2/2)/dt = a v), so only the speed at the window's two edges is needed
-  (`edge_speeds`: Richardson's extrapolation of box means, exact for a cubic speed), with the
-  attenuation its noise brings corrected for (`calibrated`). Its sign splits speeding up
-  (a v > 0) from braking (a v < 0), reversing included (v^2 does not care about the
-  direction).
+- The inertial terms from the speed at the window's two edges (d(v^2/2)/dt = a v), and |v|
+  and |yaw rate| with the noise around a true 0 taken out: regressors.py.
 - A window is kept only when all its power bins and the bins its speeds are taken from hold
   samples: no window spans a drop-out.
 - A current-proxy log (`DriveStats.current_proxy`: nominal voltage x motor current, ~ the
@@ -29,6 +24,11 @@ from functools import cached_property
 
 import numpy as np
 
+from wifibot_power.drive.regressors import (
+    _window_abs,
+    inertial_regressors,
+    speed_noise_per_sample,
+)
 from wifibot_power.drive.stats import DriveStats
 from wifibot_power.drive.terms import TERM_BY_NAME, TERMS
 
@@ -37,21 +37,6 @@ from wifibot_power.drive.terms import TERM_BY_NAME, TERMS
 #: speeding up and braking, and long enough that a 6.5 Hz logger puts 3 samples in it (their
 #: noise averages before |v| and |yaw rate| are taken).
 WINDOW_S = 0.5
-#: The speed at a window's edge (`edge_speeds`): Richardson's combination of the means over
-#: `EDGE_SAMPLES` samples (at least one bin) on each side and over twice as many,
-#: (4 A(w) - A(2w)) / 3, which cancels the box mean's curvature error (A(w) = v + v'' w^2 / 24
-#: + ...; the interface value of Colella & Woodward's piecewise parabolic method, J. Comput.
-#: Phys. 54, 1984, Eq. 1.6, at 20 Hz: (7 (s_-1 + s_+1) - (s_-2 + s_+2)) / 12). A plain mean over
-#: 2 bins a side (200 ms at 20 Hz) smeared the speed profile's corners into the neighbouring
-#: windows, where the power has no inertial share: a regressor smoother than its response, the
-#: effective mass 0.29 kg (1.6 standard errors) high on the simulator with exact speeds, 0.04
-#: with this. The edges' noise is then corrected for (`calibrated`), not smoothed away.
-EDGE_SAMPLES = 1.0
-#: The speed noise estimate (`speed_noise_per_sample`) leaves out second differences beyond this
-#: many of its own deviations (corners of the speed profile, reversing), iterated `CLIP_ROUNDS`
-#: times: white noise loses 0.006% of its samples and 0.1% of its variance so.
-CLIP_DEVIATIONS = 4.0
-CLIP_ROUNDS = 4
 #: Standing: slower than this [m/s] and turning slower than `STANDING_RADPS`.
 STANDING_MPS = 0.02
 STANDING_RADPS = 0.05
@@ -291,40 +276,6 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     )
 
 
-def inertial_regressors(
-    stats: DriveStats, n: int, count: int, mean_speed: np.ndarray, sample_noise_mps: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Each of a run's `count` windows of `n` bins: its mean of (a v)+ and (a v)- [m^2/s^3]
-    (a current proxy: of (a sign v)+ and (a sign v)- [m/s^2]) from the speed at its edges
-    (`edge_speeds`, `_speeding_and_braking`), corrected for the edges' noise (`calibrated`)."""
-    speed = stats.speed_mps
-    half = edge_half_bins(stats.samples_per_bin)
-    edge_speed = edge_speeds(speed, np.arange(count + 1) * n, half)
-    # power: d(v^2/2)/dt = a v; a current proxy's force form: d|v|/dt = a sign(v) (terms.py)
-    kinetic = np.abs if stats.current_proxy else _half_square
-    # whether a window speeds up or brakes, from its neighbours' mean speeds over the bins
-    # its own edge speeds do not use: the same samples on both sides would correlate the
-    # choice with the edges' noise (a cruise's window whose start edge reads high is called
-    # braking and gets a negative change: braking 1.2 standard errors low on the simulator,
-    # 0.8 with this; the effective mass 1.2 high, 1.0)
-    trim = min(2 * half, n - 1)
-    blocks = speed[: count * n].reshape(count, n)
-    neighbours = (
-        np.square(blocks[:, trim:].mean(axis=1)),  # a window without its first bins: "after"
-        np.square(blocks[:, : n - trim].mean(axis=1)),  # without its last bins: "before"
-    )
-    window_s = n * stats.bin_s
-    av_up, av_down = _speeding_and_braking(edge_speed, mean_speed, window_s, kinetic, neighbours)
-    weights, centres = edge_kernel(half)
-    edge_noise_mps = sample_noise_mps * np.sqrt(
-        sample_gain(weights, centres, stats.samples_per_bin)
-    )
-    noise_up, noise_down = inertial_noise_var(
-        edge_speed, edge_noise_mps, window_s, power_form=not stats.current_proxy
-    )
-    return calibrated(av_up, av_down, noise_up, noise_down)
-
-
 #: Wong's empirical lateral resistance of a skid-steer turn, mu_t = mu_max / (A + B_R R/B)
 #: (`_radius_factor`)
 WONG_A, WONG_B = 0.925, 0.15
@@ -396,208 +347,6 @@ def _force_form(
     coulomb = turning.mean(axis=1) - arc + arc_moment / 2.0
     rate = abs_yaw * (1.0 - arc + arc_moment / 2.0)
     return rolling, abs_speed * half, coulomb, rate, av_up * half, av_down * half
-
-
-def _window_abs(bins: np.ndarray, mean: np.ndarray, noise: float, samples: float) -> np.ndarray:
-    """A window's mean |x| from its bins (a row each): |mean| denoised (`_denoised_abs`), except
-    in a window where x changes sign (reversing, a spin turned the other way: its bins reach
-    beyond 3 bin-noise deviations on both sides of 0), where |mean| would cancel the two
-    directions: there the mean of the bins' own denoised |x|."""
-    bin_noise = noise * np.sqrt(samples / bins.shape[1]) if bins.size else noise
-    reach = 3.0 * max(bin_noise, 1e-12)
-    flips = (bins.max(axis=1) > reach) & (bins.min(axis=1) < -reach)
-    out = _denoised_abs(mean, noise)
-    if flips.any():
-        out[flips] = _denoised_abs(bins[flips], bin_noise).mean(axis=1)
-    return out
-
-
-def _denoised_abs(mean: np.ndarray, noise: float) -> np.ndarray:
-    """|x| of a window mean x whose noise has standard deviation `noise` s: sqrt(max(x^2 - s^2,
-    0)) - sqrt(2) `ZERO_READING` s exp(-x^2 / 2 s^2). The square root is a moment correction
-    (E[x^2] = |true|^2 + s^2), which leaves a true |x| >> s as it is but reads a true 0 as
-    0.342 s on average (`max` keeps only the noise's large draws). The second part takes that
-    out where x is within a few s of 0 (E[exp(-z^2/2)] = 1/sqrt(2) for a standard normal z,
-    so a true 0 reads 0 on average) and vanishes beyond (3 s: 0.04 s): a window that does not
-    turn (most of a robot's: driving straight) has |yaw rate| 0 on average, a window driving
-    has its |v|. Read as 0.342 s, the straight windows' |yaw rate| (0.0006 rad/s on the
-    simulator at field realism) times 25-60 N m was turning power in every straight window,
-    which the drivers' step paid: drive_on_W 0.16 W low, inside its 95% interval in 172 of
-    200 seeds (180 with this; a constant shift, 0.342 s everywhere, took 0.342 s off every
-    moving window's |v| too and pushed the 6.5 Hz row's drive_on_W as far the other way). A
-    window whose true |x| is 0 may read below 0: an estimate unbiased at 0 of a quantity
-    >= 0 is."""
-    root = np.sqrt(np.maximum(np.square(mean) - noise * noise, 0.0))
-    if noise <= 0:
-        return root
-    return root - np.sqrt(2.0) * ZERO_READING * noise * np.exp(-np.square(mean / noise) / 2.0)
-
-
-#: E[sqrt(max(z^2 - 1, 0))] for a standard normal z (`_denoised_abs`): 0.3422 by 4 million
-#: draws (tests/test_drive_edges.py checks it to 3 digits)
-ZERO_READING = 0.342
-
-
-def _half_square(speed_mps: np.ndarray) -> np.ndarray:
-    """v^2 / 2 [m^2/s^2]: its rate of change is a v."""
-    return np.square(speed_mps) / 2.0
-
-
-def _speeding_and_braking(
-    edge_speed: np.ndarray,
-    mean_speed: np.ndarray,
-    window_s: float,
-    kinetic=_half_square,
-    neighbours: tuple[np.ndarray, np.ndarray] | None = None,
-) -> tuple[np.ndarray, ...]:
-    """Each window's mean of (a v)+ and (a v)- [m^2/s^3]. Its size is the change of v^2/2
-    between the speeds at its edges over its duration (d(v^2/2)/dt = a v, exact whatever
-    happens inside), all speeding up or all braking when the speed keeps its sign; a window
-    where the speed changes sign (reversing through 0) brakes from v_start^2/2 to 0 and
-    speeds up from 0 to v_end^2/2. Whether a window speeds up or brakes is read from its
-    neighbours' mean speeds (v^2 after against before), not from the sign of its own noisy
-    change: split by its own sign, the edges' noise in a cruise would be rectified into both
-    columns, biasing both coefficients (seen on the simulator at 6.5 Hz: braking 10% low).
-    `neighbours`: the squared mean speeds of each window without its first and without its
-    last edge bins, so that the call shares no sample with the edges (run_windows).
-    `kinetic` is the quantity differentiated: v^2/2 (power, a v), or |v| (a current proxy's
-    force form, a sign(v) [m/s^2]: windows.run_windows)."""
-    start, end = edge_speed[:-1], edge_speed[1:]
-    half_change = kinetic(end) - kinetic(start)
-    crosses = start * end < 0
-    square = np.square(mean_speed)
-    after_sq, before_sq = neighbours if neighbours is not None else (square, square)
-    after = np.concatenate((after_sq[1:], square[-1:]))
-    before = np.concatenate((square[:1], before_sq[:-1]))
-    rising = np.where(np.isfinite(after - before), after - before, half_change) > 0
-    up = np.where(crosses, kinetic(end), np.where(rising, half_change, 0.0))
-    down = np.where(crosses, -kinetic(start), np.where(rising, 0.0, half_change))
-    return up / window_s, down / window_s
-
-
-def _edge_means(speed: np.ndarray, edges: np.ndarray, half: int) -> np.ndarray:
-    """The mean of the `half` bins on either side of each edge (fewer at a run's ends); NaN
-    when one of them is a drop-out."""
-    total = np.concatenate(([0.0], np.cumsum(np.nan_to_num(speed))))
-    bad = np.concatenate(([0], np.cumsum(~np.isfinite(speed))))
-    low = np.clip(edges - half, 0, speed.size)
-    high = np.clip(edges + half, 0, speed.size)
-    mean = (total[high] - total[low]) / np.maximum(high - low, 1)
-    return np.where(bad[high] - bad[low] == 0, mean, np.nan)
-
-
-def edge_half_bins(samples_per_bin: float) -> int:
-    """The bins on each side of an edge in the inner mean of `edge_speeds`: `EDGE_SAMPLES`
-    samples, at least one bin (20 Hz: 1, 6.5 Hz: 4)."""
-    return max(1, int(np.ceil(EDGE_SAMPLES / samples_per_bin - 1e-9)))
-
-
-def edge_speeds(speed_mps: np.ndarray, edges: np.ndarray, half: int) -> np.ndarray:
-    """The speed at each edge [m/s] from the bins' means: (4 A(2 half) - A(4 half)) / 3, A(w)
-    the mean of the w bins centred on the edge (`EDGE_SAMPLES`: Richardson's extrapolation of
-    the box mean to zero width, exact for a cubic speed; Colella & Woodward 1984, Eq. 1.6).
-    Its weights: 7 / (12 half) on the inner 2 half bins, -1 / (12 half) on the outer ones
-    (`edge_kernel`). NaN where a drop-out is among them."""
-    inner = _edge_means(speed_mps, edges, half)
-    outer = _edge_means(speed_mps, edges, 2 * half)
-    return (4.0 * inner - outer) / 3.0
-
-
-def edge_kernel(half: int) -> tuple[np.ndarray, np.ndarray]:
-    """`edge_speeds`' weights and the centres of the bins they fall on [bins from the edge]."""
-    centres = np.arange(-2 * half, 2 * half) + 0.5
-    weights = np.where(np.abs(centres) < half, 7.0, -1.0) / (12.0 * half)
-    return weights, centres
-
-
-def sample_gain(weights: np.ndarray, centres: np.ndarray, samples_per_bin: float) -> float:
-    """The variance of sum_k w_k bin_k over that of one sample's white noise: the sum of the
-    squared weights the combination puts on the samples. A bin of a fast logger is the mean of
-    its `samples_per_bin` samples: sum w^2 / samples_per_bin. A slow logger's bins interpolate
-    linearly between samples (stats.py `_held`): each weight spreads over the two samples
-    around its bin by the hat function, averaged over 16 phases of the samples against the
-    bins."""
-    if samples_per_bin >= 1.0:
-        return float(np.sum(np.square(weights)) / samples_per_bin)
-    period = 1.0 / samples_per_bin  # [bins]
-    phases = np.arange(16)[:, None, None] * period / 16.0
-    first = np.floor((centres.min() - period) / period)
-    middles = (first + np.arange(int(np.ptp(centres) / period) + 4))[None, :, None] * period
-    hat = np.clip(1.0 - np.abs(centres[None, None, :] - middles - phases) / period, 0.0, None)
-    on_samples = hat @ weights  # (phase, sample)
-    return float(np.mean(np.sum(np.square(on_samples), axis=1)))
-
-
-def speed_noise_per_sample(speed_mps: np.ndarray, samples_per_bin: float) -> float:
-    """The white noise of one speed sample [m/s] from the bins: the mean square of their
-    second differences (over one sample period at least: a straight ramp cancels) over its
-    `sample_gain`, leaving out those beyond `CLIP_DEVIATIONS` of the estimate (a corner of the
-    speed profile, a reversal), `CLIP_ROUNDS` times. A mean of squares, not a median: an
-    encoder's quantized speed (2 cm/s steps over 1 cm/s noise) has successive differences of
-    0 or one step, whose median is a step whatever the noise (stats.py's estimate, 0.021 m/s
-    for the simulator's 0.0115); quantization adds its step^2 / 12 to the variance, which a
-    mean of squares keeps (Widrow & Kollar, "Quantization Noise", 2008, Ch. 4)."""
-    lag = 1 if samples_per_bin >= 1.0 else max(1, int(round(1.0 / samples_per_bin)))
-    if speed_mps.size <= 2 * lag:
-        return 0.0
-    second = speed_mps[2 * lag :] - 2.0 * speed_mps[lag:-lag] + speed_mps[: -2 * lag]
-    square = np.square(second[np.isfinite(second)])
-    if not square.size:
-        return 0.0
-    gain = sample_gain(np.array([1.0, -2.0, 1.0]), np.array([0.0, lag, 2.0 * lag]), samples_per_bin)
-    mean_square = float(np.mean(square))
-    for _ in range(CLIP_ROUNDS):
-        inside = square <= CLIP_DEVIATIONS**2 * mean_square
-        mean_square = float(np.mean(square[inside])) if inside.any() else 0.0
-    return float(np.sqrt(mean_square / gain))
-
-
-def calibrated(
-    av_up: np.ndarray,
-    av_down: np.ndarray,
-    noise_var_up: np.ndarray,
-    noise_var_down: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The speeding-up and braking regressors of one run times their reliability ratio,
-    lambda = 1 - sum(noise variance) / sum(regressor^2) over the windows where each acts,
-    clipped to [0, 1]: regression calibration, E[x | x_observed] ~ lambda x_observed, whose
-    least squares is consistent where the noisy regressor's is biased towards 0 (errors in
-    variables: Carroll, Ruppert, Stefanski & Crainiceanu, "Measurement Error in Nonlinear
-    Models", 2nd ed., 2006, Sec. 2.2 and Ch. 4; Fuller, "Measurement Error Models", 1987,
-    Sec. 1.1). The noise is the edges' (`inertial_noise_var`); without it the effective mass
-    came out 0.31 kg (1.6 standard errors) low on the simulator at field realism, braking
-    0.26 kg (1.7; 100 seeds)."""
-    out = []
-    for values, noise_var in ((av_up, noise_var_up), (av_down, noise_var_down)):
-        acting = np.isfinite(values) & (values != 0)
-        total = float(np.sum(np.square(values[acting])))
-        noise = float(np.sum(noise_var[acting]))
-        reliability = min(max(1.0 - noise / total, 0.0), 1.0) if total > 0 else 1.0
-        out.append(values * reliability)
-    return out[0], out[1]
-
-
-def inertial_noise_var(
-    edge_speed: np.ndarray, edge_noise_mps: float, window_s: float, power_form: bool = True
-) -> tuple[np.ndarray, np.ndarray]:
-    """The noise variance each window's speeding-up and braking regressor takes from the
-    noise (standard deviation `edge_noise_mps`, s) of its edge speeds (`_speeding_and_
-    braking`): v^2/2 at an edge read as (v + e)^2/2 is off by v e + e^2/2, so a window's change
-    over `window_s` T has variance (s^2 (v_start^2 + v_end^2) + s^4) / T^2, with v^2 = the
-    read v^2 - s^2; a current proxy's |v| (`power_form` False) is off by about e: 2 s^2 / T^2.
-    A window through 0 (reversing) has one edge in each column. Returns the variances where
-    the window is (up, down) as if it were all in each column: `calibrated` takes those of
-    the windows where each column acts."""
-    s2 = edge_noise_mps**2
-    if power_form:
-        edge_var = np.maximum(s2 * np.square(edge_speed) - s2 * s2 / 2.0, 0.0)
-    else:
-        edge_var = np.full(edge_speed.shape, s2)
-    start, end = edge_var[:-1], edge_var[1:]
-    crosses = edge_speed[:-1] * edge_speed[1:] < 0
-    both = start + end
-    t2 = window_s**2
-    return np.where(crosses, end, both) / t2, np.where(crosses, start, both) / t2
 
 
 def _trips(standing: np.ndarray, stop_windows: int) -> np.ndarray:
