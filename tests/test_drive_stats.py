@@ -69,3 +69,25 @@ def test_the_median_by_counting_is_the_median():
     for size in (2, 3, 64, 65, 1001, 72_000):
         values = np.abs(rng.normal(size=size))
         assert _median(values.copy()) == np.median(values)
+
+
+def test_bin_means_are_each_bins_mean_with_empty_bins_nan():
+    """`_bin_means` sums each bin's stretch of samples: the same means as a weighted count
+    over every sample (up to the order of summation), NaN where a bin has none (a drop-out),
+    zeros for a missing column."""
+    from wifibot_power.drive.stats import _bin_means
+
+    rng = np.random.default_rng(3)
+    which = np.sort(rng.integers(0, 400, 20_000))
+    which = which[(which < 100) | (which > 120)]  # 21 empty bins in the middle
+    n_bins = 420  # and 19 empty at the end
+    power = 25 + rng.standard_normal(which.size)
+    speed = rng.random(which.size)
+    got_power, got_speed, got_yaw = _bin_means(which, n_bins, power, speed, None)
+    count = np.bincount(which, minlength=n_bins).astype(float)
+    with np.errstate(invalid="ignore"):
+        for got, values in ((got_power, power), (got_speed, speed)):
+            expected = np.bincount(which, weights=values, minlength=n_bins) / count
+            np.testing.assert_allclose(got, expected, rtol=1e-13)  # NaN where expected is
+    assert np.isnan(got_power[count == 0]).all() and np.isfinite(got_power[count > 0]).all()
+    assert not got_yaw.any() and got_yaw.size == n_bins
