@@ -165,3 +165,16 @@ def test_level_keeps_a_long_run_to_about_a_thousand_windows() -> None:
     assert np.array_equal(decoded.hashes, signature.hashes)
     assert np.array_equal(decoded.positions, signature.positions)
     assert np.array_equal(decoded.levels, signature.levels)
+
+
+def test_a_drive_model_with_no_term_determined_says_so_without_an_empty_table(wbpower) -> None:
+    """The F1/10 folder is one recording once its sides are left out: one run, every term
+    not determined. fit says so with the reasons, not the frame of a table with no row."""
+    if not REAL.is_dir():
+        pytest.skip(f"{REAL} is not here")
+    result = wbpower("fit", REAL)
+    assert "Drive model over 1 run(s), power lags speed by" in result.stdout, result.stdout
+    assert "no term determined" in result.stdout
+    assert "- idle_W: seen in only 1 run(s)" in result.stdout
+    head = result.stdout.split("not determined:")[0]
+    assert "┃" not in head and "┏" not in head, head

@@ -175,14 +175,17 @@ def print_drive_tables(result: FitResult) -> None:
     not_determined = "".join(f"\n- {r}" for r in summary["not_determined"]) or " none"
     # the drive model's assumptions, said under its table (and in `fit --json` drive.warnings)
     said = "".join(f"\nwarning: {w}" for w in summary["warnings"])
-    print_table(
-        stdout,
+    title = (
         f"Drive model over {summary['n_runs']} run(s), power lags speed by "
-        f"{summary['lag_s']:.2f} s (95% CI: cluster-robust, by run or trip)",
-        _DRIVE_TERM_COLUMNS,
-        cells,
-        notes=f"not determined:{not_determined}{said}",
+        f"{summary['lag_s']:.2f} s"
     )
+    notes = f"not determined:{not_determined}{said}"
+    if not cells:  # no term has a number: the reasons, not an empty table's frame
+        stdout.print(f"{title}: no term determined", markup=False, highlight=False)
+        stdout.print(notes, markup=False, highlight=False)
+    else:
+        title += " (95% CI: cluster-robust, by run or trip)"
+        print_table(stdout, title, _DRIVE_TERM_COLUMNS, cells, notes=notes)
     held = summary["heldout"]
     if held is not None:
         print_table(
