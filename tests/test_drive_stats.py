@@ -83,7 +83,8 @@ def test_bin_means_are_each_bins_mean_with_empty_bins_nan():
     n_bins = 420  # and 19 empty at the end
     power = 25 + rng.standard_normal(which.size)
     speed = rng.random(which.size)
-    got_power, got_speed, got_yaw = _bin_means(which, n_bins, power, speed, None)
+    starts = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
+    got_power, got_speed, got_yaw = _bin_means(which, starts, n_bins, power, speed, None)
     count = np.bincount(which, minlength=n_bins).astype(float)
     with np.errstate(invalid="ignore"):
         for got, values in ((got_power, power), (got_speed, speed)):

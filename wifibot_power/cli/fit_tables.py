@@ -176,8 +176,7 @@ def print_drive_tables(result: FitResult) -> None:
     # the drive model's assumptions, said under its table (and in `fit --json` drive.warnings)
     said = "".join(f"\nwarning: {w}" for w in summary["warnings"])
     title = (
-        f"Drive model over {summary['n_runs']} run(s), power lags speed by "
-        f"{summary['lag_s']:.2f} s"
+        f"Drive model over {summary['n_runs']} run(s), power lags speed by {summary['lag_s']:.2f} s"
     )
     notes = f"not determined:{not_determined}{said}"
     if not cells:  # no term has a number: the reasons, not an empty table's frame

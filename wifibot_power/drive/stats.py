@@ -146,8 +146,11 @@ def drive_stats(run: Run, segmentation: Segmentation | None = None) -> DriveStat
     n_bins = max(int(np.floor((time_s[-1] + period_s - time_s[0]) / BIN_S + 1e-9)), 1)
     if period_s <= BIN_S / 4:
         which = _bin_of(time_s - time_s[0], n_bins)  # each sample's bin, found once for both
-        binned = _bin_means(which, n_bins, run.power_W, speed_mps, yaw_radps)
-        first = _first_sample(which, n_bins)
+        # each bin's stretch of samples starts where the bin changes (samples in time order)
+        starts = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
+        binned = _bin_means(which, starts, n_bins, run.power_W, speed_mps, yaw_radps)
+        first = np.full(n_bins, -1, dtype=np.intp)  # each bin's first sample (-1: none)
+        first[which[starts]] = starts
         bin_surface = np.where(first >= 0, surface_index[np.maximum(first, 0)], 0)
     else:
         offset_s = time_s - time_s[0]
@@ -249,17 +252,17 @@ def _surfaces(run: Run) -> tuple[np.ndarray, tuple[str, ...]]:
 
 def _bin_means(
     which: np.ndarray,
+    starts: np.ndarray,
     n_bins: int,
     power_W: np.ndarray,
     speed_mps: np.ndarray,
     yaw_radps: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Mean of the samples in each bin (`which`: each sample's, `_bin_of`; NaN in a bin
-    without one: a drop-out). The samples are in time order, so a bin's samples are one
-    stretch: each stretch summed by `np.add.reduceat` (4-9x faster than a weighted
-    `np.bincount` on a 10 kHz log; the same sums up to the order of summation, pairwise
-    within a stretch: 2e-15 relative)."""
-    starts = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
+    """Mean of the samples in each bin (`which`: each sample's, `_bin_of`; `starts`: where
+    each bin's stretch of samples starts, the samples being in time order; NaN in a bin
+    without one: a drop-out). Each stretch summed by `np.add.reduceat` (4-9x faster than a
+    weighted `np.bincount` on a 10 kHz log; the same sums up to the order of summation,
+    pairwise within a stretch: 2e-15 relative)."""
     present = which[starts]
     count = np.diff(np.r_[starts, which.size]).astype(np.float64)
     out = []
@@ -271,14 +274,6 @@ def _bin_means(
         means[present] = np.add.reduceat(values, starts) / count
         out.append(means)
     return out[0], out[1], out[2]
-
-
-def _first_sample(which: np.ndarray, n_bins: int) -> np.ndarray:
-    """The index of each bin's first sample (-1: none; `which`: each sample's bin)."""
-    first = np.full(n_bins, -1, dtype=np.intp)
-    starts = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
-    first[which[starts]] = starts
-    return first
 
 
 def _sample_at_centres(offset_s: np.ndarray, n_bins: int) -> np.ndarray:
