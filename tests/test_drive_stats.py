@@ -6,6 +6,8 @@ Expected values are worked out by hand from the samples built here."""
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from wifibot_power.drive.stats import BIN_S, _median, _sample_noise, drive_stats
 from wifibot_power.run import Run, RunMeta
@@ -84,7 +86,10 @@ def test_bin_means_are_each_bins_mean_with_empty_bins_nan():
     power = 25 + rng.standard_normal(which.size)
     speed = rng.random(which.size)
     starts = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
-    got_power, got_speed, got_yaw = _bin_means(which, starts, n_bins, power, speed, None)
+    count_of = np.diff(np.r_[starts, which.size]).astype(float)
+    got_power, got_speed, got_yaw = _bin_means(
+        which[starts], starts, count_of, n_bins, power, speed, None
+    )
     count = np.bincount(which, minlength=n_bins).astype(float)
     with np.errstate(invalid="ignore"):
         for got, values in ((got_power, power), (got_speed, speed)):
@@ -92,3 +97,124 @@ def test_bin_means_are_each_bins_mean_with_empty_bins_nan():
             np.testing.assert_allclose(got, expected, rtol=1e-13)  # NaN where expected is
     assert np.isnan(got_power[count == 0]).all() and np.isfinite(got_power[count > 0]).all()
     assert not got_yaw.any() and got_yaw.size == n_bins
+
+
+def _per_sample_starts(run, n_bins):
+    """The reference: every sample's bin (`_bin_of` over `time_s - time_s[0]`) and where it
+    changes."""
+    from wifibot_power.drive.stats import _bin_of
+
+    which = _bin_of(run.time_s - run.time_s[0], n_bins)
+    starts = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
+    return which[starts], starts
+
+
+def _fast_run(samples, period_s, stamps_s=None):
+    meta = RunMeta(run_id="r", sample_period_s=period_s)
+    return Run(file="r.csv", format="csv", meta=meta, stamps_s=stamps_s, power_W=np.ones(samples))
+
+
+def _assert_settled_per_bin(run):
+    """The bins found per bin are the per-sample bins, without the fallback."""
+    from wifibot_power.drive.stats import _starts_per_bin
+
+    n_bins = _bins_of(run)
+    found = _starts_per_bin(run, n_bins)
+    assert found is not None  # settled per bin (not by the fallback)
+    present, starts = found
+    expected_present, expected_starts = _per_sample_starts(run, n_bins)
+    np.testing.assert_array_equal(starts, expected_starts)
+    np.testing.assert_array_equal(present, expected_present)
+
+
+def _bins_of(run):
+    span_s = run.time_at(-1) + run.sample_period_s - run.time_at(0)
+    return max(int(np.floor(span_s / BIN_S + 1e-9)), 1)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    samples=st.integers(1, 40_000),
+    period_s=st.one_of(
+        st.sampled_from([1e-4, 1.024e-4, 2e-4, 1e-3, 0.01, 0.0125, 0.005, 1 / 3000, 1 / 80]),
+        st.floats(1e-5, 0.0125),
+    ),
+)
+def test_bin_starts_without_a_time_column_are_the_per_sample_bins(samples, period_s):
+    """A log without a time column: each bin's first sample found per bin is where the
+    per-sample bins (`_bin_of` over `arange(n) * period`, as `Run.time_s` makes the axis)
+    change, for any length and period of the fast-logger path (a period a whole fraction of
+    the bin included: a sample on a bin's edge belongs to the bin it starts)."""
+    run = _fast_run(samples, period_s)
+    _assert_settled_per_bin(run)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    samples=st.integers(2, 30_000),
+    period_s=st.sampled_from([1e-4, 1.024e-4, 1e-3, 0.005, 0.0125]),
+    jitter=st.floats(0.0, 0.45),
+    seed=st.integers(0, 2**32 - 1),
+    start_s=st.sampled_from([0.0, 1234.5678, 1.7e9]),
+)
+def test_bin_starts_of_stamps_are_the_per_sample_bins(samples, period_s, jitter, seed, start_s):
+    """Stamps that go forwards, jittered, with drop-outs (empty bins), some on a bin's edge
+    exactly, from 0 or from an epoch: the bins found per bin (a binary search of the stamps
+    and four samples around it) are the per-sample bins."""
+    rng = np.random.default_rng(seed)
+    step_s = period_s * (1 + jitter * rng.uniform(-1, 1, samples - 1))
+    gaps = rng.random(samples - 1) < 0.001
+    step_s[gaps] += rng.uniform(0.05, 0.5, int(gaps.sum()))  # drop-outs: bins without a sample
+    stamps_s = start_s + np.r_[0.0, np.cumsum(step_s)]
+    on_edge = rng.random(samples) < 0.01  # some stamps put on a bin's edge
+    stamps_s[on_edge] = start_s + np.round((stamps_s[on_edge] - start_s) / BIN_S) * BIN_S
+    stamps_s = np.maximum.accumulate(stamps_s)
+    stamps_s = stamps_s[np.r_[True, np.diff(stamps_s) > 0]]  # strictly forwards (the reader's)
+    run = _fast_run(stamps_s.size, period_s, stamps_s)
+    _assert_settled_per_bin(run)
+
+
+def test_bin_starts_fall_back_to_every_samples_bin_when_a_check_fails(monkeypatch):
+    """Should the per-bin search not settle a start (its check fails), every sample's bin is
+    found instead: the same answer."""
+    from wifibot_power.drive import stats
+
+    run = _fast_run(20_001, 1e-4)
+    n_bins = _bins_of(run)
+    monkeypatch.setattr(stats, "_bin_at", lambda run, index, n_bins: np.zeros(index.size, int))
+    present, starts = stats._bin_starts(run, n_bins)
+    expected_present, expected_starts = _per_sample_starts(run, n_bins)
+    np.testing.assert_array_equal(starts, expected_starts)
+    np.testing.assert_array_equal(present, expected_present)
+
+
+def test_drive_stats_of_a_stampless_log_equal_the_stamped_ones():
+    """The same 10 kHz samples with and without their time column (the axis index x period):
+    the same bins, to the bit (the arithmetic starts and the per-sample bins agree), and a
+    surface column's bins are each bin's first sample's."""
+    rng = np.random.default_rng(5)
+    samples, period_s = 123_457, 1e-4
+    stamps_s = np.arange(samples, dtype=np.float64)
+    stamps_s *= period_s
+    power = 25 + rng.standard_normal(samples)
+    speed = np.abs(np.sin(np.arange(samples) / 5000.0))
+    surface = (np.arange(samples) % 3 == 1).astype(np.int16)  # a bin start on either
+
+    def run(stamps):
+        meta = RunMeta(run_id="r", sample_period_s=period_s)
+        return Run(
+            file="r.csv",
+            format="csv",
+            meta=meta,
+            stamps_s=stamps,
+            power_W=power,
+            speed_mps=speed,
+            surface_index=surface,
+            surface_names=("a", "b"),
+        )
+
+    even, stamped = drive_stats(run(None)), drive_stats(run(stamps_s))
+    for name in ("power_W", "speed_mps", "yaw_rate_radps", "surface_index"):
+        assert getattr(even, name).tobytes() == getattr(stamped, name).tobytes(), name
+    first = np.arange(even.bins) * 500  # 500 samples a bin
+    np.testing.assert_array_equal(even.surface_index, surface[first])

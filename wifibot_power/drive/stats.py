@@ -139,24 +139,24 @@ def drive_stats(run: Run, segmentation: Segmentation | None = None) -> DriveStat
             return None
         speed_mps = speed_from_phases(run, segmentation)
         from_phases = True
-    time_s = run.time_s
     yaw_radps = run.yaw_rate_radps
     surface_index, surfaces = _surfaces(run)
     period_s = run.sample_period_s
-    n_bins = max(int(np.floor((time_s[-1] + period_s - time_s[0]) / BIN_S + 1e-9)), 1)
+    span_s = run.time_at(-1) + period_s - run.time_at(0)
+    n_bins = max(int(np.floor(span_s / BIN_S + 1e-9)), 1)
     if period_s <= BIN_S / 4:
-        which = _bin_of(time_s - time_s[0], n_bins)  # each sample's bin, found once for both
-        # each bin's stretch of samples starts where the bin changes (samples in time order)
-        starts = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
-        binned = _bin_means(which, starts, n_bins, run.power_W, speed_mps, yaw_radps)
-        first = np.full(n_bins, -1, dtype=np.intp)  # each bin's first sample (-1: none)
-        first[which[starts]] = starts
-        bin_surface = np.where(first >= 0, surface_index[np.maximum(first, 0)], 0)
+        present, starts = _bin_starts(run, n_bins)  # per bin, not per sample
+        count = np.diff(np.r_[starts, run.samples]).astype(np.float64)
+        binned = _bin_means(present, starts, count, n_bins, run.power_W, speed_mps, yaw_radps)
+        bin_surface = np.zeros(n_bins, dtype=np.int16)  # a bin without a sample: the first
+        if surface_index is not None:
+            bin_surface[present] = surface_index[starts]  # each bin's first sample's
     else:
+        time_s = run.time_s
         offset_s = time_s - time_s[0]
         at = _sample_at_centres(offset_s, n_bins)  # found once for the bins and their surface
         binned = _held(offset_s, at, period_s, run.power_W, speed_mps, yaw_radps)
-        bin_surface = surface_index[at]
+        bin_surface = np.zeros(n_bins) if surface_index is None else surface_index[at]
     power_W, bin_speed_mps, bin_yaw_radps = binned
     energy_J, _ = run.energy_and_mean()
     return DriveStats(
@@ -239,32 +239,32 @@ def _median(values: np.ndarray) -> float:
     return float(np.median(values, overwrite_input=True))
 
 
-def _surfaces(run: Run) -> tuple[np.ndarray, tuple[str, ...]]:
+def _surfaces(run: Run) -> tuple[np.ndarray | None, tuple[str, ...]]:
     """Each sample's surface as an index into the returned names: the log's `surface` column
-    where it names one, else the `surface` metadata, else `UNKNOWN_SURFACE`."""
+    where it names one, else the `surface` metadata, else `UNKNOWN_SURFACE`. None when every
+    sample's is the one name (no per-sample array made for it)."""
     default = (run.meta.extra.get("surface") or "").strip() or UNKNOWN_SURFACE
     if run.surface_index is None:
-        return np.zeros(run.samples, dtype=np.int16), (default,)
+        return None, (default,)
     names = (*run.surface_names, default)
     index = np.where(run.surface_index >= 0, run.surface_index, len(names) - 1)
     return index.astype(np.int16), names
 
 
 def _bin_means(
-    which: np.ndarray,
+    present: np.ndarray,
     starts: np.ndarray,
+    count: np.ndarray,
     n_bins: int,
     power_W: np.ndarray,
     speed_mps: np.ndarray,
     yaw_radps: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Mean of the samples in each bin (`which`: each sample's, `_bin_of`; `starts`: where
-    each bin's stretch of samples starts, the samples being in time order; NaN in a bin
-    without one: a drop-out). Each stretch summed by `np.add.reduceat` (4-9x faster than a
-    weighted `np.bincount` on a 10 kHz log; the same sums up to the order of summation,
-    pairwise within a stretch: 2e-15 relative)."""
-    present = which[starts]
-    count = np.diff(np.r_[starts, which.size]).astype(np.float64)
+    """Mean of the samples in each bin (`present`: the bins that hold a sample; `starts`:
+    where each one's stretch of samples starts, the samples being in time order; `count`: how
+    many it holds; NaN in a bin without one: a drop-out). Each stretch summed by
+    `np.add.reduceat` (4-9x faster than a weighted `np.bincount` on a 10 kHz log; the same
+    sums up to the order of summation, pairwise within a stretch: 2e-15 relative)."""
     out = []
     for values in (power_W, speed_mps, yaw_radps):
         if values is None:
@@ -336,6 +336,56 @@ def speed_from_phases(run: Run, segmentation: Segmentation) -> np.ndarray:
             d_start, d_end, _ = phases["decel"]
             speed_mps[d_start:d_end] = np.linspace(cruise_mps, 0.0, d_end - d_start + 1)[1:]
     return speed_mps
+
+
+def _bin_starts(run: Run, n_bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """The bins that hold a sample and where each one's stretch of samples starts, exactly as
+    `_bin_of` over the run's offsets `time_s - time_s[0]` places them (the same floats):
+    found per bin (`_starts_per_bin`), or from every sample's bin should that fail a check."""
+    found = _starts_per_bin(run, n_bins)
+    if found is not None:
+        return found
+    which = _bin_of(run.time_s - run.time_s[0], n_bins)
+    starts = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
+    return which[starts], starts
+
+
+def _starts_per_bin(run: Run, n_bins: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """`_bin_starts` found per bin, not per sample. The samples are in time order (the reader
+    refuses stamps that do not go forwards: io/stamps.py), so a sample's bin never decreases
+    with its index and bin k starts at the smallest i whose bin is k or later: within two
+    samples of a guess (k x BIN_S / period for a log without a time column, a binary search
+    of the stamps for one with), which `_bin_of` of the four samples around it settles and of
+    the start and the sample before it checks (None if a check fails)."""
+    samples, bin_k = run.samples, np.arange(n_bins)
+    if run.stamps_s is None:  # the axis is arange(samples) x period (`Run.time_s`)
+        guess = np.ceil(bin_k * (BIN_S / run.sample_period_s)).astype(np.intp)
+    else:
+        guess = np.searchsorted(run.stamps_s, run.stamps_s[0] + bin_k * BIN_S)
+    start = guess - 2
+    for shift in (-2, -1, 0, 1):  # how many of the four lie in an earlier bin
+        start += _bin_at(run, guess + shift, n_bins) < bin_k
+    settled = (_bin_at(run, start, n_bins) >= bin_k) & (_bin_at(run, start - 1, n_bins) < bin_k)
+    if not settled.all():
+        return None
+    start = np.minimum(start, samples)
+    present = np.flatnonzero(np.r_[start[1:], samples] > start)
+    return present, start[present]
+
+
+def _bin_at(run: Run, index: np.ndarray, n_bins: int) -> np.ndarray:
+    """`_bin_of` of the samples `index` of the run (the same float offsets as the whole axis'
+    `time_s - time_s[0]`): -1 for an index before the first sample; an index after the last
+    is the last sample's, whose bin is the last (the span ends a period after it)."""
+    inside = np.clip(index, 0, run.samples - 1)
+    if run.stamps_s is None:
+        offset_s = inside.astype(np.float64)
+        offset_s *= run.sample_period_s  # (as `Run.time_s`: one rounding of i x period)
+    else:
+        offset_s = run.stamps_s[inside] - run.stamps_s[0]
+    which = _bin_of(offset_s, n_bins)
+    which[index < 0] = -1
+    return which
 
 
 def _bin_of(offset_s: np.ndarray, n_bins: int) -> np.ndarray:
