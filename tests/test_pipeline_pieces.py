@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from wifibot_power.io import ReadOptions, read_log
 from wifibot_power.pipeline import pieces
@@ -178,3 +180,26 @@ def test_a_drive_model_with_no_term_determined_says_so_without_an_empty_table(wb
     assert "- idle_W: seen in only 1 run(s)" in result.stdout
     head = result.stdout.split("not determined:")[0]
     assert "┃" not in head and "┏" not in head, head
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    values=st.lists(st.sampled_from([0.0, 1.0, 2.5, 25.25, 25.5, -3.0]), min_size=0, max_size=400),
+    level=st.integers(0, 3),
+)
+def test_anchors_are_the_matching_samples_but_a_held_values_repeats(values, level):
+    """`_anchors`: every sample whose anchor bits match the pattern in `level` low bits,
+    except one whose value is the sample before's (a held value anchors once, where it
+    starts; sample 0 always counts), in order. Few values at low levels: many anchors, runs
+    of held values, an anchor at sample 0."""
+    from wifibot_power.pipeline.pieces import _PATTERN, _anchor_bits, _anchors
+
+    power_bits = np.array(values, dtype=np.float64).view(np.uint64)
+    mask = (1 << level) - 1
+    bits = _anchor_bits(power_bits.copy())
+    expected = [
+        i
+        for i in range(power_bits.size)
+        if int(bits[i]) & mask == _PATTERN & mask and (i == 0 or power_bits[i] != power_bits[i - 1])
+    ]
+    assert _anchors(power_bits, level).tolist() == expected

@@ -173,9 +173,11 @@ def _anchors(power_bits: np.ndarray, level: int) -> np.ndarray:
     bits = _anchor_bits(power_bits)
     np.bitwise_and(bits, mask, out=bits)
     found = np.flatnonzero(bits == (np.uint64(_PATTERN) & mask))
-    held = found[found > 0]
-    repeat = power_bits[held] == power_bits[held - 1]
-    return np.setdiff1d(found, held[repeat], assume_unique=True)
+    after_first = int(found.size > 0 and found[0] == 0)  # sample 0 is no repeat
+    held = found[after_first:]
+    repeat = np.zeros(found.size, dtype=bool)
+    repeat[after_first:] = power_bits[held] == power_bits[held - 1]
+    return found[~repeat]  # (in order, as found: a mask, not a set difference's sort)
 
 
 def _held_once(
