@@ -203,3 +203,37 @@ def test_anchors_are_the_matching_samples_but_a_held_values_repeats(values, leve
         if int(bits[i]) & mask == _PATTERN & mask and (i == 0 or power_bits[i] != power_bits[i - 1])
     ]
     assert _anchors(power_bits, level).tolist() == expected
+
+
+def _write_with_id(path: Path, run_id: str, power_W: np.ndarray, speed_mps: np.ndarray) -> None:
+    _write(path, power_W, speed_mps)
+    path.write_text(f"# run_id: {run_id}\n" + path.read_text(encoding="utf-8"), encoding="utf-8")
+
+
+def test_a_piece_of_a_log_left_out_for_its_run_id_is_kept(tmp_path: Path) -> None:
+    """The longer log is left out (its run_id is an earlier, different log's): its piece is
+    then no copy of anything analysed and is kept as a run, not dropped with it (its
+    samples would be in neither). A piece whose longer log is kept is still left out."""
+    power, speed = _recording(4, 6000)
+    other_power, other_speed = _recording(5, 3000)
+    _write_with_id(tmp_path / "first.csv", "same", other_power, other_speed)
+    _write_with_id(tmp_path / "whole.csv", "same", power, speed)  # left out: run_id taken
+    _write_with_id(tmp_path / "cut.csv", "cut", power[1000:4000], speed[1000:4000])
+    heard: dict[str, list[str]] = {}
+    runs, skipped = map_runs(
+        [tmp_path / n for n in ("first.csv", "whole.csv", "cut.csv")],
+        ReadOptions(),
+        lambda run: Path(run.file).name,
+        on_problems=lambda f, ps: heard.setdefault(Path(f).name, []).extend(
+            f"{p.kind}: {p.message}" for p in ps
+        ),
+    )
+    assert runs == ["first.csv", "cut.csv"]
+    (left_out,) = skipped
+    assert "whole.csv: run_id 'same' is also the run_id of" in left_out.reason
+    assert "cut.csv" not in heard  # no "piece" (nor "overlap") said of it
+    # and with a run_id of its own, the longer log keeps its piece out
+    _write_with_id(tmp_path / "whole.csv", "whole", power, speed)
+    runs, heard = _run(tmp_path, ["first.csv", "whole.csv", "cut.csv"])
+    assert runs == ["first.csv", "whole.csv"]
+    assert heard["cut.csv"][0].startswith("piece: its samples are part of ")

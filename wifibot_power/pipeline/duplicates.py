@@ -157,7 +157,7 @@ def settle(
     log before it is left out as a `Skipped` naming both. `on_problems(file, problems)` is
     called for each log read with problems."""
     copies = _copies(keys)
-    piece_of, shared = _pieces(sources, outcomes, copies)
+    piece_of, shared = _kept_pieces(sources, outcomes, copies)
     results: list[object] = []
     run_of: dict[str, str] = {}  # run_id -> the file of the run kept with it
     for k, (source, (ok, value)) in enumerate(zip(sources, outcomes, strict=True)):
@@ -196,27 +196,69 @@ def _copies(keys: Sequence[str | None]) -> dict[int, int]:
     return copies
 
 
-def _pieces(
+def _kept_pieces(
     sources: Sequence[LogSource], outcomes: Sequence[tuple[bool, object]], copies: dict[int, int]
 ) -> tuple[dict[int, Problem], dict[int, list[Problem]]]:
-    """The logs that are pieces of another (index -> its "piece" problem) and those that
-    share samples with another ("overlap" problems), among the logs read, copies aside."""
-    signatures: list[str | None] = [None] * len(sources)
+    """`_pieces`, with only logs the batch keeps as the longer logs: a log left out for its
+    run_id (`_run_id_left_out`) takes no piece with it, or the piece's samples would be in
+    neither. Kept so, a piece may then clash by run_id itself and leave out a log after it
+    (with its own pieces): repeated until nothing more is left out (each round only adds)."""
+    found = pieces.overlaps(_signatures(outcomes, copies))
+    left_out: set[int] = set()
+    while True:
+        piece_of, shared = _pieces(sources, found, left_out)
+        more = _run_id_left_out(outcomes, set(copies) | set(piece_of))
+        if more <= left_out:
+            return piece_of, shared
+        left_out |= more
+
+
+def _signatures(
+    outcomes: Sequence[tuple[bool, object]], copies: dict[int, int]
+) -> list[str | None]:
+    """Each log's piece signature (None: not read, a copy, or none returned)."""
+    signatures: list[str | None] = [None] * len(outcomes)
     for k, (ok, value) in enumerate(outcomes):
         fingerprint = value[1] if ok else None  # type: ignore[index]
         if k not in copies and fingerprint is not None and "#" in fingerprint:
             signatures[k] = fingerprint.split("#", 1)[1]
+    return signatures
+
+
+def _run_id_left_out(outcomes: Sequence[tuple[bool, object]], dropped: set[int]) -> set[int]:
+    """The logs `settle` leaves out for a run_id a log before them has, `dropped` (copies
+    and pieces) aside."""
+    seen: set[str] = set()
+    left_out: set[int] = set()
+    for k, (ok, value) in enumerate(outcomes):
+        if not ok or k in dropped:
+            continue
+        run_id = value[2]  # type: ignore[index]
+        if run_id in seen:
+            left_out.add(k)
+        seen.add(run_id)
+    return left_out
+
+
+def _pieces(
+    sources: Sequence[LogSource], found: Sequence[pieces.Overlap], left_out: set[int]
+) -> tuple[dict[int, Problem], dict[int, list[Problem]]]:
+    """The logs that are pieces of another (index -> its "piece" problem) and those that
+    share samples with another ("overlap" problems), of the overlaps `found`, those with a
+    log in `left_out` aside."""
     piece_of: dict[int, Problem] = {}
     shared: dict[int, list[Problem]] = {}
-    for found in pieces.overlaps(signatures):
-        other = str(sources[found.other].path)
-        if found.is_piece:
-            piece_of.setdefault(found.this, _piece(other, found.offset))
-        elif found.this > found.other:  # said of the later log
-            shared.setdefault(found.this, []).append(_overlap(other, found.share, ours=True))
+    for overlap in found:
+        if overlap.this in left_out or overlap.other in left_out:
+            continue
+        other = str(sources[overlap.other].path)
+        if overlap.is_piece:
+            piece_of.setdefault(overlap.this, _piece(other, overlap.offset))
+        elif overlap.this > overlap.other:  # said of the later log
+            shared.setdefault(overlap.this, []).append(_overlap(other, overlap.share, ours=True))
         else:
-            this = str(sources[found.this].path)
-            shared.setdefault(found.other, []).append(_overlap(this, found.share, ours=False))
+            this = str(sources[overlap.this].path)
+            shared.setdefault(overlap.other, []).append(_overlap(this, overlap.share, ours=False))
     return piece_of, shared
 
 
