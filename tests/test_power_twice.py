@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from wifibot_power.errors import LogError
 from wifibot_power.io import read_log
@@ -129,3 +131,54 @@ def test_the_rounding_of_the_numbers_as_written_is_allowed_for(tmp_path):
     # the same with the power 0.55 W: 0.17 W a sample apart, beyond both: refused
     with pytest.raises(LogError, match="disagrees"):
         read_log(write("0.55"))
+
+
+def test_the_voltages_rounding_times_the_current_is_allowed_for(tmp_path):
+    # 0.12 V written to the centivolt, 6.001 A to the milliamp, 0.66 W to the centiwatt: V x I
+    # as written is 0.72012 W, 0.06012 W a sample over the power column; the tolerance allows
+    # 5% of 0.72012 W, 0.036 W, and the rounding 0.5 (0.12 x 0.001 + 6.001 x 0.01 + 0.01 +
+    # 0.01 x 0.001) = 0.03507 W more: read. (Without its 6.001 A x 0.01 V term: refused.)
+    path = tmp_path / "coarse_volts.csv"
+
+    def write(power: str) -> Path:
+        rows = "".join(f"{k * 0.01:.2f},0.12,6.001,{power}\n" for k in range(N))
+        path.write_text("time_s,voltage_V,current_A,power_W\n" + rows)
+        return path
+
+    assert read_log(write("0.66")).power_W[0] == 0.66
+    # 0.60 W: 0.12 W a sample apart, beyond both: refused
+    with pytest.raises(LogError, match="disagrees"):
+        read_log(write("0.60"))
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    samples=st.integers(1, 3000),
+    seed=st.integers(0, 2**32 - 1),
+    holes=st.sampled_from([0.0, 0.0, 0.01, 0.3]),
+)
+def test_the_checks_sums_are_over_the_samples_all_three_give(samples, seed, holes):
+    """`_twice_sums`: the sums over the samples where power, current and voltage are all
+    finite, by plain sums when every sample is (the fast way) and masked otherwise, equal
+    to the same sums over those samples picked out by hand."""
+    from wifibot_power.io.validate import _twice_sums
+
+    rng = np.random.default_rng(seed)
+    voltage = 12 + rng.normal(0, 0.5, samples)
+    current = rng.normal(1, 2, samples)  # negative currents too
+    power = voltage * current * (1 + rng.normal(0, 0.01, samples))
+    for column, bad in ((power, np.nan), (current, np.inf), (voltage, np.nan)):
+        column[rng.random(samples) < holes] = bad
+    kept = np.isfinite(power) & np.isfinite(current * voltage)
+    p, i, v = power[kept], current[kept], voltage[kept]
+    expected = (
+        p.sum(),
+        (i * v).sum(),
+        max(np.abs(p).sum(), np.abs(i * v).sum()),
+        np.abs(v).sum(),
+        np.abs(i).sum(),
+    )
+    for masked in (False, True):
+        *sums, count = _twice_sums(power, current, voltage, masked=masked)
+        assert count == kept.sum()
+        np.testing.assert_allclose(sums, expected, rtol=1e-12, atol=1e-9)

@@ -484,6 +484,34 @@ def _written_step(values: np.ndarray, sample: int = 10_000) -> float:
     return 0.0
 
 
+def _twice_sums(
+    power_W: np.ndarray, current_A: np.ndarray, voltage_V: np.ndarray, *, masked: bool = False
+) -> tuple[float, float, float, float, float, int]:
+    """Over the samples where the power, current and voltage are all finite numbers: the sums
+    of P, V x I, the larger of |P|'s and |V x I|'s, of |V| and of |I|, and how many samples.
+    When every sample is finite (the sums of P and V x I are: a NaN or an inf makes them so),
+    plain sums, one temporary; else `masked` sums (as `masked=True` forces)."""
+    product_W = current_A * voltage_V
+    column_J, product_J = float(np.sum(power_W)), float(np.sum(product_W))
+    if not masked and np.isfinite(column_J) and np.isfinite(product_J):
+        size = np.abs(power_W)
+        scale_J = float(np.sum(size))
+        scale_J = max(scale_J, float(np.sum(np.abs(product_W, out=product_W))))
+        size_V = float(np.sum(np.abs(voltage_V, out=size)))
+        size_A = float(np.sum(np.abs(current_A, out=size)))
+        return column_J, product_J, scale_J, size_V, size_A, int(power_W.size)
+    both = np.isfinite(power_W)
+    both &= np.isfinite(product_W)
+    column_J = float(np.sum(power_W, where=both))  # per sample: energy / sample period
+    product_J = float(np.sum(product_W, where=both))
+    size = np.abs(power_W)
+    scale_J = float(np.sum(size, where=both))
+    scale_J = max(scale_J, float(np.sum(np.abs(product_W, out=product_W), where=both)))
+    size_V = float(np.sum(np.abs(voltage_V, out=size), where=both))
+    size_A = float(np.sum(np.abs(current_A, out=size), where=both))
+    return column_J, product_J, scale_J, size_V, size_A, int(np.count_nonzero(both))
+
+
 def check_power_twice(
     file: str,
     power: tuple[str, np.ndarray],
@@ -504,24 +532,11 @@ def check_power_twice(
         current,
         voltage,
     )
-    product_W = current_A * voltage_V
-    both = np.isfinite(power_W)
-    both &= np.isfinite(product_W)
-    column_J = float(np.sum(power_W, where=both))  # per sample: energy / sample period
-    product_J = float(np.sum(product_W, where=both))
-    size_W = np.abs(power_W)  # (two full-size temporaries in all, each used again)
-    scale_J = float(np.sum(size_W, where=both))
-    scale_J = max(scale_J, float(np.sum(np.abs(product_W, out=product_W), where=both)))
+    column_J, product_J, scale_J, size_V, size_A, count = _twice_sums(power_W, current_A, voltage_V)
     # the numbers as written are rounded: V x I is off by up to half a step of each,
-    # 0.5 (|V| step_A + |I| step_V + step_W), summed in that order
+    # 0.5 (|V| step_A + |I| step_V + step_W + step_V step_A) a sample, summed
     step_V, step_A, step_W = (_written_step(x) for x in (voltage_V, current_A, power_W))
-    rounding_W = np.abs(voltage_V, out=product_W)
-    rounding_W *= step_A
-    rounding_W += np.multiply(np.abs(current_A, out=size_W), step_V, out=size_W)
-    rounding_W += step_W
-    rounding_W *= 0.5
-    rounding_J = float(np.sum(rounding_W, where=both))
-    rounding_J += 0.5 * step_V * step_A * np.count_nonzero(both)
+    rounding_J = 0.5 * (step_A * size_V + step_V * size_A + (step_W + step_V * step_A) * count)
     if abs(column_J - product_J) <= POWER_TWICE_TOLERANCE * scale_J + rounding_J:
         return
     ratio = f"{column_J / product_J:.4g}x" if product_J else "not 0 where they give 0"
