@@ -47,6 +47,36 @@ def _proxy_run(run_id: str = "rev", knots_v=(0, 0, 0.6, 0.6, -0.6, -0.6, 0, 0), 
     return Run(f"{run_id}.csv", "wbpower-csv", meta, t, power, speed_mps=v)
 
 
+def test_a_logs_voltage_assumed_metadata_makes_it_a_current_proxy(tmp_path: Path, wbpower):
+    """Through the reader, as a user's file: its '# voltage_assumed_V:' line (the converters'
+    key, which the reader lower-cases like every metadata key) makes the log a current proxy,
+    and `fit` says it takes the force form. (It did not: `current_proxy` looked for the key
+    as written, so every converted Husky log was fitted as a power log through the CLI,
+    while the validation script, which builds its runs by hand, got the force form.)"""
+    import json
+
+    from wifibot_power.io import ReadOptions, read_log
+
+    run = _proxy_run()
+    rows = "\n".join(
+        f"{t:.4f},{p:.4f},{v:.5f}"
+        for t, p, v in zip(run.time_s, run.power_W, run.speed_mps, strict=True)
+    )
+    for name, header in (
+        ("proxy.csv", "# voltage_assumed_V: 24 (nominal: motor currents only)\n"),
+        ("power.csv", ""),
+    ):
+        (tmp_path / name).write_text(
+            f"# run_id: {name}\n# surface: floor\n{header}time_s,power_W,speed_mps\n{rows}\n"
+        )
+    assert drive_stats(read_log(tmp_path / "proxy.csv", ReadOptions())).current_proxy
+    assert not drive_stats(read_log(tmp_path / "power.csv", ReadOptions())).current_proxy
+    for names, said in ((["proxy.csv"], True), (["power.csv"], False)):
+        result = wbpower("fit", *(str(tmp_path / n) for n in names), "--json")
+        warnings = json.loads(result.stdout)["drive"]["warnings"]
+        assert any("hold motor currents only" in w for w in warnings) is said
+
+
 def test_current_proxy_is_read_from_the_metadata_and_cached():
     stats = drive_stats(_proxy_run())
     assert stats.current_proxy

@@ -220,6 +220,30 @@ def test_a_spinning_husky_is_never_idle(name: str, wbpower) -> None:
     assert any(ph["phase"] == "turn" for ph in run["phases"]), run["phases"]
 
 
+@pytest.mark.parametrize("surface", ["sandy_loam", "flooring"])
+def test_the_cli_fits_a_husky_folder_as_the_validation_does(surface: str, wbpower) -> None:
+    """`wbpower fit FOLDER --json` on a BorealTC surface takes the current proxy's force form
+    (the warning says so) and predicts its held-out runs as the validation script's drive
+    model does on the same logs given as runs (within 1 point of MAPE: each log is one trip
+    here). Through the CLI the logs were fitted as power logs until the twelfth session (the
+    reader lower-cases '# voltage_assumed_V'): sandy loam's held-out MAPE was 39%, not 5%."""
+    folder = DRIVE / "borealtc" / surface
+    if not folder.is_dir():
+        pytest.skip(UNAVAILABLE)
+    result = wbpower("fit", "--json", folder)
+    assert result.exit_code == 0, result.stderr
+    drive = json.loads(result.stdout)["drive"]
+    assert any("hold motor currents only" in w for w in drive["warnings"]), drive["warnings"]
+    from wifibot_power.drive import fit_drive
+
+    files = sorted(folder.glob("*.csv.gz"))
+    trips = [tr for f in files for tr in validate.trips_of(f, "borealtc")]
+    if len(trips) != len(drive["heldout"]["runs"]):
+        return  # cut otherwise (flooring: 11 trips by the script's rule, 12 by the model's)
+    by_hand = fit_drive([validate.as_run(tr) for tr in trips])
+    assert abs(drive["heldout"]["mape_pct"] - by_hand.heldout.mape_pct) < 1.0
+
+
 # --- the validation script's own parts, on made-up data (no logs needed) ---------------
 
 validate = load_script("validate_drive_real", ROOT / "benchmarks" / "validate_drive_real.py")
