@@ -34,6 +34,10 @@ EDGE_SAMPLES = 1.0
 #: times: white noise loses 0.006% of its samples and 0.1% of its variance so.
 CLIP_DEVIATIONS = 4.0
 CLIP_ROUNDS = 4
+#: A window whose own change of v^2/2 is beyond this many standard deviations of its edges'
+#: noise speeds up or brakes by its own sign (`_speeding_and_braking`); white noise reaches it
+#: in 0.27% of the windows whose true change is 0 (a cruise's).
+SIGNIFICANT = 3.0
 
 
 def inertial_regressors(
@@ -44,7 +48,14 @@ def inertial_regressors(
     (`edge_speeds`, `_speeding_and_braking`), corrected for the edges' noise (`calibrated`)."""
     speed = stats.speed_mps
     half = edge_half_bins(stats.samples_per_bin)
-    edge_speed = edge_speeds(speed, np.arange(count + 1) * n, half)
+    edges = np.arange(count + 1) * n
+    edge_speed = edge_speeds(speed, edges, half)
+    weights, centres = edge_kernel(half)
+    edge_noise_mps = sample_noise_mps * np.sqrt(
+        sample_gain(weights, centres, stats.samples_per_bin)
+    )
+    if edge_noise_mps == 0.0:  # an exact speed: its corners and steps are the data's own
+        edge_speed = within_neighbours(edge_speed, speed, edges, half)
     # power: d(v^2/2)/dt = a v; a current proxy's force form: d|v|/dt = a sign(v) (terms.py)
     kinetic = np.abs if stats.current_proxy else _half_square
     # whether a window speeds up or brakes, from its neighbours' mean speeds over the bins
@@ -59,15 +70,35 @@ def inertial_regressors(
         np.square(blocks[:, : n - trim].mean(axis=1)),  # without its last bins: "before"
     )
     window_s = n * stats.bin_s
-    av_up, av_down = _speeding_and_braking(edge_speed, mean_speed, window_s, kinetic, neighbours)
-    weights, centres = edge_kernel(half)
-    edge_noise_mps = sample_noise_mps * np.sqrt(
-        sample_gain(weights, centres, stats.samples_per_bin)
-    )
     noise_up, noise_down = inertial_noise_var(
         edge_speed, edge_noise_mps, window_s, power_form=not stats.current_proxy
     )
+    # a window's change is noise-free where its non-crossing variance is 0 (up and down are
+    # the same then: `inertial_noise_var`)
+    change_sd = np.sqrt(np.maximum(noise_up, noise_down))
+    av_up, av_down = _speeding_and_braking(
+        edge_speed, mean_speed, window_s, kinetic, neighbours, change_sd
+    )
     return calibrated(av_up, av_down, noise_up, noise_down)
+
+
+def within_neighbours(
+    edge_speed: np.ndarray, speed_mps: np.ndarray, edges: np.ndarray, half: int
+) -> np.ndarray:
+    """Each edge speed [m/s] kept between the means of the `half` bins on its two sides
+    (unchanged where a side is missing: a run's ends, a drop-out). PPM's monotonicity
+    constraint: an interface value lies between its neighbouring cell means (Colella &
+    Woodward, J. Comput. Phys. 54, 1984, Sec. 1, the limited slopes of Eq. 1.8; Colella &
+    Sekora, J. Comput. Phys. 227, 2008, Sec. 2). `edge_speeds`' extrapolation, exact for a
+    smooth speed, overshoots at a step: a step run without a stopping phase (the paper's ideal
+    robot, `speed_from_phases`) drops from its cruise speed to 0 inside a bin, and the edge
+    next to it read up to 0.35 m/s beyond both sides at 0.9 m/s, a speeding-up share in a
+    cruise window. For an exact speed only (no noise): with noise, the clip would change the
+    edges' noise, which `calibrated` takes as a linear combination's."""
+    before = _span_means(speed_mps, edges - half, edges)
+    after = _span_means(speed_mps, edges, edges + half)
+    low, high = np.minimum(before, after), np.maximum(before, after)
+    return np.where(np.isfinite(low + high), np.clip(edge_speed, low, high), edge_speed)
 
 
 def _window_abs(bins: np.ndarray, mean: np.ndarray, noise: float, samples: float) -> np.ndarray:
@@ -121,6 +152,7 @@ def _speeding_and_braking(
     window_s: float,
     kinetic=_half_square,
     neighbours: tuple[np.ndarray, np.ndarray] | None = None,
+    change_sd: np.ndarray | None = None,
 ) -> tuple[np.ndarray, ...]:
     """Each window's mean of (a v)+ and (a v)- [m^2/s^3]. Its size is the change of v^2/2
     between the speeds at its edges over its duration (d(v^2/2)/dt = a v, exact whatever
@@ -131,9 +163,17 @@ def _speeding_and_braking(
     change: split by its own sign, the edges' noise in a cruise would be rectified into both
     columns, biasing both coefficients (seen on the simulator at 6.5 Hz: braking 10% low).
     `neighbours`: the squared mean speeds of each window without its first and without its
-    last edge bins, so that the call shares no sample with the edges (run_windows).
-    `kinetic` is the quantity differentiated: v^2/2 (power, a v), or |v| (a current proxy's
-    force form, a sign(v) [m/s^2]: windows.run_windows)."""
+    last edge bins, so that the call shares no sample with the edges (run_windows). But a
+    window whose own change is beyond `SIGNIFICANT` standard deviations of its noise
+    (`change_sd`, m^2/s^3 as the result: `inertial_noise_var`'s) goes by its own sign: no
+    noise makes that sign, and the neighbours' rule fails where the speed turns within a
+    window's length: the paper's 1 m steps at 0.9 m/s (0.9 s up, 0.5-0.7 s cruise, a stop)
+    had a window ending its ramp called braking, its next window holding the stop, and its
+    speeding up put in the braking column with the wrong sign (the drive model's v^2 term
+    0.49 W/(m/s)^2 for the simulator's 0 on sample_logs, its cruise 0.14 W high at 0.9 m/s;
+    docs/drive-model.md, "The paper's step runs"). An exact speed (no noise) always goes by
+    its own sign. `kinetic` is the quantity differentiated: v^2/2 (power, a v), or |v| (a
+    current proxy's force form, a sign(v) [m/s^2]: windows.run_windows)."""
     start, end = edge_speed[:-1], edge_speed[1:]
     half_change = kinetic(end) - kinetic(start)
     crosses = start * end < 0
@@ -142,6 +182,9 @@ def _speeding_and_braking(
     after = np.concatenate((after_sq[1:], square[-1:]))
     before = np.concatenate((square[:1], before_sq[:-1]))
     rising = np.where(np.isfinite(after - before), after - before, half_change) > 0
+    if change_sd is not None:
+        own = np.abs(half_change) > SIGNIFICANT * change_sd * window_s
+        rising = np.where(own, half_change > 0, rising)
     up = np.where(crosses, kinetic(end), np.where(rising, half_change, 0.0))
     down = np.where(crosses, -kinetic(start), np.where(rising, 0.0, half_change))
     return up / window_s, down / window_s
@@ -150,12 +193,18 @@ def _speeding_and_braking(
 def _edge_means(speed: np.ndarray, edges: np.ndarray, half: int) -> np.ndarray:
     """The mean of the `half` bins on either side of each edge (fewer at a run's ends); NaN
     when one of them is a drop-out."""
+    return _span_means(speed, edges - half, edges + half)
+
+
+def _span_means(speed: np.ndarray, start: np.ndarray, stop: np.ndarray) -> np.ndarray:
+    """The mean of the bins from each `start` to its `stop` (clipped to the run); NaN when
+    one of them is a drop-out or none is left."""
     total = np.concatenate(([0.0], np.cumsum(np.nan_to_num(speed))))
     bad = np.concatenate(([0], np.cumsum(~np.isfinite(speed))))
-    low = np.clip(edges - half, 0, speed.size)
-    high = np.clip(edges + half, 0, speed.size)
+    low = np.clip(start, 0, speed.size)
+    high = np.clip(stop, 0, speed.size)
     mean = (total[high] - total[low]) / np.maximum(high - low, 1)
-    return np.where(bad[high] - bad[low] == 0, mean, np.nan)
+    return np.where((bad[high] - bad[low] == 0) & (high > low), mean, np.nan)
 
 
 def edge_half_bins(samples_per_bin: float) -> int:
