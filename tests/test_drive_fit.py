@@ -342,6 +342,17 @@ def test_step_runs_heldout_energy_beside_the_papers(tmp_path, monkeypatch):
     monkeypatch.setattr(common.stdout, "width", 80)
     shown = _wbpower("fit", logs).stdout
     assert f"{beside.paper_mape_pct:.2f}%" in shown and f"{beside.drive_mape_pct:.2f}%" in shown
+    # every phase agrees here: nothing to explain; a disagreement is explained under the table
+    assert "where they disagree" not in shown
+    from dataclasses import replace
+
+    from wifibot_power.fit_result import FitResult
+
+    rows = result.drive_vs_paper()
+    apart = (replace(rows[0], cruise_W=rows[0].paper_cruise_W + 1, cruise_ci95=(30.0, 30.0)),)
+    monkeypatch.setattr(FitResult, "drive_vs_paper", lambda self: apart + rows[1:])
+    shown = _wbpower("fit", logs).stdout
+    assert "where they disagree" in shown and " no " in shown
 
 
 def test_no_heldout_beside_the_papers_without_both_models(free):
