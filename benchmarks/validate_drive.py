@@ -181,6 +181,7 @@ def simulator_suite(out: list[str], label: str, seeds: range, **config_args) -> 
 
 def step_suite(out: list[str]) -> None:
     from wifibot_power import fit_logs
+    from wifibot_power.diagnose.baseline import heldout_beside_paper
 
     say = out.append
     logs = ROOT / "sample_logs"
@@ -188,7 +189,7 @@ def step_suite(out: list[str]) -> None:
     result = fit_logs([logs])
     model = result.drive
     rows = result.drive_vs_paper()
-    beside = result.heldout_beside_paper()
+    beside = heldout_beside_paper(result)
     say(f"\n## The paper's step runs (sample_logs): {model.n_runs} motion runs, "
           f"{time.perf_counter() - started:.0f} s\n")  # fmt: skip
     say("drive model terms (speed = the phases' trapezoid):")
@@ -221,8 +222,8 @@ def step_suite(out: list[str]) -> None:
         f"\nheld-out energy error: drive model MAPE {held.mape_pct:.2f}% (median "
         f"{held.median_ape_pct:.2f}%, {len(held.runs)} trips incl. idle, 90% intervals hold "
         f"{held.coverage_pi90_pct:.0f}%); over each run's motion energy ({beside.n_runs} runs, "
-        f"`FitResult.heldout_beside_paper`): drive model MAPE {beside.drive_mape_pct:.2f}%, "
-        f"paper model (diagnose's baseline) {beside.paper_mape_pct:.2f}%"
+        f"`heldout_beside_paper`): drive model MAPE {beside.drive_mape_pct:.2f}%, paper "
+        f"model (diagnose's baseline) {beside.paper_mape_pct:.2f}%"
     )
 
 

@@ -7,7 +7,7 @@ the v² term was, and what is left"): prints the tables that section quotes.
    how many of the 18 phase powers (accel and cruise at 9 speeds) agree with the paper's
    lines (`FitResult.drive_vs_paper`), how many of the drive model's intervals hold the
    simulator's line (truth.json), its largest cruise error, v², and the held-out errors
-   beside the paper's (`FitResult.heldout_beside_paper`).
+   beside the paper's (`diagnose.baseline.heldout_beside_paper`).
 2. The windows against the truth: on one set without effects and one with the stop, the
    least squares of the windows' mean power on the window means of the simulator's own
    per-sample quantities (1, moving, v, v², (a v)+, (a v)-: from truth.json's phases) beside
@@ -32,6 +32,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT)]
 
 from wifibot_power import fit_logs  # noqa: E402
+from wifibot_power.diagnose.baseline import heldout_beside_paper  # noqa: E402
 from wifibot_power.simulate import (  # noqa: E402
     SimConfig,
     WriteOptions,
@@ -72,7 +73,7 @@ def agreement(folder: Path) -> dict[str, object]:
             if line == "cruise" and abs(value - true_W) > abs(worst[0]):
                 worst = (value - true_W, v)
     quadratic = result.drive.terms.get("quadratic_W_per_mps2")
-    beside = result.heldout_beside_paper()
+    beside = heldout_beside_paper(result)
     return {
         "agree": agree,
         "hold": hold,

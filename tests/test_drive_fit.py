@@ -318,11 +318,12 @@ def test_step_runs_heldout_energy_beside_the_papers(tmp_path, monkeypatch):
     # beside the paper model's: diagnose's baseline (the paper's lines refitted without each
     # fold), both over each run's motion energy
     from wifibot_power import diagnose_logs
+    from wifibot_power.diagnose.baseline import heldout_beside_paper
     from wifibot_power.fit import fit_logs
 
     logs = _sample_steps(tmp_path)
     result = fit_logs(logs)
-    beside = result.heldout_beside_paper()
+    beside = heldout_beside_paper(result)
     assert beside is not None and beside.n_runs == 9
     assert beside.paper_mape_pct == pytest.approx(diagnose_logs([logs]).baseline_mape_pct)
     # the drive model's: its held-out runs (one trip each here) over the table's motion energy
@@ -357,10 +358,11 @@ def test_step_runs_heldout_energy_beside_the_papers(tmp_path, monkeypatch):
 
 def test_no_heldout_beside_the_papers_without_both_models(free):
     # free driving alone: no paper model, nothing to set beside it
+    from wifibot_power.diagnose.baseline import heldout_beside_paper
     from wifibot_power.fit import fit_logs
 
     result = fit_logs(free[0])
-    assert result.drive is not None and result.heldout_beside_paper() is None
+    assert result.drive is not None and heldout_beside_paper(result) is None
     assert "paper's model (Eq. 1-6" not in _wbpower("fit", free[0]).stdout
 
 

@@ -71,20 +71,6 @@ class DriveVsPaper:
         return _overlap(self.paper_cruise_ci95, self.cruise_ci95)
 
 
-@dataclass(frozen=True)
-class HeldOutBeside:
-    """On the step runs both models used: each one's held-out error of a run's energy [J]
-    over the run's motion energy (accel, cruise and decel; idle excluded: the energy the
-    paper's Eq. 5/6 predicts), as a mean absolute percentage over `n_runs` runs. The drive
-    model's: its K-fold by trip (a run's trips summed) over the run table's motion energy;
-    the paper's: diagnose's baseline, on the batch's idle level as diagnose takes it
-    (`diagnose.baseline.paper_heldout_motion_J`)."""
-
-    n_runs: int
-    drive_mape_pct: float
-    paper_mape_pct: float
-
-
 def _overlap(a: tuple[float, float], b: tuple[float, float]) -> bool:
     return a[0] <= b[1] and b[0] <= a[1]
 
@@ -275,45 +261,6 @@ class FitResult:
                 )
             )
         return tuple(out)
-
-    def heldout_beside_paper(self) -> HeldOutBeside | None:
-        """The drive model's held-out run energy beside the paper model's on the step runs
-        both used (`HeldOutBeside`); None without both models, or when the paper's cannot be
-        held out (too few speeds for its folds). Reads the runs table (pandas)."""
-        drive = self.drive
-        if drive is None or not self.model_complete:
-            return None
-        held = drive.summary()["heldout"]
-        if not held:
-            return None
-        from wifibot_power.diagnose.baseline import paper_heldout_motion_J
-
-        runs = self.runs
-        paper = paper_heldout_motion_J(runs)
-        if paper is None:
-            return None
-        run_ids, paper_measured_J, paper_predicted_J = paper
-        motion_J = dict(zip(runs["run_id"], runs["motion_energy_J"].tolist(), strict=True))
-        # a run cut into trips (stops of `drive.windows.STOP_S`) is their sum: "RUN#k"
-        drive_J: dict[str, list[float]] = {}
-        for trip in held["runs"]:  # type: ignore[union-attr]
-            run_id = str(trip["run_id"])
-            base, _, k = run_id.rpartition("#")
-            run_id = base if base and k.isdigit() else run_id
-            sums = drive_J.setdefault(run_id, [0.0, 0.0])
-            sums[0] += float(trip["measured_J"])
-            sums[1] += float(trip["predicted_J"])
-        drive_pct, paper_pct = [], []
-        paper_J = zip(run_ids, paper_measured_J, paper_predicted_J, strict=True)
-        for run_id, measured, guess in paper_J:
-            if run_id in drive_J and motion_J[run_id] > 0 and measured > 0:
-                error_J = abs(drive_J[run_id][1] - drive_J[run_id][0])
-                drive_pct.append(error_J / motion_J[run_id] * 100)
-                paper_pct.append(abs(float(guess) - float(measured)) / measured * 100)
-        if not drive_pct:
-            return None
-        n = len(drive_pct)
-        return HeldOutBeside(n, sum(drive_pct) / n, sum(paper_pct) / n)
 
     # -- kept by `fit --cache` -----------------------------------------------------------
     def to_json(self) -> dict[str, object]:

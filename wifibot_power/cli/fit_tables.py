@@ -238,7 +238,9 @@ def print_drive_tables(result: FitResult) -> None:
         said = []
         if not all(row.accel_agree and row.cruise_agree for row in rows):
             said.append(DISAGREE_NOTE)
-        beside = result.heldout_beside_paper()
+        from wifibot_power.diagnose.baseline import heldout_beside_paper
+
+        beside = heldout_beside_paper(result)
         if beside is not None:
             said.append(
                 f"held-out run energy, error over each run's motion energy ({beside.n_runs} "
