@@ -180,28 +180,17 @@ def simulator_suite(out: list[str], label: str, seeds: range, **config_args) -> 
 
 
 def step_suite(out: list[str]) -> None:
-    from wifibot_power import diagnose_logs, fit_logs
-    from wifibot_power.drive.profile import step_phase_powers
-    from wifibot_power.io.discover import find_logs
-    from wifibot_power.io.reader import read_log
-    from wifibot_power.segment import segment_run
+    from wifibot_power import fit_logs
+    from wifibot_power.diagnose.baseline import heldout_beside_paper
 
     say = out.append
     logs = ROOT / "sample_logs"
     started = time.perf_counter()
-    sources, _ = find_logs([logs])
-    runs, segs = [], []
-    for source in sources:
-        run = read_log(source.path, overrides=source.read_overrides, origin=source.origin)
-        if run.meta.mode != "motion":
-            continue
-        runs.append(run)
-        segs.append(segment_run(run))
-    model = fit_drive(runs, segs)
-    paper = fit_logs([logs])
-    table, _ = paper.tables()
-    motion = table[table["usable"] & (table["mode"] == "motion")]
-    say(f"\n## The paper's step runs (sample_logs): {len(runs)} motion runs, "
+    result = fit_logs([logs])
+    model = result.drive
+    rows = result.drive_vs_paper()
+    beside = heldout_beside_paper(result)
+    say(f"\n## The paper's step runs (sample_logs): {model.n_runs} motion runs, "
           f"{time.perf_counter() - started:.0f} s\n")  # fmt: skip
     say("drive model terms (speed = the phases' trapezoid):")
     for name, term in model.terms.items():
@@ -214,58 +203,28 @@ def step_suite(out: list[str]) -> None:
         "P_v paper fit [W] | P_v drive [W] | within |"
     )
     say("|---:|---:|---:|---:|:---:|---:|---:|:---:|")
-    for speed in sorted(motion["speed_mps"].round(2).unique()):
-        rows = motion[motion["speed_mps"].round(2) == speed]
-        t_acc = float(rows["t_acc_s"].mean())
-        drive = step_phase_powers(model, float(speed), t_acc)
-        cells = [f"{speed:g}", f"{t_acc:.2f}"]
-        for phase, column, line in (
-            ("accel", "accel_mean_power_W", paper.model.accel),
-            ("cruise", "cruise_mean_power_W", paper.model.cruise),
-        ):
-            low, high = _line_band(motion["speed_mps"], motion[column], float(speed))
-            value, (d_low, d_high) = drive[phase]
-            overlap = d_low <= high and low <= d_high
+    for row in rows:
+        cells = [f"{row.speed_mps:g}", f"{result.model.t_acc.at(row.speed_mps):.2f}"]
+        for paper, (low, high), value, (d_low, d_high), agree in (
+            (row.paper_accel_W, row.paper_accel_ci95, row.accel_W, row.accel_ci95,
+             row.accel_agree),
+            (row.paper_cruise_W, row.paper_cruise_ci95, row.cruise_W, row.cruise_ci95,
+             row.cruise_agree),
+        ):  # fmt: skip
             cells += [
-                f"{line.at(float(speed)):.2f} [{low:.2f}, {high:.2f}]",
+                f"{paper:.2f} [{low:.2f}, {high:.2f}]",
                 f"{value:.2f} [{d_low:.2f}, {d_high:.2f}]",
-                "yes" if overlap else "**no**",
+                "yes" if agree else "**no**",
             ]
         say("| " + " | ".join(cells) + " |")
     held = model.heldout
-    baseline = diagnose_logs([logs])
-    # like with like: the drive model's held-out error in J over each run's motion energy
-    # (idle excluded), the denominator of the paper model's error
-    motion_J = dict(zip(motion["run_id"], motion["motion_energy_J"], strict=True))
-    over_motion = [
-        abs(r.measured_J - r.predicted_J) / motion_J[r.run_id] * 100
-        for r in held.runs
-        if r.run_id in motion_J
-    ]
     say(
         f"\nheld-out energy error: drive model MAPE {held.mape_pct:.2f}% (median "
         f"{held.median_ape_pct:.2f}%, {len(held.runs)} trips incl. idle, 90% intervals hold "
-        f"{held.coverage_pi90_pct:.0f}%); paper model (diagnose baseline, motion energy per "
-        f"run) MAPE {baseline.baseline_mape_pct:.2f}%; the drive model's held-out error over "
-        f"each run's motion energy: MAPE {np.mean(over_motion):.2f}% ({len(over_motion)} runs)"
+        f"{held.coverage_pi90_pct:.0f}%); over each run's motion energy ({beside.n_runs} runs, "
+        f"`heldout_beside_paper`): drive model MAPE {beside.drive_mape_pct:.2f}%, paper "
+        f"model (diagnose's baseline) {beside.paper_mape_pct:.2f}%"
     )
-
-
-def _line_band(speed, power, at: float) -> tuple[float, float]:
-    """The 95% interval of the least-squares line's mean at `at` (P = a + b v)."""
-    from wifibot_power.stats import t_quantile
-
-    x = np.asarray(speed, float)
-    y = np.asarray(power, float)
-    X = np.column_stack((np.ones_like(x), x))
-    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-    residual = y - X @ coef
-    dof = x.size - 2
-    cov = residual @ residual / dof * np.linalg.inv(X.T @ X)
-    g = np.array([1.0, at])
-    half = t_quantile(0.975, dof) * float(np.sqrt(g @ cov @ g))
-    mid = float(g @ coef)
-    return mid - half, mid + half
 
 
 DOCS = ROOT / "docs" / "drive-model.md"

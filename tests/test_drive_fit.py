@@ -270,11 +270,10 @@ def test_drive_power_figure_and_report_on_free_driving(free, tmp_path):
 
 
 # -- the paper's step runs (sample_logs): the drive model beside P_acc(v) and P_v(v) --------
-def test_step_runs_drive_model_beside_the_papers_lines(tmp_path, monkeypatch):
+def _sample_steps(tmp_path):
+    """9 one-step runs of sample_logs at 0.2, 0.5 and 0.8 m/s, and an idle log."""
     import shutil
     from pathlib import Path
-
-    from wifibot_power.fit import fit_logs
 
     sample = Path(__file__).resolve().parents[1] / "sample_logs"
     logs = tmp_path / "steps"
@@ -284,6 +283,13 @@ def test_step_runs_drive_model_beside_the_papers_lines(tmp_path, monkeypatch):
             name = f"v{speed}_d10_s1_r{r}.csv.gz"
             shutil.copy(sample / name, logs / name)
     shutil.copy(sample / "idle_r1.csv.gz", logs / "idle_r1.csv.gz")
+    return logs
+
+
+def test_step_runs_drive_model_beside_the_papers_lines(tmp_path, monkeypatch):
+    from wifibot_power.fit import fit_logs
+
+    logs = _sample_steps(tmp_path)
     result = fit_logs(logs)
     drive = result.drive
     assert drive is not None and result.has_paper
@@ -305,6 +311,59 @@ def test_step_runs_drive_model_beside_the_papers_lines(tmp_path, monkeypatch):
     assert max(len(line) for line in shown.stdout.splitlines()) <= 80
     table = shown.stdout[shown.stdout.index("paper's step runs") :]
     assert table.count(" yes ") == 6
+
+
+def test_step_runs_heldout_energy_beside_the_papers(tmp_path, monkeypatch):
+    # issue 25: on the step runs the drive model's held-out run-energy error is reported
+    # beside the paper model's: diagnose's baseline (the paper's lines refitted without each
+    # fold), both over each run's motion energy
+    from wifibot_power import diagnose_logs
+    from wifibot_power.diagnose.baseline import heldout_beside_paper
+    from wifibot_power.fit import fit_logs
+
+    logs = _sample_steps(tmp_path)
+    result = fit_logs(logs)
+    beside = heldout_beside_paper(result)
+    assert beside is not None and beside.n_runs == 9
+    assert beside.paper_mape_pct == pytest.approx(diagnose_logs([logs]).baseline_mape_pct)
+    # the drive model's: its held-out runs (one trip each here) over the table's motion energy
+    motion_J = dict(zip(result.runs["run_id"], result.runs["motion_energy_J"], strict=True))
+    errors = [
+        abs(r["predicted_J"] - r["measured_J"]) / motion_J[r["run_id"]] * 100
+        for r in result.drive.summary()["heldout"]["runs"]
+        if r["run_id"] in motion_J and motion_J[r["run_id"]] > 0
+    ]
+    assert len(errors) == 9
+    assert beside.drive_mape_pct == pytest.approx(sum(errors) / 9)
+    # sample_logs stop over 0.3 s, which the paper's Eq. 5/6 leaves out (~2%); the drive
+    # model's braking term holds most of it
+    assert beside.drive_mape_pct < beside.paper_mape_pct / 5
+    from wifibot_power.cli import common
+
+    monkeypatch.setattr(common.stdout, "width", 80)
+    shown = _wbpower("fit", logs).stdout
+    assert f"{beside.paper_mape_pct:.2f}%" in shown and f"{beside.drive_mape_pct:.2f}%" in shown
+    # every phase agrees here: nothing to explain; a disagreement is explained under the table
+    assert "where they disagree" not in shown
+    from dataclasses import replace
+
+    from wifibot_power.fit_result import FitResult
+
+    rows = result.drive_vs_paper()
+    apart = (replace(rows[0], cruise_W=rows[0].paper_cruise_W + 1, cruise_ci95=(30.0, 30.0)),)
+    monkeypatch.setattr(FitResult, "drive_vs_paper", lambda self: apart + rows[1:])
+    shown = _wbpower("fit", logs).stdout
+    assert "where they disagree" in shown and " no " in shown
+
+
+def test_no_heldout_beside_the_papers_without_both_models(free):
+    # free driving alone: no paper model, nothing to set beside it
+    from wifibot_power.diagnose.baseline import heldout_beside_paper
+    from wifibot_power.fit import fit_logs
+
+    result = fit_logs(free[0])
+    assert result.drive is not None and heldout_beside_paper(result) is None
+    assert "paper's model (Eq. 1-6" not in _wbpower("fit", free[0]).stdout
 
 
 # -- batches of free driving and step runs (issue 25 (d), (e)) --------------------------------

@@ -57,6 +57,16 @@ def session_order(runs: pd.DataFrame) -> np.ndarray:
     return order
 
 
+def with_session_columns(table: pd.DataFrame) -> pd.DataFrame:
+    """`table` (changed in place) with each run's place in the session (`session_order`) and
+    every cause's session columns (`Cause.session_columns`)."""
+    table["session_order"] = session_order(table)
+    for cause in CAUSES.values():
+        for name, values in cause.session_columns(table).items():
+            table[name] = values
+    return table
+
+
 def summary_table(summaries: list[RunSummary]) -> pd.DataFrame:
     """One row per run: its run-table row, each cause's statistics and session columns
     (`Cause.session_columns`), and its place in the session (`session_order`)."""
@@ -64,11 +74,7 @@ def summary_table(summaries: list[RunSummary]) -> pd.DataFrame:
 
     runs = runs_frame([s.row for s in summaries])
     extra = pd.DataFrame([s.cause_columns for s in summaries], index=runs.index)
-    table = pd.concat([runs, extra], axis=1)
-    table["session_order"] = session_order(table)
-    for cause in CAUSES.values():
-        for name, values in cause.session_columns(table).items():
-            table[name] = values
+    table = with_session_columns(pd.concat([runs, extra], axis=1))
     # text as Python objects in one block: the held-out folds select rows of this table
     # hundreds of times, and each Arrow-backed text column is a take of its own
     text = [c for c in table.columns if isinstance(table[c].dtype, pd.StringDtype)]
