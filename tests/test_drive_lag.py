@@ -11,7 +11,7 @@ from numpy.testing import assert_allclose
 from wifibot_power.drive.gram import FoldGrams, corrected_gram, noise_share
 from wifibot_power.drive.identify import lag_search
 from wifibot_power.drive.lagsums import SumsTable
-from wifibot_power.drive.model import fit_drive_stats
+from wifibot_power.drive.model import MOSTLY_NOISE, fit_drive_stats, inertial_noise_warning
 from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
 from wifibot_power.drive.stats import drive_stats
 from wifibot_power.drive.sums import run_sums
@@ -119,3 +119,28 @@ def test_simulator_lag_with_a_noisy_speed_is_found():
         assert abs(direct * runs[0].stats.bin_s - 0.2) < 0.005
         model = fit_drive_stats(stats)
         assert abs(model.lag_s - 0.2) < 0.005
+
+
+def test_warning_names_the_runs_whose_inertial_columns_are_mostly_noise():
+    assert inertial_noise_warning([(1.0, 1.0), (0.5, 0.93)]) is None
+    said = inertial_noise_warning([(1.0, 1.0), (0.3, 0.9), (0.8, 0.0)])
+    assert said.startswith("2 of 3 run(s): their speeding-up or braking column is mostly noise")
+    assert "1 of them all noise" in said
+    # a fit whose runs' speed is noisy (30 cm/s a sample on 20 Hz: reliabilities ~0.1) beside
+    # clean ones says so in its warnings (`fit --json`'s drive.warnings, under fit's table)
+    clean = FreeDriveConfig(seed=3, runs_per_surface=2, run_s=60.0)
+    noisy = FreeDriveConfig(
+        seed=4,
+        runs_per_surface=1,
+        run_s=60.0,
+        realism_overrides={"speed_noise_mps": 0.3, "speed_step_mps": 0.0},
+    )
+    runs = [as_run(r) for c in (clean, noisy) for r in simulate_free(c)]
+    stats = [drive_stats(r) for r in runs]
+    low = [min(run_windows(s).reliability) < MOSTLY_NOISE for s in stats]
+    assert low == [False] * 4 + [True] * 2
+    for direct in (False, True):
+        warnings = fit_drive_stats(stats, direct=direct).summary()["warnings"]
+        assert [w for w in warnings if "mostly noise" in w][0].startswith("2 of 6 run(s)")
+    # the clean runs alone: no such warning
+    assert not any("mostly noise" in w for w in fit_drive_stats(stats[:4]).warnings)
