@@ -5,7 +5,9 @@ intervals from a covariance robust to autocorrelation within a cluster (a run).
 - Lag: power lags the speed that causes it (motor controllers, filters, a logger's own
   averaging). Each lag of `LAG_GRID_S` is tried, the response shifted by it, and the lag whose
   unconstrained least squares leaves the smallest sum of squares (on the windows defined at
-  every lag) is kept: a grid search of the lag by least squares, resolution one bin.
+  every lag) is kept: a grid search of the lag by least squares, refined to a fraction of a
+  bin (gram.py `refine_lag`). The least squares is the corrected one, X'X less the speeding-up
+  and braking columns' noise (gram.py `corrected_gram`): their noise pulled the lag short.
 - Determined terms: a term is kept only when the data hold its regressor (turning needs
   windows that turn in at least `MIN_CLUSTERS` clusters, a surface's rolling term windows
   that move on it) and it is not (nearly) a combination of the terms kept before it (1 - R^2
