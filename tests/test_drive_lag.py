@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.testing import assert_allclose
 
-from wifibot_power.drive.gram import FoldGrams, corrected_gram, noise_share
+from wifibot_power.drive.gram import FoldGrams, corrected_gram, noise_share, refine_lag
 from wifibot_power.drive.identify import lag_search
 from wifibot_power.drive.lagsums import SumsTable
 from wifibot_power.drive.model import MOSTLY_NOISE, fit_drive_stats, inertial_noise_warning
@@ -144,3 +144,22 @@ def test_warning_names_the_runs_whose_inertial_columns_are_mostly_noise():
         assert [w for w in warnings if "mostly noise" in w][0].startswith("2 of 6 run(s)")
     # the clean runs alone: no such warning
     assert not any("mostly noise" in w for w in fit_drive_stats(stats[:4]).warnings)
+
+
+def test_lag_refined_from_whole_lags_exactly_for_a_quartic():
+    # the sum of squares a bin either side of its minimum is not a parabola (here a quartic,
+    # least at 4.3 bins), and between two whole lags it dips by the power's noise (the mix of
+    # two shifted window means is less noisy than either: -5 t (1 - t) here); the quartic
+    # through the five whole lags around the best is exact for it and never reads the dip.
+    # The parabola through the best three, refined through the points half a bin either side
+    # (the search before), found 4.277
+    def sse_at(lag: float) -> float:
+        d, t = lag - 4.3, lag - np.floor(lag)
+        return 1000 + 50 * d**2 + 10 * d**3 + 5 * d**4 - 5.0 * t * (1 - t)
+
+    found, whole = refine_lag(np.arange(21), sse_at)
+    assert_allclose(found, 4.3, atol=1e-9)
+    assert_allclose(whole[4], sse_at(4))
+    # near the grid's ends (no two whole lags on one side): the parabola's vertex, in the bin
+    found, _ = refine_lag(np.arange(21), lambda lag: sse_at(lag + 3.0))
+    assert 1.0 < found < 1.6

@@ -78,9 +78,12 @@ def refine_lag(lags: np.ndarray, sse_at) -> tuple[float, np.ndarray]:
     best = int(np.argmin(sse))
     if not (0 < best < lags.size - 1 and np.isfinite(sse[best - 1 : best + 2]).all()):
         return float(lags[best]), sse
-    # to a fraction of a bin (the inertial terms move by ~10% a bin of lag): the vertex of
-    # the parabola through the best lag and its neighbours, then again through it and the
-    # points half a bin either side (the sum of squares is a parabola only near its minimum)
+    # to a fraction of a bin (the inertial terms move by ~10% a bin of lag): the minimum of
+    # the quartic through the five whole lags around the best (`_quartic_minimum`), else (the
+    # best within two of the grid's ends) the vertex of the parabola through the best and its
+    # neighbours, refined through the points half a bin either side
+    if 1 < best < lags.size - 2 and np.isfinite(sse[best - 2 : best + 3]).all():
+        return _quartic_minimum(best, sse[best - 2 : best + 3]), sse
     step = 1.0
     centre, values = float(best), tuple(sse[best - 1 : best + 2])
     for _ in range(2):
@@ -92,6 +95,24 @@ def refine_lag(lags: np.ndarray, sse_at) -> tuple[float, np.ndarray]:
         step /= 2
         values = (sse_at(centre - step), sse_at(centre), sse_at(centre + step))
     return centre, sse
+
+
+def _quartic_minimum(best: int, values: np.ndarray) -> float:
+    """The lag [bins] within a bin of the whole lag `best` where the quartic through the sums
+    of squares at `best` - 2 ... `best` + 2 (`values`) is least. Whole lags only: between two
+    whole bins the power is their mix, whose noise is smaller than either's, so the sum of
+    squares dips between whole lags by the power's noise, not by the fit (the exact minimum
+    within the bins, a quadratic in the lag in each, was 0.1985 s for 0.2, sd 0.0021, on the
+    simulator at field realism, 40 seeds; without any noise 0.2002). The parabola through the
+    best three is not the sum of squares' shape a bin away: 0.1991 s without any noise (10
+    seeds; refined through the points half a bin either side, 0.1996; this quartic 0.2000),
+    and at field realism 0.1985, refined 0.1990 (sd 0.0009), this quartic 0.1994 (sd 0.0010)."""
+    poly = np.polynomial.Polynomial.fit(np.arange(-2.0, 3.0), values, 4, domain=[-2, 2])
+    poly = poly.convert()
+    candidates = [-1.0, 1.0] + [
+        float(r.real) for r in poly.deriv().roots() if abs(r.imag) < 1e-9 and -1 <= r.real <= 1
+    ]
+    return best + min(candidates, key=lambda x: float(poly(x)))
 
 
 class FoldGrams:
