@@ -54,8 +54,9 @@ def corrected_gram(xx: np.ndarray, noise: np.ndarray) -> np.ndarray:
     squares at a lag d from the true one, y'y - (X'y_d)'(X'X + noise)^-1 (X'y_d), is no longer
     symmetric about d = 0. v^2's change over a lag is 2 (a v) times it (d v^2 / dt = 2 a v):
     with (a v) attenuated by its noise, the fit at a shorter lag explains more with v^2 than it
-    loses (the simulator at field realism: the lag 0.1979 s for 0.2, 40 seeds; 0.1990 with
-    this; exact speeds 0.1995). Plain X'X where the corrected one is not positive definite."""
+    loses (the simulator at field realism, 40 seeds: the lag 0.1983 s for 0.2, 0.1994 with
+    this, exact speeds 0.1999; refined by the parabola, before `_quartic_minimum`: 0.1979,
+    0.1990, 0.1995). Plain X'X where the corrected one is not positive definite."""
     if not noise.any():
         return xx
     fixed = xx - np.diag(noise)
