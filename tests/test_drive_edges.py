@@ -101,7 +101,8 @@ def test_calibration_undoes_the_attenuation_of_a_noisy_regressor():
     read = x + np.sqrt(noise_var) * rng.standard_normal(x.size)
     y = 30.0 * x + rng.standard_normal(x.size)
     naive = read @ y / (read @ read)
-    up, _ = calibrated(read, -read, noise_var, noise_var)
+    up, _, (kept, _) = calibrated(read, -read, noise_var, noise_var)
+    assert_allclose(up, kept * read)
     assert naive < 30 * 0.9
     assert_allclose(up @ y / (up @ up), 30.0, rtol=0.01)
 

@@ -15,7 +15,7 @@ direct search.
 
 The criterion is the sum of squares of the *corrected* least squares: X'X less the noise the
 speeding-up and braking columns carry (their edge speeds', regressors.py `calibrated`), so
-that the lag is judged as with the true regressors (`noise_share`, `corrected_sse`).
+that the lag is judged as with the true regressors (`noise_share`, `corrected_gram`).
 """
 
 from __future__ import annotations

@@ -69,8 +69,7 @@ def inertial_regressors(
     noise_up, noise_down = inertial_noise_var(
         edge_speed, edge_noise_mps, window_s, power_form=not stats.current_proxy
     )
-    reliable = (reliability(av_up, noise_up), reliability(av_down, noise_down))
-    return av_up * reliable[0], av_down * reliable[1], reliable
+    return calibrated(av_up, av_down, noise_up, noise_down)
 
 
 def _window_abs(bins: np.ndarray, mean: np.ndarray, noise: float, samples: float) -> np.ndarray:
@@ -232,7 +231,7 @@ def calibrated(
     av_down: np.ndarray,
     noise_var_up: np.ndarray,
     noise_var_down: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, tuple[float, float]]:
     """The speeding-up and braking regressors of one run times their reliability ratio,
     lambda = 1 - sum(noise variance) / sum(regressor^2) over the windows where each acts,
     clipped to [0, 1]: regression calibration, E[x | x_observed] ~ lambda x_observed, whose
@@ -241,8 +240,9 @@ def calibrated(
     Models", 2nd ed., 2006, Sec. 2.2 and Ch. 4; Fuller, "Measurement Error Models", 1987,
     Sec. 1.1). The noise is the edges' (`inertial_noise_var`); without it the effective mass
     came out 0.31 kg (1.6 standard errors) low on the simulator at field realism, braking
-    0.26 kg (1.7; 100 seeds)."""
-    return av_up * reliability(av_up, noise_var_up), av_down * reliability(av_down, noise_var_down)
+    0.26 kg (1.7; 100 seeds). Returns the two columns and their ratios (`reliability`)."""
+    reliable = (reliability(av_up, noise_var_up), reliability(av_down, noise_var_down))
+    return av_up * reliable[0], av_down * reliable[1], reliable
 
 
 def reliability(values: np.ndarray, noise_var: np.ndarray) -> float:
