@@ -5,7 +5,9 @@ intervals from a covariance robust to autocorrelation within a cluster (a run).
 - Lag: power lags the speed that causes it (motor controllers, filters, a logger's own
   averaging). Each lag of `LAG_GRID_S` is tried, the response shifted by it, and the lag whose
   unconstrained least squares leaves the smallest sum of squares (on the windows defined at
-  every lag) is kept: a grid search of the lag by least squares, resolution one bin.
+  every lag) is kept: a grid search of the lag by least squares, refined to a fraction of a
+  bin (gram.py `refine_lag`). The least squares is the corrected one, X'X less the speeding-up
+  and braking columns' noise (gram.py `corrected_gram`): their noise pulled the lag short.
 - Determined terms: a term is kept only when the data hold its regressor (turning needs
   windows that turn in at least `MIN_CLUSTERS` clusters, a surface's rolling term windows
   that move on it) and it is not (nearly) a combination of the terms kept before it (1 - R^2
@@ -38,11 +40,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from wifibot_power.drive.gram import FoldGrams, refine_lag
+from wifibot_power.drive.gram import FoldGrams, corrected_gram, refine_lag, window_noise_share
 from wifibot_power.drive.moments import (
     WindowMoments,
     _gram_solve,
-    _normal_equations,
     cluster_jackknife,
     least_squares,  # noqa: F401  (its home was here: tests import it from identify)
     term_of,
@@ -145,17 +146,25 @@ def lag_search(
 
     # every lag tried keeps the same windows (`common`; a fraction of a bin between two whole
     # lags tried): the design is made and factorised once, only the response moves with the lag
-    X = assemble(runs, 0, surfaces, only=stacked.split(common)).design
+    only = stacked.split(common)
+    X = assemble(runs, 0, surfaces, only=only).design
+    # the corrected least squares (gram.py `corrected_gram`): X'X less the noisy columns' noise
+    noise = np.sum(window_noise_share(runs, only, X.shape[1], surfaces) * np.square(X), axis=0)
     usable = np.any(X != 0, axis=0)
-    X = X[:, usable]
-    solve = _normal_equations(X)
+    X, noise = X[:, usable], noise[usable]
+    plain = X.T @ X
+    xx = corrected_gram(plain, noise)
+    scale = np.sqrt(np.diag(xx)).copy()
+    scale[scale == 0] = 1.0
+    inverse = np.linalg.pinv(xx / np.outer(scale, scale))  # factorised once: only y moves
 
     def sse_at(lag: float) -> float:
         y = between_bins(lambda w: whole[w] if w in whole else stacked.power_at(w), lag)[0][common]
         if y.size <= X.shape[1]:
             return np.inf
-        coef = solve(y)
-        return float(np.sum(np.square(y - X @ coef)))
+        coef = (inverse @ ((X.T @ y) / scale)) / scale
+        # the residual's sum of squares less the noise's share of b'X'Xb (`corrected_gram`)
+        return float(np.sum(np.square(y - X @ coef)) - coef @ (plain - xx) @ coef)
 
     return refine_lag(lags, sse_at)
 

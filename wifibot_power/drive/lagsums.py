@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wifibot_power.drive.gram import FoldGrams
+from wifibot_power.drive.gram import FoldGrams, noise_share
 from wifibot_power.drive.moments import _gram_solve, seen_columns
 from wifibot_power.drive.sums import RunSums, group_sum
 from wifibot_power.drive.windows import design_columns
@@ -42,6 +42,8 @@ class SumsTable:
         T = int(self.trip_base[-1])
         self.run_of_trip = np.repeat(np.arange(len(sums)), trips)
         self.proxy_run = np.array([s.proxy for s in sums])
+        #: per run and column, the share of its sum of squares that is noise (gram.py)
+        self.noise_share = np.array([noise_share(self.columns, s.reliability) for s in sums])
         self.force_form = bool(self.proxy_run.all())
         self.trip_windows = np.concatenate([s.trip_windows for s in sums])
         self.count = np.concatenate([s.count for s in sums])
@@ -93,13 +95,18 @@ class SumsTable:
         count = np.zeros(folds, dtype=np.int64)
         xx, xy = np.zeros((folds, P, P)), np.zeros((folds, P, self.lags))
         yy = np.zeros((folds, 2, self.lags))
+        # each trip's noise sum of squares per column: its run's noise share of its X'X's
+        # diagonal (gram.py `corrected_gram`)
+        noise_of_trip = self.noise_share[self.run_of_trip] * np.diagonal(self.xx, axis1=1, axis2=2)
+        noise = np.zeros((folds, P))
         for f in range(folds):
             rows = fold_of_trip == f
             count[f] = int(self.count[rows].sum())
             xx[f] = self.xx[rows].sum(axis=0)
             xy[f] = self.wy[:, rows, :P].sum(axis=1).T
             yy[f] = self.yy[rows].sum(axis=0)
-        return FoldGrams(count, xx, xy, yy, lags)
+            noise[f] = noise_of_trip[rows].sum(axis=0)
+        return FoldGrams(count, xx, xy, yy, lags, noise)
 
     def at_lag(self, lag_bins: float) -> LagSums:
         """Each trip's sums with the power `lag_bins` later (`LagSums`)."""

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -280,7 +280,8 @@ def _fit_from_sums(
     by_run = len(sums) >= MIN_RUN_CLUSTERS
     fitted = identify_moments(table.at_lag(lag_bins).moments(everything, by_run), lag_bins)
     heldout = heldout_from_sums(table, by_run, seed=seed, search_windows=search_windows)
-    return _model(stats, fitted, heldout, lag_bins, table.window_s, surfaces)
+    model = _model(stats, fitted, heldout, lag_bins, table.window_s, surfaces)
+    return _with_noise_warning(model, [m.reliability for m in sums])
 
 
 def _window_search(
@@ -317,7 +318,8 @@ def _fit_from_windows(
     fitted = identify(windows, lag_bins, clusters)
     heldout = heldout_accuracy(runs, surfaces, by_run, seed=seed, gram=not direct)
     stats = [rw.stats for rw in runs]
-    return _model(stats, fitted, heldout, lag_bins, windows.window_s, surfaces)
+    model = _model(stats, fitted, heldout, lag_bins, windows.window_s, surfaces)
+    return _with_noise_warning(model, [rw.reliability for rw in runs])
 
 
 def _model(
@@ -355,6 +357,39 @@ def _model(
         window_s=window_s,
         surface_names=surfaces,
         dof=fitted.dof,
+    )
+
+
+#: A run's speeding-up or braking column is "mostly noise" when its reliability (regressors.py
+#: `reliability`: the share of the column's sum of squares that is not the edge speeds' noise)
+#: is under this: more of it is noise than signal.
+MOSTLY_NOISE = 0.5
+
+
+def _with_noise_warning(model: DriveModel, reliabilities: list[tuple[float, float]]):
+    """`model` with a warning when some runs' inertial columns were mostly noise
+    (`inertial_noise_warning`)."""
+    said = inertial_noise_warning(reliabilities)
+    return model if said is None else replace(model, warnings=(*model.warnings, said))
+
+
+def inertial_noise_warning(reliabilities: list[tuple[float, float]]) -> str | None:
+    """What regression calibration did to the runs whose speeding-up or braking column was
+    mostly noise (reliability under `MOSTLY_NOISE`; regressors.py `calibrated` multiplies the
+    column by it, to 0 where the noise estimate is the whole column's): such a run says little
+    or nothing about effective_mass_kg and braking_mass_kg, which the other runs' speeding up
+    and braking then carry. None when no run's was."""
+    low = [min(pair) for pair in reliabilities if min(pair) < MOSTLY_NOISE]
+    if not low:
+        return None
+    zeroed = sum(value <= 0.0 for value in low)
+    return (
+        f"{len(low)} of {len(reliabilities)} run(s): their speeding-up or braking column is "
+        f"mostly noise (the edge speeds' noise is over {100 * (1 - MOSTLY_NOISE):.0f}% of its "
+        f"sum of squares; {zeroed} of them all noise), so regression calibration shrank it "
+        "towards 0 (to 0 where all noise): those runs add little or nothing to "
+        "effective_mass_kg and braking_mass_kg, which come from the other runs' speeding up "
+        "and braking (a speed log with less noise, or faster, makes them count)"
     )
 
 

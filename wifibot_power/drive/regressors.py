@@ -38,10 +38,12 @@ CLIP_ROUNDS = 4
 
 def inertial_regressors(
     stats: DriveStats, n: int, count: int, mean_speed: np.ndarray, sample_noise_mps: float
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, tuple[float, float]]:
     """Each of a run's `count` windows of `n` bins: its mean of (a v)+ and (a v)- [m^2/s^3]
     (a current proxy: of (a sign v)+ and (a sign v)- [m/s^2]) from the speed at its edges
-    (`edge_speeds`, `_speeding_and_braking`), corrected for the edges' noise (`calibrated`)."""
+    (`edge_speeds`, `_speeding_and_braking`), corrected for the edges' noise (`calibrated`),
+    and the two columns' reliabilities (`reliability`: the share of each column's sum of
+    squares that is not noise; the lag search takes the rest out: gram.py `noise_share`)."""
     speed = stats.speed_mps
     half = edge_half_bins(stats.samples_per_bin)
     edges = np.arange(count + 1) * n
@@ -275,7 +277,7 @@ def calibrated(
     av_down: np.ndarray,
     noise_var_up: np.ndarray,
     noise_var_down: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, tuple[float, float]]:
     """The speeding-up and braking regressors of one run times their reliability ratio,
     lambda = 1 - sum(noise variance) / sum(regressor^2) over the windows where each acts,
     clipped to [0, 1]: regression calibration, E[x | x_observed] ~ lambda x_observed, whose
@@ -284,15 +286,20 @@ def calibrated(
     Models", 2nd ed., 2006, Sec. 2.2 and Ch. 4; Fuller, "Measurement Error Models", 1987,
     Sec. 1.1). The noise is the edges' (`inertial_noise_var`); without it the effective mass
     came out 0.31 kg (1.6 standard errors) low on the simulator at field realism, braking
-    0.26 kg (1.7; 100 seeds)."""
-    out = []
-    for values, noise_var in ((av_up, noise_var_up), (av_down, noise_var_down)):
-        acting = np.isfinite(values) & (values != 0)
-        total = float(np.sum(np.square(values[acting])))
-        noise = float(np.sum(noise_var[acting]))
-        reliability = min(max(1.0 - noise / total, 0.0), 1.0) if total > 0 else 1.0
-        out.append(values * reliability)
-    return out[0], out[1]
+    0.26 kg (1.7; 100 seeds). Returns the two columns and their ratios (`reliability`)."""
+    reliable = (reliability(av_up, noise_var_up), reliability(av_down, noise_var_down))
+    return av_up * reliable[0], av_down * reliable[1], reliable
+
+
+def reliability(values: np.ndarray, noise_var: np.ndarray) -> float:
+    """A noisy column's reliability ratio (`calibrated`): 1 - sum(noise variance) / sum(value^2)
+    over the windows where it acts (non-zero), clipped to [0, 1]; 1 where it never acts. The
+    share of the column's sum of squares that is signal: its expected sum of squares is the
+    true column's plus the noise's (Fuller 1987, Sec. 1.1: the reliability ratio kappa_xx)."""
+    acting = np.isfinite(values) & (values != 0)
+    total = float(np.sum(np.square(values[acting])))
+    noise = float(np.sum(noise_var[acting]))
+    return min(max(1.0 - noise / total, 0.0), 1.0) if total > 0 else 1.0
 
 
 def inertial_noise_var(

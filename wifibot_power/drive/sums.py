@@ -75,6 +75,8 @@ class RunSums:
     edge_y: np.ndarray
     edge_trip: np.ndarray
     edge_surface: np.ndarray
+    #: the speeding-up and braking columns' reliability (`RunWindows.reliability`)
+    reliability: tuple[float, float] = (1.0, 1.0)
 
     @property
     def columns(self) -> tuple[str, ...]:
@@ -153,6 +155,7 @@ def run_sums(rw: RunWindows) -> RunSums:
         edge_y=rw.power_at_lags(lags, np.flatnonzero(rw.ok & ~defined)),
         edge_trip=rows.trip[edge],
         edge_surface=rows.surface[edge],
+        reliability=rw.reliability,
     )
 
 

@@ -123,6 +123,9 @@ class RunWindows:
     #: share of the window's bins turning: the force form's Coulomb scrubbing moment (0 in a
     #: power log: `turning_coulomb_W` is the force form's only)
     turning: np.ndarray | None = None
+    #: the speeding-up and braking columns' reliability (regressors.py `reliability`): the
+    #: share of each column's sum of squares that is not the edge speeds' noise
+    reliability: tuple[float, float] = (1.0, 1.0)
 
     @property
     def count(self) -> int:
@@ -230,7 +233,7 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     abs_speed = _window_abs(speed[:used].reshape(shape), mean_speed, speed_noise, samples)
     abs_yaw = _window_abs(stats.yaw_rate_radps[:used].reshape(shape), mean_yaw, yaw_noise, samples)
     speed2 = np.square(speed[:used]).reshape(shape).mean(axis=1)
-    av_up, av_down = inertial_regressors(stats, n, count, mean_speed, sample_noise_mps)
+    av_up, av_down, reliable = inertial_regressors(stats, n, count, mean_speed, sample_noise_mps)
     ok = np.isfinite(abs_speed) & np.isfinite(abs_yaw) & np.isfinite(av_up + av_down)
     standing = (np.abs(mean_speed) < STANDING_MPS) & (np.abs(mean_yaw) < STANDING_RADPS)
     # a robot standing still is not moving a little: where speed and rate of turn are both
@@ -272,7 +275,19 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
         regressor[still] = 0.0
     trip = _trips(standing, max(int(round(STOP_S / (n * stats.bin_s))), 1))
     return RunWindows(
-        stats, n, abs_speed, speed2, av_up, av_down, abs_yaw, moving, ok, trip, standing, turning
+        stats,
+        n,
+        abs_speed,
+        speed2,
+        av_up,
+        av_down,
+        abs_yaw,
+        moving,
+        ok,
+        trip,
+        standing,
+        turning,
+        reliable,
     )
 
 
