@@ -16,6 +16,7 @@ from numpy.testing import assert_allclose
 
 from wifibot_power.drive import drive_stats, fit_drive
 from wifibot_power.drive.identify import least_squares
+from wifibot_power.drive.model import DriveModel
 from wifibot_power.drive.stats import DriveStats
 from wifibot_power.drive.windows import assemble, run_windows
 from wifibot_power.run import Run, RunMeta
@@ -234,3 +235,90 @@ def as_power_log(run: Run) -> Run:
     meta = RunMeta(run_id=run.meta.run_id, sample_period_s=run.meta.sample_period_s, extra=extra)
     return Run(run.file, run.format, meta, run.stamps_s, run.power_W, speed_mps=run.speed_mps,
                yaw_rate_radps=run.yaw_rate_radps)  # fmt: skip
+
+
+def _proxy_model():
+    runs = [
+        _proxy_run(f"r{k}", (0, 0, top, top, -top, -top, 0, 0))
+        for k, top in enumerate((0.3, 0.6, 0.9, 0.45, 0.75, 1.0))
+    ]
+    return fit_drive(runs), runs
+
+
+def test_a_proxy_models_terms_carry_the_force_forms_units_and_kind():
+    """A current proxy's terms are forces times the motors' no-load speed: printed in those
+    units (its effective_mass_kg is W/(m/s^2), no mass), and the model says what its power
+    is (`power_kind`), kept in model.json; a power log's model keeps the physical units."""
+    from wifibot_power.drive.terms import FORCE_FORM_UNITS, TERM_BY_NAME
+
+    model, runs = _proxy_model()
+    assert model.power_kind == "current_proxy"
+    assert model.terms["effective_mass_kg"].unit == "W/(m/s^2)"
+    for name, term in model.terms.items():
+        assert term.unit == FORCE_FORM_UNITS[name]
+    back = DriveModel.from_json(model.to_json())
+    assert back.power_kind == "current_proxy"
+    assert model.summary()["power_kind"] == "current_proxy"
+    power = fit_drive([_proxy_run(r.meta.run_id, proxy=False) for r in runs])
+    assert power.power_kind == "power"
+    assert power.terms["effective_mass_kg"].unit == TERM_BY_NAME["effective_mass_kg"].unit == "kg"
+    mixed = fit_drive([*runs[:3], *(_proxy_run(f"p{k}", proxy=False) for k in range(3))])
+    assert mixed.power_kind == "mixed"
+
+
+def test_an_older_model_file_is_read_as_a_proxy_by_its_warning():
+    """A model.json written before `power_kind` was kept: its current-proxy warning says it."""
+    from wifibot_power.power_kind import power_kind_of
+
+    model, _ = _proxy_model()
+    old = model.to_json()
+    del old["power_kind"]
+    assert power_kind_of(old) == "current_proxy"
+    assert DriveModel.from_json(old).power_kind == "current_proxy"
+    old["warnings"] = [
+        w + "; mixed with power logs, their terms are not comparable" for w in old["warnings"]
+    ]
+    assert power_kind_of(old) == "mixed"
+    old["warnings"] = []
+    assert power_kind_of(old) == "power"
+
+
+def test_a_proxy_model_is_not_exported_as_power(tmp_path, wbpower):
+    """RMF's and Gazebo's parameters are power's: a model of current-only logs is refused in
+    one line naming the file, and nothing is written."""
+    import json
+
+    model, _ = _proxy_model()
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps({"drive": model.to_json()}))
+    for target in ("rmf", "gazebo"):
+        out = tmp_path / f"out.{target}"
+        result = wbpower("export", "--model", path, "--to", target, "-o", out)
+        assert result.exit_code != 0
+        (line,) = result.stderr.strip().splitlines()
+        assert str(path) in line and "current-only logs" in line and "power" in line
+        assert not out.exists()
+
+
+def test_a_routes_energy_from_a_proxy_model_is_predicted_in_the_force_form():
+    """`energy --profile` with a proxy model: the route's design is the force form the model
+    was fitted on (the same energy as the model predicts for that route logged as a proxy),
+    and a warning says the energy is the proxy's, not the battery's."""
+    from wifibot_power.drive.profile import route_energy
+
+    model, runs = _proxy_model()
+    route = runs[1]
+    got = route_energy(model, route.time_s, route.speed_mps, surface="floor")
+    _, expected_J = model.run_energy_J(drive_stats(route))
+    assert_allclose(got.energy_J, expected_J, rtol=1e-9)
+    assert any("current-only logs" in w for w in got.warnings)
+    import dataclasses
+
+    as_power = route_energy(
+        dataclasses.replace(model, power_kind="power"),
+        route.time_s,
+        route.speed_mps,
+        surface="floor",
+    )
+    as_power_J = as_power.energy_J
+    assert abs(as_power_J - expected_J) > 0.01 * expected_J  # the power form differs

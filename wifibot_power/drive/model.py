@@ -24,8 +24,9 @@ from wifibot_power.drive.identify import identify, identify_moments, lag_search
 from wifibot_power.drive.lagsums import SumsTable
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
 from wifibot_power.drive.sums import RunSums, sums_of
-from wifibot_power.drive.terms import TERM_BY_NAME, TERMS
+from wifibot_power.drive.terms import FORCE_FORM_UNITS, TERM_BY_NAME, TERMS
 from wifibot_power.drive.windows import WINDOW_S, assemble, run_windows
+from wifibot_power.power_kind import PROXY_WARNING, power_kind_of
 
 if TYPE_CHECKING:
     from wifibot_power.drive.identify import Identified
@@ -73,6 +74,9 @@ class DriveModel:
     surface_names: tuple[str, ...] = field(default=())
     #: degrees of freedom of the intervals (clusters - 1)
     dof: int = 0
+    #: what its logs' "power" is (terms.py `POWER_KINDS`): "current_proxy" when every log
+    #: holds motor currents only (the force form: its terms are not the battery's power)
+    power_kind: str = "power"
     #: the model family's name (`models.base.FittedModel.family`)
     family: ClassVar[str] = "drive"
 
@@ -124,6 +128,7 @@ class DriveModel:
             "heldout": self.heldout.as_dict() if self.heldout is not None else None,
             "not_determined": list(self.not_determined),
             "warnings": list(self.warnings),
+            "power_kind": self.power_kind,
         }
 
     def coefficient(self, name: str, surface: str | None = None) -> float:
@@ -199,6 +204,7 @@ class DriveModel:
             window_s=float(data["window_s"]),
             surface_names=tuple(data["surface_names"]),
             dof=int(data["dof"]),
+            power_kind=power_kind_of(data),
         )
 
 
@@ -341,7 +347,9 @@ def _model(
     warnings += _data_warnings(stats)
     if heldout is None:
         warnings.append("fewer than 4 trips: no held-out accuracy")
-    terms, per_surface = _terms(fitted, surfaces)
+    proxies = sum(s.current_proxy for s in stats)
+    kind = "power" if not proxies else "current_proxy" if proxies == len(stats) else "mixed"
+    terms, per_surface = _terms(fitted, surfaces, force_form=kind == "current_proxy")
     k = np.flatnonzero(fitted.kept)
     return DriveModel(
         terms=terms,
@@ -357,6 +365,7 @@ def _model(
         window_s=window_s,
         surface_names=surfaces,
         dof=fitted.dof,
+        power_kind=kind,
     )
 
 
@@ -410,7 +419,7 @@ def _data_warnings(stats: list[DriveStats]) -> list[str]:
     proxies = sum(s.current_proxy for s in stats)
     if proxies:
         warnings.append(
-            f"{proxies} of {len(stats)} log(s) hold motor currents only (voltage_assumed_V): "
+            f"{proxies} of {len(stats)} log(s) {PROXY_WARNING} (voltage_assumed_V): "
             "their power is a nominal voltage times current, ~ torque, so the terms take their "
             "force form ('wbpower docs drive-model', 'Current-only logs'): each coefficient is a "
             "force (or moment) times the motors' no-load speed, rolling_W_per_mps is a constant "
@@ -430,10 +439,11 @@ def _data_warnings(stats: list[DriveStats]) -> list[str]:
 
 
 def _terms(
-    fitted: Identified, surfaces: tuple[str, ...]
+    fitted: Identified, surfaces: tuple[str, ...], *, force_form: bool = False
 ) -> tuple[dict[str, TermValue], dict[str, dict[str, TermValue]]]:
     """The shown terms of a fit with their 95 % intervals and units: the shared ones, and
-    those of each named surface (`name[surface]` columns)."""
+    those of each named surface (`name[surface]` columns); a current proxy's in the force
+    form's units (terms.py `FORCE_FORM_UNITS`: its effective_mass_kg is no mass)."""
     ci = fitted.ci95()
     named_surfaces = surfaces != (UNKNOWN_SURFACE,)
     terms: dict[str, TermValue] = {}
@@ -442,7 +452,8 @@ def _terms(
         if not fitted.shown[j]:
             continue
         name, _, rest = column.partition("[")
-        value = TermValue(float(fitted.coef[j]), (float(ci[j, 0]), float(ci[j, 1])), _unit(name))
+        unit = FORCE_FORM_UNITS[name] if force_form else _unit(name)
+        value = TermValue(float(fitted.coef[j]), (float(ci[j, 0]), float(ci[j, 1])), unit)
         if rest and named_surfaces:
             per_surface.setdefault(rest[:-1], {})[name] = value
         else:

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from wifibot_power.drive.model import DriveModel
-from wifibot_power.drive.stats import UNKNOWN_SURFACE, drive_stats
+from wifibot_power.drive.stats import UNKNOWN_SURFACE, VOLTAGE_ASSUMED_KEY, drive_stats
 from wifibot_power.drive.terms import TERM_BY_NAME
 from wifibot_power.drive.windows import assemble, run_windows
 from wifibot_power.run import Run, RunMeta
@@ -82,7 +82,19 @@ def route_energy(
     if surface not in model.surface_names:
         raise ValueError(f"surface '{surface}' is not one the model was fitted on")
     period_s = float(np.median(np.diff(time_s))) if time_s.size > 1 else model.window_s
-    meta = RunMeta(run_id="route", sample_period_s=period_s, extra={"surface": surface})
+    extra = {"surface": surface}
+    if model.power_kind == "mixed":
+        raise ValueError(
+            "the model was fitted on power logs and current-only logs together: its terms are "
+            "not one robot's power (fit the two kinds apart)"
+        )
+    if model.power_kind == "current_proxy":  # the route's design in the force form, as fitted
+        extra[VOLTAGE_ASSUMED_KEY] = "the model's (its logs held motor currents only)"
+        warnings.append(
+            "the model was fitted on current-only logs (voltage_assumed_V): this energy is "
+            "theirs, a nominal voltage times the motors' current, not the battery's energy"
+        )
+    meta = RunMeta(run_id="route", sample_period_s=period_s, extra=extra)
     run = Run(
         file="route",
         format="profile",

@@ -149,6 +149,19 @@ TERMS: tuple[Term, ...] = (
     Term("turning_coulomb_W", "W", True, True, "turning"),
 )
 TERM_BY_NAME = {term.name: term for term in TERMS}
+#: Each term's unit in the force form, the terms of logs whose "power" is a nominal voltage
+#: times motor currents (~ torque: stats.py `current_proxy`, windows.py `_force_form`): a
+#: coefficient is a force (or moment) times the motors' no-load speed, in the proxy's W.
+FORCE_FORM_UNITS = {
+    "idle_W": "W",
+    "drive_on_W": "W",
+    "rolling_W_per_mps": "W (force)",
+    "quadratic_W_per_mps2": "W/(m/s)",
+    "effective_mass_kg": "W/(m/s^2)",
+    "braking_mass_kg": "W/(m/s^2)",
+    "turning_Nm": "W/(rad/s)",
+    "turning_coulomb_W": "W",
+}
 
 
 def power_W(

@@ -19,6 +19,7 @@ from wifibot_power.export.base import (
     drive_terms,
     read_drive_section,
 )
+from wifibot_power.power_kind import power_kind_of
 
 #: `--to` name -> target
 TARGETS: dict[str, Target] = {t.name: t for t in (rmf.TARGET, gazebo.TARGET)}
@@ -53,6 +54,17 @@ def export_model(model: str | Path | dict, to: str, options: ExportOptions | Non
         file, section = "model.json", model
     else:
         file, section = str(model), read_drive_section(model)
+    kind = power_kind_of(section)
+    if kind != "power":
+        logs = "its logs" if kind == "current_proxy" else "some of its logs"
+        raise UsageError(
+            f"the drive model was fitted on current-only logs ({logs} hold motor currents "
+            "times a nominal voltage: voltage_assumed_V): its terms are forces times the "
+            f"motors' no-load speed, not the power drawn, and --to {to} takes power parameters",
+            file=file,
+            fix="fit logs that hold the battery's power (a power column, or its voltage and "
+            "current) and export that model",
+        )
     return target.export(drive_terms(section, options.surface, file=file), options)
 
 
