@@ -128,7 +128,6 @@ class DriveModel:
             "heldout": self.heldout.as_dict() if self.heldout is not None else None,
             "not_determined": list(self.not_determined),
             "warnings": list(self.warnings),
-            "power_kind": self.power_kind,
         }
 
     def coefficient(self, name: str, surface: str | None = None) -> float:
@@ -144,6 +143,8 @@ class DriveModel:
         return {
             "format": FORMAT_VERSION,
             **self.summary(),
+            # not in the summary: cli.md's `drive` object has no such key (its warnings say it)
+            "power_kind": self.power_kind,
             "columns": list(self.columns),
             "coef": [None if math.isnan(c) else c for c in self.coef],
             "cov": [[None if math.isnan(v) else v for v in row] for row in self.cov],
