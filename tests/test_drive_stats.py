@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wifibot_power.drive.stats import BIN_S, _median, _sample_noise, drive_stats
+from wifibot_power.drive.stats import BIN_S, _median, _median_between, _sample_noise, drive_stats
 from wifibot_power.run import Run, RunMeta
 
 
@@ -92,3 +92,22 @@ def test_bin_means_are_each_bins_mean_with_empty_bins_nan():
             np.testing.assert_allclose(got, expected, rtol=1e-13)  # NaN where expected is
     assert np.isnan(got_power[count == 0]).all() and np.isfinite(got_power[count > 0]).all()
     assert not got_yaw.any() and got_yaw.size == n_bins
+
+
+def test_the_median_between_bounds_is_the_median():
+    """`_median`'s second way (`_median_between`: the values between two of the sample's
+    ranks, partitioned): np.median's value exactly, whether the bounds hold the middle ranks
+    (continuous values) or miss them (a sample unlike the whole: the whole's partition)."""
+    rng = np.random.default_rng(7)
+    for size in (6_401, 6_400, 72_000, 72_001):
+        values = np.abs(rng.normal(size=size))
+        assert _median_between(values.copy(), values[::64].copy()) == np.median(values)
+        assert _median(values.copy()) == np.median(values)
+    # a sample from the lower half only: its bounds miss the middle ranks
+    values = np.abs(rng.normal(size=10_000))
+    low_sample = np.sort(values)[:2_000:10].copy()
+    assert _median_between(values.copy(), low_sample) == np.median(values)
+    # the bounds are used: the values between them alone give the median (a sample whose
+    # bounds hold it, and ties at the bounds)
+    steps = np.round(np.abs(rng.normal(size=20_001)), 2)
+    assert _median_between(steps.copy(), steps[::64].copy()) == np.median(steps)

@@ -33,8 +33,9 @@ from wifibot_power.drive.windows import (
     WINDOW_S,
     RunWindows,
     design_columns,
-    regressor_rows,
+    fill_design,
     run_windows,
+    surface_of,
 )
 
 
@@ -101,25 +102,22 @@ def run_sums(rw: RunWindows) -> RunSums:
     """The run's sums (module docstring)."""
     surfaces = rw.stats.surfaces
     columns = design_columns(surfaces)
-    rows = regressor_rows([rw], surfaces)
     lags = lag_grid([rw])
     defined = _defined_at_every_lag(rw, lags.size)
-    common = defined[rw.ok]  # over the rows (the windows whose regressors are defined)
     trips = int(rw.trip[-1]) + 1 if rw.count else 0
     p = len(columns)
-    # Z = [X R Y] over the common windows, made in place (no stacking copies)
-    Z = np.empty((int(common.sum()), 2 * p + lags.size))
-    Z[:, :p], Z[:, p : 2 * p], Z[:, 2 * p :] = (
-        rows.design[common],
-        rows.design_rate[common],
-        rw.power_at_lags(lags, np.flatnonzero(rw.ok & defined)),
-    )
+    surface = surface_of(rw, surfaces)
+    common, edge = np.flatnonzero(rw.ok & defined), np.flatnonzero(rw.ok & ~defined)
+    # Z = [X R Y] over the common windows, each column written in place (no stacking copies)
+    Z = np.empty((common.size, 2 * p + lags.size))
+    _design_of(rw, surface, common, Z[:, :p], Z[:, p : 2 * p])
+    Z[:, 2 * p :] = rw.power_at_lags(lags, common)
     X, Yc = Z[:, :p], Z[:, 2 * p :]
-    trip = rows.trip[common]
+    trip = rw.trip[common]
     seen = seen_columns(X, columns)
     per_trip = _trip_sums(Z, 2 * p, trip, trips)
     S = len(surfaces)
-    on_surface = np.bincount(trip * S + rows.surface[common], minlength=trips * S)
+    on_surface = np.bincount(trip * S + surface[common], minlength=trips * S)
     # per column over the windows that see it: sum Y, Y^2, Y_l Y_l+1 and |Y|
     L = lags.size
     seen_f = seen.astype(np.float64).T
@@ -128,7 +126,8 @@ def run_sums(rw: RunWindows) -> RunSums:
     seen_yy[:, 0] = seen_f @ np.square(Yc)
     seen_yy[:, 1, :-1] = seen_f @ next_product
     crossing = (next_product < 0).any(axis=1)
-    edge = ~common
+    edge_x, edge_r = np.empty((edge.size, p)), np.empty((edge.size, p))
+    _design_of(rw, surface, edge, edge_x, edge_r)
     return RunSums(
         run_id=rw.stats.run_id,
         surfaces=surfaces,
@@ -148,12 +147,23 @@ def run_sums(rw: RunWindows) -> RunSums:
         seen_abs=seen_f @ np.abs(Yc),
         cross_x=X[crossing],
         cross_y=Yc[crossing],
-        edge_x=rows.design[edge],
-        edge_r=rows.design_rate[edge],
-        edge_y=rw.power_at_lags(lags, np.flatnonzero(rw.ok & ~defined)),
-        edge_trip=rows.trip[edge],
-        edge_surface=rows.surface[edge],
+        edge_x=edge_x,
+        edge_r=edge_r,
+        edge_y=rw.power_at_lags(lags, edge),
+        edge_trip=rw.trip[edge],
+        edge_surface=surface[edge],
     )
+
+
+def _design_of(
+    rw: RunWindows, surface: np.ndarray, windows: np.ndarray, design: np.ndarray, rate: np.ndarray
+) -> None:
+    """The design and its rate (`windows.regressor_rows`' columns) of the run's `windows`
+    (indices; `surface`: each window's), written into `design` and `rate`."""
+    regressors, rates, on = rw.regressors(), rw.rates, surface[windows]
+    S = len(rw.stats.surfaces)
+    fill_design(design, lambda name: regressors[name][windows], on, S)
+    fill_design(rate, lambda name: rates[name][windows], on, S, rate=True)
 
 
 def _defined_at_every_lag(rw: RunWindows, lags: int) -> np.ndarray:

@@ -1,0 +1,106 @@
+"""The drive model's faster ways to the same numbers (drivefast3 lane): each against the way it
+replaced, written out here, bit for bit (docs/benchmarks.md, the drive shape)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wifibot_power.drive import drive_stats
+from wifibot_power.drive.regressors import _row_extremes
+from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
+from wifibot_power.drive.sums import run_sums
+from wifibot_power.drive.terms import TERMS
+from wifibot_power.drive.windows import REGRESSOR_OF, regressor_rows, run_windows
+
+
+def _field_windows(seed: int = 4):
+    """Simulated free driving at field realism (drop-outs included) as each run's windows."""
+    config = FreeDriveConfig(runs_per_surface=2, run_s=60.0, seed=seed)
+    return [run_windows(drive_stats(as_run(r))) for r in simulate_free(config)]
+
+
+def _gathered(rw, lags: np.ndarray, windows: np.ndarray) -> np.ndarray:
+    """`power_at_lags` as it was: an index per window and lag into the span means."""
+    means = rw._span_means
+    start = (windows * rw.n)[:, None] + lags[None, :]
+    out = means[np.minimum(start, means.size - 1)]
+    out[start >= means.size] = np.nan
+    return out
+
+
+def test_power_at_lags_from_rows_of_spans_is_the_gathered_power() -> None:
+    """Consecutive lags read each window's row of span means from a strided view: the same
+    values, NaN past the run's end and over a drop-out, as one index per window and lag."""
+    runs = _field_windows()
+    assert any(np.isnan(rw.stats.power_W).any() for rw in runs)  # drop-outs are there
+    for rw in runs:
+        every = np.arange(rw.count)
+        for lags in (np.arange(21), np.arange(3, 9), np.array([0]), np.array([7])):
+            got = rw.power_at_lags(lags, every)
+            assert np.array_equal(got, _gathered(rw, lags, every), equal_nan=True)
+            assert np.isnan(got[-1, -1]) or lags[-1] < rw.n  # the last window runs out
+        some = every[::3]
+        got = rw.power_at_lags(np.arange(21), some)
+        assert np.array_equal(got, _gathered(rw, np.arange(21), some), equal_nan=True)
+        # not consecutive: the index per window and lag, as before
+        odd = np.array([0, 2, 5])
+        assert np.array_equal(
+            rw.power_at_lags(odd, every), _gathered(rw, odd, every), equal_nan=True
+        )
+
+
+def test_row_extremes_are_max_and_min_of_each_row() -> None:
+    rng = np.random.default_rng(2)
+    bins = rng.normal(size=(500, 10))
+    bins[[3, 70], [4, 9]] = np.nan  # a drop-out: the row's extremes are NaN
+    bins[200, 0] = np.nan
+    high, low = _row_extremes(bins)
+    assert np.array_equal(high, bins.max(axis=1), equal_nan=True)
+    assert np.array_equal(low, bins.min(axis=1), equal_nan=True)
+    assert np.isnan(high[[3, 70, 200]]).all() and np.isnan(low[[3, 70, 200]]).all()
+    one = bins[:, :1]
+    assert np.array_equal(_row_extremes(one)[0], one[:, 0], equal_nan=True)
+
+
+def test_run_sums_design_is_the_assembled_design() -> None:
+    """`run_sums` writes each window's regressors straight into its sums' matrix: its edge rows
+    and its per-trip X'X are those of `regressor_rows` (the design as `assemble` makes it)."""
+    for rw in _field_windows(seed=9):
+        sums = run_sums(rw)
+        rows = regressor_rows([rw], rw.stats.surfaces)
+        edge = sums.edge_x.shape[0]
+        assert edge  # some windows have a power at some lags only
+        # the edge windows are the assembled rows whose power is not defined at every lag
+        defined = np.isfinite(rw.power_at_lags(np.arange(sums.lags))).all(axis=1)[rw.ok]
+        assert np.array_equal(sums.edge_x, rows.design[~defined])
+        assert np.array_equal(sums.edge_r, rows.design_rate[~defined])
+        assert np.array_equal(sums.edge_trip, rows.trip[~defined])
+        assert np.array_equal(sums.edge_surface, rows.surface[~defined])
+        X, trip = rows.design[defined], rows.trip[defined]
+        p = X.shape[1]
+        for t in np.unique(trip)[:5]:
+            Xt = X[trip == t]
+            np.testing.assert_allclose(sums.ww[t][:p, :p], Xt.T @ Xt, rtol=1e-12, atol=1e-9)
+
+
+def test_design_columns_are_the_stacked_blocks() -> None:
+    """`fill_design` (the design written column by column) against the design as it was made:
+    each term's block stacked side by side, idle 1 (its rate 0), a per-surface term's
+    regressor on its surface's column (one-hot times the regressor)."""
+    runs = _field_windows(seed=3)
+    surfaces = tuple(sorted({s for rw in runs for s in rw.stats.surfaces}))
+    rows = regressor_rows(runs, surfaces)
+    ok = np.concatenate([rw.ok for rw in runs])
+    one_hot = rows.surface[:, None] == np.arange(len(surfaces))[None, :]
+
+    def block(term, rate: bool) -> np.ndarray:
+        name = REGRESSOR_OF[term.name]
+        if name is None:
+            return np.full((rows.size, 1), 0.0 if rate else 1.0)
+        source = [rw.rates[name] if rate else rw.regressors()[name] for rw in runs]
+        values = np.nan_to_num(np.concatenate(source)[ok])[:, None]
+        return one_hot * values if term.per_surface else values
+
+    for rate, made in ((False, rows.design), (True, rows.design_rate)):
+        assert np.array_equal(made, np.hstack([block(term, rate) for term in TERMS]))
+    assert (rows.design[:, 0] == 1).all() and (rows.design_rate[:, 0] == 0).all()
