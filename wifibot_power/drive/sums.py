@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wifibot_power.drive.gram import CANCELLATION
 from wifibot_power.drive.identify import lag_grid
 from wifibot_power.drive.moments import seen_columns
 from wifibot_power.drive.stats import DriveStats
@@ -153,6 +154,34 @@ def run_sums(rw: RunWindows) -> RunSums:
         edge_trip=rw.trip[edge],
         edge_surface=surface[edge],
     )
+
+
+def own_share(sums: RunSums) -> float:
+    """The smallest share of the power's sum of squares that the run's own least squares
+    leaves, over the whole lags: sse / y'y from its sums, as gram.py's searches make it
+    (`FoldGrams.search`, one fold of this run's trips). A batch's searches fall back to the
+    windows (gram.py `CANCELLATION`) only where this is tiny: a run that leaves more of its
+    power unexplained, by its own coefficients, cannot fit better pooled with others (at a
+    whole lag, over all its trips); the bins it would need are kept below `AT_RISK_SHARE`
+    (models/drive.py `WorkerStats.without_bins`). NaN without a common window."""
+    p = len(sums.columns)
+    xx = sums.ww[:, :p, :p].sum(axis=0)
+    xy = sums.wy[:, :p, :].sum(axis=0)
+    yy = sums.yy[:, 0].sum(axis=0)
+    usable = np.diag(xx) != 0
+    if not usable.any() or not (yy > 0).all():
+        return float("nan")
+    xx, xy = xx[np.ix_(usable, usable)], xy[usable]
+    scale = np.sqrt(np.diag(xx))
+    coef = (np.linalg.pinv(xx / np.outer(scale, scale)) @ (xy / scale[:, None])) / scale[:, None]
+    sse = yy - 2.0 * np.sum(coef * xy, axis=0) + np.einsum("il,ij,jl->l", coef, xx, coef)
+    return float(np.min(sse / yy))
+
+
+#: Below this `own_share` a run keeps its bins in a fit's records: 10x gram.py's
+#: `CANCELLATION` (the simulator's free driving: 1.1e-4 to 3.6e-4 a run; noise-free step
+#: runs: ~0)
+AT_RISK_SHARE = 10 * CANCELLATION
 
 
 def _design_of(
