@@ -6,7 +6,13 @@ from __future__ import annotations
 import numpy as np
 
 from wifibot_power.drive import drive_stats
-from wifibot_power.drive.regressors import _row_extremes
+from wifibot_power.drive.regressors import (
+    CLIP_DEVIATIONS,
+    CLIP_ROUNDS,
+    _row_extremes,
+    sample_gain,
+    speed_noise_per_sample,
+)
 from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
 from wifibot_power.drive.sums import run_sums
 from wifibot_power.drive.terms import TERMS
@@ -104,3 +110,29 @@ def test_design_columns_are_the_stacked_blocks() -> None:
     for rate, made in ((False, rows.design), (True, rows.design_rate)):
         assert np.array_equal(made, np.hstack([block(term, rate) for term in TERMS]))
     assert (rows.design[:, 0] == 1).all() and (rows.design_rate[:, 0] == 0).all()
+
+
+def test_the_noise_estimate_stops_clipping_once_nothing_moves() -> None:
+    """`speed_noise_per_sample` stops its clipping rounds when a round keeps the values the
+    last kept: the estimate of all `CLIP_ROUNDS` rounds, bit for bit (white noise, a few
+    corners, a quantized speed; and values that keep shrinking round after round)."""
+    rng = np.random.default_rng(11)
+    white = rng.normal(0, 0.01, 20_000)
+    corners = np.cumsum(rng.normal(0, 0.01, 20_000))
+    corners[::500] += 2.0
+    quantized = np.round(np.repeat(np.linspace(0, 1, 400), 50) + rng.normal(0, 0.01, 20_000), 2)
+    heavy = rng.standard_cauchy(20_000)  # something is left out at every round
+    for speed in (white, corners, quantized, heavy):
+        for samples_per_bin in (1.0, 0.3):
+            lag = 1 if samples_per_bin >= 1.0 else round(1.0 / samples_per_bin)
+            second = speed[2 * lag :] - 2.0 * speed[lag:-lag] + speed[: -2 * lag]
+            square = np.square(second)
+            gain = sample_gain(
+                np.array([1.0, -2.0, 1.0]), np.array([0.0, lag, 2.0 * lag]), samples_per_bin
+            )
+            mean_square = float(np.mean(square))
+            for _ in range(CLIP_ROUNDS):  # every round, as before
+                inside = square <= CLIP_DEVIATIONS**2 * mean_square
+                mean_square = float(np.mean(square[inside])) if inside.any() else 0.0
+            expected = float(np.sqrt(mean_square / gain))
+            assert speed_noise_per_sample(speed, samples_per_bin) == expected

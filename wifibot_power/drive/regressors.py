@@ -247,9 +247,16 @@ def speed_noise_per_sample(speed_mps: np.ndarray, samples_per_bin: float) -> flo
         return 0.0
     gain = sample_gain(np.array([1.0, -2.0, 1.0]), np.array([0.0, lag, 2.0 * lag]), samples_per_bin)
     mean_square = float(np.mean(square))
+    kept = square.size  # the values the mean is over (all, then those inside)
     for _ in range(CLIP_ROUNDS):
         inside = square <= CLIP_DEVIATIONS**2 * mean_square
-        mean_square = float(np.mean(square[inside])) if inside.any() else 0.0
+        count = int(np.count_nonzero(inside))
+        if count == kept:
+            # the same values as the last mean (a lower mean keeps fewer: those inside only
+            # shrink), so the same mean, and every round after: done
+            break
+        kept = count
+        mean_square = float(np.mean(square[inside])) if count else 0.0
     return float(np.sqrt(mean_square / gain))
 
 
