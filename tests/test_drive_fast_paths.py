@@ -53,6 +53,12 @@ def test_power_at_lags_from_rows_of_spans_is_the_gathered_power() -> None:
         assert np.array_equal(
             rw.power_at_lags(odd, every), _gathered(rw, odd, every), equal_nan=True
         )
+        # written into a given array (a block of a wider matrix, as run_sums does)
+        for lags in (np.arange(21), odd):
+            wide = np.zeros((some.size, lags.size + 3))
+            got = rw.power_at_lags(lags, some, out=wide[:, 3:])
+            assert np.shares_memory(got, wide) and (wide[:, :3] == 0).all()
+            assert np.array_equal(wide[:, 3:], _gathered(rw, lags, some), equal_nan=True)
 
 
 def test_row_extremes_are_max_and_min_of_each_row() -> None:

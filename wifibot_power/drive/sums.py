@@ -112,19 +112,20 @@ def run_sums(rw: RunWindows) -> RunSums:
     # Z = [X R Y] over the common windows, each column written in place (no stacking copies)
     Z = np.empty((common.size, 2 * p + lags.size))
     _design_of(rw, surface, common, Z[:, :p], Z[:, p : 2 * p])
-    Z[:, 2 * p :] = rw.power_at_lags(lags, common)
+    rw.power_at_lags(lags, common, out=Z[:, 2 * p :])
     X, Yc = Z[:, :p], Z[:, 2 * p :]
     trip = rw.trip[common]
     seen = seen_columns(X, columns)
-    per_trip = _trip_sums(Z, 2 * p, trip, trips)
+    # Y's squares and next-lag products, once for the trips' sums and the columns'
+    square, next_product = np.square(Yc), Yc[:, :-1] * Yc[:, 1:]
+    per_trip = _trip_sums(Z, 2 * p, trip, trips, square, next_product)
     S = len(surfaces)
     on_surface = np.bincount(trip * S + surface[common], minlength=trips * S)
     # per column over the windows that see it: sum Y, Y^2, Y_l Y_l+1 and |Y|
     L = lags.size
     seen_f = seen.astype(np.float64).T
-    next_product = Yc[:, :-1] * Yc[:, 1:]
     seen_yy = np.zeros((len(columns), 2, L))
-    seen_yy[:, 0] = seen_f @ np.square(Yc)
+    seen_yy[:, 0] = seen_f @ square
     seen_yy[:, 1, :-1] = seen_f @ next_product
     crossing = (next_product < 0).any(axis=1)
     edge_x, edge_r = np.empty((edge.size, p)), np.empty((edge.size, p))
@@ -206,10 +207,18 @@ def _defined_at_every_lag(rw: RunWindows, lags: int) -> np.ndarray:
     return inside & (bad[end] - bad[start] == 0)
 
 
-def _trip_sums(Z: np.ndarray, q: int, trip: np.ndarray, trips: int):
+def _trip_sums(
+    Z: np.ndarray,
+    q: int,
+    trip: np.ndarray,
+    trips: int,
+    square: np.ndarray,
+    next_product: np.ndarray,
+):
     """Per trip (rows sorted by trip) of Z = [W Y], W its first `q` columns: W'W, W'Y, and Y's
-    squares and next-lag products. (W'Z, not Z'Z: numpy makes Z'Z a symmetric rank update
-    that OpenBLAS spreads over threads, ~6x slower at these sizes.)"""
+    squares and next-lag products (`square`, `next_product`: each row's). (W'Z, not Z'Z:
+    numpy makes Z'Z a symmetric rank update that OpenBLAS spreads over threads, ~6x slower
+    at these sizes.)"""
     L = Z.shape[1] - q
     ww = np.zeros((trips, q, q))
     wy = np.zeros((trips, q, L))
@@ -219,9 +228,8 @@ def _trip_sums(Z: np.ndarray, q: int, trip: np.ndarray, trips: int):
         rows = Z[bounds[g] : bounds[g + 1]]
         wz = rows[:, :q].T @ rows
         ww[g], wy[g] = wz[:, :q], wz[:, q:]
-    Y = Z[:, q:]
-    yy[:, 0] = group_sum(np.square(Y), trip, trips)
-    yy[:, 1, :-1] = group_sum(Y[:, :-1] * Y[:, 1:], trip, trips)
+    yy[:, 0] = group_sum(square, trip, trips)
+    yy[:, 1, :-1] = group_sum(next_product, trip, trips)
     return ww, wy, yy
 
 

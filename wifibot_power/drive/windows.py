@@ -170,17 +170,18 @@ class RunWindows:
         mean = self.power_at_lags(np.array([lag_bins]))[:, 0]
         return mean, np.isfinite(mean)
 
-    def power_at_lags(self, lags: np.ndarray, windows: np.ndarray | None = None) -> np.ndarray:
+    def power_at_lags(
+        self, lags: np.ndarray, windows: np.ndarray | None = None, out: np.ndarray | None = None
+    ) -> np.ndarray:
         """Each window's (of `windows`, indices; else every one) mean power at each whole lag
         of `lags` [bins], a column each [W]; NaN where not defined (past the run's end, or
-        over a drop-out)."""
+        over a drop-out). `out`: where to write them (a window a row), returned."""
         lags = np.asarray(lags, dtype=np.intp)
         windows = np.arange(self.count) if windows is None else np.asarray(windows)
-        if not windows.size or not lags.size:
-            return np.full((windows.size, lags.size), np.nan)
         means = self._span_means
-        if not means.size:
-            return np.full((windows.size, lags.size), np.nan)
+        if not windows.size or not lags.size or not means.size:
+            nothing = np.full((windows.size, lags.size), np.nan)
+            return nothing if out is None else _into(out, nothing)
         # window i at lag l is the span mean from bin i n + l: NaN past the run's last span
         if lags[0] >= 0 and np.array_equal(lags, lags[0] + np.arange(lags.size)):
             # consecutive lags: each window's row is a stretch of the span means (a strided
@@ -192,11 +193,14 @@ class RunWindows:
                 strides=(self.n * padded.strides[0], padded.strides[0]),
                 writeable=False,
             )
-            return rows[windows]
+            if out is None:
+                return rows[windows]
+            # (windows are indices of rows: "clip" takes them as they are, unbuffered)
+            return np.take(rows, windows, axis=0, out=out, mode="clip")
         start = (windows * self.n)[:, None] + lags[None, :]
-        out = means[np.minimum(start, means.size - 1)]
-        out[start >= means.size] = np.nan
-        return out
+        power = means[np.minimum(start, means.size - 1)]
+        power[start >= means.size] = np.nan
+        return power if out is None else _into(out, power)
 
     @cached_property
     def _span_means(self) -> np.ndarray:
@@ -422,6 +426,11 @@ class StackedPower:
         ok = inside & (self.bad[end] - self.bad[start] == 0)
         mean = (self.total[end] - self.total[start]) / self.n
         return np.where(ok, mean, np.nan), ok
+
+
+def _into(out: np.ndarray, values: np.ndarray) -> np.ndarray:
+    out[...] = values
+    return out
 
 
 def _padded(values: np.ndarray, size: int) -> np.ndarray:
