@@ -14,6 +14,7 @@ from wifibot_power.drive.regressors import (
     speed_noise_per_sample,
 )
 from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
+from wifibot_power.drive.stats import BIN_S, _sample_at_centres
 from wifibot_power.drive.sums import run_sums
 from wifibot_power.drive.terms import TERMS
 from wifibot_power.drive.windows import REGRESSOR_OF, regressor_rows, run_windows
@@ -142,3 +143,35 @@ def test_the_noise_estimate_stops_clipping_once_nothing_moves() -> None:
                 mean_square = float(np.mean(square[inside])) if inside.any() else 0.0
             expected = float(np.sqrt(mean_square / gain))
             assert speed_noise_per_sample(speed, samples_per_bin) == expected
+
+
+def test_the_sample_at_each_centre_is_the_binary_searchs() -> None:
+    """stats.py `_sample_at_centres` (from np.interp of the sample indices) against the binary
+    search it replaced: stamps on the centres themselves, just after them (an interpolated
+    index a rounding below the next stamp's), jittered, with gaps, starting after the first
+    centres, and centres past the last stamp."""
+    rng = np.random.default_rng(5)
+    rounded_up = 0
+    for period_s, n_samples in ((0.05, 80_000), (0.1538, 1500), (0.0125, 9000)):
+        stamps = np.arange(n_samples) * period_s
+        jittered = stamps + rng.uniform(-0.3, 0.3, n_samples) * period_s * (
+            rng.random(n_samples) < 0.3
+        )
+        jittered = np.sort(np.delete(jittered, rng.choice(n_samples, 40, replace=False)))
+        on_centres = (np.arange(n_samples) + 0.5) * BIN_S
+        after = np.nextafter(on_centres, np.inf)  # each centre a rounding before a stamp
+        before = np.nextafter(on_centres, -np.inf)
+        # many stamps early, then one a rounding after each centre: the interpolated index
+        # (large) cannot hold the fraction a rounding short of 1
+        dense = np.concatenate((np.arange(100_000) * 1e-6, after[2:200]))
+        cases = (stamps, jittered, on_centres, after, before, stamps + 0.07, dense)
+        for offset_s in cases:
+            n_bins = int(offset_s[-1] / BIN_S) + 3
+            centres = (np.arange(n_bins) + 0.5) * BIN_S
+            expected = np.clip(
+                np.searchsorted(offset_s, centres, "right") - 1, 0, offset_s.size - 1
+            )
+            assert np.array_equal(_sample_at_centres(offset_s, n_bins), expected)
+            index = np.interp(centres, offset_s, np.arange(offset_s.size, dtype=np.float64))
+            rounded_up += int(np.sum(index.astype(np.intp) > expected))
+    assert rounded_up > 100  # the interpolated index's rounding was there to take back
