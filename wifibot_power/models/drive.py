@@ -6,8 +6,10 @@ Nothing here computes; it names what the pipeline calls:
 - `run_stats(run, segmentation)`: in the worker, the run reduced to bins
   (`drive.stats.drive_stats`: small, picklable; None without a speed, or a step run's speed
   from its phases) and its per-trip sums (`drive.sums.sums_of`: what the fit reads, made where
-  the runs are spread over the workers: `WorkerStats`); `stats_to_json`/`stats_from_json`
-  for the cache (the bins only: a kept run's sums are made again when a fit needs them);
+  the runs are spread over the workers: `WorkerStats`; a plain fit's plan leaves the bins
+  out, `WorkerStats.without_bins`, read again from the log if asked for);
+  `stats_to_json`/`stats_from_json` for the cache (the bins only: a kept run's sums are
+  made again when a fit needs them);
 - `fit(records, options)`: the model from every run's statistics (each record's
   `models["drive"]`; `drive.model.fit_drive_stats`; None when no run had a speed);
 - `load(section, file=)`: model.json's section back to the model (`DriveModel.from_json`).
