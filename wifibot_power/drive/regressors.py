@@ -159,31 +159,15 @@ def _speeding_and_braking(
     return up / window_s, down / window_s
 
 
-def _edge_means(
-    sums: tuple[np.ndarray, np.ndarray], size: int, edges: np.ndarray, half: int
-) -> np.ndarray:
-    """The mean of the `half` bins on either side of each edge (fewer at a run's ends), from
-    the speed's `running_sums` (`size` bins); NaN when one of them is a drop-out."""
-    bad, total = sums
-    low = np.clip(edges - half, 0, size)
-    high = np.clip(edges + half, 0, size)
+def _edge_means(speed: np.ndarray, edges: np.ndarray, half: int) -> np.ndarray:
+    """The mean of the `half` bins on either side of each edge (fewer at a run's ends); NaN
+    when one of them is a drop-out."""
+    total = np.concatenate(([0.0], np.cumsum(np.nan_to_num(speed))))
+    bad = np.concatenate(([0], np.cumsum(~np.isfinite(speed))))
+    low = np.clip(edges - half, 0, speed.size)
+    high = np.clip(edges + half, 0, speed.size)
     mean = (total[high] - total[low]) / np.maximum(high - low, 1)
     return np.where(bad[high] - bad[low] == 0, mean, np.nan)
-
-
-def running_sums(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The running count of undefined (non-finite) values and the running sum of the values
-    (0 for the undefined), each from a leading 0: the count and the sum of values[i:j] are
-    their differences at j and i."""
-    bad = np.zeros(values.size + 1, dtype=np.intp)
-    total = np.zeros(values.size + 1)
-    finite = np.isfinite(values)
-    if finite.all():
-        np.cumsum(values, out=total[1:])  # (bad stays 0)
-    else:
-        np.cumsum(~finite, out=bad[1:])
-        np.cumsum(np.nan_to_num(values), out=total[1:])
-    return bad, total
 
 
 def edge_half_bins(samples_per_bin: float) -> int:
@@ -198,9 +182,8 @@ def edge_speeds(speed_mps: np.ndarray, edges: np.ndarray, half: int) -> np.ndarr
     the box mean to zero width, exact for a cubic speed; Colella & Woodward 1984, Eq. 1.6).
     Its weights: 7 / (12 half) on the inner 2 half bins, -1 / (12 half) on the outer ones
     (`edge_kernel`). NaN where a drop-out is among them."""
-    sums = running_sums(speed_mps)  # once for both means
-    inner = _edge_means(sums, speed_mps.size, edges, half)
-    outer = _edge_means(sums, speed_mps.size, edges, 2 * half)
+    inner = _edge_means(speed_mps, edges, half)
+    outer = _edge_means(speed_mps, edges, 2 * half)
     return (4.0 * inner - outer) / 3.0
 
 

@@ -27,7 +27,6 @@ import numpy as np
 from wifibot_power.drive.regressors import (
     _window_abs,
     inertial_regressors,
-    running_sums,
     speed_noise_per_sample,
 )
 from wifibot_power.drive.stats import DriveStats
@@ -426,6 +425,21 @@ class StackedPower:
         ok = inside & (self.bad[end] - self.bad[start] == 0)
         mean = (self.total[end] - self.total[start]) / self.n
         return np.where(ok, mean, np.nan), ok
+
+
+def running_sums(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The running count of undefined (non-finite) values and the running sum of the values
+    (0 for the undefined), each from a leading 0: the count and the sum of values[i:j] are
+    their differences at j and i."""
+    bad = np.zeros(values.size + 1, dtype=np.intp)
+    total = np.zeros(values.size + 1)
+    finite = np.isfinite(values)
+    if finite.all():
+        np.cumsum(values, out=total[1:])  # (bad stays 0)
+    else:
+        np.cumsum(~finite, out=bad[1:])
+        np.cumsum(np.nan_to_num(values), out=total[1:])
+    return bad, total
 
 
 def _into(out: np.ndarray, values: np.ndarray) -> np.ndarray:
