@@ -15,8 +15,9 @@ import wifibot_power.drive.gram as gram
 from wifibot_power.drive import drive_stats
 from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free, write_free
 from wifibot_power.drive.sums import AT_RISK_SHARE, own_share, sums_of
+from wifibot_power.drive.traces import heldout_traces
 from wifibot_power.errors import LogError
-from wifibot_power.models.drive import FAMILY, WorkerStats
+from wifibot_power.models.drive import FAMILY, WorkerStats, drive_stats_of
 from wifibot_power.pipeline import FIT_PLAN, gather
 from wifibot_power.pipeline.gather import ReadAgain
 
@@ -95,3 +96,18 @@ def test_a_run_that_fits_itself_keeps_its_bins() -> None:
     assert light.bin_s == stats.bin_s and light.surfaces == stats.surfaces
     with pytest.raises(RuntimeError, match="left out"):
         light.power_W  # noqa: B018
+
+
+def test_the_held_out_traces_are_the_same_from_bins_read_again(logs) -> None:
+    """The report's held-out power traces (drive/traces.py) drawn from records whose bins
+    were left out (read again when the traces ask for them) are those drawn from records
+    that carry them (what the report's plan keeps)."""
+    light = gather(logs, plan=FIT_PLAN).records
+    full = gather(logs, plan=dataclasses.replace(FIT_PLAN, bins=True)).records
+    drawn = heldout_traces([drive_stats_of(r) for r in full])
+    again = heldout_traces([drive_stats_of(r) for r in light])
+    assert len(drawn) >= 2 and len(again) == len(drawn)
+    for a, b in zip(again, drawn, strict=True):
+        assert (a.run_id, a.surface) == (b.run_id, b.surface)
+        for name in ("time_s", "measured_W", "predicted_W"):
+            assert np.array_equal(getattr(a, name), getattr(b, name))
