@@ -38,7 +38,14 @@ def main() -> int:
     args = parser.parse_args()
     work = args.work or Path(tempfile.mkdtemp(prefix="gram_time_"))
     srcs = {"old": source(args.old, work), "new": source(args.new, work)}
-    print(f"load average at the start: {load_average()}")
+    start_load = load_average()
+    print(f"load average at the start: {start_load}")
+    table = [
+        "| set | rounds | bare parse, wall / CPU [s] | fit old, wall / CPU [s] | "
+        "fit new, wall / CPU [s] | new / old, wall / CPU | fit / bare parse, wall: old -> new "
+        "| the same, CPU |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for folder in args.folders:
         runs: dict[str, list] = {"bare": [], "old": [], "new": []}
         for _ in range(args.repeats):
@@ -56,8 +63,34 @@ def main() -> int:
             )
             every = {n: [round(getattr(m, what), 2) for m in ms] for n, ms in runs.items()}
             print(f"  all runs: {every}")
-    print(f"load average at the end: {load_average()}")
+        table.append(_row(folder.name, args.repeats, runs))
+    end_load = load_average()
+    print(f"load average at the end: {end_load}")
+    print(f"\n{args.old} (old) against {args.new} (new), medians; load {start_load} -> {end_load}:")
+    print("\n".join(table))
     return 0
+
+
+def _row(name: str, repeats: int, runs: dict[str, list]) -> str:
+    """A Markdown row: the medians of wall and CPU time, and their ratios."""
+    med = {
+        (n, what): statistics.median(getattr(m, what) for m in ms)
+        for n, ms in runs.items()
+        for what in ("wall_s", "cpu_s")
+    }
+
+    def pair(n: str) -> str:
+        return f"{med[n, 'wall_s']:.2f} / {med[n, 'cpu_s']:.2f}"
+
+    def ratio(a: str, b: str, what: str) -> float:
+        return med[a, what] / med[b, what]
+
+    return (
+        f"| {name} | {repeats} | {pair('bare')} | {pair('old')} | {pair('new')} | "
+        f"{ratio('new', 'old', 'wall_s'):.2f} / {ratio('new', 'old', 'cpu_s'):.2f} | "
+        f"{ratio('old', 'bare', 'wall_s'):.2f} -> **{ratio('new', 'bare', 'wall_s'):.2f}** | "
+        f"{ratio('old', 'bare', 'cpu_s'):.2f} -> **{ratio('new', 'bare', 'cpu_s'):.2f}** |"
+    )
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from wifibot_power.drive.stats import BIN_S, _median, _sample_noise, drive_stats
+from wifibot_power.drive.stats import BIN_S, _median, _median_between, _sample_noise, drive_stats
 from wifibot_power.run import Run, RunMeta
 
 
@@ -218,3 +218,22 @@ def test_drive_stats_of_a_stampless_log_equal_the_stamped_ones():
         assert getattr(even, name).tobytes() == getattr(stamped, name).tobytes(), name
     first = np.arange(even.bins) * 500  # 500 samples a bin
     np.testing.assert_array_equal(even.surface_index, surface[first])
+
+
+def test_the_median_between_bounds_is_the_median():
+    """`_median`'s second way (`_median_between`: the values between two of the sample's
+    ranks, partitioned): np.median's value exactly, whether the bounds hold the middle ranks
+    (continuous values) or miss them (a sample unlike the whole: the whole's partition)."""
+    rng = np.random.default_rng(7)
+    for size in (6_401, 6_400, 72_000, 72_001):
+        values = np.abs(rng.normal(size=size))
+        assert _median_between(values.copy(), values[::64].copy()) == np.median(values)
+        assert _median(values.copy()) == np.median(values)
+    # a sample from the lower half only: its bounds miss the middle ranks
+    values = np.abs(rng.normal(size=10_000))
+    low_sample = np.sort(values)[:2_000:10].copy()
+    assert _median_between(values.copy(), low_sample) == np.median(values)
+    # the bounds are used: the values between them alone give the median (a sample whose
+    # bounds hold it, and ties at the bounds)
+    steps = np.round(np.abs(rng.normal(size=20_001)), 2)
+    assert _median_between(steps.copy(), steps[::64].copy()) == np.median(steps)

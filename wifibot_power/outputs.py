@@ -24,6 +24,11 @@ if TYPE_CHECKING:
 def json_safe(value: object) -> object:
     """Plain JSON types: NaN/inf -> None, numpy scalars and arrays -> Python, tuples -> lists,
     paths -> str, datetimes -> ISO 8601."""
+    kind = type(value)
+    if kind in _PLAIN:  # the leaves of a document, first (most of its values)
+        return value
+    if kind is float:
+        return value if math.isfinite(value) else None
     if isinstance(value, dict):
         return {str(k): json_safe(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
@@ -40,6 +45,10 @@ def json_safe(value: object) -> object:
     if isinstance(value, float) and not math.isfinite(value):
         return None
     return value
+
+
+#: Types `json_safe` returns as they are (exactly these: not their subclasses).
+_PLAIN = frozenset((str, int, bool, type(None)))
 
 
 def write_atomic(path: Path, write: Callable[[Path], None]) -> Path:

@@ -79,9 +79,12 @@ def print_json(data: dict[str, object]) -> None:
     if document is None:
         write_json(data)
     else:
-        # made JSON now, inside the command: a value JSON cannot hold is the command's
-        # error (one line, exit 2), never a traceback from printing the document at the end
-        document.result = json.loads(json.dumps(json_safe(data), allow_nan=False))
+        # made JSON-safe now (a copy), and encoded once inside the command: a value JSON
+        # cannot hold is the command's error (one line, exit 2), never a traceback from
+        # printing the document at the end
+        safe = json_safe(data)
+        json.dumps(safe, allow_nan=False)
+        document.result = safe  # type: ignore[assignment]
 
 
 def write_json(data: object) -> None:

@@ -231,15 +231,45 @@ def _median(values: np.ndarray) -> float:
     if fewer than half the values lie below a guess `g` (the median of every
     `_MEDIAN_STRIDE`-th) and fewer than half above it, both middle values of the sorted
     values are `g`, and so is their mean. A quantized speed's steps (a few distinct values)
-    are so two counting passes instead of a partial sort; else the sort, as before."""
+    are so two counting passes instead of a partial sort; else `_median_between`."""
     n = values.size
-    guess = float(np.median(values[::_MEDIAN_STRIDE]))
+    sample = values[::_MEDIAN_STRIDE]
+    guess = float(np.median(sample))
     below = int(np.count_nonzero(values < guess))
     above = int(np.count_nonzero(values > guess))
     # the middle values have ranks (n - 1) // 2 and n // 2 (0-based)
     if below <= (n - 1) // 2 and above <= n - 1 - n // 2:
         return guess
+    return _median_between(values, sample)
+
+
+def _median_between(values: np.ndarray, sample: np.ndarray) -> float:
+    """`np.median(values)` (finite values) from the few values between two bounds that hold
+    both middle ranks: the bounds are the sample's values a few of its own ranks either side
+    of its median (`_MEDIAN_MARGIN`), checked by counting; the middle ranks' values are then
+    those ranks less the count below the lower bound among the values between, partitioned
+    as np.median partitions the whole (~4x faster on 72,000 steps of a continuous speed).
+    When the bounds miss a middle rank (a sample that is not like the whole), the whole is
+    partitioned, as before."""
+    n = values.size
+    low_rank, high_rank = (n - 1) // 2, n // 2
+    if sample.size >= 2 * _MEDIAN_MARGIN + 1:
+        bounds = (sample.size // 2 - _MEDIAN_MARGIN, sample.size // 2 + _MEDIAN_MARGIN)
+        low, high = np.partition(sample, bounds)[list(bounds)]
+        inside = (values >= low) & (values <= high)
+        below = int(np.count_nonzero(values < low))
+        between = values[inside]
+        if below <= low_rank and below + between.size > high_rank:
+            ranks = (low_rank - below, high_rank - below)
+            return float(np.mean(np.partition(between, ranks)[list(ranks)]))
     return float(np.median(values, overwrite_input=True))
+
+
+#: The sample's ranks either side of its median that bound the whole's middle values
+#: (`_median_between`): the whole's median falls among a sample of m values at a rank whose
+#: standard deviation is sqrt(m) / 2 (17 for the 1,125 of 72,000 steps of an hour at 20 Hz),
+#: so +-50 ranks miss it about once in 300; a miss costs a count, then the whole's partition.
+_MEDIAN_MARGIN = 50
 
 
 def _surfaces(run: Run) -> tuple[np.ndarray | None, tuple[str, ...]]:
@@ -281,9 +311,16 @@ def _bin_means(
 
 def _sample_at_centres(offset_s: np.ndarray, n_bins: int) -> np.ndarray:
     """The sample at each bin's centre: the last stamped at or before it (the first sample
-    for a centre before every stamp)."""
+    for a centre before every stamp): `np.searchsorted(offset_s, centres, "right") - 1`
+    clipped to the samples, from np.interp of the samples' indices (its search goes on from
+    the last one found: ~2x faster than a binary search per centre). Between stamps j and
+    j + 1 the interpolated index is j plus a fraction in [0, 1), which its rounding may make
+    j + 1: taken back where that stamp is after the centre. (The stamps increase: reader.)"""
     centre_s = (np.arange(n_bins) + 0.5) * BIN_S
-    return np.clip(np.searchsorted(offset_s, centre_s, "right") - 1, 0, offset_s.size - 1)
+    position = np.interp(centre_s, offset_s, np.arange(offset_s.size, dtype=np.float64))
+    at = position.astype(np.intp)  # (>= 0: the floor)
+    at -= (offset_s[at] > centre_s) & (at > 0)  # (a centre before every stamp: the first)
+    return at
 
 
 def _held(

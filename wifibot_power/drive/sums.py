@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wifibot_power.drive.gram import CANCELLATION
 from wifibot_power.drive.identify import lag_grid
 from wifibot_power.drive.moments import seen_columns
 from wifibot_power.drive.stats import DriveStats
@@ -33,8 +34,9 @@ from wifibot_power.drive.windows import (
     WINDOW_S,
     RunWindows,
     design_columns,
-    regressor_rows,
+    fill_design,
     run_windows,
+    surface_of,
 )
 
 
@@ -103,34 +105,33 @@ def run_sums(rw: RunWindows) -> RunSums:
     """The run's sums (module docstring)."""
     surfaces = rw.stats.surfaces
     columns = design_columns(surfaces)
-    rows = regressor_rows([rw], surfaces)
     lags = lag_grid([rw])
     defined = _defined_at_every_lag(rw, lags.size)
-    common = defined[rw.ok]  # over the rows (the windows whose regressors are defined)
     trips = int(rw.trip[-1]) + 1 if rw.count else 0
     p = len(columns)
-    # Z = [X R Y] over the common windows, made in place (no stacking copies)
-    Z = np.empty((int(common.sum()), 2 * p + lags.size))
-    Z[:, :p], Z[:, p : 2 * p], Z[:, 2 * p :] = (
-        rows.design[common],
-        rows.design_rate[common],
-        rw.power_at_lags(lags, np.flatnonzero(rw.ok & defined)),
-    )
+    surface = surface_of(rw, surfaces)
+    common, edge = np.flatnonzero(rw.ok & defined), np.flatnonzero(rw.ok & ~defined)
+    # Z = [X R Y] over the common windows, each column written in place (no stacking copies)
+    Z = np.empty((common.size, 2 * p + lags.size))
+    _design_of(rw, surface, common, Z[:, :p], Z[:, p : 2 * p])
+    rw.power_at_lags(lags, common, out=Z[:, 2 * p :])
     X, Yc = Z[:, :p], Z[:, 2 * p :]
-    trip = rows.trip[common]
+    trip = rw.trip[common]
     seen = seen_columns(X, columns)
-    per_trip = _trip_sums(Z, 2 * p, trip, trips)
+    # Y's squares and next-lag products, once for the trips' sums and the columns'
+    square, next_product = np.square(Yc), Yc[:, :-1] * Yc[:, 1:]
+    per_trip = _trip_sums(Z, 2 * p, trip, trips, square, next_product)
     S = len(surfaces)
-    on_surface = np.bincount(trip * S + rows.surface[common], minlength=trips * S)
+    on_surface = np.bincount(trip * S + surface[common], minlength=trips * S)
     # per column over the windows that see it: sum Y, Y^2, Y_l Y_l+1 and |Y|
     L = lags.size
     seen_f = seen.astype(np.float64).T
-    next_product = Yc[:, :-1] * Yc[:, 1:]
     seen_yy = np.zeros((len(columns), 2, L))
-    seen_yy[:, 0] = seen_f @ np.square(Yc)
+    seen_yy[:, 0] = seen_f @ square
     seen_yy[:, 1, :-1] = seen_f @ next_product
     crossing = (next_product < 0).any(axis=1)
-    edge = ~common
+    edge_x, edge_r = np.empty((edge.size, p)), np.empty((edge.size, p))
+    _design_of(rw, surface, edge, edge_x, edge_r)
     return RunSums(
         run_id=rw.stats.run_id,
         surfaces=surfaces,
@@ -150,13 +151,52 @@ def run_sums(rw: RunWindows) -> RunSums:
         seen_abs=seen_f @ np.abs(Yc),
         cross_x=X[crossing],
         cross_y=Yc[crossing],
-        edge_x=rows.design[edge],
-        edge_r=rows.design_rate[edge],
-        edge_y=rw.power_at_lags(lags, np.flatnonzero(rw.ok & ~defined)),
-        edge_trip=rows.trip[edge],
-        edge_surface=rows.surface[edge],
+        edge_x=edge_x,
+        edge_r=edge_r,
+        edge_y=rw.power_at_lags(lags, edge),
+        edge_trip=rw.trip[edge],
+        edge_surface=surface[edge],
         reliability=rw.reliability,
     )
+
+
+def own_share(sums: RunSums) -> float:
+    """The smallest share of the power's sum of squares that the run's own least squares
+    leaves, over the whole lags: sse / y'y from its sums, as gram.py's searches make it
+    (`FoldGrams.search`, one fold of this run's trips). A batch's searches fall back to the
+    windows (gram.py `CANCELLATION`) only where this is tiny: a run that leaves more of its
+    power unexplained, by its own coefficients, cannot fit better pooled with others (at a
+    whole lag, over all its trips); the bins it would need are kept below `AT_RISK_SHARE`
+    (models/drive.py `WorkerStats.without_bins`). NaN without a common window."""
+    p = len(sums.columns)
+    xx = sums.ww[:, :p, :p].sum(axis=0)
+    xy = sums.wy[:, :p, :].sum(axis=0)
+    yy = sums.yy[:, 0].sum(axis=0)
+    usable = np.diag(xx) != 0
+    if not usable.any() or not (yy > 0).all():
+        return float("nan")
+    xx, xy = xx[np.ix_(usable, usable)], xy[usable]
+    scale = np.sqrt(np.diag(xx))
+    coef = (np.linalg.pinv(xx / np.outer(scale, scale)) @ (xy / scale[:, None])) / scale[:, None]
+    sse = yy - 2.0 * np.sum(coef * xy, axis=0) + np.einsum("il,ij,jl->l", coef, xx, coef)
+    return float(np.min(sse / yy))
+
+
+#: Below this `own_share` a run keeps its bins in a fit's records: 10x gram.py's
+#: `CANCELLATION` (the simulator's free driving: 1.1e-4 to 3.6e-4 a run; noise-free step
+#: runs: ~0)
+AT_RISK_SHARE = 10 * CANCELLATION
+
+
+def _design_of(
+    rw: RunWindows, surface: np.ndarray, windows: np.ndarray, design: np.ndarray, rate: np.ndarray
+) -> None:
+    """The design and its rate (`windows.regressor_rows`' columns) of the run's `windows`
+    (indices; `surface`: each window's), written into `design` and `rate`."""
+    regressors, rates, on = rw.regressors(), rw.rates, surface[windows]
+    S = len(rw.stats.surfaces)
+    fill_design(design, lambda name: regressors[name][windows], on, S)
+    fill_design(rate, lambda name: rates[name][windows], on, S, rate=True)
 
 
 def _defined_at_every_lag(rw: RunWindows, lags: int) -> np.ndarray:
@@ -170,10 +210,18 @@ def _defined_at_every_lag(rw: RunWindows, lags: int) -> np.ndarray:
     return inside & (bad[end] - bad[start] == 0)
 
 
-def _trip_sums(Z: np.ndarray, q: int, trip: np.ndarray, trips: int):
+def _trip_sums(
+    Z: np.ndarray,
+    q: int,
+    trip: np.ndarray,
+    trips: int,
+    square: np.ndarray,
+    next_product: np.ndarray,
+):
     """Per trip (rows sorted by trip) of Z = [W Y], W its first `q` columns: W'W, W'Y, and Y's
-    squares and next-lag products. (W'Z, not Z'Z: numpy makes Z'Z a symmetric rank update
-    that OpenBLAS spreads over threads, ~6x slower at these sizes.)"""
+    squares and next-lag products (`square`, `next_product`: each row's). (W'Z, not Z'Z:
+    numpy makes Z'Z a symmetric rank update that OpenBLAS spreads over threads, ~6x slower
+    at these sizes.)"""
     L = Z.shape[1] - q
     ww = np.zeros((trips, q, q))
     wy = np.zeros((trips, q, L))
@@ -183,9 +231,8 @@ def _trip_sums(Z: np.ndarray, q: int, trip: np.ndarray, trips: int):
         rows = Z[bounds[g] : bounds[g + 1]]
         wz = rows[:, :q].T @ rows
         ww[g], wy[g] = wz[:, :q], wz[:, q:]
-    Y = Z[:, q:]
-    yy[:, 0] = group_sum(np.square(Y), trip, trips)
-    yy[:, 1, :-1] = group_sum(Y[:, :-1] * Y[:, 1:], trip, trips)
+    yy[:, 0] = group_sum(square, trip, trips)
+    yy[:, 1, :-1] = group_sum(next_product, trip, trips)
     return ww, wy, yy
 
 

@@ -152,10 +152,7 @@ class RunWindows:
     def _power_sums(self) -> tuple[np.ndarray, np.ndarray]:
         """The running count of undefined power bins and the running sum of power (the same at
         every lag: made once, not at each of the lag search's tries)."""
-        power = self.stats.power_W
-        bad = np.concatenate(([0], np.cumsum(~np.isfinite(power))))
-        total = np.concatenate(([0.0], np.cumsum(np.nan_to_num(power))))
-        return bad, total
+        return running_sums(self.stats.power_W)
 
     @cached_property
     def rates(self) -> dict[str, np.ndarray]:
@@ -175,22 +172,37 @@ class RunWindows:
         mean = self.power_at_lags(np.array([lag_bins]))[:, 0]
         return mean, np.isfinite(mean)
 
-    def power_at_lags(self, lags: np.ndarray, windows: np.ndarray | None = None) -> np.ndarray:
+    def power_at_lags(
+        self, lags: np.ndarray, windows: np.ndarray | None = None, out: np.ndarray | None = None
+    ) -> np.ndarray:
         """Each window's (of `windows`, indices; else every one) mean power at each whole lag
         of `lags` [bins], a column each [W]; NaN where not defined (past the run's end, or
-        over a drop-out)."""
+        over a drop-out). `out`: where to write them (a window a row), returned."""
         lags = np.asarray(lags, dtype=np.intp)
         windows = np.arange(self.count) if windows is None else np.asarray(windows)
-        if not windows.size or not lags.size:
-            return np.full((windows.size, lags.size), np.nan)
         means = self._span_means
-        # window i at lag l starts at bin i n + l; none starts past the run's last span
+        if not windows.size or not lags.size or not means.size:
+            nothing = np.full((windows.size, lags.size), np.nan)
+            return nothing if out is None else _into(out, nothing)
+        # window i at lag l is the span mean from bin i n + l: NaN past the run's last span
+        if lags[0] >= 0 and np.array_equal(lags, lags[0] + np.arange(lags.size)):
+            # consecutive lags: each window's row is a stretch of the span means (a strided
+            # view, rows gathered whole: no index per window and lag)
+            padded = _padded(means, (self.count - 1) * self.n + int(lags[-1]) + 1)
+            rows = np.lib.stride_tricks.as_strided(
+                padded[lags[0] :],
+                shape=(self.count, lags.size),
+                strides=(self.n * padded.strides[0], padded.strides[0]),
+                writeable=False,
+            )
+            if out is None:
+                return rows[windows]
+            # (windows are indices of rows: "clip" takes them as they are, unbuffered)
+            return np.take(rows, windows, axis=0, out=out, mode="clip")
         start = (windows * self.n)[:, None] + lags[None, :]
-        if not means.size:
-            return np.full(start.shape, np.nan)
-        out = means[np.minimum(start, means.size - 1)]
-        out[start >= means.size] = np.nan
-        return out
+        power = means[np.minimum(start, means.size - 1)]
+        power[start >= means.size] = np.nan
+        return power if out is None else _into(out, power)
 
     @cached_property
     def _span_means(self) -> np.ndarray:
@@ -430,6 +442,33 @@ class StackedPower:
         return np.where(ok, mean, np.nan), ok
 
 
+def running_sums(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The running count of undefined (non-finite) values and the running sum of the values
+    (0 for the undefined), each from a leading 0: the count and the sum of values[i:j] are
+    their differences at j and i."""
+    bad = np.zeros(values.size + 1, dtype=np.intp)
+    total = np.zeros(values.size + 1)
+    finite = np.isfinite(values)
+    if finite.all():
+        np.cumsum(values, out=total[1:])  # (bad stays 0)
+    else:
+        np.cumsum(~finite, out=bad[1:])
+        np.cumsum(np.nan_to_num(values), out=total[1:])
+    return bad, total
+
+
+def _into(out: np.ndarray, values: np.ndarray) -> np.ndarray:
+    out[...] = values
+    return out
+
+
+def _padded(values: np.ndarray, size: int) -> np.ndarray:
+    """`values` followed by NaN up to `size` values (itself when it is as long)."""
+    if values.size >= size:
+        return values
+    return np.concatenate((values, np.full(size - values.size, np.nan)))
+
+
 def between_bins(power_at_whole, lag_bins: float) -> tuple[np.ndarray, np.ndarray]:
     """The power at a lag of `lag_bins` from `power_at_whole(whole lag)`: a fraction of a bin is
     linear between the two whole bins, defined where both are."""
@@ -486,18 +525,12 @@ def _assemble_rows(
 ) -> Windows:
     """`assemble`'s windows: the stacked windows `keep` holds, `power` their response."""
     columns = design_columns(surfaces)
-    position = {name: k for k, name in enumerate(surfaces)}
     bases = np.cumsum([0] + [int(rw.trip[-1]) + 1 if rw.count else 0 for rw in runs])[:-1]
     names = tuple(runs[0].regressors()) if runs else ()
     joined = {
         **{name: _joined([rw.regressors()[name] for rw in runs])[keep] for name in names},
         **{f"rate:{name}": _joined([rw.rates[name] for rw in runs])[keep] for name in names},
-        "surface": _joined(
-            [
-                np.array([position[s] for s in rw.stats.surfaces], dtype=np.intp)[rw._surface_local]
-                for rw in runs
-            ]
-        )[keep],
+        "surface": _joined([surface_of(rw, surfaces) for rw in runs])[keep],
         "power": power[keep],
         "run": np.repeat(np.arange(len(runs)), [rw.count for rw in runs])[keep],
         "proxy": np.repeat(
@@ -507,19 +540,13 @@ def _assemble_rows(
     }
     power = joined.get("power", np.zeros(0))
     surface = joined.get("surface", np.zeros(0)).astype(np.intp)
-    one_hot = surface[:, None] == np.arange(len(surfaces))[None, :]
-
-    def block(term_name: str, prefix: str) -> np.ndarray:
-        regressor = REGRESSOR_OF[term_name]
-        if regressor is None:
-            return np.ones((power.size, 1)) if not prefix else np.zeros((power.size, 1))
-        values = _finite(joined[prefix + regressor])[:, None]
-        return one_hot * values if TERM_BY_NAME[term_name].per_surface else values
-
-    design = np.hstack([block(term.name, "") for term in TERMS])
+    design = np.empty((power.size, len(columns)))
+    design_rate = np.empty((power.size, len(columns)))
+    fill_design(design, joined.__getitem__, surface, len(surfaces))
+    fill_design(design_rate, lambda name: joined["rate:" + name], surface, len(surfaces), True)
     return Windows(
         design=design,
-        design_rate=np.hstack([block(term.name, "rate:") for term in TERMS]),
+        design_rate=design_rate,
         columns=columns,
         power_W=power,
         run=joined.get("run", np.zeros(0)).astype(np.intp),
@@ -531,3 +558,33 @@ def _assemble_rows(
         force_form=bool(runs) and all(rw.stats.current_proxy for rw in runs),
         proxy=joined.get("proxy", np.zeros(0, dtype=bool)).astype(bool),
     )
+
+
+def surface_of(rw: RunWindows, surfaces: tuple[str, ...]) -> np.ndarray:
+    """Each of the run's windows' surface as an index into `surfaces`."""
+    position = {name: k for k, name in enumerate(surfaces)}
+    return np.array([position[s] for s in rw.stats.surfaces], dtype=np.intp)[rw._surface_local]
+
+
+def fill_design(
+    out: np.ndarray, values_of, surface: np.ndarray, surfaces: int, rate: bool = False
+) -> None:
+    """Write the design's columns (`design_columns` order) into `out` (a row per window): each
+    term's regressor (`values_of(name)`, its values on the rows, a fresh array: made finite in
+    place, NaN 0), a per-surface term's on its surface's column (0 elsewhere), the constant 1
+    for idle. `rate`: the design's rate (`Windows.design_rate`; idle's 0)."""
+    one_hot = surface[:, None] == np.arange(surfaces)[None, :]
+    j = 0
+    for term in TERMS:
+        regressor = REGRESSOR_OF[term.name]
+        if regressor is None:
+            out[:, j] = 0.0 if rate else 1.0
+            j += 1
+            continue
+        values = _finite(values_of(regressor))[:, None]
+        if TERM_BY_NAME[term.name].per_surface:
+            np.multiply(one_hot, values, out=out[:, j : j + surfaces])
+            j += surfaces
+        else:
+            out[:, j : j + 1] = values
+            j += 1

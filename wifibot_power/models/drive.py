@@ -6,8 +6,10 @@ Nothing here computes; it names what the pipeline calls:
 - `run_stats(run, segmentation)`: in the worker, the run reduced to bins
   (`drive.stats.drive_stats`: small, picklable; None without a speed, or a step run's speed
   from its phases) and its per-trip sums (`drive.sums.sums_of`: what the fit reads, made where
-  the runs are spread over the workers: `WorkerStats`); `stats_to_json`/`stats_from_json`
-  for the cache (the bins only: a kept run's sums are made again when a fit needs them);
+  the runs are spread over the workers: `WorkerStats`; a plain fit's plan leaves the bins
+  out, `WorkerStats.without_bins`, read again from the log if asked for);
+  `stats_to_json`/`stats_from_json` for the cache (the bins only: a kept run's sums are
+  made again when a fit needs them);
 - `fit(records, options)`: the model from every run's statistics (each record's
   `models["drive"]`; `drive.model.fit_drive_stats`; None when no run had a speed);
 - `load(section, file=)`: model.json's section back to the model (`DriveModel.from_json`).
@@ -23,8 +25,9 @@ is then a success, with a note that the paper's models need step runs (`fit.fit_
 
 from __future__ import annotations
 
+import dataclasses
 import functools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, ClassVar
 
 from wifibot_power.models.base import FitOptions, FittedModel, ModelFamily
@@ -58,17 +61,85 @@ class KeptStats:
 
 class WorkerStats:
     """A run's drive statistics as the worker made them: its bins (`stats`, a `DriveStats`)
-    and its per-trip sums (`sums`, a `drive.sums.RunSums`); any other attribute is the bins'."""
+    and its per-trip sums (`sums`, a `drive.sums.RunSums`); any other attribute is the bins'.
 
-    def __init__(self, stats: DriveStats, sums: RunSums) -> None:
-        self.stats = stats
+    A fit reads only the sums (and a few scalars of the bins: `bin_s`, `has_turning`, ...):
+    `without_bins()` leaves the bins' arrays out of what goes back to the parent (1.9 MB a
+    run of an hour at 20 Hz, against 0.4 MB of sums), unless the run fits itself so well
+    that a lag search may need its windows (`drive.sums.AT_RISK_SHARE`). Asked for later (a
+    search whose sums lose their digits, a trace), they are read again from the log
+    (`read_again`, set by `pipeline.gather`), every such run of the batch at once."""
+
+    def __init__(self, stats: DriveStats | None, sums: RunSums) -> None:
+        self._stats = stats
         self.sums = sums
+        #: the bins' scalars (`DriveStats` with its arrays None) while the bins are left out
+        self._scalars: DriveStats | None = None
+        #: reads the left-out bins of the batch again (`pipeline.gather.ReadAgain`)
+        self.read_again: Callable[[], None] | None = None
+
+    @property
+    def bins_left_out(self) -> bool:
+        return self._stats is None
+
+    @property
+    def stats(self) -> DriveStats:
+        """The bins: as made, or read again from the log (`read_again`)."""
+        if self._stats is None:
+            if self.read_again is None:
+                raise RuntimeError("a run's drive bins were left out and cannot be read again")
+            self.read_again()
+        assert self._stats is not None, "the log's bins were not read again"
+        return self._stats
+
+    def without_bins(self) -> WorkerStats:
+        """The same statistics without the bins' arrays (class docstring); itself when the run
+        may be needed for a lag search over the windows."""
+        from wifibot_power.drive.sums import AT_RISK_SHARE, own_share
+
+        if self._stats is None or not own_share(self.sums) >= AT_RISK_SHARE:
+            return self
+        light = WorkerStats(None, self.sums)
+        light._scalars = dataclasses.replace(self._stats, **dict.fromkeys(_BIN_ARRAYS))
+        return light
+
+    def bins_from(self, again: object) -> None:
+        """Take the bins of the same run read again (`again`: its statistics as a worker made
+        them with the bins); a run whose log changed since (other scalars) is an error."""
+        stats = getattr(again, "stats", again)
+        scalars = dataclasses.replace(stats, **dict.fromkeys(_BIN_ARRAYS))
+        if repr(scalars) != repr(self._scalars):
+            from wifibot_power.errors import LogError
+
+            raise LogError(
+                "the log changed while it was read",
+                file=stats.file,
+                fix="read the logs again when no program writes them",
+            )
+        self._stats = stats
+
+    def __getstate__(self) -> dict[str, object]:
+        """Pickled without its `read_again` (the batch's reader stays in its process)."""
+        return {**self.__dict__, "read_again": None}
 
     def __getattr__(self, name: str) -> object:
-        """The bins' attribute (`DriveStats`), for what reads a run's drive statistics."""
-        if name.startswith("__") or name in ("stats", "sums"):
+        """The bins' attribute (`DriveStats`), for what reads a run's drive statistics: a
+        scalar from the scalars kept while the bins are left out, else from the bins."""
+        if name.startswith("_") or name in ("stats", "sums", "read_again"):
             raise AttributeError(name)
+        if self._stats is None and name in _SCALAR_FIELDS:
+            return getattr(self._scalars, name)
         return getattr(self.stats, name)
+
+
+#: `DriveStats`' per-bin arrays (what `WorkerStats.without_bins` leaves out)
+_BIN_ARRAYS = ("power_W", "speed_mps", "yaw_rate_radps", "surface_index")
+#: ... and its other fields, kept
+_SCALAR_FIELDS = frozenset(
+    ("run_id", "file", "bin_s", "surfaces", "has_turning", "energy_J", "duration_s")
+    + ("speed_noise_mps", "yaw_noise_radps", "samples_per_bin", "speed_from_phases")
+    + ("notes", "current_proxy", "track_m")
+)
 
 
 class KeptDrive(FittedModel):
@@ -134,8 +205,9 @@ class DriveFamily(ModelFamily):
         from wifibot_power.drive.model import fit_drive_stats
 
         del options  # nothing of the paper's options applies to the drive model
+        # a worker's statistics as they are: their bins are read only if the fit needs them
         return fit_drive_stats(
-            [drive_stats_of(record) for record in records],
+            [_fit_stats(record) for record in records],
             sums=[drive_sums_of(record) for record in records],
         )
 
@@ -156,6 +228,13 @@ def drive_stats_of(record: object) -> DriveStats | None:
     statistics themselves; None for a run without them."""
     stats = _family_stats(record)
     return stats.stats if isinstance(stats, KeptStats | WorkerStats) else stats
+
+
+def _fit_stats(record: object) -> DriveStats | WorkerStats | None:
+    """What `fit_drive_stats` reads of a record: its worker's statistics as they are (bins
+    left out are read again only if the fit needs them), else `drive_stats_of`."""
+    stats = _family_stats(record)
+    return stats if isinstance(stats, WorkerStats) else drive_stats_of(record)
 
 
 def drive_sums_of(record: object) -> RunSums | None:

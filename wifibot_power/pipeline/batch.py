@@ -76,6 +76,7 @@ def map_runs(
     on_problems: ProblemHook | None = None,
     prepare: Callable[[], object] | None = None,
     beside: Callable[[], object] | None = None,
+    only: set[str] | None = None,
 ) -> tuple[list[T], list[Skipped]]:
     """Read each log under `paths` and apply `work` to it, one file in memory at a time per
     worker; results in the order of the logs, one per recording and per run_id
@@ -89,12 +90,16 @@ def map_runs(
     when every result is kept), e.g. `pipeline.preload.preload_work`; `beside()` runs in a
     thread of this process while forked workers work (`parallel.map_ordered`).
     `on_problems(file, problems)` is called in the order of the logs, after all are done.
+    `only`: the logs (their paths as text) to read among those under `paths` (each with its
+    manifest values, as in the whole batch).
 
     A single named file that fails raises (exit 2); in a batch the failure is recorded in
     the returned `Skipped` list and the rest goes on (exit 1).
     """
     paths = [Path(p) for p in paths]
     sources, skipped = find_sources(paths)
+    if only is not None:
+        sources = [source for source in sources if str(source.path) in only]
     on_done, close = _progress(wrap, sources)
     try:
         outcomes = kept_outcomes(sources, cache, memo, options, on_done)

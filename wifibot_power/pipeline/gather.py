@@ -68,6 +68,8 @@ def gather(
     caller makes pandas tables next, so pandas is imported while the workers work."""
     paths = [paths] if isinstance(paths, str | Path) else list(paths)
     options = options or ReadOptions()
+    if cache is not None and plan.keepable:
+        plan = plan.kept  # with the bins (`RunPlan.kept`)
     memo = record_memo(plan) if cache is not None and plan.keepable else None
     records, skipped = map_runs(
         [Path(p) for p in paths],
@@ -81,12 +83,63 @@ def gather(
         prepare=lambda: preload.preload_work(plan),
         beside=preload.preload_tables if tables_after else None,
     )
+    if not plan.bins:
+        ReadAgain(paths, options, plan, jobs).watch(records)
     return Gathered(tuple(str(p) for p in paths), options, plan, records, skipped, cache)
 
 
+class ReadAgain:
+    """The bins a plan left out of a batch's records (`RunPlan.bins` False: each family's
+    statistics' `without_bins`), read again from the logs when something asks for one
+    run's (e.g. a drive fit's lag search whose sums would lose their digits,
+    drive/model.py): every such run of the batch at once, each log with the batch's
+    options and its manifest values, in `jobs` workers. Each statistics object with bins
+    left out gets this as its `read_again` and its bins back by `bins_from`."""
+
+    def __init__(
+        self, paths: list[str | Path], options: ReadOptions, plan: RunPlan, jobs: int | None
+    ) -> None:
+        self.paths, self.options, self.jobs = paths, options, jobs
+        self.plan = plan.kept
+        #: file -> [(family name, its statistics)] still without their bins
+        self.waiting: dict[str, list[tuple[str, object]]] = {}
+
+    def watch(self, records: Sequence[RunRecord]) -> None:
+        for record in records:
+            for name, stats in record.models.items():
+                if getattr(stats, "bins_left_out", False):
+                    self.waiting.setdefault(str(record.row["file"]), []).append((name, stats))
+                    stats.read_again = self  # type: ignore[attr-defined]
+
+    def __call__(self) -> None:
+        waiting, self.waiting = self.waiting, {}
+        if not waiting:
+            return
+        records, _ = map_runs(
+            [Path(p) for p in self.paths],
+            self.options,
+            lambda run: run_record(run, self.plan),
+            jobs=self.jobs,
+            only=set(waiting),
+        )
+        again = {str(record.row["file"]): record for record in records}
+        for file, items in waiting.items():
+            for name, stats in items:
+                if file not in again:
+                    from wifibot_power.errors import LogError
+
+                    raise LogError(
+                        "the log could not be read again (changed or removed while read)",
+                        file=file,
+                        fix="read the logs again when no program writes them",
+                    )
+                stats.bins_from(again[file].models[name])  # type: ignore[attr-defined]
+
+
 def records_of(runs: Iterable[Run], plan: RunPlan = FIT_PLAN) -> list[RunRecord]:
-    """The records of runs already in memory (e.g. simulated), in this process."""
-    return [run_record(run, plan) for run in runs]
+    """The records of runs already in memory (e.g. simulated), in this process: with their
+    bins (there is no log to read them again from)."""
+    return [run_record(run, plan.kept) for run in runs]
 
 
 def batch_key(gathered: Gathered, *settings: object) -> tuple[object, str] | None:

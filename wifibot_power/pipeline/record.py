@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime
 from typing import TYPE_CHECKING
 
@@ -55,6 +55,11 @@ class RunPlan:
     causes: bool = False
     #: keep the trace figure's envelope
     view: bool = False
+    #: keep each family's per-sample bins in its statistics (`ModelFamily.run_stats`); False:
+    #: only what a fit reads (the drive model's per-trip sums), the bins left out where the
+    #: family's statistics can do without them (`without_bins`) and read again from the log
+    #: if something asks for them (`gather.ReadAgain`)
+    bins: bool = True
     #: None: `segment.segment_run`
     segmenter: Segmenter | None = field(default=None, compare=False)
 
@@ -67,14 +72,21 @@ class RunPlan:
         return mode != "unknown"
 
     @property
+    def kept(self) -> RunPlan:
+        """The plan whose records a cache keeps: with the bins (a kept record makes the
+        drive model's sums again from them when a later fit needs them)."""
+        return replace(self, bins=True)
+
+    @property
     def keepable(self) -> bool:
         """Whether a cache can keep its records (JSON values: with the default segmenter,
         and neither the causes' trace data nor views, which hold arrays)."""
         return self.segmenter is None and not self.causes and not self.view
 
 
-#: `fit`: every run of known mode segmented, its phases and the families' statistics
-FIT_PLAN = RunPlan()
+#: `fit`: every run of known mode segmented, its phases and the families' statistics (what a
+#: fit reads: no bins, unless a cache keeps the records: `gather`)
+FIT_PLAN = RunPlan(bins=False)
 #: `diagnose`: motion runs segmented, the causes' statistics and trace data
 DIAGNOSE_PLAN = RunPlan(segment=SEGMENT_MOTION, phases=False, families=False, causes=True)
 #: `report`: all of it, and every run's trace view
@@ -138,18 +150,25 @@ def run_record(run: Run, plan: RunPlan = FIT_PLAN) -> RunRecord:
     return RunRecord(
         row=run_row(run, fitted, energy),
         phases=tuple(fitted.rows(run.file)) if plan.phases else (),
-        models=family_statistics(run, fitted) if plan.families else {},
+        models=family_statistics(run, fitted, plan.bins) if plan.families else {},
         causes=causes,
         traces=traces,
         view=_view(run, segmentation) if plan.view else None,
     )
 
 
-def family_statistics(run: Run, segmentation: Segmentation) -> dict[str, object]:
-    """Each model family's per-run statistics (`ModelFamily.run_stats`), by name."""
+def family_statistics(run: Run, segmentation: Segmentation, bins: bool = True) -> dict[str, object]:
+    """Each model family's per-run statistics (`ModelFamily.run_stats`), by name; without
+    `bins`, each made small where it can be (its `without_bins()`, if it has one)."""
     from wifibot_power.models import FAMILIES
 
-    return {name: family.run_stats(run, segmentation) for name, family in FAMILIES.items()}
+    out = {name: family.run_stats(run, segmentation) for name, family in FAMILIES.items()}
+    if not bins:
+        for name, stats in out.items():
+            smaller = getattr(stats, "without_bins", None)
+            if smaller is not None:
+                out[name] = smaller()
+    return out
 
 
 def _view(run: Run, segmentation: Segmentation | None) -> TraceView:

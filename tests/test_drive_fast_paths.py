@@ -1,0 +1,177 @@
+"""The drive model's faster ways to the same numbers (drivefast3 lane): each against the way it
+replaced, written out here, bit for bit (docs/benchmarks.md, the drive shape)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wifibot_power.drive import drive_stats
+from wifibot_power.drive.regressors import (
+    CLIP_DEVIATIONS,
+    CLIP_ROUNDS,
+    _row_extremes,
+    sample_gain,
+    speed_noise_per_sample,
+)
+from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
+from wifibot_power.drive.stats import BIN_S, _sample_at_centres
+from wifibot_power.drive.sums import run_sums
+from wifibot_power.drive.terms import TERMS
+from wifibot_power.drive.windows import REGRESSOR_OF, regressor_rows, run_windows
+
+
+def _field_windows(seed: int = 4):
+    """Simulated free driving at field realism (drop-outs included) as each run's windows."""
+    config = FreeDriveConfig(runs_per_surface=2, run_s=60.0, seed=seed)
+    return [run_windows(drive_stats(as_run(r))) for r in simulate_free(config)]
+
+
+def _gathered(rw, lags: np.ndarray, windows: np.ndarray) -> np.ndarray:
+    """`power_at_lags` as it was: an index per window and lag into the span means."""
+    means = rw._span_means
+    start = (windows * rw.n)[:, None] + lags[None, :]
+    out = means[np.minimum(start, means.size - 1)]
+    out[start >= means.size] = np.nan
+    return out
+
+
+def test_power_at_lags_from_rows_of_spans_is_the_gathered_power() -> None:
+    """Consecutive lags read each window's row of span means from a strided view: the same
+    values, NaN past the run's end and over a drop-out, as one index per window and lag."""
+    runs = _field_windows()
+    assert any(np.isnan(rw.stats.power_W).any() for rw in runs)  # drop-outs are there
+    for rw in runs:
+        every = np.arange(rw.count)
+        for lags in (np.arange(21), np.arange(3, 9), np.array([0]), np.array([7])):
+            got = rw.power_at_lags(lags, every)
+            assert np.array_equal(got, _gathered(rw, lags, every), equal_nan=True)
+            assert np.isnan(got[-1, -1]) or lags[-1] < rw.n  # the last window runs out
+        some = every[::3]
+        got = rw.power_at_lags(np.arange(21), some)
+        assert np.array_equal(got, _gathered(rw, np.arange(21), some), equal_nan=True)
+        # not consecutive: the index per window and lag, as before
+        odd = np.array([0, 2, 5])
+        assert np.array_equal(
+            rw.power_at_lags(odd, every), _gathered(rw, odd, every), equal_nan=True
+        )
+        # written into a given array (a block of a wider matrix, as run_sums does)
+        for lags in (np.arange(21), odd):
+            wide = np.zeros((some.size, lags.size + 3))
+            got = rw.power_at_lags(lags, some, out=wide[:, 3:])
+            assert np.shares_memory(got, wide) and (wide[:, :3] == 0).all()
+            assert np.array_equal(wide[:, 3:], _gathered(rw, lags, some), equal_nan=True)
+
+
+def test_row_extremes_are_max_and_min_of_each_row() -> None:
+    rng = np.random.default_rng(2)
+    bins = rng.normal(size=(500, 10))
+    bins[[3, 70], [4, 9]] = np.nan  # a drop-out: the row's extremes are NaN
+    bins[200, 0] = np.nan
+    high, low = _row_extremes(bins)
+    assert np.array_equal(high, bins.max(axis=1), equal_nan=True)
+    assert np.array_equal(low, bins.min(axis=1), equal_nan=True)
+    assert np.isnan(high[[3, 70, 200]]).all() and np.isnan(low[[3, 70, 200]]).all()
+    one = bins[:, :1]
+    assert np.array_equal(_row_extremes(one)[0], one[:, 0], equal_nan=True)
+
+
+def test_run_sums_design_is_the_assembled_design() -> None:
+    """`run_sums` writes each window's regressors straight into its sums' matrix: its edge rows
+    and its per-trip X'X are those of `regressor_rows` (the design as `assemble` makes it)."""
+    for rw in _field_windows(seed=9):
+        sums = run_sums(rw)
+        rows = regressor_rows([rw], rw.stats.surfaces)
+        edge = sums.edge_x.shape[0]
+        assert edge  # some windows have a power at some lags only
+        # the edge windows are the assembled rows whose power is not defined at every lag
+        defined = np.isfinite(rw.power_at_lags(np.arange(sums.lags))).all(axis=1)[rw.ok]
+        assert np.array_equal(sums.edge_x, rows.design[~defined])
+        assert np.array_equal(sums.edge_r, rows.design_rate[~defined])
+        assert np.array_equal(sums.edge_trip, rows.trip[~defined])
+        assert np.array_equal(sums.edge_surface, rows.surface[~defined])
+        X, trip = rows.design[defined], rows.trip[defined]
+        p = X.shape[1]
+        for t in np.unique(trip)[:5]:
+            Xt = X[trip == t]
+            np.testing.assert_allclose(sums.ww[t][:p, :p], Xt.T @ Xt, rtol=1e-12, atol=1e-9)
+
+
+def test_design_columns_are_the_stacked_blocks() -> None:
+    """`fill_design` (the design written column by column) against the design as it was made:
+    each term's block stacked side by side, idle 1 (its rate 0), a per-surface term's
+    regressor on its surface's column (one-hot times the regressor)."""
+    runs = _field_windows(seed=3)
+    surfaces = tuple(sorted({s for rw in runs for s in rw.stats.surfaces}))
+    rows = regressor_rows(runs, surfaces)
+    ok = np.concatenate([rw.ok for rw in runs])
+    one_hot = rows.surface[:, None] == np.arange(len(surfaces))[None, :]
+
+    def block(term, rate: bool) -> np.ndarray:
+        name = REGRESSOR_OF[term.name]
+        if name is None:
+            return np.full((rows.size, 1), 0.0 if rate else 1.0)
+        source = [rw.rates[name] if rate else rw.regressors()[name] for rw in runs]
+        values = np.nan_to_num(np.concatenate(source)[ok])[:, None]
+        return one_hot * values if term.per_surface else values
+
+    for rate, made in ((False, rows.design), (True, rows.design_rate)):
+        assert np.array_equal(made, np.hstack([block(term, rate) for term in TERMS]))
+    assert (rows.design[:, 0] == 1).all() and (rows.design_rate[:, 0] == 0).all()
+
+
+def test_the_noise_estimate_stops_clipping_once_nothing_moves() -> None:
+    """`speed_noise_per_sample` stops its clipping rounds when a round keeps the values the
+    last kept: the estimate of all `CLIP_ROUNDS` rounds, bit for bit (white noise, a few
+    corners, a quantized speed; and values that keep shrinking round after round)."""
+    rng = np.random.default_rng(11)
+    white = rng.normal(0, 0.01, 20_000)
+    corners = np.cumsum(rng.normal(0, 0.01, 20_000))
+    corners[::500] += 2.0
+    quantized = np.round(np.repeat(np.linspace(0, 1, 400), 50) + rng.normal(0, 0.01, 20_000), 2)
+    heavy = rng.standard_cauchy(20_000)  # something is left out at every round
+    for speed in (white, corners, quantized, heavy):
+        for samples_per_bin in (1.0, 0.3):
+            lag = 1 if samples_per_bin >= 1.0 else round(1.0 / samples_per_bin)
+            second = speed[2 * lag :] - 2.0 * speed[lag:-lag] + speed[: -2 * lag]
+            square = np.square(second)
+            gain = sample_gain(
+                np.array([1.0, -2.0, 1.0]), np.array([0.0, lag, 2.0 * lag]), samples_per_bin
+            )
+            mean_square = float(np.mean(square))
+            for _ in range(CLIP_ROUNDS):  # every round, as before
+                inside = square <= CLIP_DEVIATIONS**2 * mean_square
+                mean_square = float(np.mean(square[inside])) if inside.any() else 0.0
+            expected = float(np.sqrt(mean_square / gain))
+            assert speed_noise_per_sample(speed, samples_per_bin) == expected
+
+
+def test_the_sample_at_each_centre_is_the_binary_searchs() -> None:
+    """stats.py `_sample_at_centres` (from np.interp of the sample indices) against the binary
+    search it replaced: stamps on the centres themselves, just after them (an interpolated
+    index a rounding below the next stamp's), jittered, with gaps, starting after the first
+    centres, and centres past the last stamp."""
+    rng = np.random.default_rng(5)
+    rounded_up = 0
+    for period_s, n_samples in ((0.05, 80_000), (0.1538, 1500), (0.0125, 9000)):
+        stamps = np.arange(n_samples) * period_s
+        jittered = stamps + rng.uniform(-0.3, 0.3, n_samples) * period_s * (
+            rng.random(n_samples) < 0.3
+        )
+        jittered = np.sort(np.delete(jittered, rng.choice(n_samples, 40, replace=False)))
+        on_centres = (np.arange(n_samples) + 0.5) * BIN_S
+        after = np.nextafter(on_centres, np.inf)  # each centre a rounding before a stamp
+        before = np.nextafter(on_centres, -np.inf)
+        # many stamps early, then one a rounding after each centre: the interpolated index
+        # (large) cannot hold the fraction a rounding short of 1
+        dense = np.concatenate((np.arange(100_000) * 1e-6, after[2:200]))
+        cases = (stamps, jittered, on_centres, after, before, stamps + 0.07, dense)
+        for offset_s in cases:
+            n_bins = int(offset_s[-1] / BIN_S) + 3
+            centres = (np.arange(n_bins) + 0.5) * BIN_S
+            expected = np.clip(
+                np.searchsorted(offset_s, centres, "right") - 1, 0, offset_s.size - 1
+            )
+            assert np.array_equal(_sample_at_centres(offset_s, n_bins), expected)
+            index = np.interp(centres, offset_s, np.arange(offset_s.size, dtype=np.float64))
+            rounded_up += int(np.sum(index.astype(np.intp) > expected))
+    assert rounded_up > 100  # the interpolated index's rounding was there to take back
