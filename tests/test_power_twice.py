@@ -115,40 +115,37 @@ def test_channels_and_the_analyser_export_are_checked_too(tmp_path):
         read_log(n6705)
 
 
-def test_the_rounding_of_the_numbers_as_written_is_allowed_for(tmp_path):
-    # 12 V written to the volt, 0.06 A to the centiamp, 0.62 W to 0.1 mW: V x I as written is
-    # 0.72 W, 0.10 W a sample over the power column; the tolerance allows 5% of 0.72 W, 0.036 W,
-    # and the rounding up to 0.5 (12 x 0.01 + 0.06 x 1 + 0.0001) = 0.09005 W more: read.
-    # (Without the rounding, or without its 12 V x 0.01 A term, it would be refused.)
+def _written(path: Path, volts: str, amps: str, power: str) -> Path:
+    """A log of N rows of the same values, written as given."""
+    rows = "".join(f"{k * 0.01:.2f},{volts},{amps},{power}\n" for k in range(N))
+    path.write_text("time_s,voltage_V,current_A,power_W\n" + rows)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("volts", "amps", "read", "refused"),
+    [
+        # 12 V written to the volt, 0.06 A to the centiamp, 0.62 W to 0.1 mW: V x I as written
+        # is 0.72 W, 0.10 W a sample over the power column; the tolerance allows 5% of 0.72 W,
+        # 0.036 W, and the rounding up to 0.5 (12 x 0.01 + 0.06 x 1 + 0.0001) = 0.09005 W
+        # more: read. (Without the rounding, or without its 12 V x 0.01 A term, refused.)
+        # At 0.55 W, 0.17 W a sample apart, beyond both: refused.
+        ("12", "0.06", "0.62", "0.55"),
+        # 0.12 V written to the centivolt, 6.001 A to the milliamp, 0.66 W to the centiwatt:
+        # V x I as written is 0.72012 W, 0.06012 W a sample over the power column; the
+        # tolerance allows 0.036 W, the rounding 0.5 (0.12 x 0.001 + 6.001 x 0.01 + 0.01 +
+        # 0.01 x 0.001) = 0.03507 W more: read. (Without its 6.001 A x 0.01 V term: refused.)
+        # At 0.60 W, 0.12 W a sample apart: refused.
+        ("0.12", "6.001", "0.66", "0.60"),
+    ],
+)
+def test_the_rounding_of_the_numbers_as_written_is_allowed_for(
+    tmp_path, volts, amps, read, refused
+):
     path = tmp_path / "coarse.csv"
-
-    def write(power: str) -> Path:
-        rows = "".join(f"{k * 0.01:.2f},12,0.06,{power}\n" for k in range(N))
-        path.write_text("time_s,voltage_V,current_A,power_W\n" + rows)
-        return path
-
-    assert read_log(write("0.62")).power_W[0] == 0.62
-    # the same with the power 0.55 W: 0.17 W a sample apart, beyond both: refused
+    assert read_log(_written(path, volts, amps, read)).power_W[0] == float(read)
     with pytest.raises(LogError, match="disagrees"):
-        read_log(write("0.55"))
-
-
-def test_the_voltages_rounding_times_the_current_is_allowed_for(tmp_path):
-    # 0.12 V written to the centivolt, 6.001 A to the milliamp, 0.66 W to the centiwatt: V x I
-    # as written is 0.72012 W, 0.06012 W a sample over the power column; the tolerance allows
-    # 5% of 0.72012 W, 0.036 W, and the rounding 0.5 (0.12 x 0.001 + 6.001 x 0.01 + 0.01 +
-    # 0.01 x 0.001) = 0.03507 W more: read. (Without its 6.001 A x 0.01 V term: refused.)
-    path = tmp_path / "coarse_volts.csv"
-
-    def write(power: str) -> Path:
-        rows = "".join(f"{k * 0.01:.2f},0.12,6.001,{power}\n" for k in range(N))
-        path.write_text("time_s,voltage_V,current_A,power_W\n" + rows)
-        return path
-
-    assert read_log(write("0.66")).power_W[0] == 0.66
-    # 0.60 W: 0.12 W a sample apart, beyond both: refused
-    with pytest.raises(LogError, match="disagrees"):
-        read_log(write("0.60"))
+        read_log(_written(path, volts, amps, refused))
 
 
 @settings(max_examples=150, deadline=None)
