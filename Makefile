@@ -48,9 +48,12 @@ demo: $(VENV)/.installed
 	$(WBPOWER) report sample_logs/ -o out/report
 	@echo "open out/report/report.html in a browser (one file, works offline)"
 
+# The suite takes ~4 min on 2 cores; a run still going after 30 min is hung (a deadlock in a
+# C extension holds the GIL, so pytest-timeout's own thread cannot fire: tests/jlswriter.py)
+# and is stopped, so that CI fails instead of waiting for ever.
 test: $(VENV)/.installed browser
 	$(VENV)/bin/ruff check .
-	$(PY) -m pytest -q -n 2
+	timeout -k 30 1800 $(PY) -m pytest -q -n 2
 
 # What the browser test (tests/test_report_browser.py: report.html in headless Chromium)
 # needs: selenium in the venv (the `browser` extra, ~45 MB with its dependencies), and

@@ -10,12 +10,14 @@ import pytest
 
 pyjls = pytest.importorskip("pyjls", reason="the 'jls' extra (pip install 'wbpower[jls]')")
 
+import jlswriter  # noqa: E402
+
 from wifibot_power.errors import LogError  # noqa: E402
 from wifibot_power.io import ReadOptions, find_logs, read_log  # noqa: E402
 from wifibot_power.io.formats import jls  # noqa: E402
 from wifibot_power.segment import segment_run  # noqa: E402
 
-RATE_HZ = 100_000  # blocks of 10 samples: 10 kHz
+RATE_HZ = jlswriter.RATE_HZ  # blocks of 10 samples: 10 kHz
 
 
 def levels(n: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
@@ -29,36 +31,8 @@ def levels(n: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
     return current.astype(np.float32), voltage.astype(np.float32)
 
 
-def write_jls(
-    path: Path,
-    current: np.ndarray,
-    voltage: np.ndarray,
-    *,
-    power: bool = True,
-    names=("current", "voltage", "power"),
-    skip: tuple[int, int] | None = None,
-) -> Path:
-    """A recording as a JS220 saves one; `skip=(start, n)` leaves n samples out (dropped)."""
-    signals = [(names[0], "A", current), (names[1], "V", voltage)]
-    if power:
-        signals.append((names[2], "W", current * voltage))
-    with pyjls.Writer(str(path)) as writer:
-        writer.source_def(
-            source_id=1, name="js220", vendor="Jetperch", model="JS220", version="1",
-            serial_number="000415",
-        )  # fmt: skip
-        for signal_id, (name, units, data) in enumerate(signals, start=1):
-            writer.signal_def(
-                signal_id=signal_id, source_id=1, signal_type=pyjls.SignalType.FSR,
-                data_type=pyjls.DataType.F32, sample_rate=RATE_HZ, name=name, units=units,
-            )  # fmt: skip
-            if skip is None:
-                writer.fsr(signal_id, 0, np.ascontiguousarray(data))
-            else:
-                start, n = skip
-                writer.fsr(signal_id, 0, np.ascontiguousarray(data[:start]))
-                writer.fsr(signal_id, start + n, np.ascontiguousarray(data[start + n :]))
-    return path
+#: written by pyjls in a child process, retried if it hangs (tests/jlswriter.py: a deadlock)
+write_jls = jlswriter.write
 
 
 N = 200_007  # 2 s, and 7 samples that fill no block of 10
@@ -168,3 +142,31 @@ def test_missing_library_names_the_extra(recording, monkeypatch):
     with pytest.raises(LogError) as caught:
         read_log(recording[0])
     assert "pip install 'wbpower[jls]'" in caught.value.one_line()
+
+
+def test_the_writers_hang_is_retried_and_never_hangs_the_run(tmp_path, monkeypatch):
+    """tests/jlswriter.py: a child that hangs (pyjls's writer deadlock) is killed by its
+    timeout and the write tried again; after `ATTEMPTS` hangs it fails, it does not wait."""
+    import subprocess
+
+    calls = []
+
+    def hangs_then_writes(command, check, timeout):
+        calls.append(timeout)
+        if len(calls) == 1:
+            raise subprocess.TimeoutExpired(command, timeout)
+        return real_run(command, check=check, timeout=timeout)
+
+    real_run = subprocess.run
+    monkeypatch.setattr(jlswriter.subprocess, "run", hangs_then_writes)
+    current, voltage = levels(2_000)
+    path = write_jls(tmp_path / "retried.jls", current, voltage)
+    assert len(calls) == 2 and calls[0] == jlswriter.CHILD_TIMEOUT_S
+    assert read_log(path).samples == 2_000 // 10
+
+    def always_hangs(command, check, timeout):
+        raise subprocess.TimeoutExpired(command, timeout)
+
+    monkeypatch.setattr(jlswriter.subprocess, "run", always_hangs)
+    with pytest.raises(RuntimeError, match="hung 5 times"):
+        write_jls(tmp_path / "never.jls", current, voltage)
