@@ -419,10 +419,12 @@ def _motion(values: np.ndarray, enter: float, leave: float) -> np.ndarray:
     comes back, so the stretch is followed down to one deviation of the noise (`leave`),
     not cut at 3: a start's and a stop's first bins of motion are moving, and their drivers'
     step is not left to idle. At one deviation a standing bin next to motion joins it with
-    the normal's tail, 16%, while a ramp's bins below one deviation are missed: idle's bias
-    on the simulator (60 seeds, 20 Hz and 6.5 Hz) +0.76 and +1.39 standard errors with the
-    one threshold of 3 deviations, -0.45 and -0.67 followed down to 0, -0.05 and +0.12 to
-    one deviation, +0.32 and +0.73 to two. A drop-out (NaN) ends a stretch."""
+    the normal's tail, 16%, whether the speed is quantized or not (followed to 0: half the
+    bins of a continuous noise, few of an encoder's), while a ramp's bins below one deviation
+    are missed. Idle's bias on the simulator (60 seeds, 20 Hz and 6.5 Hz; docs/drive-model.md,
+    "Validation"), in standard errors: +0.76 and +1.39 cut at 3 deviations (before), -0.08
+    and -0.58 followed to 0, +0.03 and -0.14 to half a deviation, +0.14 and +0.22 to one,
+    +0.55 and +0.85 to two. A drop-out (NaN) ends a stretch."""
     out = np.zeros(values.shape, dtype=bool)
     for sign in (1.0, -1.0):
         signed = sign * values
