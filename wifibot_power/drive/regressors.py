@@ -99,12 +99,17 @@ def within_neighbours(
     return np.where(np.isfinite(low + high), np.clip(edge_speed, low, high), edge_speed)
 
 
-def _window_abs(bins: np.ndarray, mean: np.ndarray, noise: float, samples: float) -> np.ndarray:
-    """A window's mean |x| from its bins (a row each): |mean| denoised (`_denoised_abs`), except
-    in a window where x changes sign (reversing, a spin turned the other way: its bins reach
-    beyond 3 bin-noise deviations on both sides of 0), where |mean| would cancel the two
-    directions: there the mean of the bins' own denoised |x|."""
-    bin_noise = noise * np.sqrt(samples / bins.shape[1]) if bins.size else noise
+def _window_abs(bins: np.ndarray, mean: np.ndarray, noise: float, bin_noise: float) -> np.ndarray:
+    """A window's mean |x| from its bins (a row each): |mean| denoised (`_denoised_abs`, the
+    window mean's noise `noise`), except in a window where x changes sign (reversing, a spin
+    turned the other way: its bins reach beyond 3 deviations of a bin's noise, `bin_noise`,
+    on both sides of 0), where |mean| would cancel the two directions: there the mean of the
+    bins' own denoised |x|. (With the window's noise taken for a bin's, sqrt(10) too small
+    at 20 Hz, two thirds of the straight windows were read as turning both ways and their
+    |yaw rate| as the mean of their bins' |noise|: 0.0021 rad/s for a true 0, times 25-60
+    N m of turning in every straight window, which the drivers' step paid: drive_on_W -0.90
+    standard errors on the simulator at field realism, 200 seeds, inside its 95% interval in
+    90%.)"""
     reach = 3.0 * max(bin_noise, 1e-12)
     high, low = _row_extremes(bins)
     flips = (high > reach) & (low < -reach)
@@ -258,6 +263,15 @@ def sample_gain(weights: np.ndarray, centres: np.ndarray, samples_per_bin: float
     hat = np.clip(1.0 - np.abs(centres[None, None, :] - middles - phases) / period, 0.0, None)
     on_samples = hat @ weights  # (phase, sample)
     return float(np.mean(np.sum(np.square(on_samples), axis=1)))
+
+
+def window_gain(n: int, samples_per_bin: float) -> float:
+    """The variance of a window's mean of `n` bins over that of one sample's white noise
+    (`sample_gain` of the weights 1/n): 1 / (n samples_per_bin) for a fast logger's bins;
+    for a slow logger's, whose bins interpolate between samples, the window's hat weights
+    spread over more samples than its span holds: 6.5 Hz, 10 bins of 50 ms, 0.265 (0.2655 by
+    200,000 white samples interpolated so) against 1 / 3.25 = 0.308."""
+    return sample_gain(np.full(n, 1.0 / n), np.arange(n) + 0.5, samples_per_bin)
 
 
 def speed_noise_per_sample(speed_mps: np.ndarray, samples_per_bin: float) -> float:
