@@ -180,7 +180,11 @@ def print_drive_tables(result: FitResult) -> None:
     )
     notes = f"not determined:{not_determined}{said}"
     if not cells:  # no term has a number: the reasons, not an empty table's frame
-        stdout.print(f"{title}: no term determined", markup=False, highlight=False)
+        line = (
+            f"Drive model over {summary['n_runs']} run(s): no term determined; the lag search's "
+            f"best, {summary['lag_s']:.2f} s, has no interval either"
+        )
+        stdout.print(line, markup=False, highlight=False)
         stdout.print(notes, markup=False, highlight=False)
     else:
         title += " (95% CI: cluster-robust, by run or trip)"
