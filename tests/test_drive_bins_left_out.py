@@ -79,6 +79,17 @@ def test_a_log_changed_before_its_bins_are_read_again(tmp_path) -> None:
         first.stats  # noqa: B018 - reading the bins again is the test
 
 
+def test_a_log_that_lost_its_speed_before_its_bins_are_read_again(tmp_path) -> None:
+    """Read again, the log gives no drive statistics at all (its speed column removed): the
+    same one-line error naming the file, not a traceback (it was `replace() should be called
+    on dataclass instances`)."""
+    write_free(dataclasses.replace(CONFIG, runs_per_surface=1), tmp_path)
+    first = _drive(gather(tmp_path, plan=FIT_PLAN).records)[0]
+    with pytest.raises(LogError, match="changed") as raised:
+        first.bins_from(None)
+    assert first.file in str(raised.value)
+
+
 def test_a_run_that_fits_itself_keeps_its_bins() -> None:
     """A run whose power its own least squares leaves almost nothing of (a constant power:
     idle explains it) may make a batch's search fall back to the windows: its bins stay."""

@@ -323,3 +323,17 @@ def test_a_routes_energy_from_a_proxy_model_is_predicted_in_the_force_form():
     )
     as_power_J = as_power.energy_J
     assert abs(as_power_J - expected_J) > 0.01 * expected_J  # the power form differs
+
+
+def test_a_proxy_routes_arcs_are_said_to_be_predicted_as_spins():
+    """A proxy model keeps no track width: a route with arcs (moving and turning) is
+    predicted with a spin's moment, and a warning says so; a straight route has none."""
+    from wifibot_power.drive.profile import route_energy
+
+    model, runs = _proxy_model()
+    route = runs[1]
+    straight = route_energy(model, route.time_s, route.speed_mps, surface="floor")
+    assert not any("arcs" in w for w in straight.warnings)
+    yaw = np.full(route.samples, 0.2)
+    arcs = route_energy(model, route.time_s, route.speed_mps, yaw, surface="floor")
+    assert any("arcs are predicted with a spin's" in w for w in arcs.warnings)

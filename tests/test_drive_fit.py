@@ -417,3 +417,27 @@ def test_incomplete_paper_model_still_writes_the_drive_model(free, tmp_path):
     assert paper.exit_code == 2 and "incomplete" in paper.stderr
     _check_profile(logs, out / "model.json")
     _check_exports(out / "model.json")
+
+
+def test_heldout_beside_paper_sums_a_runs_trips_but_not_a_run_id_with_a_hash(monkeypatch):
+    """A run cut into trips ("b#0", "b#1") is their sum; a run whose own run_id ends in
+    "#digits" ("a#2" beside "a") stays its own run (it was folded into "a": n_runs 1, the
+    errors summed)."""
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    from wifibot_power.diagnose import baseline
+
+    runs = pd.DataFrame({"run_id": ["a", "a#2", "b"], "motion_energy_J": [100.0, 100.0, 100.0]})
+    trips = [("a", 100.0, 101.0), ("a#2", 100.0, 101.0), ("b#0", 50.0, 51.0), ("b#1", 50.0, 51.0)]
+    held = {"runs": [{"run_id": r, "measured_J": m, "predicted_J": p} for r, m, p in trips]}
+    result = SimpleNamespace(
+        drive=SimpleNamespace(summary=lambda: {"heldout": held}), model_complete=True, runs=runs
+    )
+    paper = (["a", "a#2", "b"], [100.0] * 3, [103.0] * 3)
+    monkeypatch.setattr(baseline, "paper_heldout_motion_J", lambda runs: paper)
+    beside = baseline.heldout_beside_paper(result)
+    assert beside.n_runs == 3
+    assert beside.drive_mape_pct == pytest.approx((1.0 + 1.0 + 2.0) / 3)
+    assert beside.paper_mape_pct == pytest.approx(3.0)

@@ -79,7 +79,8 @@ def heldout_beside_paper(result: FitResult) -> HeldOutBeside | None:
     for trip in held["runs"]:  # type: ignore[union-attr]
         run_id = str(trip["run_id"])
         base, _, k = run_id.rpartition("#")
-        run_id = base if base and k.isdigit() else run_id
+        if run_id not in motion_J and base in motion_J and k.isdigit():  # not a run's own id
+            run_id = base
         sums = drive_J.setdefault(run_id, [0.0, 0.0])
         sums[0] += float(trip["measured_J"])
         sums[1] += float(trip["predicted_J"])

@@ -94,6 +94,14 @@ def route_energy(
             "the model was fitted on current-only logs (voltage_assumed_V): this energy is "
             "theirs, a nominal voltage times the motors' current, not the battery's energy"
         )
+        if yaw_rate_radps is not None and np.any(
+            (np.asarray(yaw_rate_radps) != 0) & (speed_mps != 0)
+        ):
+            warnings.append(
+                "the route's arcs are predicted with a spin's scrubbing moment: the model keeps "
+                "no track width, so the moment's fall with the turning radius (Wong's factor, "
+                "as fitted where the logs gave track_m) is not applied: arcs come out high"
+            )
     meta = RunMeta(run_id="route", sample_period_s=period_s, extra=extra)
     run = Run(
         file="route",

@@ -106,14 +106,17 @@ class WorkerStats:
     def bins_from(self, again: object) -> None:
         """Take the bins of the same run read again (`again`: its statistics as a worker made
         them with the bins); a run whose log changed since (other scalars) is an error."""
-        stats = getattr(again, "stats", again)
-        scalars = dataclasses.replace(stats, **dict.fromkeys(_BIN_ARRAYS))
-        if repr(scalars) != repr(self._scalars):
-            from wifibot_power.errors import LogError
+        from wifibot_power.drive.stats import DriveStats
+        from wifibot_power.errors import LogError
 
+        stats = getattr(again, "stats", again)
+        same = isinstance(stats, DriveStats) and repr(
+            dataclasses.replace(stats, **dict.fromkeys(_BIN_ARRAYS))
+        ) == repr(self._scalars)
+        if not same:  # other scalars, or no drive statistics at all now (a column removed)
             raise LogError(
                 "the log changed while it was read",
-                file=stats.file,
+                file=self._scalars.file,
                 fix="read the logs again when no program writes them",
             )
         self._stats = stats
