@@ -337,3 +337,14 @@ def test_a_proxy_routes_arcs_are_said_to_be_predicted_as_spins():
     yaw = np.full(route.samples, 0.2)
     arcs = route_energy(model, route.time_s, route.speed_mps, yaw, surface="floor")
     assert any("arcs are predicted with a spin's" in w for w in arcs.warnings)
+
+
+def test_a_proxy_models_reasons_give_values_in_the_force_forms_units(monkeypatch):
+    """A value said in a not-determined reason (a term held at its bound: what least squares
+    without the bounds gives) is in the same units as the table: the force form's for a
+    current proxy (it said W/(m/s)^2 for a viscous force's W/(m/s), kg for W/(m/s^2))."""
+    monkeypatch.setitem(TRUE, "viscous", -40.0)  # a negative viscous force: held at 0
+    model, _ = _proxy_model()
+    (reason,) = [r for r in model.not_determined if r.startswith("quadratic_W_per_mps2")]
+    assert "held at its physical bound 0" in reason
+    assert "W/(m/s))" in reason and "W/(m/s)^2" not in reason

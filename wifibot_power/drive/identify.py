@@ -48,7 +48,7 @@ from wifibot_power.drive.moments import (
     least_squares,  # noqa: F401  (its home was here: tests import it from identify)
     term_of,
 )
-from wifibot_power.drive.terms import TERM_BY_NAME
+from wifibot_power.drive.terms import TERM_BY_NAME, term_unit
 from wifibot_power.drive.windows import (
     RunWindows,
     StackedPower,
@@ -201,7 +201,7 @@ def _honest(moments, fitted: Identified, coefficients_only: bool = False) -> Ide
         free = moments.unbounded(fitted.kept)
         unbounded = dict(zip(np.flatnonzero(fitted.kept), free, strict=True))
         for j in np.flatnonzero(pinned):
-            unit = TERM_BY_NAME[_term(columns[j])].unit
+            unit = term_unit(_term(columns[j]), moments.proxy_all)
             # why no positive value fits better: the data push it below 0, or (its own
             # least squares positive) the other terms' bounds leave it nothing to explain
             why = (
@@ -234,7 +234,7 @@ def _honest(moments, fitted: Identified, coefficients_only: bool = False) -> Ide
         # the power's level: a robot whose power hardly varies still has a measured idle)
         open_W = half[j] * typical
         if open_W > LOOSE_SHARE * spread_W:
-            unit = TERM_BY_NAME[_term(columns[j])].unit
+            unit = term_unit(_term(columns[j]), moments.proxy_all)
             reported[j] = False
             reasons.append(
                 (

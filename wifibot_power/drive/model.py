@@ -24,7 +24,7 @@ from wifibot_power.drive.identify import identify, identify_moments, lag_search
 from wifibot_power.drive.lagsums import SumsTable
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
 from wifibot_power.drive.sums import RunSums, sums_of
-from wifibot_power.drive.terms import FORCE_FORM_UNITS, TERM_BY_NAME, TERMS
+from wifibot_power.drive.terms import TERM_BY_NAME, TERMS, term_unit
 from wifibot_power.drive.windows import WINDOW_S, assemble, run_windows
 from wifibot_power.power_kind import PROXY_WARNING, power_kind_of
 
@@ -453,17 +453,14 @@ def _terms(
         if not fitted.shown[j]:
             continue
         name, _, rest = column.partition("[")
-        unit = FORCE_FORM_UNITS[name] if force_form else _unit(name)
-        value = TermValue(float(fitted.coef[j]), (float(ci[j, 0]), float(ci[j, 1])), unit)
+        value = TermValue(
+            float(fitted.coef[j]), (float(ci[j, 0]), float(ci[j, 1])), term_unit(name, force_form)
+        )
         if rest and named_surfaces:
             per_surface.setdefault(rest[:-1], {})[name] = value
         else:
             terms[name] = value
     return terms, per_surface
-
-
-def _unit(name: str) -> str:
-    return TERM_BY_NAME[name].unit
 
 
 __all__ = ["TERMS", "DriveModel", "TermValue", "fit_drive", "fit_drive_stats"]

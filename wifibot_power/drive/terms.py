@@ -164,6 +164,12 @@ FORCE_FORM_UNITS = {
 }
 
 
+def term_unit(name: str, force_form: bool = False) -> str:
+    """A term's unit: its own, or in the force form of current-proxy logs (`FORCE_FORM_UNITS`),
+    wherever a value of it is said (the table, a not-determined reason)."""
+    return FORCE_FORM_UNITS[name] if force_form else TERM_BY_NAME[name].unit
+
+
 def power_W(
     speed_mps: np.ndarray,
     accel_mps2: np.ndarray,
