@@ -231,7 +231,7 @@ def test_force_form_fit_names_the_constant_turning_moment():
 
 
 def as_power_log(run: Run) -> Run:
-    extra = {k: v for k, v in run.meta.extra.items() if k != "voltage_assumed_V"}
+    extra = {k: v for k, v in run.meta.extra.items() if k != "voltage_assumed_V".lower()}
     meta = RunMeta(run_id=run.meta.run_id, sample_period_s=run.meta.sample_period_s, extra=extra)
     return Run(run.file, run.format, meta, run.stamps_s, run.power_W, speed_mps=run.speed_mps,
                yaw_rate_radps=run.yaw_rate_radps)  # fmt: skip

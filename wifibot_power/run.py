@@ -32,7 +32,14 @@ class RunMeta:
     payload_kg: float = 0.0
     started_at: datetime | None = None
     sample_period_s: float = PAPER_SAMPLE_PERIOD_S
+    #: the other metadata, by key in lower case: a log's '#' lines are read so (their keys
+    #: are case-insensitive: io/formats/canonical.py), and a run made by hand is kept alike,
+    #: so that `voltage_assumed_V` is found however it was written
     extra: dict[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if any(key != key.lower() for key in self.extra):
+            object.__setattr__(self, "extra", {k.lower(): v for k, v in self.extra.items()})
 
     def as_dict(self) -> dict[str, object]:
         """JSON-safe form (for `inspect --json`)."""

@@ -193,10 +193,7 @@ def current_proxy(run: Run) -> bool:
     wheels, F: V_nom I = u_0 F with u_0 = V_nom r / k_t the motor's no-load speed at the
     ground [m/s] (k_e = k_t). It does not grow with the speed as the electrical power F v /
     eta does (docs/drive-model.md, "Current-only logs")."""
-    # the reader lower-cases metadata keys ('# voltage_assumed_V: 24' is read as
-    # 'voltage_assumed_v'); a Run made by hand may keep the case
-    wanted = VOLTAGE_ASSUMED_KEY.lower()
-    return any(key.lower() == wanted for key in run.meta.extra)
+    return VOLTAGE_ASSUMED_KEY.lower() in run.meta.extra  # (its keys in lower case: RunMeta)
 
 
 def _track_m(run: Run) -> float:
