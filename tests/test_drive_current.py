@@ -348,3 +348,33 @@ def test_a_proxy_models_reasons_give_values_in_the_force_forms_units(monkeypatch
     (reason,) = [r for r in model.not_determined if r.startswith("quadratic_W_per_mps2")]
     assert "held at its physical bound 0" in reason
     assert "W/(m/s))" in reason and "W/(m/s)^2" not in reason
+
+
+def test_a_routes_energy_is_printed_to_its_intervals_decimals(tmp_path, wbpower):
+    """`energy --profile`'s table says each energy to the decimals its 90% interval shows (two
+    significant digits of its width: `fit_tables.interval_digits`), not a fixed 0.1 J; --json
+    keeps every digit."""
+    import json
+
+    from wifibot_power.cli.fit_tables import interval_digits
+
+    model, runs = _proxy_model()
+    path = tmp_path / "model.json"
+    section = model.to_json()
+    section["relative_rms"] *= 100  # a noisier robot's spread: an interval ~200 J wide
+    path.write_text(json.dumps({"drive": section}))
+    route = tmp_path / "route.csv"
+    run = runs[1]
+    route.write_text(
+        "time_s,speed_mps\n"
+        + "".join(f"{t:.3f},{v:.4f}\n" for t, v in zip(run.time_s, run.speed_mps, strict=True))
+    )
+    args = ("energy", "--profile", route, "--model", path)
+    doc = json.loads(wbpower(*args, "--json").stdout)
+    assert doc["pi90_J"] is not None
+    digits = interval_digits(doc["pi90_J"])
+    assert digits == 0  # whole joules, where 0.1 J was printed
+    shown = wbpower(*args).stdout
+    total = next(line for line in shown.splitlines() if "total" in line)
+    assert f"{doc['energy_J']:.{digits}f}" in total
+    assert f"{doc['pi90_J'][0]:.{digits}f}-{doc['pi90_J'][1]:.{digits}f} J" in shown

@@ -254,16 +254,27 @@ def _route(profile: Path, model: str, json_out: bool) -> None:
     if json_out:
         print_json(summary)
         return
+    from wifibot_power.cli.fit_tables import interval_digits
+
     pi = summary["pi90_J"]
-    caption = f"90% interval {pi[0]:.1f}-{pi[1]:.1f} J" if pi else "no held-out interval"
-    rows = [[name, f"{joules:.1f}"] for name, joules in result.terms_J.items()]
+    # every energy to the decimals the route's 90% interval shows, no finer (one decimal
+    # without an interval); the mean power to its interval over the route's duration
+    digits = interval_digits(pi) if pi else 1
+    watts = interval_digits([j / result.time_s for j in pi]) if pi and result.time_s > 0 else 2
+    caption = (
+        f"90% interval {pi[0]:.{digits}f}-{pi[1]:.{digits}f} J" if pi else ("no held-out interval")
+    )
+    rows = [[name, f"{joules:.{digits}f}"] for name, joules in result.terms_J.items()]
     if result.undetermined_terms:  # one share: the logs could not tell these terms apart
         label = f"not determined ({', '.join(result.undetermined_terms)})"
-        rows.append([label, f"{result.undetermined_J:.1f}"])
-    rows.append(["total", f"{result.energy_J:.1f}"])
-    title = f"{result.distance_m:.1f} m in {result.time_s:.1f} s, mean {result.mean_power_W:.2f} W"
+        rows.append([label, f"{result.undetermined_J:.{digits}f}"])
+    rows.append(["total", f"{result.energy_J:.{digits}f}"])
+    title = (
+        f"{result.distance_m:.1f} m in {result.time_s:.1f} s, "
+        f"mean {result.mean_power_W:.{watts}f} W"
+    )
     if run is not None:
-        rows.append(["measured", f"{run.energy_J:.1f}"])
+        rows.append(["measured", f"{run.energy_J:.{digits}f}"])
     columns = (Col("term", "text", key=True), Col("energy J"))
     print_table(stdout, title, columns, rows, caption=caption)
 
