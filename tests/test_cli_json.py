@@ -286,3 +286,22 @@ def test_a_result_json_cannot_hold_is_an_error_document_not_a_traceback(wbpower,
     result = wbpower("energy", "--speed", "0.8", "--dist", "10", "--json")
     doc = _failed(result, "internal error")
     assert "energy_J" not in doc
+
+
+def test_print_json_keeps_what_json_safe_would_make_of_odd_keys_and_leaves(capsys):
+    """A result with a tuple key, a numpy array, a path and NaN prints as `json_safe` makes
+    it; a value nothing can encode is the command's one-line error."""
+    from wifibot_power.cli.json_document import DOCUMENT, JsonDocument, print_json
+
+    document = JsonDocument()
+    token = DOCUMENT.set(document)
+    try:
+        print_json({("a", 1): np.array([1.0, np.nan]), "p": Path("x/y.csv"), "f": np.float32(2)})
+        with pytest.raises(TypeError):
+            print_json({"bad": object()})
+    finally:
+        DOCUMENT.reset(token)
+    document.emit()
+    printed = json.loads(capsys.readouterr().out)
+    assert printed["('a', 1)"] == [1.0, None]
+    assert printed["p"] == "x/y.csv" and printed["f"] == 2.0

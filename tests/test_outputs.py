@@ -20,8 +20,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from wifibot_power.outputs import json_safe, write_atomic, write_json, write_parquet
+from wifibot_power.outputs import (
+    dumps_indented,
+    json_safe,
+    write_atomic,
+    write_json,
+    write_parquet,
+)
 
 CHILD = r"""
 import os, sys, time
@@ -636,3 +644,62 @@ def test_export_out_counts_as_written_and_takes_the_folder_lock(tmp_path, wbpowe
     assert result.stderr.strip().endswith(f"interrupted after writing {out} in full")
     assert out.read_text().strip()
     assert [p.name for p in out.parent.iterdir()] == ["power.yaml"]  # no temporary file
+
+
+class _Label(str):
+    """A str subclass (as a StrEnum): json encodes it as its text."""
+
+
+class _Count(int):
+    """An int subclass (as an IntEnum): json encodes it as its number."""
+
+
+_leaves = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(min_value=-(2**70), max_value=2**70),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.text(max_size=8),
+    st.sampled_from(
+        [
+            np.float64(np.nan),
+            np.float32(1.5),
+            np.int64(-3),
+            np.bool_(True),
+            Path("a/b.csv"),
+            datetime(2026, 11, 28, 1, 2, 3, tzinfo=UTC),
+            np.arange(3.0),
+            np.array([np.inf, 2.0]),
+            _Label("turn"),
+            _Count(7),
+            '\u00e9\u2019\n"\\',
+            np.float64(-0.0),
+        ]
+    ),
+)
+_documents = st.recursive(
+    _leaves,
+    lambda inner: st.one_of(
+        st.lists(inner, max_size=4),
+        st.lists(inner, max_size=3).map(tuple),
+        st.dictionaries(
+            st.one_of(st.text(max_size=5), st.integers(), st.booleans()), inner, max_size=4
+        ),
+    ),
+    max_leaves=30,
+)
+
+
+@settings(max_examples=400, deadline=None)
+@given(_documents)
+def test_dumps_indented_is_json_dumps_of_json_safe_character_for_character(document):
+    """The fast encoder's text is the standard library's, indent 2, for any document: numpy
+    scalars and arrays, NaN and inf, non-ASCII and escaped text, tuples, non-str keys, str
+    and int subclasses, empty containers at any depth."""
+    expected = json.dumps(json_safe(document), indent=2, allow_nan=False)
+    assert dumps_indented(document) == expected
+
+
+def test_dumps_indented_refuses_what_json_cannot_hold():
+    with pytest.raises(TypeError, match="not JSON serializable"):
+        dumps_indented({"a": [1, object()]})

@@ -94,10 +94,56 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
+def dumps_indented(data: object) -> str:
+    """`json.dumps(json_safe(data), indent=2, allow_nan=False)`, character for character, in
+    one pass and ~4x faster: CPython's encoder drops to pure-Python generators whenever
+    `indent` is set (3.11; a `fit --json` of 16,000 held-out trips spent 0.6 s there, and 0.1 s
+    more on the second `json_safe` copy). Strings are encoded by json's own C function, floats
+    by `float.__repr__` as json does; a leaf of any other type goes through `json_safe` and,
+    if still not plain, `json.dumps` itself (which raises TypeError as it would)."""
+    return _indented(data, "\n")
+
+
+def _indented(value: object, pad: str) -> str:
+    """`value` indented by 2 per level; `pad` is a line end and the current indentation."""
+    kind = type(value)
+    if kind is str:
+        return _encode_str(value)
+    if kind is float:
+        return float.__repr__(value) if math.isfinite(value) else "null"
+    if kind is int:
+        return int.__repr__(value)
+    if value is None:
+        return "null"
+    if value is True:
+        return "true"
+    if value is False:
+        return "false"
+    if kind is dict or isinstance(value, dict):
+        if not value:
+            return "{}"
+        inner = pad + "  "
+        items = [_encode_str(str(k)) + ": " + _indented(v, inner) for k, v in value.items()]
+        return "{" + inner + ("," + inner).join(items) + pad + "}"
+    if kind is list or isinstance(value, list | tuple):
+        if not value:
+            return "[]"
+        inner = pad + "  "
+        return "[" + inner + ("," + inner).join([_indented(v, inner) for v in value]) + pad + "]"
+    safe = json_safe(value)
+    if type(safe) in _PLAIN or type(safe) is float or isinstance(safe, dict | list):
+        return _indented(safe, pad)
+    return json.dumps(safe, allow_nan=False)  # a str or int subclass, or TypeError
+
+
+#: json's own string encoder (its C version where built), as `json.dumps` uses by default
+_encode_str = json.encoder.encode_basestring_ascii
+
+
 def json_file(data: object) -> Callable[[Path], None]:
     """What writes `data` as indented JSON (NaN -> null) to a path (`write_atomic`,
     `write_set`); the document is made now, so a value JSON cannot hold fails here."""
-    text = json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n"
+    text = dumps_indented(data) + "\n"
     return lambda path: path.write_text(text, encoding="utf-8")
 
 
