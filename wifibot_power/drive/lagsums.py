@@ -262,15 +262,23 @@ class SumMoments:
         if not clusters.size:
             Q = 2 * self.P
             return np.zeros((0, Q, Q)), np.zeros((0, Q))
-        ww = np.add.reduceat(table.ww[has_rows], starts, axis=0)
-        wy = np.add.reduceat(at.wy[has_rows], starts, axis=0)
+        if has_rows.all():  # the whole fit's: summed in place (not a copy of every trip's)
+            ww = np.add.reduceat(table.ww, starts, axis=0)
+            wy = np.add.reduceat(at.wy, starts, axis=0)
+        else:
+            ww = np.add.reduceat(table.ww[has_rows], starts, axis=0)
+            wy = np.add.reduceat(at.wy[has_rows], starts, axis=0)
         edge_cluster = np.searchsorted(clusters, cluster_of_trip[at.edge_trip[self.edge]])
         W = np.hstack((at.edge_x[self.edge], at.edge_r[self.edge]))
         y = at.edge_y[self.edge]
-        for g in np.unique(edge_cluster):  # a loop over clusters with edge windows
-            rows = edge_cluster == g
-            ww[g] += W[rows].T @ W[rows]
-            wy[g] += W[rows].T @ y[rows]
+        # the edge windows are in trip order, so each cluster's are a stretch: a loop over
+        # the clusters with edge windows, each its own rows (not a mask over all of them)
+        groups, first = np.unique(edge_cluster, return_index=True)
+        assert np.all(np.diff(edge_cluster) >= 0), "edge windows in trip order"
+        for g, start, stop in zip(groups, first, [*first[1:], edge_cluster.size], strict=True):
+            rows = W[start:stop]
+            ww[g] += rows.T @ rows
+            wy[g] += rows.T @ y[start:stop]
         return ww, wy
 
     def seen_spread(self, j: int, idle: bool) -> tuple[int, float, float]:
