@@ -162,12 +162,19 @@ def print_drive_tables(result: FitResult) -> None:
     """The drive model (cli.md, "The drive model"): each term with its 95% interval and unit
     (per surface), the lag, the terms not determined, held-out accuracy and, on step runs,
     its phase powers beside P_acc(v) and P_v(v); nothing when no run had a speed."""
-    from wifibot_power.fit import format_number
-
     drive = result.drive
     if drive is None:
         return
     summary = drive.summary()
+    _print_drive_terms(summary)
+    if summary["heldout"] is not None:
+        _print_drive_heldout(summary["heldout"])
+    _print_drive_beside_paper(result)
+
+
+def _print_drive_terms(summary: dict) -> None:
+    """The terms' table (or, with no term determined, the line saying so), the reasons of
+    the terms not determined and the model's warnings under it."""
     cells = [_term_cells(name, "all", t) for name, t in summary["terms"].items()]
     for surface, named in summary["surfaces"].items():
         cells += [_term_cells(name, surface, t) for name, t in named.items()]
@@ -189,70 +196,80 @@ def print_drive_tables(result: FitResult) -> None:
     else:
         title += " (95% CI: cluster-robust, by run or trip)"
         print_table(stdout, title, _DRIVE_TERM_COLUMNS, cells, notes=notes)
-    held = summary["heldout"]
-    if held is not None:
-        print_table(
-            stdout,
-            "Drive model, held-out accuracy (K-fold by run): each run's energy predicted by "
-            "a model fitted without it",
-            _DRIVE_HELDOUT_COLUMNS,
-            [
-                [
-                    str(len(held["runs"])),
-                    _num(held["mape_pct"], ".2f"),
-                    _num(held["median_ape_pct"], ".2f"),
-                    _num(held["coverage_pi90_pct"], ".1f"),
-                ]
-            ],
-            caption="MAPE: mean absolute % error of run energy; in 90% PI: how often the "
-            "90% prediction interval held the measured energy",
-        )
-    rows = result.drive_vs_paper()
-    if rows:
-        cells = []
-        for row in rows:
-            phases = (
-                ("accel", row.paper_accel_W, row.paper_accel_ci95, row.accel_W, row.accel_ci95,
-                 row.accel_agree),
-                ("cruise", row.paper_cruise_W, row.paper_cruise_ci95, row.cruise_W,
-                 row.cruise_ci95, row.cruise_agree),
-            )  # fmt: skip
-            for phase, paper, paper_ci, power, ci, agree in phases:
-                cells.append(
-                    [
-                        f"{row.speed_mps:g}",
-                        phase,
-                        format_number(paper, 2),
-                        format_number((paper_ci[1] - paper_ci[0]) / 2, 3),
-                        format_number(power, 2),
-                        format_number((ci[1] - ci[0]) / 2, 3),
-                        "yes" if agree else "no",
-                    ]
-                )
-        print_table(
-            stdout,
-            "Drive model on the paper's step runs: its mean phase powers beside the fitted "
-            "P_acc(v) and P_v(v)",
-            _DRIVE_PAPER_COLUMNS,
-            cells,
-            caption="paper fit: the fitted line at v, ± the 95% interval of its mean; drive: "
-            "the drive model's mean power over an acceleration ramp of t_acc(v) or a cruise at "
-            "v, ± its 95% interval; agree: the intervals overlap",
-        )
-        said = []
-        if not all(row.accel_agree and row.cruise_agree for row in rows):
-            said.append(DISAGREE_NOTE)
-        from wifibot_power.diagnose.baseline import heldout_beside_paper
 
-        beside = heldout_beside_paper(result)
-        if beside is not None:
-            said.append(
-                f"held-out run energy, error over each run's motion energy ({beside.n_runs} "
-                f"step runs, K-fold by run): drive model MAPE {beside.drive_mape_pct:.2f}%, "
-                f"the paper's model (Eq. 1-6, diagnose's baseline) {beside.paper_mape_pct:.2f}%"
+
+def _print_drive_heldout(held: dict) -> None:
+    """The held-out accuracy's one-row table."""
+    print_table(
+        stdout,
+        "Drive model, held-out accuracy (K-fold by run): each run's energy predicted by "
+        "a model fitted without it",
+        _DRIVE_HELDOUT_COLUMNS,
+        [
+            [
+                str(len(held["runs"])),
+                _num(held["mape_pct"], ".2f"),
+                _num(held["median_ape_pct"], ".2f"),
+                _num(held["coverage_pi90_pct"], ".1f"),
+            ]
+        ],
+        caption="MAPE: mean absolute % error of run energy; in 90% PI: how often the "
+        "90% prediction interval held the measured energy",
+    )
+
+
+def _print_drive_beside_paper(result: FitResult) -> None:
+    """On step runs: the drive model's mean phase powers beside P_acc(v) and P_v(v), and its
+    held-out run-energy error beside the paper model's."""
+    from wifibot_power.fit import format_number
+
+    rows = result.drive_vs_paper()
+    if not rows:
+        return
+    cells = []
+    for row in rows:
+        phases = (
+            ("accel", row.paper_accel_W, row.paper_accel_ci95, row.accel_W, row.accel_ci95,
+             row.accel_agree),
+            ("cruise", row.paper_cruise_W, row.paper_cruise_ci95, row.cruise_W,
+             row.cruise_ci95, row.cruise_agree),
+        )  # fmt: skip
+        for phase, paper, paper_ci, power, ci, agree in phases:
+            cells.append(
+                [
+                    f"{row.speed_mps:g}",
+                    phase,
+                    format_number(paper, 2),
+                    format_number((paper_ci[1] - paper_ci[0]) / 2, 3),
+                    format_number(power, 2),
+                    format_number((ci[1] - ci[0]) / 2, 3),
+                    "yes" if agree else "no",
+                ]
             )
-        for line in said:
-            stdout.print(line, markup=False, highlight=False)
+    print_table(
+        stdout,
+        "Drive model on the paper's step runs: its mean phase powers beside the fitted "
+        "P_acc(v) and P_v(v)",
+        _DRIVE_PAPER_COLUMNS,
+        cells,
+        caption="paper fit: the fitted line at v, ± the 95% interval of its mean; drive: "
+        "the drive model's mean power over an acceleration ramp of t_acc(v) or a cruise at "
+        "v, ± its 95% interval; agree: the intervals overlap",
+    )
+    said = []
+    if not all(row.accel_agree and row.cruise_agree for row in rows):
+        said.append(DISAGREE_NOTE)
+    from wifibot_power.diagnose.baseline import heldout_beside_paper
+
+    beside = heldout_beside_paper(result)
+    if beside is not None:
+        said.append(
+            f"held-out run energy, error over each run's motion energy ({beside.n_runs} "
+            f"step runs, K-fold by run): drive model MAPE {beside.drive_mape_pct:.2f}%, "
+            f"the paper's model (Eq. 1-6, diagnose's baseline) {beside.paper_mape_pct:.2f}%"
+        )
+    for line in said:
+        stdout.print(line, markup=False, highlight=False)
 
 
 #: Said under the step runs' table where a phase power disagrees (docs/drive-model.md, "The

@@ -73,35 +73,12 @@ def route_energy(
     surface it drives on (the model's only one when None)."""
     time_s = np.asarray(time_s, dtype=np.float64)
     speed_mps = np.asarray(speed_mps, dtype=np.float64)
-    surfaces = [s for s in model.surface_names if s]
-    warnings: list[str] = []
-    if surface is None:
-        surface = surfaces[0] if len(surfaces) == 1 else UNKNOWN_SURFACE
-        if len(surfaces) > 1:
-            raise ValueError(f"the model has several surfaces ({', '.join(surfaces)}): name one")
-    if surface not in model.surface_names:
-        raise ValueError(f"surface '{surface}' is not one the model was fitted on")
+    surface = _route_surface(model, surface)
     period_s = float(np.median(np.diff(time_s))) if time_s.size > 1 else model.window_s
     extra = {"surface": surface}
-    if model.power_kind == "mixed":
-        raise ValueError(
-            "the model was fitted on power logs and current-only logs together: its terms are "
-            "not one robot's power (fit the two kinds apart)"
-        )
+    warnings = _power_kind_warnings(model, speed_mps, yaw_rate_radps)
     if model.power_kind == "current_proxy":  # the route's design in the force form, as fitted
         extra[VOLTAGE_ASSUMED_KEY] = "the model's (its logs held motor currents only)"
-        warnings.append(
-            "the model was fitted on current-only logs (voltage_assumed_V): this energy is "
-            "theirs, a nominal voltage times the motors' current, not the battery's energy"
-        )
-        if yaw_rate_radps is not None and np.any(
-            (np.asarray(yaw_rate_radps) != 0) & (speed_mps != 0)
-        ):
-            warnings.append(
-                "the route's arcs are predicted with a spin's scrubbing moment: the model keeps "
-                "no track width, so the moment's fall with the turning radius (Wong's factor, "
-                "as fitted where the logs gave track_m) is not applied: arcs come out high"
-            )
     meta = RunMeta(run_id="route", sample_period_s=period_s, extra=extra)
     run = Run(
         file="route",
@@ -147,6 +124,43 @@ def route_energy(
         undetermined_J=undetermined_J,
         undetermined_terms=undetermined,
     )
+
+
+def _route_surface(model: DriveModel, surface: str | None) -> str:
+    """The model's surface the route drives on: `surface`, or the model's only one."""
+    surfaces = [s for s in model.surface_names if s]
+    if surface is None:
+        if len(surfaces) > 1:
+            raise ValueError(f"the model has several surfaces ({', '.join(surfaces)}): name one")
+        surface = surfaces[0] if surfaces else UNKNOWN_SURFACE
+    if surface not in model.surface_names:
+        raise ValueError(f"surface '{surface}' is not one the model was fitted on")
+    return surface
+
+
+def _power_kind_warnings(
+    model: DriveModel, speed_mps: np.ndarray, yaw_rate_radps: np.ndarray | None
+) -> list[str]:
+    """What a route's energy from a current-proxy model is (and what it cannot predict of
+    arcs); a model of power and current logs together predicts no route."""
+    if model.power_kind == "mixed":
+        raise ValueError(
+            "the model was fitted on power logs and current-only logs together: its terms are "
+            "not one robot's power (fit the two kinds apart)"
+        )
+    if model.power_kind != "current_proxy":
+        return []
+    warnings = [
+        "the model was fitted on current-only logs (voltage_assumed_V): this energy is "
+        "theirs, a nominal voltage times the motors' current, not the battery's energy"
+    ]
+    if yaw_rate_radps is not None and np.any((np.asarray(yaw_rate_radps) != 0) & (speed_mps != 0)):
+        warnings.append(
+            "the route's arcs are predicted with a spin's scrubbing moment: the model keeps "
+            "no track width, so the moment's fall with the turning radius (Wong's factor, "
+            "as fitted where the logs gave track_m) is not applied: arcs come out high"
+        )
+    return warnings
 
 
 def _shares(
