@@ -370,7 +370,8 @@ def drive_model_rows(trips: list[Trip], held: dict[str, object]) -> list[str]:
         p = np.array([r.predicted_J for r in mine])
         lo = np.array([r.pi90_J[0] for r in mine])
         hi = np.array([r.pi90_J[1] for r in mine])
-        cover = float(np.mean((m >= lo) & (m <= hi)) * 100)
+        scaled = p != 0  # a trip predicted at 0 J has no interval (heldout.py)
+        cover = float(np.mean(((m >= lo) & (m <= hi))[scaled]) * 100) if scaled.any() else np.nan
         cells = " | ".join(fmt(c) for c in (*scores(m, p), cover))
         rows.append(f"| {g} | {len(mine)} | {int(np.count_nonzero(m <= 0))} | {cells} |")
     return rows
