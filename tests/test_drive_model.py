@@ -266,3 +266,23 @@ def test_a_trip_predicted_at_zero_leaves_the_others_intervals_and_coverage_alone
     assert held.coverage_pi90_pct == 100.0  # the four scaled trips, each inside its interval
     assert held.dof == 3
     assert_allclose(held.relative_rms, np.sqrt(np.mean(relative**2)))
+
+
+def test_a_held_out_check_without_a_coverage_says_none_and_loads_back(field_model):
+    """Every held-out trip predicted at 0 J (no term to predict with) leaves no coverage:
+    NaN, null in JSON (not the 0% it read), and model.json's null loads back as NaN, as a
+    null MAPE does (not None, which the figure's format would refuse)."""
+    import dataclasses
+    import math
+
+    from wifibot_power.drive.heldout import _accuracy
+
+    held = _accuracy(
+        ("r",), np.array([0, 4]), [5.0, 6.0, 7.0, 8.0], [0.0] * 4, [0, 1, 2, 3], ["s"] * 4
+    )
+    assert math.isnan(held.coverage_pi90_pct)
+    assert held.as_dict()["coverage_pi90_pct"] is None
+    model = dataclasses.replace(field_model, heldout=held)
+    data = json.loads(json.dumps(model.to_json()))
+    loaded = DriveModel.from_json(data)
+    assert math.isnan(loaded.heldout.coverage_pi90_pct)

@@ -218,7 +218,9 @@ def _accuracy(
     others = np.maximum(n - scaled, 1)
     others_rms = np.sqrt((squares.sum() - squares) / others)
     t95 = t_quantile(0.95, n - 2) if n > 2 else float("inf")
-    half = t95 * others_rms * np.sqrt(1.0 + 1.0 / others) * np.abs(predicted_J)
+    with np.errstate(invalid="ignore"):  # (inf x 0 with too few trips: a point at 0, below)
+        half = t95 * others_rms * np.sqrt(1.0 + 1.0 / others) * np.abs(predicted_J)
+    half[predicted_J == 0] = 0.0
     low, high = predicted_J - half, predicted_J + half
     inside = ((measured_J >= low) & (measured_J <= high))[scaled]
     # a trip of zero net energy has no relative error: left out of the percentages
