@@ -708,9 +708,11 @@ def report() -> str:
         out += same_folds_rows(trips, groups, per[False], per_group)
         for by_group in (True,) if vehicles else (True, False):
             held = per_group if by_group else drive_heldout(runs, trips)
-            how = "one fit per group" if by_group else "one fit for the set"
+            how, whose = (
+                ("one fit per group", "group's") if by_group else ("one fit for the set", "set's")
+            )
             out += [
-                f"\nDrive model{form}, {how} (`fit_drive` on the group's logs, `fit FOLDER "
+                f"\nDrive model{form}, {how} (`fit_drive` on the {whose} logs, `fit FOLDER "
                 "--json`'s held-out trips):\n",
                 "| group | n | E<=0 | MAPE | median | wAPE | cover90 |",
                 "|---|---|---|---|---|---|---|",
