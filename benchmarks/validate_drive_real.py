@@ -2,30 +2,29 @@
 
 Issue 25, step 7 (docs/real-logs.md, "Free driving"). For each converted set (the
 converters in benchmarks/real_logs/ write them to `$WBPOWER_REAL_DRIVE`, default
-/work/real_drive; the F1/10 log is found as its tests find it), every log is read here
-with numpy (not with wbpower's reader, which refuses some of them today: docs), cut into
-**trips** and each trip's energy is predicted by models fitted on the other trips
-(K-fold by trip), so no trip is ever predicted by a fit that saw it.
+/work/real_drive; the F1/10 log is found as its tests find it), every log is read as `fit`
+reads it, cut into **trips** as the drive model cuts them, and each trip's energy is
+predicted by models fitted on the other trips (K-fold by trip), so no trip is ever
+predicted by a fit that saw it, and the drive model's rows are what `wbpower fit FOLDER
+--json` gives (`drive.heldout`; tests/test_real_drive.py holds them equal).
 
-- **Reading**: power = `power_W`, else the sum of each `voltage_*_V` x `current_*_A`
-  pair; speed = `speed_mps`; yaw rate [rad/s] = (`speed_right_mps` - `speed_left_mps`) /
-  `track_m` where the log has both wheel speeds (log-format.md, "Turning"), else
-  `yaw_rate_radps`, else none; the surface from the `surface` metadata or a per-sample
-  `surface` column.
-- **Energy**: each sample's power held until the next stamp, E = sum P_i (t_(i+1) - t_i)
-  (the stamps as logged: the phone apps' bursty rows are not evened out).
-- **Trips**: a log is cut at every **stop**: |speed| < `STOP_SPEED_MPS` and, where the
-  log has a yaw rate, |yaw rate| < `STOP_YAW_RADPS` (a robot spinning in place is not
-  stopped), lasting at least `STOP_S`. A trip runs from the end of one stop to the start of
-  the next (the stops' standing samples belong to no trip), and is cut at any step between
-  stamps over `GAP_S` (time the log does not cover: a paused app, a ride the next day);
-  trips shorter than `MIN_TRIP_S` are dropped. A trip of a log with a per-sample surface
-  takes the surface that holds >= 80% of its time, else it is `mixed`. A trip whose
-  samples are those of a trip already taken (one source log holding another whole:
-  EUC_core's mten4/2 repeats mten4/0) is dropped and counted, so that no trip is held out
-  against its own copy.
-- **Groups**: the surface where the logs name one; for the unicycles the wheel
-  (`vehicle`: each is a different vehicle), surface unknown; else the whole set.
+- **Reading** (`runs_of`): wbpower's reader (`wifibot_power.io.read_log`): power, speed,
+  the yaw rate from the two wheel speeds and `track_m`, the surface, the metadata
+  (`voltage_assumed_V`: a current proxy), as `fit` has them; a log it refuses is left out
+  and said on stderr, and a log that is a piece of another (pipeline/pieces.py) too.
+- **Trips** (`trips_of`): the drive model's own (drive/windows.py): a log is cut in the
+  middle of every stop of at least 3 s with motion on both sides, so a trip holds half of
+  each stop it borders; only trips with a window count (drive/heldout.py). Each trip's
+  samples, from its first window's start to the next trip's, are the baseline's; its name
+  is the model's (`RUN`, `RUN#k` when the log has several). Until the fourteenth session
+  the script cut its own trips (stops' samples left out, trips under 10 s dropped) and
+  gave the drive model each trip as a run: flooring's 5.8 / 4.8% against `fit`'s 7.8 /
+  6.0% (docs/drive-model.md, "Real logs").
+- **Energy** (the baseline's): each sample's power held until the next stamp, E = sum P_i
+  (t_(i+1) - t_i); the drive model's: its windows' (heldout.py).
+- **Groups**: the surface where the logs name one (`mixed` for a log with a surface per
+  sample); for the unicycles the wheel (`vehicle`: each is a different vehicle); else the
+  whole set.
 - **Baseline (a)**, the plain least squares of issue 25: power on an intercept, |v|, v^2
   and max(a*v, 0) (speeding up; braking gets no term), by least squares weighted by each
   sample's held time; `a` is the speed's central difference over `ACCEL_WINDOW_S`
@@ -33,26 +32,28 @@ with numpy (not with wbpower's reader, which refuses some of them today: docs), 
   ("per surface") and on every group of the set together ("pooled", then scored per
   group). Where the set has a yaw rate, also with |yaw rate| as a fifth column ("+|yaw|":
   the naive turning term).
-- **Drive model (b)**: `wifibot_power.drive.fit_drive` when it can be imported (the drive
-  lane writes it); until then the line says "drive model not available yet".
-- **Folds**: K = min(5, trips) folds of a group's trips, dealt by a seeded permutation
-  (seed 0): the same folds for every model ("Same folds": the drive model identified on the
-  plain least squares' folds, `heldout_drive`; its own rows use `fit_drive`'s 10 folds).
+- **Drive model (b)**: `wifibot_power.drive.fit_drive` on the group's logs (one fit per
+  group: `fit` of a surface's folder) and on the set's (`fit` of the set's folder), its
+  held-out trips (`drive_heldout`).
+- **Folds**: the drive model's deal (heldout.py: min(10, trips) folds, a seeded
+  permutation, seed 0), the baseline's too (`folds_of`), so the two predict the same trips
+  from the same others ("The same trips and folds").
 - **The floor** ("Repeated commands", `repeat_rows`): trips of a surface whose mean |speed|
   and |yaw rate| round alike repeat one command; each one's mean power predicted by the
   others' is the best any model of those inputs can do.
 - **The sides of an arc** (`sides_rows`): the two sides' currents of a skid-steer log
   straight, spinning and on arcs: what the force form's arc rule rests on (drive/windows.py
   `_force_form`). **Slopes** (`grade_rows`): the potential energy of each trip's climb over
-  its energy, where the log has a GPS altitude and a mass.
+  its energy, where the log has a GPS altitude and a mass (read with numpy: the reader
+  keeps no altitude; its trips cut at the script's own stops, `moving_stretches`).
 
-Columns: trips (`n`), of which `E<=0` have a net energy <= 0 (unicycles walked or pushed
-at ~0.5 m/s, reading 0 W or a small negative power: left out of the percentages, still in
-the fits), MAPE and median of |predicted - measured|
+Columns: trips (`n`), of which `E<=0` have a net energy <= 0 (unicycles walked or pushed,
+or whose halves of stops hold a charger's negative current: left out of the percentages,
+still in the fits), MAPE and median of |predicted - measured|
 / measured over the held-out trips [%], wAPE = sum |predicted - measured| / sum measured
 [%] (the error on the total energy, weighted as a battery sees it), and the 90% interval
-coverage [%] where the model gives intervals ("-": the baseline gives none). numpy only;
-runs in well under a minute.
+coverage [%] where the model gives intervals ("-": the baseline gives none). Runs in well
+under a minute.
 
     .venv/bin/python benchmarks/validate_drive_real.py               # the tables
     .venv/bin/python benchmarks/validate_drive_real.py --write-docs  # into docs/real-logs.md
@@ -67,6 +68,7 @@ import re
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -74,6 +76,15 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE / "real_logs"))
 from canonical_out import real_drive_root  # noqa: E402  (the converters' shared module)
 
+from wifibot_power.drive.heldout import FOLDS, MIN_TRIPS  # noqa: E402
+from wifibot_power.drive.stats import current_proxy  # noqa: E402
+from wifibot_power.drive.windows import STOP_S as WINDOW_STOP_S  # noqa: E402
+
+if TYPE_CHECKING:
+    from wifibot_power.run import Run
+
+# The slopes' table (`grade_rows`) cuts the unicycles' rides at its own stops (the GPS
+# altitude is a column the reader does not keep):
 #: below this |speed| [m/s] (0.36 km/h) a sample may be standing
 STOP_SPEED_MPS = 0.1
 #: below this |yaw rate| [rad/s] (3 deg/s) a sample may be standing
@@ -87,12 +98,7 @@ GAP_S = 5.0
 MIN_TRIP_S = 10.0
 #: the speed's central difference spans this window [s]
 ACCEL_WINDOW_S = 1.0
-#: folds of K-fold by trip (fewer when a group has fewer trips)
-FOLDS = 5
-#: a group needs this many trips to be scored
-MIN_TRIPS = 3
-#: a per-sample surface holding this share of a trip's time names the trip's surface
-SURFACE_SHARE = 0.8
+#: the drive model's seed of its deal into folds (`fit_drive`'s default)
 SEED = 0
 
 DOCS = HERE.parent / "docs" / "real-logs.md"
@@ -101,16 +107,17 @@ BEGIN, END = "<!-- drive validation: begin -->", "<!-- drive validation: end -->
 
 @dataclass(frozen=True)
 class Trip:
+    """A trip as the drive model cuts it (`trips_of`), with its samples for the baseline."""
+
+    #: the drive model's name for it (drive/heldout.py): the run's id, `#k` when it has several
     run_id: str
     group: str
     time_s: np.ndarray
     power_W: np.ndarray
     speed_mps: np.ndarray
     yaw_radps: np.ndarray | None
-    #: the log's `voltage_assumed_V` metadata: its power is a current proxy (drive/stats.py)
-    voltage_assumed: str | None = None
-    #: the log's `track_m` metadata [m] (its wheels' track: the turning radius over it)
-    track_m: str | None = None
+    #: its run's index in the set's runs (`runs_of`)
+    run: int = -1
 
     @property
     def held_s(self) -> np.ndarray:
@@ -200,35 +207,67 @@ def moving_stretches(
     return [(a, b) for a, b in bounds if b - a >= 2 and end_time[b - 1] - time_s[a] >= MIN_TRIP_S]
 
 
-def trips_of(path: Path, set_name: str) -> list[Trip]:
-    meta, cols = read_log(path)
-    t, p, v = cols["time_s"], power_of(cols), cols["speed_mps"]
-    yaw = yaw_of(meta, cols)
-    fine = np.isfinite(p) & np.isfinite(v) & np.isfinite(t)
-    if yaw is not None:
-        fine &= np.isfinite(yaw)
-    if not fine.all():
-        raise SystemExit(f"{path}: {np.count_nonzero(~fine)} sample(s) without a number")
-    group = meta.get("surface") or meta.get("vehicle") or set_name
+def runs_of(files: list[Path]) -> list[Run]:
+    """Each file as wbpower reads it (`wifibot_power.io.read_log`, what `fit` reads): a file
+    the reader refuses is left out, as `fit` skips it, and said on stderr."""
+    from wifibot_power.errors import WbpowerError  # noqa: PLC0415
+    from wifibot_power.io import read_log as read_run  # noqa: PLC0415
+
+    runs = []
+    for path in files:
+        try:
+            runs.append(read_run(path))
+        except WbpowerError as exc:
+            print(f"left out: {str(exc).splitlines()[0]}", file=sys.stderr)
+    return runs
+
+
+def group_of(run: Run, set_name: str) -> str:
+    """The run's group: its `surface` metadata (`mixed` when a column names a surface per
+    sample: BorealTC's MIXED run, fitted as its own folder is), else its `vehicle`, else the
+    set."""
+    extra = run.meta.extra
+    if run.surface_index is not None:
+        return "mixed"
+    return extra.get("surface") or extra.get("vehicle") or set_name
+
+
+def trips_of(run: Run, set_name: str, index: int = -1) -> list[Trip]:
+    """The run's trips as the drive model cuts them (drive/windows.py: in the middle of every
+    stop of at least `windows.STOP_S` with motion on both sides) and holds them out
+    (drive/heldout.py: only trips with a window), each with its samples, named as the
+    model's held-out rows name them, so that the baseline and the drive model predict the
+    same trips and `fit FOLDER --json`'s numbers are these. `index`: the run's in the set."""
+    from wifibot_power.drive.stats import drive_stats  # noqa: PLC0415
+    from wifibot_power.drive.windows import run_windows  # noqa: PLC0415
+
+    stats = drive_stats(run)
+    windows = run_windows(stats) if stats is not None else None
+    if windows is None or not windows.count:
+        return []
+    _, defined = windows.power_at(0)
+    usable = windows.ok & defined
+    # each trip's first window; its samples from that window's start to the next trip's
+    first = np.flatnonzero(np.r_[True, np.diff(windows.trip) > 0])
+    t = run.time_s
+    starts_s = t[0] + first[1:] * (windows.n * stats.bin_s)
+    bounds = [0, *np.searchsorted(t, starts_s - 1e-9), t.size]
+    several = int(windows.trip[-1]) > 0
+    group = group_of(run, set_name)
+    yaw = run.yaw_rate_radps
     out = []
-    for k, (a, b) in enumerate(moving_stretches(t, v, yaw)):
-        g = group
-        if "surface" in cols:
-            held = np.diff(t[a : b + 1]) if b < t.size else np.append(np.diff(t[a:b]), 0)
-            labels, inverse = np.unique(cols["surface"][a:b], return_inverse=True)
-            share = np.bincount(inverse, weights=held[: b - a]) / max(np.sum(held), 1e-12)
-            g = labels[np.argmax(share)] if share.max() >= SURFACE_SHARE else "mixed"
-            g = g or "unlabelled"
+    for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
+        if not usable[windows.trip == k].any():
+            continue
         out.append(
             Trip(
-                f"{meta.get('run_id', path.stem)}#{k}",
-                g,
+                f"{run.meta.run_id}#{k + 1}" if several else run.meta.run_id,
+                group,
                 t[a:b],
-                p[a:b],
-                v[a:b],
+                run.power_W[a:b],
+                run.speed_mps[a:b],
                 None if yaw is None else yaw[a:b],
-                meta.get("voltage_assumed_V"),
-                meta.get("track_m"),
+                index,
             )
         )
     return out
@@ -259,7 +298,9 @@ def predict_ls(coef: np.ndarray, trip: Trip, with_yaw: bool) -> float:
 
 
 def folds_of(n: int) -> np.ndarray:
-    """The fold of each of n trips: a seeded deal into min(FOLDS, n) folds."""
+    """The fold of each of n trips: a seeded deal into min(FOLDS, n) folds, as the drive
+    model deals its trips (drive/heldout.py: the same seed, count and permutation), so that
+    the baseline's folds are the model's."""
     k = min(FOLDS, n)
     order = np.random.default_rng(SEED).permutation(n)
     fold = np.empty(n, dtype=int)
@@ -294,148 +335,82 @@ def scores(measured: np.ndarray, predicted: np.ndarray) -> tuple[float, float, f
     )
 
 
-def as_run(trip: Trip):
-    """The trip as a wbpower `Run` (the fields the drive model reads: stamps, power, speed,
-    and the yaw rate and surface where this version of `Run` has those fields)."""
-    from dataclasses import fields
+def drive_heldout(runs: list[Run], trips: list[Trip]) -> dict[str, object] | None:
+    """`fit_drive`'s held-out trips of `runs` (whole runs, as `fit` gives them), by trip id:
+    each `HeldOutRun` (measured and predicted energy, 90% interval). None when it has no
+    held-out accuracy. Its trips are `trips` (the same cut, `trips_of`); a trip of one and
+    not the other is said on stderr (the tables would not compare the same trips)."""
+    from wifibot_power.drive import fit_drive  # noqa: PLC0415
 
-    from wifibot_power.run import Run, RunMeta
-
-    step = float(np.median(np.diff(trip.time_s)))
-    extra_meta = {"surface": trip.group}
-    if trip.voltage_assumed is not None:
-        extra_meta["voltage_assumed_V"] = trip.voltage_assumed
-    if trip.track_m is not None:
-        extra_meta["track_m"] = trip.track_m
-    meta = RunMeta(run_id=trip.run_id, mode="motion", sample_period_s=step, extra=extra_meta)
-    extra = {}
-    if "yaw_rate_radps" in {f.name for f in fields(Run)} and trip.yaw_radps is not None:
-        extra["yaw_rate_radps"] = trip.yaw_radps
-    return Run(
-        file=trip.run_id,
-        format="wbpower-csv",
-        meta=meta,
-        stamps_s=trip.time_s - trip.time_s[0],
-        power_W=trip.power_W,
-        speed_mps=trip.speed_mps,
-        **extra,
-    )
-
-
-def heldout_drive(trips: list[Trip]) -> tuple[np.ndarray, np.ndarray]:
-    """Each trip's measured and predicted energy [J] over its windows, the drive model
-    identified (lag, determined terms, coefficients: `fit_drive`'s steps, without its own
-    held-out loop) on the other folds of `folds_of`: the plain least squares' folds, so the
-    two are compared on the same partition. NaN where a trip has no window."""
-    from wifibot_power.drive.identify import identify, lag_search
-    from wifibot_power.drive.stats import drive_stats
-    from wifibot_power.drive.windows import assemble, run_windows
-
-    runs = [run_windows(drive_stats(as_run(tr))) for tr in trips]
-    surfaces = tuple(sorted({s for rw in runs for s in rw.stats.surfaces}))
-    fold = folds_of(len(trips))
-    measured, predicted = np.full(len(trips), np.nan), np.full(len(trips), np.nan)
-    for f in np.unique(fold):
-        train = [rw for rw, g in zip(runs, fold, strict=True) if g != f and rw.count]
-        lag_bins, _ = lag_search(train, surfaces)
-        windows = assemble(train, lag_bins, surfaces)
-        clusters = windows.run if len(train) >= 10 else windows.trip
-        model = identify(windows, lag_bins, clusters)
-        for i in np.flatnonzero(fold == f):
-            if not runs[i].count or not model.kept.any():
-                continue  # no window, or no term determined (e.g. a bursty phone app's
-                # stamps: every window holds a drop-out): no prediction
-            held = assemble([runs[i]], lag_bins, surfaces)
-            measured[i] = float(np.sum(held.power_W)) * held.window_s
-            predicted[i] = float(np.sum(model.predict_W(held.design))) * held.window_s
-    return measured, predicted
-
-
-def drive_model_rows(trips: list[Trip], by_vehicle: bool) -> list[str] | None:
-    """The drive model's held-out rows (group, n, E<=0, MAPE, median, wAPE, cover90), or None
-    when `wifibot_power.drive.fit_drive` cannot be imported yet. Each trip is given to it as
-    a run (so its held-out units are these trips, as the baseline's are); its folds and any
-    further cutting are its own (K-fold by trip, seed 0). Surfaces are its own per-surface
-    terms: one fit per set; a set of different vehicles (the unicycles) gets one fit per
-    vehicle, as the baseline's "per group" does."""
-    try:
-        from wifibot_power.drive import fit_drive
-    except ImportError:
+    model = fit_drive(runs)
+    if model is None or model.heldout is None:
         return None
-    fits = (
-        [[tr for tr in trips if tr.group == g] for g in sorted({tr.group for tr in trips})]
-        if by_vehicle
-        else [trips]
-    )
-    held = []
-    for members in fits:
-        model = fit_drive([as_run(tr) for tr in members])
-        if model is None or model.heldout is None:
-            continue
-        group_of = {tr.run_id: tr.group for tr in members}
-        held += [(group_of.get(r.run_id, r.surface), r) for r in model.heldout.runs]
+    held = {r.run_id: r for r in model.heldout.runs}
+    mine = {tr.run_id for tr in trips}
+    if set(held) != mine:
+        print(
+            f"the drive model held out {len(held)} trips, the baseline's cut has {len(mine)}: "
+            f"{sorted(set(held) ^ mine)[:5]}",
+            file=sys.stderr,
+        )
+    return held
+
+
+def drive_model_rows(trips: list[Trip], held: dict[str, object]) -> list[str]:
+    """The drive model's held-out rows (group, n, E<=0, MAPE, median, wAPE, cover90) per group
+    of `trips` and `all`, from `drive_heldout`'s trips."""
     if not held:
         return [f"| all | 0 | - | no held-out accuracy from the drive model ({len(trips)} trips) |"]
+    group_of_trip = {tr.run_id: tr.group for tr in trips}
+    pairs = [(group_of_trip.get(key, r.surface), r) for key, r in held.items()]
     rows = []
-    for g in [*sorted({g for g, _ in held}), "all"]:
-        mine = [r for h, r in held if g in ("all", h)]
+    for g in [*sorted({g for g, _ in pairs}), "all"]:
+        mine = [r for h, r in pairs if g in ("all", h)]
         m = np.array([r.measured_J for r in mine])
         p = np.array([r.predicted_J for r in mine])
         lo = np.array([r.pi90_J[0] for r in mine])
         hi = np.array([r.pi90_J[1] for r in mine])
-        cover = float(np.mean((m >= lo) & (m <= hi)) * 100)
+        scaled = p != 0  # a trip predicted at 0 J has no interval (heldout.py)
+        cover = float(np.mean(((m >= lo) & (m <= hi))[scaled]) * 100) if scaled.any() else np.nan
         cells = " | ".join(fmt(c) for c in (*scores(m, p), cover))
         rows.append(f"| {g} | {len(mine)} | {int(np.count_nonzero(m <= 0))} | {cells} |")
     return rows
 
 
-def same_folds_rows(trips: list[Trip], groups: list[str], ls_per_group: np.ndarray) -> list[str]:
-    """The plain least squares and the drive model, each fitted per group on the same folds
-    (`folds_of`), side by side: each one's errors over its own measure of a trip's energy
-    (the samples' for the least squares, the windows' for the drive model)."""
+def same_folds_rows(
+    trips: list[Trip], groups: list[str], ls_per_group: np.ndarray, held: dict[str, object]
+) -> list[str]:
+    """The plain least squares and the drive model, each fitted per group, side by side on the
+    same trips and folds (the model's: `trips_of`, `folds_of`): each one's errors over its own
+    measure of a trip's energy (the samples' for the least squares, the windows' for the drive
+    model)."""
     rows = []
-    pooled: dict[str, list[np.ndarray]] = {"m": [], "d": [], "lm": [], "lp": []}
-    for g in groups:
-        idx = [i for i, tr in enumerate(trips) if tr.group == g]
-        if len(idx) < MIN_TRIPS:
+    for g in [*groups, "all"]:
+        idx = [
+            i
+            for i, tr in enumerate(trips)
+            if g in ("all", tr.group) and np.isfinite(ls_per_group[i])
+        ]
+        if not idx or (g == "all" and len(rows) < 2):
             continue
-        measured, predicted = heldout_drive([trips[i] for i in idx])
-        ls_measured = np.array([trips[i].energy_J for i in idx])
-        ls_predicted = ls_per_group[idx]
-        pooled["m"].append(measured)
-        pooled["d"].append(predicted)
-        pooled["lm"].append(ls_measured)
-        pooled["lp"].append(ls_predicted)
-        rows.append((g, len(idx), ls_measured, ls_predicted, measured, predicted))
+        ls_m = np.array([trips[i].energy_J for i in idx])
+        drive = [held.get(trips[i].run_id) for i in idx]
+        m = np.array([np.nan if r is None else r.measured_J for r in drive])
+        d = np.array([np.nan if r is None else r.predicted_J for r in drive])
+        known = np.isfinite(m) & np.isfinite(d) & (m > 0)
+        cells = [*scores(ls_m, ls_per_group[idx]), int(known.sum()), *scores(m[known], d[known])]
+        text = " | ".join(str(c) if isinstance(c, int) else fmt(c) for c in cells)
+        rows.append(f"| {g} | {len(idx)} | {text} |")
     if not rows:
         return []
-    join = {k: np.concatenate(v) for k, v in pooled.items()}
-    rows.append(("all", join["m"].size, join["lm"], join["lp"], join["m"], join["d"]))
-    out = [
-        "\nSame folds, fitted per group (the plain least squares beside the drive model; "
-        "MAPE / median / wAPE [%]; the drive model's n: trips it predicts, with a window "
-        "and a term determined):\n",
+    return [
+        "\nThe same trips and folds, fitted per group (the plain least squares beside the drive "
+        "model: `fit FOLDER --json`'s held-out trips; MAPE / median / wAPE [%]; the drive "
+        "model's n: trips it predicts):\n",
         "| group | n | LS: MAPE | median | wAPE | drive: n | MAPE | median | wAPE |",
         "|---|---|---|---|---|---|---|---|---|",
+        *rows,
     ]
-    for g, n, lm, lp, m, d in rows:
-        known = np.isfinite(m) & np.isfinite(d) & (m > 0)
-        cells = [*scores(lm, lp), int(known.sum()), *scores(m[known], d[known])]
-        text = " | ".join(str(c) if isinstance(c, int) else fmt(c) for c in cells)
-        out.append(f"| {g} | {n} | {text} |")
-    return out
-
-
-def _meta_of(path: Path) -> dict[str, str]:
-    """A converted file's `#` metadata alone (the lines before its header)."""
-    meta = {}
-    with gzip.open(path, "rt") as fh:
-        for line in fh:
-            if not line.startswith("#"):
-                break
-            key, _, value = line[1:].partition(":")
-            meta[key.strip()] = value.strip()
-    return meta
 
 
 def sets() -> dict[str, list[Path]]:
@@ -631,19 +606,16 @@ def report() -> str:
             "'Free driving')\n"
         )
     out.append(
-        f"Trips: cut at stops (|speed| < {STOP_SPEED_MPS} m/s and |yaw| < {STOP_YAW_RADPS} "
-        f"rad/s) of >= {STOP_S:g} s, kept when >= {MIN_TRIP_S:g} s; "
-        f"K = {FOLDS}-fold by trip (seed {SEED}); errors of held-out trip energies [%]. In "
-        f"`all`, the per-group columns cover the groups of >= {MIN_TRIPS} trips.\n"
+        "Logs read by wbpower's reader (as `fit` reads them: a log it refuses is left out), "
+        "cut into trips by the drive model (in the middle of every stop of >= "
+        f"{WINDOW_STOP_S:g} s with motion on both sides; trips with a window); K = "
+        f"min({FOLDS}, trips)-fold by trip, the drive model's deal (seed {SEED}); errors of "
+        f"held-out trip energies [%]. In `all`, the per-group columns cover the groups of >= "
+        f"{MIN_TRIPS} trips.\n"
     )
     for name, files in found.items():
-        trips, seen, copies = [], set(), 0
-        for tr in (tr for f in files for tr in trips_of(f, name)):
-            key = (tr.group, tr.power_W.size, tr.power_W.tobytes(), tr.speed_mps.tobytes())
-            copies += key in seen
-            if key not in seen:
-                seen.add(key)
-                trips.append(tr)
+        runs = runs_of(files)
+        trips = [tr for k, run in enumerate(runs) for tr in trips_of(run, name, k)]
         has_yaw = all(tr.yaw_radps is not None for tr in trips)
         groups = sorted({tr.group for tr in trips})
         measured_all = np.array([tr.energy_J for tr in trips])
@@ -652,9 +624,7 @@ def report() -> str:
         hours = sum(tr.time_s[-1] - tr.time_s[0] for tr in trips) / 3600
         out.append(
             f"#### {name}\n\n{len(files)} logs, {len(trips)} trips, {hours:.2f} h of trips, "
-            f"{measured_all.sum() / 3.6e6:.3f} kWh"
-            + (f"; {copies} trip(s) repeated in another log dropped" if copies else "")
-            + ".\n"
+            f"{measured_all.sum() / 3.6e6:.3f} kWh" + ".\n"
         )
         # each trip's held-out prediction: fitted within its group, and on the whole set
         per = {False: np.full(len(trips), np.nan), True: np.full(len(trips), np.nan)}
@@ -723,25 +693,30 @@ def report() -> str:
                 *sides,
             ]
         vehicles = any(tr.group != name for tr in trips) and all(
-            "vehicle" in _meta_of(f) for f in files
+            "vehicle" in run.meta.extra for run in runs
         )
-        proxy = any(tr.voltage_assumed is not None for tr in trips)
+        proxy = any(current_proxy(run) for run in runs)
         form = " (force form: a current proxy, drive/stats.py)" if proxy else ""
-        # one fit per group (every term per surface, as "LS per group"); and, where the
-        # groups are surfaces of one robot, one fit for the set (per-surface rolling and
-        # turning terms, the rest shared: what `fit` does with a folder of them)
-        out += same_folds_rows(trips, groups, per[False])
+        # one fit per group (every term per surface, as "LS per group": `fit` on a surface's
+        # folder); and, where the groups are surfaces of one robot, one fit for the set
+        # (per-surface rolling and turning terms, the rest shared: `fit` on the set's folder)
+        per_group: dict[str, object] = {}
+        for g in groups:
+            members = [trips[i] for i in range(len(trips)) if trips[i].group == g]
+            held = drive_heldout([runs[k] for k in sorted({tr.run for tr in members})], members)
+            per_group.update(held or {})
+        out += same_folds_rows(trips, groups, per[False], per_group)
         for by_group in (True,) if vehicles else (True, False):
-            drive = drive_model_rows(trips, by_vehicle=by_group)
-            if drive is None:
-                out.append("\nDrive model: drive model not available yet\n")
-                break
-            how = "one fit per group" if by_group else "one fit for the set"
+            held = per_group if by_group else drive_heldout(runs, trips)
+            how, whose = (
+                ("one fit per group", "group's") if by_group else ("one fit for the set", "set's")
+            )
             out += [
-                f"\nDrive model{form}, {how} (`fit_drive`, each trip a run; its own folds):\n",
+                f"\nDrive model{form}, {how} (`fit_drive` on the {whose} logs, `fit FOLDER "
+                "--json`'s held-out trips):\n",
                 "| group | n | E<=0 | MAPE | median | wAPE | cover90 |",
                 "|---|---|---|---|---|---|---|",
-                *drive,
+                *drive_model_rows(trips, held or {}),
                 "",
             ]
     return "\n".join(out) + "\n"

@@ -241,3 +241,48 @@ def test_logs_without_a_surface_give_the_surface_terms_as_shared_ones():
     assert model.surfaces == {}
     assert {"rolling_W_per_mps", "turning_Nm"} <= set(model.terms)
     assert model.terms["rolling_W_per_mps"] == named.surfaces["asphalt"]["rolling_W_per_mps"]
+
+
+def test_a_trip_predicted_at_zero_leaves_the_others_intervals_and_coverage_alone():
+    """A held-out trip predicted at 0 J (its windows standing: a unicycle's stop whose
+    motion windows all hold drop-outs) has no relative error: it sets no interval and is not
+    in the coverage. Its 0/0 made every other trip's interval NaN and the coverage 0% (fit of
+    EUC_core's apex folder: 28 of 36 trips at 0 J, `coverage_pi90_pct` 0.0, every `pi90_J`
+    null)."""
+    from wifibot_power.drive.heldout import _accuracy
+    from wifibot_power.stats import t_quantile
+
+    measured = [100.0, 110.0, 90.0, 105.0, 0.0]
+    predicted = [100.0, 100.0, 100.0, 100.0, 0.0]
+    held = _accuracy(("r",), np.array([0, 5]), measured, predicted, [0, 1, 2, 3, 4], ["s"] * 5)
+    relative = np.array([0.0, 0.1, -0.1, 0.05])  # (measured - predicted) / predicted
+    t95 = t_quantile(0.95, 2)  # 4 trips with a relative error: n - 2
+    by_id = {r.run_id: r for r in held.runs}
+    for k, rel in enumerate(relative):
+        others = np.sqrt((np.sum(relative**2) - rel**2) / 3)
+        half = t95 * others * np.sqrt(1 + 1 / 3) * 100.0
+        assert_allclose(by_id[f"r#{k + 1}"].pi90_J, (100.0 - half, 100.0 + half))
+    assert by_id["r#5"].pi90_J == (0.0, 0.0)
+    assert held.coverage_pi90_pct == 100.0  # the four scaled trips, each inside its interval
+    assert held.dof == 3
+    assert_allclose(held.relative_rms, np.sqrt(np.mean(relative**2)))
+
+
+def test_a_held_out_check_without_a_coverage_says_none_and_loads_back(field_model):
+    """Every held-out trip predicted at 0 J (no term to predict with) leaves no coverage:
+    NaN, null in JSON (not the 0% it read), and model.json's null loads back as NaN, as a
+    null MAPE does (not None, which the figure's format would refuse)."""
+    import dataclasses
+    import math
+
+    from wifibot_power.drive.heldout import _accuracy
+
+    held = _accuracy(
+        ("r",), np.array([0, 4]), [5.0, 6.0, 7.0, 8.0], [0.0] * 4, [0, 1, 2, 3], ["s"] * 4
+    )
+    assert math.isnan(held.coverage_pi90_pct)
+    assert held.as_dict()["coverage_pi90_pct"] is None
+    model = dataclasses.replace(field_model, heldout=held)
+    data = json.loads(json.dumps(model.to_json()))
+    loaded = DriveModel.from_json(data)
+    assert math.isnan(loaded.heldout.coverage_pi90_pct)

@@ -74,7 +74,9 @@ class HeldOut:
             "runs": [run.as_dict() for run in self.runs],
             "mape_pct": None if math.isnan(self.mape_pct) else self.mape_pct,
             "median_ape_pct": None if math.isnan(self.median_ape_pct) else self.median_ape_pct,
-            "coverage_pi90_pct": self.coverage_pi90_pct,
+            "coverage_pi90_pct": (
+                None if math.isnan(self.coverage_pi90_pct) else self.coverage_pi90_pct
+            ),
         }
 
 
@@ -203,15 +205,24 @@ def _accuracy(
 ) -> HeldOut:
     measured_J = np.array(measured)
     predicted_J = np.array(predicted)
-    relative = (measured_J - predicted_J) / predicted_J
-    n = relative.size
-    squares = np.square(relative)
+    # a trip predicted at 0 J (its windows standing, every column 0: a unicycle's stop whose
+    # motion windows all hold drop-outs) has no relative error: it sets no interval and is
+    # not counted in the coverage. (Its 0/0 made every other trip's interval NaN, and
+    # `coverage_pi90_pct` 0%: EUC_core's apex folder through `fit`)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        relative = (measured_J - predicted_J) / predicted_J
+    scaled = np.isfinite(relative)
+    n = int(np.count_nonzero(scaled))
+    squares = np.where(scaled, np.square(relative), 0.0)
     # each trip's interval from the other trips' errors (leave its own out)
-    others_rms = np.sqrt((squares.sum() - squares) / (n - 1))
+    others = np.maximum(n - scaled, 1)
+    others_rms = np.sqrt((squares.sum() - squares) / others)
     t95 = t_quantile(0.95, n - 2) if n > 2 else float("inf")
-    half = t95 * others_rms * np.sqrt(1.0 + 1.0 / (n - 1)) * np.abs(predicted_J)
+    with np.errstate(invalid="ignore"):  # (inf x 0 with too few trips: a point at 0, below)
+        half = t95 * others_rms * np.sqrt(1.0 + 1.0 / others) * np.abs(predicted_J)
+    half[predicted_J == 0] = 0.0
     low, high = predicted_J - half, predicted_J + half
-    inside = (measured_J >= low) & (measured_J <= high)
+    inside = ((measured_J >= low) & (measured_J <= high))[scaled]
     # a trip of zero net energy has no relative error: left out of the percentages
     with np.errstate(divide="ignore", invalid="ignore"):
         ape = np.abs(measured_J - predicted_J) / np.abs(measured_J) * 100.0
@@ -237,7 +248,7 @@ def _accuracy(
         runs=tuple(rows),
         mape_pct=float(np.mean(ape)) if ape.size else float("nan"),
         median_ape_pct=float(np.median(ape)) if ape.size else float("nan"),
-        coverage_pi90_pct=float(np.mean(inside) * 100.0),
-        relative_rms=float(np.sqrt(np.mean(squares))),
+        coverage_pi90_pct=float(np.mean(inside) * 100.0) if n else float("nan"),
+        relative_rms=float(np.sqrt(np.sum(squares) / max(n, 1))),
         dof=n - 1,
     )

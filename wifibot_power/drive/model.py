@@ -185,7 +185,9 @@ class DriveModel:
                 median_ape_pct=(
                     math.nan if held["median_ape_pct"] is None else held["median_ape_pct"]
                 ),
-                coverage_pi90_pct=held["coverage_pi90_pct"],
+                coverage_pi90_pct=(
+                    math.nan if held["coverage_pi90_pct"] is None else held["coverage_pi90_pct"]
+                ),
                 relative_rms=data["relative_rms"],
                 dof=data["relative_dof"],
             )
