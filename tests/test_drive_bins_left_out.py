@@ -122,3 +122,49 @@ def test_the_held_out_traces_are_the_same_from_bins_read_again(logs) -> None:
         assert (a.run_id, a.surface) == (b.run_id, b.surface)
         for name in ("time_s", "measured_W", "predicted_W"):
             assert np.array_equal(getattr(a, name), getattr(b, name))
+
+
+def test_a_run_at_risk_sends_its_windows_and_the_fit_takes_them(monkeypatch) -> None:
+    """A run at risk (its power a constant: its own least squares leaves nothing) sends the
+    windows its worker made with its bins, without their cached sums over the bins, and the
+    parent's lag search over the windows takes them instead of making them again: the same
+    model as from bins alone. A run not at risk sends none."""
+    import wifibot_power.drive.model as model_module
+    from wifibot_power.drive.windows import run_windows
+    from wifibot_power.models.drive import DriveFamily
+
+    runs = simulate_free(dataclasses.replace(CONFIG, runs_per_surface=2))
+    exact = []
+    for run in runs:
+        stats = drive_stats(as_run(run))
+        power_W = np.where(np.isnan(stats.power_W), np.nan, 12.0 + 0.0 * stats.speed_mps)
+        exact.append(dataclasses.replace(stats, power_W=power_W))
+    family = DriveFamily()
+    monkeypatch.setattr("wifibot_power.drive.stats.drive_stats", lambda run, seg: run)
+    sent = [pickle.loads(pickle.dumps(family.run_stats(s, None).without_bins())) for s in exact]
+    for worker, stats in zip(sent, exact, strict=True):
+        assert worker.windows is not None and "_power_sums" not in vars(worker.windows)
+        made = run_windows(stats)
+        for field in ("abs_speed_mps", "av_up_m2ps3", "ok", "trip", "moving"):
+            np.testing.assert_array_equal(getattr(worker.windows, field), getattr(made, field))
+    searched = []
+
+    class Spy(model_module.WindowSearch):
+        def __init__(self, runs, surfaces) -> None:
+            searched.append(runs)
+            super().__init__(runs, surfaces)
+
+    monkeypatch.setattr(model_module, "WindowSearch", Spy)
+    taken = FAMILY.fit(sent)
+    monkeypatch.undo()
+    assert len(searched) == 1  # the sums cancel: the lag is searched over the windows...
+    assert all(rw is w.windows for rw, w in zip(searched[0], sent, strict=True))  # ...sent
+    assert taken.summary() == fit_from_bins(exact).summary()
+    noisy = drive_stats(as_run(runs[0]))
+    assert WorkerStats(noisy, sums_of(noisy), run_windows(noisy)).windows is None
+
+
+def fit_from_bins(stats):
+    from wifibot_power.drive.model import fit_drive_stats
+
+    return fit_drive_stats(stats)
