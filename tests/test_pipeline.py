@@ -166,3 +166,32 @@ def test_preload_imports_the_drive_package_only_for_a_plan_with_model_statistics
             [sys.executable, "-c", code.format(plan=plan)], capture_output=True, text=True
         )
         assert out.stdout.split() == loaded.split(), out.stderr
+
+
+def test_the_benchmarks_switch_for_new_work_switches_it_off() -> None:
+    """benchmarks/new_work_off.py (issue 24's timing of the code without the work c6b8187 did
+    not do): with `drive` off, `fit` of step runs has no drive model; with nothing off, the
+    same command has one; an unknown switch is refused."""
+    import os
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    script = [sys.executable, str(root / "benchmarks" / "new_work_off.py")]
+    command = ["fit", str(root / "sample_logs"), "--json", "--jobs", "1"]
+
+    def drive(off: str) -> object:
+        done = subprocess.run(
+            script + command,
+            capture_output=True,
+            text=True,
+            env={**os.environ, "WBPOWER_OFF": off},
+        )
+        return json.loads(done.stdout).get("drive")
+
+    assert drive("") is not None
+    assert drive("check,drive,pieces") is None
+    refused = subprocess.run(
+        script + command, capture_output=True, text=True, env={**os.environ, "WBPOWER_OFF": "x"}
+    )
+    assert refused.returncode != 0 and "unknown" in refused.stderr
