@@ -179,7 +179,7 @@ class WindowSearch:
     def search(self, only: np.ndarray | None) -> tuple[float, np.ndarray]:
         """`lag_search` on the stacked windows `only` keeps (None: every one)."""
         stacked, whole = self.stacked, self.whole
-        common = self.defined if only is None else self.defined & only
+        common = self.defined if only is None else self.defined & np.asarray(only, dtype=bool)
         rows = common[self.defined]
         # every lag tried keeps the same windows (`common`; a fraction of a bin between two
         # whole lags tried): the design is made and factorised once, only the response moves
