@@ -25,7 +25,7 @@ from wifibot_power.drive.lagsums import SumsTable
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
 from wifibot_power.drive.sums import RunSums, sums_of
 from wifibot_power.drive.terms import TERM_BY_NAME, TERMS, term_unit
-from wifibot_power.drive.windows import WINDOW_S, RunWindows, assemble, run_windows
+from wifibot_power.drive.windows import WINDOW_S, assemble, run_windows
 from wifibot_power.power_kind import PROXY_WARNING, power_kind_of
 
 if TYPE_CHECKING:
@@ -301,19 +301,10 @@ def _window_search(
 
     def search(train: np.ndarray | None) -> tuple[float, np.ndarray]:
         if not made:
-            made.append(WindowSearch([_windows_of(s, window_s) for s in stats], surfaces))
+            made.append(WindowSearch([run_windows(s, window_s) for s in stats], surfaces))
         return made[0].search_trips(train, trip_base)
 
     return search
-
-
-def _windows_of(stats: DriveStats, window_s: float) -> RunWindows:
-    """`run_windows(stats, window_s)`: as the run's worker made them when it sent them (a run
-    at risk, models/drive.py `WorkerStats.windows`), else made here."""
-    sent = getattr(stats, "windows", None)
-    if sent is not None and sent.n == max(int(round(window_s / stats.bin_s)), 1):
-        return sent
-    return run_windows(stats, window_s)
 
 
 def _fit_from_windows(

@@ -36,7 +36,6 @@ if TYPE_CHECKING:
     from wifibot_power.drive.model import DriveModel
     from wifibot_power.drive.stats import DriveStats
     from wifibot_power.drive.sums import RunSums
-    from wifibot_power.drive.windows import RunWindows
     from wifibot_power.phases import Segmentation
     from wifibot_power.run import Run
 
@@ -69,20 +68,11 @@ class WorkerStats:
     run of an hour at 20 Hz, against 0.4 MB of sums), unless the run fits itself so well
     that a lag search may need its windows (`drive.sums.AT_RISK_SHARE`). Asked for later (a
     search whose sums lose their digits, a trace), they are read again from the log
-    (`read_again`, set by `pipeline.gather`), every such run of the batch at once.
+    (`read_again`, set by `pipeline.gather`), every such run of the batch at once."""
 
-    `windows`: the run's `RunWindows` the sums were made from, kept by a run at risk only
-    (None for another): it sends them with its bins (without their running sums over the
-    bins: `_sent_windows`), so that the parent's lag search over the windows takes them
-    instead of making them again (drive/model.py `_window_search`; noise-free step runs are
-    all at risk)."""
-
-    def __init__(
-        self, stats: DriveStats | None, sums: RunSums, windows: RunWindows | None = None
-    ) -> None:
+    def __init__(self, stats: DriveStats | None, sums: RunSums) -> None:
         self._stats = stats
         self.sums = sums
-        self.windows = windows if windows is not None and self.at_risk else None
         #: the bins' scalars (`DriveStats` with its arrays None) while the bins are left out
         self._scalars: DriveStats | None = None
         #: reads the left-out bins of the batch again (`pipeline.gather.ReadAgain`)
@@ -105,19 +95,13 @@ class WorkerStats:
     def without_bins(self) -> WorkerStats:
         """The same statistics without the bins' arrays (class docstring); itself when the run
         may be needed for a lag search over the windows."""
-        if self._stats is None or self.at_risk:
+        from wifibot_power.drive.sums import AT_RISK_SHARE, own_share
+
+        if self._stats is None or not own_share(self.sums) >= AT_RISK_SHARE:
             return self
         light = WorkerStats(None, self.sums)
         light._scalars = dataclasses.replace(self._stats, **dict.fromkeys(_BIN_ARRAYS))
         return light
-
-    @functools.cached_property
-    def at_risk(self) -> bool:
-        """Whether the run fits itself so well that a lag search may need its windows (its
-        `own_share` under `drive.sums.AT_RISK_SHARE`, or not known)."""
-        from wifibot_power.drive.sums import AT_RISK_SHARE, own_share
-
-        return not own_share(self.sums) >= AT_RISK_SHARE
 
     def bins_from(self, again: object) -> None:
         """Take the bins of the same run read again (`again`: its statistics as a worker made
@@ -138,26 +122,17 @@ class WorkerStats:
         self._stats = stats
 
     def __getstate__(self) -> dict[str, object]:
-        """Pickled without its `read_again` (the batch's reader stays in its process), its
-        windows without what is made again cheaply from the bins (`_sent_windows`)."""
-        windows = None if self.windows is None else _sent_windows(self.windows)
-        return {**self.__dict__, "read_again": None, "windows": windows}
+        """Pickled without its `read_again` (the batch's reader stays in its process)."""
+        return {**self.__dict__, "read_again": None}
 
     def __getattr__(self, name: str) -> object:
         """The bins' attribute (`DriveStats`), for what reads a run's drive statistics: a
         scalar from the scalars kept while the bins are left out, else from the bins."""
-        if name.startswith("_") or name in ("stats", "sums", "read_again", "windows", "at_risk"):
+        if name.startswith("_") or name in ("stats", "sums", "read_again"):
             raise AttributeError(name)
         if self._stats is None and name in _SCALAR_FIELDS:
             return getattr(self._scalars, name)
         return getattr(self.stats, name)
-
-
-def _sent_windows(windows: RunWindows) -> RunWindows:
-    """The windows as a worker sends them: their fields, not what they made from them and
-    keep (their cached running sums and span means over the bins, their regressors' rates:
-    made again where needed for less than their transfer costs)."""
-    return dataclasses.replace(windows)
 
 
 #: `DriveStats`' per-bin arrays (what `WorkerStats.without_bins` leaves out)
@@ -209,16 +184,12 @@ class DriveFamily(ModelFamily):
 
     def run_stats(self, run: Run, segmentation: Segmentation | None) -> WorkerStats | None:
         from wifibot_power.drive.stats import drive_stats
-        from wifibot_power.drive.sums import run_sums
-        from wifibot_power.drive.windows import run_windows
+        from wifibot_power.drive.sums import sums_of
 
         # an empty segmentation (a run of unknown mode the pipeline did not segment) has no
         # phases to reconstruct a speed from: the run's own speed column, if any, is used
         stats = drive_stats(run, segmentation if segmentation and segmentation.phases else None)
-        if stats is None:
-            return None
-        windows = run_windows(stats)  # (`sums_of`, the windows kept: `WorkerStats`)
-        return WorkerStats(stats, run_sums(windows), windows)
+        return None if stats is None else WorkerStats(stats, sums_of(stats))
 
     def stats_to_json(self, stats: DriveStats | WorkerStats | KeptStats | None) -> object:
         if stats is None:
@@ -263,10 +234,14 @@ def drive_stats_of(record: object) -> DriveStats | None:
 
 
 def _fit_stats(record: object) -> DriveStats | WorkerStats | None:
-    """What `fit_drive_stats` reads of a record: its worker's statistics as they are (bins
-    left out are read again only if the fit needs them), else `drive_stats_of`."""
+    """What `fit_drive_stats` reads of a record: its worker's statistics as they are while
+    their bins are left out (read again only if the fit needs them), else the bins
+    themselves (`drive_stats_of`: a fit over the windows reads them without going through
+    `WorkerStats.__getattr__` at each attribute)."""
     stats = _family_stats(record)
-    return stats if isinstance(stats, WorkerStats) else drive_stats_of(record)
+    if isinstance(stats, WorkerStats) and stats.bins_left_out:
+        return stats
+    return drive_stats_of(record)
 
 
 def drive_sums_of(record: object) -> RunSums | None:
