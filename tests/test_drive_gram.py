@@ -14,7 +14,7 @@ import wifibot_power.drive.model as model_module
 from wifibot_power.drive import drive_stats
 from wifibot_power.drive.gram import FoldGrams
 from wifibot_power.drive.heldout import heldout_accuracy
-from wifibot_power.drive.identify import bounded_from_gram, lag_grid, lag_search
+from wifibot_power.drive.identify import WindowSearch, bounded_from_gram, lag_grid, lag_search
 from wifibot_power.drive.model import fit_drive_stats
 from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
 from wifibot_power.drive.windows import run_windows
@@ -233,12 +233,28 @@ def test_fit_from_sums_searches_the_windows_where_the_sums_cancel(field_stats, m
     stats = field_stats[0][:6]
     monkeypatch.setattr(gram, "CANCELLATION", 1.0)
     calls = []
-    lag_search_direct = model_module.lag_search
+    search = model_module.WindowSearch.search
     monkeypatch.setattr(
-        model_module,
-        "lag_search",
-        lambda *a, **k: calls.append(k) or lag_search_direct(*a, **k),
+        model_module.WindowSearch,
+        "search",
+        lambda self, only: calls.append(only) or search(self, only),
     )
     fast = fit_drive_stats(stats)
     assert len(calls) >= 5  # the whole fit's and the folds' searches, over the windows
     _numbers_equal(fast.summary(), fit_drive_stats(stats, direct=True).summary())
+
+
+def test_window_search_of_a_subset_is_the_search_of_its_windows_alone(runs) -> None:
+    """`WindowSearch` assembles every window once and searches a subset by its rows (the
+    held-out folds of step runs, model.py `_window_search`): a subset that is whole runs
+    gives exactly (bit for bit) the search made from those runs' windows alone."""
+    surfaces = tuple(sorted({s for rw in runs for s in rw.stats.surfaces}))
+    shared = WindowSearch(runs, surfaces)
+    first = len(runs) // 2
+    only = np.concatenate([np.full(rw.count, k < first) for k, rw in enumerate(runs)])
+    lag, sse = shared.search(only)
+    alone_lag, alone_sse = WindowSearch(runs[:first], surfaces).search(None)
+    assert lag == alone_lag
+    assert np.array_equal(sse, alone_sse)
+    everything = shared.search(None)
+    assert not np.array_equal(everything[1], sse)  # the subset is searched, not every window

@@ -146,3 +146,52 @@ def test_no_module_imports_another_modules_private_name() -> None:
                     continue  # within its own subpackage
                 found += [f"{source.relative_to(package)}: {node.module}.{n}" for n in private]
     assert found == []
+
+
+def test_preload_imports_the_drive_package_only_for_a_plan_with_model_statistics() -> None:
+    """`preload_work` loads what the plan's workers import before they fork: the drive model's
+    package for `fit` (its family's statistics), not for `diagnose` (no family statistics:
+    ~20 ms of CPU it does without)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from wifibot_power.pipeline import preload, record\n"
+        "preload.preload_work(record.{plan})\n"
+        "print('wifibot_power.drive' in sys.modules, 'wifibot_power.segment' in sys.modules)\n"
+    )
+    for plan, loaded in (("DIAGNOSE_PLAN", "False True"), ("FIT_PLAN", "True True")):
+        out = subprocess.run(
+            [sys.executable, "-c", code.format(plan=plan)], capture_output=True, text=True
+        )
+        assert out.stdout.split() == loaded.split(), out.stderr
+
+
+def test_the_benchmarks_switch_for_new_work_switches_it_off() -> None:
+    """benchmarks/new_work_off.py (issue 24's timing of the code without the work c6b8187 did
+    not do): with `drive` off, `fit` of step runs has no drive model; with nothing off, the
+    same command has one; an unknown switch is refused."""
+    import os
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    script = [sys.executable, str(root / "benchmarks" / "new_work_off.py")]
+    command = ["fit", str(root / "sample_logs"), "--json", "--jobs", "1"]
+
+    def drive(off: str) -> object:
+        done = subprocess.run(
+            script + command,
+            capture_output=True,
+            text=True,
+            env={**os.environ, "WBPOWER_OFF": off},
+        )
+        return json.loads(done.stdout).get("drive")
+
+    assert drive("") is not None
+    assert drive("check,drive,pieces") is None
+    refused = subprocess.run(
+        script + command, capture_output=True, text=True, env={**os.environ, "WBPOWER_OFF": "x"}
+    )
+    assert refused.returncode != 0 and "unknown" in refused.stderr

@@ -193,7 +193,8 @@ def test_anchors_are_the_matching_samples_but_a_held_values_repeats(values, leve
     """`_anchors`: every sample whose anchor bits match the pattern in `level` low bits,
     except one whose value is the sample before's (a held value anchors once, where it
     starts; sample 0 always counts), in order. Few values at low levels: many anchors, runs
-    of held values, an anchor at sample 0."""
+    of held values, an anchor at sample 0; the test by stretches (`chunk`) as long as a
+    few samples, so that held values and anchors straddle their ends."""
     from wifibot_power.pipeline.pieces import _PATTERN, _anchor_bits, _anchors
 
     power_bits = np.array(values, dtype=np.float64).view(np.uint64)
@@ -205,6 +206,8 @@ def test_anchors_are_the_matching_samples_but_a_held_values_repeats(values, leve
         if int(bits[i]) & mask == _PATTERN & mask and (i == 0 or power_bits[i] != power_bits[i - 1])
     ]
     assert _anchors(power_bits, level).tolist() == expected
+    for chunk in (1, 3, 64):
+        assert _anchors(power_bits, level, chunk).tolist() == expected
 
 
 def _write_with_id(path: Path, run_id: str, power_W: np.ndarray, speed_mps: np.ndarray) -> None:
@@ -239,3 +242,34 @@ def test_a_piece_of_a_log_left_out_for_its_run_id_is_kept(tmp_path: Path) -> Non
     runs, heard = _run(tmp_path, ["first.csv", "whole.csv", "cut.csv"])
     assert runs == ["first.csv", "whole.csv"]
     assert heard["cut.csv"][0].startswith("piece: its samples are part of ")
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.none() | st.sets(st.integers(0, 30), max_size=12), max_size=8))
+def test_overlaps_compares_each_log_with_the_first_log_holding_each_of_its_windows(logs):
+    """`overlaps` compares a log with the first log of the batch (in its order) that holds
+    each of its window hashes, once a pair, in order of the pair: the rule written as a
+    plain loop over every window of every log (hashes from a few values: many shared)."""
+    from wifibot_power.pipeline import pieces
+
+    def encoded(hashes: set[int]) -> str:
+        values = np.array(sorted(hashes), dtype=np.uint64)
+        return pieces.PieceSignature(
+            values, np.arange(values.size), np.zeros(values.size, np.uint8), 100, 4
+        ).encode()
+
+    signatures = [None if h is None else encoded(h) for h in logs]
+    expected, first_with = [], {}
+    for k, hashes in enumerate(logs):
+        for window in sorted(hashes or ()):
+            other = first_with.setdefault(window, k)
+            if other != k and (other, k) not in expected:
+                expected.append((other, k))
+    compared = []
+    original = pieces._overlap
+    pieces._overlap = lambda a, b, *_: compared.append((a, b))
+    try:
+        assert pieces.overlaps(signatures) == []
+    finally:
+        pieces._overlap = original
+    assert compared == sorted(expected)

@@ -136,37 +136,74 @@ def lag_search(
         found = FoldGrams.from_windows(runs, surfaces, np.where(keep, 0, -1), 1, lags).search(-1)
         if found is not None:
             return found
-    # the windows defined at every lag, so that each lag is judged on the same windows
-    stacked = StackedPower(runs)
-    common = stacked.ok if only is None else stacked.ok & np.concatenate(only)
-    # each whole lag's power once (a fraction of a bin is between two of them)
-    whole = {int(lag): stacked.power_at(int(lag)) for lag in lags}
-    for _, defined in whole.values():
-        common = common & defined
+    return WindowSearch(runs, surfaces).search(None if only is None else np.concatenate(only))
 
-    # every lag tried keeps the same windows (`common`; a fraction of a bin between two whole
-    # lags tried): the design is made and factorised once, only the response moves with the lag
-    only = stacked.split(common)
-    X = assemble(runs, 0, surfaces, only=only).design
-    # the corrected least squares (gram.py `corrected_gram`): X'X less the noisy columns' noise
-    noise = np.sum(window_noise_share(runs, only, X.shape[1], surfaces) * np.square(X), axis=0)
-    usable = np.any(X != 0, axis=0)
-    X, noise = X[:, usable], noise[usable]
-    plain = X.T @ X
-    xx = corrected_gram(plain, noise)
-    scale = np.sqrt(np.diag(xx)).copy()
-    scale[scale == 0] = 1.0
-    inverse = np.linalg.pinv(xx / np.outer(scale, scale))  # factorised once: only y moves
 
-    def sse_at(lag: float) -> float:
-        y = between_bins(lambda w: whole[w] if w in whole else stacked.power_at(w), lag)[0][common]
-        if y.size <= X.shape[1]:
-            return np.inf
-        coef = (inverse @ ((X.T @ y) / scale)) / scale
-        # the residual's sum of squares less the noise's share of b'X'Xb (`corrected_gram`)
-        return float(np.sum(np.square(y - X @ coef)) - coef @ (plain - xx) @ coef)
+class WindowSearch:
+    """`lag_search` by least squares over the windows (`gram=False`), for any subset of the
+    same runs' windows: what does not depend on the subset (the stacked power at each whole
+    lag, the windows defined at every lag, their design and noise shares) is made once, so a
+    held-out check's ten folds cost one assembly, not ten (step runs: their least squares
+    fits too closely for the sums, gram.py `CANCELLATION`). Each search keeps the rows of
+    the same arrays a search from scratch makes: the same numbers."""
 
-    return refine_lag(lags, sse_at)
+    def __init__(self, runs: list[RunWindows], surfaces: tuple[str, ...]) -> None:
+        self.runs, self.surfaces = runs, surfaces
+        self.lags = lag_grid(runs)
+        self.stacked = stacked = StackedPower(runs)
+        # each whole lag's power once (a fraction of a bin is between two of them)
+        self.whole = {int(lag): stacked.power_at(int(lag)) for lag in self.lags}
+        # the windows defined at every lag, so that each lag is judged on the same windows
+        defined = stacked.ok
+        for _, at_lag in self.whole.values():
+            defined = defined & at_lag
+        self.defined = defined
+        # lag 0 is on the grid: the windows `assemble` keeps at lag 0 are the defined ones
+        every = stacked.split(defined)
+        self.design = assemble(runs, 0, surfaces, only=every, stacked=stacked).design
+        self.share = window_noise_share(runs, every, self.design.shape[1], surfaces)
+        self._trip: np.ndarray | None = None
+
+    def search_trips(
+        self, train: np.ndarray | None, trip_base: np.ndarray
+    ) -> tuple[float, np.ndarray]:
+        """`search` on the windows of the `train` trips (a bool per trip of every run, run
+        r's first at `trip_base[r]`; None: every trip)."""
+        if train is None:
+            return self.search(None)
+        if self._trip is None:
+            bases = zip(self.runs, trip_base, strict=False)
+            self._trip = np.concatenate([rw.trip + base for rw, base in bases])
+        return self.search(train[self._trip])
+
+    def search(self, only: np.ndarray | None) -> tuple[float, np.ndarray]:
+        """`lag_search` on the stacked windows `only` keeps (None: every one)."""
+        stacked, whole = self.stacked, self.whole
+        common = self.defined if only is None else self.defined & np.asarray(only, dtype=bool)
+        rows = common[self.defined]
+        # every lag tried keeps the same windows (`common`; a fraction of a bin between two
+        # whole lags tried): the design is made and factorised once, only the response moves
+        X = self.design[rows]
+        # the corrected least squares (gram.py `corrected_gram`): X'X less the noisy columns'
+        noise = np.sum(self.share[rows] * np.square(X), axis=0)
+        usable = np.any(X != 0, axis=0)
+        X, noise = X[:, usable], noise[usable]
+        plain = X.T @ X
+        xx = corrected_gram(plain, noise)
+        scale = np.sqrt(np.diag(xx)).copy()
+        scale[scale == 0] = 1.0
+        inverse = np.linalg.pinv(xx / np.outer(scale, scale))  # factorised once: only y moves
+
+        def sse_at(lag: float) -> float:
+            power_at = lambda w: whole[w] if w in whole else stacked.power_at(w)  # noqa: E731
+            y = between_bins(power_at, lag)[0][common]
+            if y.size <= X.shape[1]:
+                return np.inf
+            coef = (inverse @ ((X.T @ y) / scale)) / scale
+            # the residual's sum of squares less the noise's share of b'X'Xb (`corrected_gram`)
+            return float(np.sum(np.square(y - X @ coef)) - coef @ (plain - xx) @ coef)
+
+        return refine_lag(self.lags, sse_at)
 
 
 def identify(windows: Windows, lag_bins: float, clusters: np.ndarray) -> Identified:

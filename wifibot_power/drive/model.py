@@ -20,7 +20,7 @@ from wifibot_power.drive.heldout import (
     heldout_from_sums,
     lag_grid_of,
 )
-from wifibot_power.drive.identify import identify, identify_moments, lag_search
+from wifibot_power.drive.identify import WindowSearch, identify, identify_moments, lag_search
 from wifibot_power.drive.lagsums import SumsTable
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
 from wifibot_power.drive.sums import RunSums, sums_of
@@ -297,16 +297,14 @@ def _window_search(
     stats: list[DriveStats], window_s: float, surfaces: tuple[str, ...], trip_base: np.ndarray
 ):
     """`search(train)`: the lag search by least squares over the windows of the `train` trips
-    (a bool per trip; None: every trip), the windows made at the first call."""
-    runs: list = []
+    (a bool per trip; None: every trip), the windows made at the first call and assembled
+    once for every call (identify.py `WindowSearch`)."""
+    made: list[WindowSearch] = []
 
     def search(train: np.ndarray | None) -> tuple[float, np.ndarray]:
-        if not runs:
-            runs.extend(run_windows(s, window_s) for s in stats)
-        only = None
-        if train is not None:
-            only = [train[rw.trip + base] for rw, base in zip(runs, trip_base, strict=False)]
-        return lag_search(runs, surfaces, only, gram=False)
+        if not made:
+            made.append(WindowSearch([run_windows(s, window_s) for s in stats], surfaces))
+        return made[0].search_trips(train, trip_base)
 
     return search
 

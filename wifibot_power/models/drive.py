@@ -234,10 +234,14 @@ def drive_stats_of(record: object) -> DriveStats | None:
 
 
 def _fit_stats(record: object) -> DriveStats | WorkerStats | None:
-    """What `fit_drive_stats` reads of a record: its worker's statistics as they are (bins
-    left out are read again only if the fit needs them), else `drive_stats_of`."""
+    """What `fit_drive_stats` reads of a record: its worker's statistics as they are while
+    their bins are left out (read again only if the fit needs them), else the bins
+    themselves (`drive_stats_of`: a fit over the windows reads them without going through
+    `WorkerStats.__getattr__` at each attribute)."""
     stats = _family_stats(record)
-    return stats if isinstance(stats, WorkerStats) else drive_stats_of(record)
+    if isinstance(stats, WorkerStats) and stats.bins_left_out:
+        return stats
+    return drive_stats_of(record)
 
 
 def drive_sums_of(record: object) -> RunSums | None:

@@ -20,19 +20,22 @@ if TYPE_CHECKING:
 
 def preload_work(plan: RunPlan | None = None) -> None:
     """What a worker's `run_record` imports under `plan` (by default `fit`'s): the run table,
-    the segmenter, the model families; the causes and trace statistics for a plan that
-    diagnoses, the trace figure's envelope for one that draws. Not pandas: the records need
-    none. numpy's submodules that load at first use: `numpy.ma` (`np.median`'s NaN check
-    imports it, ~9 ms of CPU) and `numpy.fft` (the segmenter's ripple continuation, the
-    trace statistics), which every worker would otherwise import for itself."""
+    the segmenter, the model families (the drive model's package for a plan that makes their
+    statistics: ~20 ms of CPU `diagnose` does without); the causes and trace statistics for
+    a plan that diagnoses, the trace figure's envelope for one that draws. Not pandas: the
+    records need none. numpy's submodules that load at first use: `numpy.ma` (`np.median`'s
+    NaN check imports it, ~9 ms of CPU) and `numpy.fft` (the segmenter's ripple
+    continuation, the trace statistics), which every worker would otherwise import for
+    itself."""
     import numpy.fft  # noqa: F401
     import numpy.ma  # noqa: F401
 
-    import wifibot_power.drive  # noqa: F401  (the drive family's statistics: models/drive.py)
     import wifibot_power.models  # noqa: F401
     import wifibot_power.runtable  # noqa: F401
     import wifibot_power.segment  # noqa: F401
 
+    if plan is None or plan.families:
+        import wifibot_power.drive  # noqa: F401  (the drive family's statistics: models/drive.py)
     if plan is not None and plan.causes:
         import wifibot_power.causes  # noqa: F401
         import wifibot_power.traces  # noqa: F401
