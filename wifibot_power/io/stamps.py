@@ -89,10 +89,12 @@ def _check_time(
             return _bursty(file, time_s, step_s, gaps, line_of)
     uneven: list[Problem] = []
     # the steps between gaps: their mean is within high - low of their median, so a log
-    # spaced evenly to 1% (every analyser's) is not looked at again; their sum is the span
-    # less the gaps' steps (no pass over the steps)
+    # spaced evenly to 1% (every analyser's, and with its gaps left out a clocked logger's
+    # that drops samples: `_regular_spread_s`) is not looked at again; their sum is the
+    # span less the gaps' steps (no pass over the steps)
     regular = step_s.size - gaps.size
-    if regular and high_s - low_s > UNEVEN_PCT / 100.0 * spacing_s:
+    spread_s = _regular_spread_s(step_s, gaps, low_s, high_s, spacing_s)
+    if regular and spread_s > UNEVEN_PCT / 100.0 * spacing_s:
         if reordered:
             step_s = None
             step_s = np.diff(time_s)
@@ -124,6 +126,26 @@ def _check_time(
         return period_s, uneven, None
     gap_list = _gap_problems(file, time_s, gaps, period_s, period_s, line_of)
     return period_s, uneven + gap_list, None
+
+
+def _regular_spread_s(
+    step_s: np.ndarray, gaps: np.ndarray, low_s: float, high_s: float, spacing_s: float
+) -> float:
+    """How far the steps spread (`high_s` - `low_s`, the gaps' steps included), or 0 when
+    those between the `gaps` lie within half the `UNEVEN_PCT` band of `spacing_s` of each
+    other: their quartiles and their mean then lie within the band too, so neither
+    `_stamped_on_arrival` nor an uneven period can come of them (a clocked logger that
+    drops samples, whose gaps alone made the spread: two quantiles of every step were
+    taken for nothing). `step_s`: the fresh diff (its gaps' steps are put back)."""
+    if not gaps.size:
+        return float(high_s - low_s)
+    held = step_s[gaps]
+    step_s[gaps] = low_s  # (a gap's step is no regular step: out of the maximum)
+    regular_high_s = float(step_s.max())
+    step_s[gaps] = held
+    if regular_high_s - low_s <= UNEVEN_PCT / 200.0 * spacing_s:
+        return 0.0
+    return float(high_s - low_s)
 
 
 def _gap_problems(
