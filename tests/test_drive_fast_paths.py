@@ -17,7 +17,7 @@ from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
 from wifibot_power.drive.stats import BIN_S, _sample_at_centres
 from wifibot_power.drive.sums import run_sums
 from wifibot_power.drive.terms import TERMS
-from wifibot_power.drive.windows import REGRESSOR_OF, regressor_rows, run_windows
+from wifibot_power.drive.windows import REGRESSOR_OF, _motion, regressor_rows, run_windows
 
 
 def _field_windows(seed: int = 4):
@@ -175,3 +175,38 @@ def test_the_sample_at_each_centre_is_the_binary_searchs() -> None:
             index = np.interp(centres, offset_s, np.arange(offset_s.size, dtype=np.float64))
             rounded_up += int(np.sum(index.astype(np.intp) > expected))
     assert rounded_up > 100  # the interpolated index's rounding was there to take back
+
+
+def _motion_by_labels(values: np.ndarray, enter: float, leave: float) -> np.ndarray:
+    """windows.py `_motion` as it was: each side's stretches labelled by a running count, a
+    stretch confirmed by any bin beyond `enter`, each bin's label looked up."""
+    out = np.zeros(values.shape, dtype=bool)
+    for sign in (1.0, -1.0):
+        signed = sign * values
+        candidate = signed > leave
+        starts = candidate.copy()
+        starts[1:] &= ~candidate[:-1]
+        label = np.cumsum(starts)
+        confirmed = np.zeros(int(label[-1]) + 1 if label.size else 1, dtype=bool)
+        confirmed[label[candidate & (signed > enter)]] = True
+        out |= candidate & confirmed[label]
+    return out
+
+
+def test_motion_per_stretch_is_the_labelled_motion() -> None:
+    """windows.py `_motion` (both sides at once, per stretch) against the bins it labelled one
+    side at a time: noise around 0, ramps, reversing, an encoder's quantized steps, NaN
+    drop-outs, a stretch at either end, `enter` below `leave`, one bin, none."""
+    rng = np.random.default_rng(21)
+    t = np.arange(20_000) * BIN_S
+    ramp = np.clip(np.sin(t / 7.0) * 1.5, -1.0, 1.0)
+    noisy = ramp + rng.normal(0.0, 0.02, t.size)
+    quantized = np.round(noisy / 0.02) * 0.02
+    holes = noisy.copy()
+    holes[rng.random(t.size) < 0.01] = np.nan
+    cases = [noisy, quantized, holes, rng.normal(0.0, 0.01, t.size), noisy[:1], noisy[:0]]
+    for values in cases:
+        for enter, leave in ((0.06, 0.02), (0.03, 0.03), (0.001, 0.001), (0.01, 0.05)):
+            assert np.array_equal(
+                _motion(values, enter, leave), _motion_by_labels(values, enter, leave)
+            )
