@@ -234,16 +234,15 @@ class GapProblem(Problem):
         period_s: float,
         pattern: str,
     ) -> None:
-        for name, value in (
-            ("kind", "gap"),
-            ("t_start_s", at_s + period_s),
-            ("duration_s", missing_s),
-            ("_line_of", line_of),
-            ("_index", index),
-            ("_at_s", at_s),
-            ("_pattern", pattern),
-        ):
-            object.__setattr__(self, name, value)  # (frozen, as `Problem`)
+        vars(self).update(  # (frozen, as `Problem`: its fields set once, here)
+            kind="gap",
+            t_start_s=at_s + period_s,
+            duration_s=missing_s,
+            _line_of=line_of,
+            _index=index,
+            _at_s=at_s,
+            _pattern=pattern,
+        )
 
     @property
     def message(self) -> str:  # type: ignore[override]
