@@ -14,7 +14,7 @@ from wifibot_power.drive.regressors import (
     speed_noise_per_sample,
 )
 from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
-from wifibot_power.drive.stats import BIN_S, _sample_at_centres
+from wifibot_power.drive.stats import BIN_S, GAP_FACTOR, _gap_bins, _sample_at_centres
 from wifibot_power.drive.sums import run_sums
 from wifibot_power.drive.terms import TERMS
 from wifibot_power.drive.windows import REGRESSOR_OF, _motion, regressor_rows, run_windows
@@ -212,3 +212,35 @@ def test_motion_per_stretch_is_the_labelled_motion() -> None:
             assert np.array_equal(
                 _motion(values, enter, leave), _motion_by_labels(values, enter, leave)
             )
+
+
+def test_the_gap_bins_are_those_every_bin_tested_gives() -> None:
+    """stats.py `_gap_bins` (the bins of the samples before a gap only) against every bin
+    tested as before: gaps of 2-40 periods, jittered stamps, a slow and a 20 Hz logger, a
+    gap after the first sample and before the last, none."""
+    rng = np.random.default_rng(31)
+    found = 0
+    for period_s, n_samples in ((0.05, 6000), (0.1538, 900), (0.05, 50)):
+        index = np.arange(n_samples, dtype=np.float64)
+        for at, dropped in (
+            (1, 3),
+            (n_samples - 2, 5),
+            *zip(rng.integers(2, n_samples - 2, 15), rng.integers(1, 40, 15), strict=True),
+        ):
+            index[at:] += dropped
+        for stamps in (
+            index * period_s,
+            index * period_s * (1 + rng.uniform(-0.2, 0.2, n_samples) * 0.05),
+            np.arange(n_samples) * period_s,
+        ):
+            offset_s = np.sort(stamps) - np.min(stamps)
+            n_bins = int((offset_s[-1] + period_s) / BIN_S)
+            centre_s = (np.arange(n_bins) + 0.5) * BIN_S
+            at = _sample_at_centres(offset_s, n_bins)
+            step_s = np.diff(offset_s, append=offset_s[-1] + period_s)
+            every = (step_s[at] > GAP_FACTOR * period_s) & (centre_s - offset_s[at] > period_s)
+            assert np.array_equal(
+                _gap_bins(offset_s, at, period_s, centre_s), np.flatnonzero(every)
+            )
+            found += int(every.sum())
+    assert found > 1000  # (gaps there were)
