@@ -14,10 +14,10 @@ from wifibot_power.drive.regressors import (
     speed_noise_per_sample,
 )
 from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
-from wifibot_power.drive.stats import BIN_S, _sample_at_centres
+from wifibot_power.drive.stats import BIN_S, GAP_FACTOR, _gap_bins, _sample_at_centres
 from wifibot_power.drive.sums import run_sums
 from wifibot_power.drive.terms import TERMS
-from wifibot_power.drive.windows import REGRESSOR_OF, regressor_rows, run_windows
+from wifibot_power.drive.windows import REGRESSOR_OF, _motion, regressor_rows, run_windows
 
 
 def _field_windows(seed: int = 4):
@@ -129,11 +129,13 @@ def test_the_noise_estimate_stops_clipping_once_nothing_moves() -> None:
     corners[::500] += 2.0
     quantized = np.round(np.repeat(np.linspace(0, 1, 400), 50) + rng.normal(0, 0.01, 20_000), 2)
     heavy = rng.standard_cauchy(20_000)  # something is left out at every round
-    for speed in (white, corners, quantized, heavy):
+    holes = corners.copy()
+    holes[rng.random(20_000) < 0.01] = np.nan  # (a bag's speed without a recent message)
+    for speed in (white, corners, quantized, heavy, holes):
         for samples_per_bin in (1.0, 0.3):
             lag = 1 if samples_per_bin >= 1.0 else round(1.0 / samples_per_bin)
             second = speed[2 * lag :] - 2.0 * speed[lag:-lag] + speed[: -2 * lag]
-            square = np.square(second)
+            square = np.square(second[np.isfinite(second)])
             gain = sample_gain(
                 np.array([1.0, -2.0, 1.0]), np.array([0.0, lag, 2.0 * lag]), samples_per_bin
             )
@@ -175,3 +177,70 @@ def test_the_sample_at_each_centre_is_the_binary_searchs() -> None:
             index = np.interp(centres, offset_s, np.arange(offset_s.size, dtype=np.float64))
             rounded_up += int(np.sum(index.astype(np.intp) > expected))
     assert rounded_up > 100  # the interpolated index's rounding was there to take back
+
+
+def _motion_by_labels(values: np.ndarray, enter: float, leave: float) -> np.ndarray:
+    """windows.py `_motion` as it was: each side's stretches labelled by a running count, a
+    stretch confirmed by any bin beyond `enter`, each bin's label looked up."""
+    out = np.zeros(values.shape, dtype=bool)
+    for sign in (1.0, -1.0):
+        signed = sign * values
+        candidate = signed > leave
+        starts = candidate.copy()
+        starts[1:] &= ~candidate[:-1]
+        label = np.cumsum(starts)
+        confirmed = np.zeros(int(label[-1]) + 1 if label.size else 1, dtype=bool)
+        confirmed[label[candidate & (signed > enter)]] = True
+        out |= candidate & confirmed[label]
+    return out
+
+
+def test_motion_per_stretch_is_the_labelled_motion() -> None:
+    """windows.py `_motion` (both sides at once, per stretch) against the bins it labelled one
+    side at a time: noise around 0, ramps, reversing, an encoder's quantized steps, NaN
+    drop-outs, a stretch at either end, `enter` below `leave`, one bin, none."""
+    rng = np.random.default_rng(21)
+    t = np.arange(20_000) * BIN_S
+    ramp = np.clip(np.sin(t / 7.0) * 1.5, -1.0, 1.0)
+    noisy = ramp + rng.normal(0.0, 0.02, t.size)
+    quantized = np.round(noisy / 0.02) * 0.02
+    holes = noisy.copy()
+    holes[rng.random(t.size) < 0.01] = np.nan
+    cases = [noisy, quantized, holes, rng.normal(0.0, 0.01, t.size), noisy[:1], noisy[:0]]
+    for values in cases:
+        for enter, leave in ((0.06, 0.02), (0.03, 0.03), (0.001, 0.001), (0.01, 0.05)):
+            assert np.array_equal(
+                _motion(values, enter, leave), _motion_by_labels(values, enter, leave)
+            )
+
+
+def test_the_gap_bins_are_those_every_bin_tested_gives() -> None:
+    """stats.py `_gap_bins` (the bins of the samples before a gap only) against every bin
+    tested as before: gaps of 2-40 periods, jittered stamps, a slow and a 20 Hz logger, a
+    gap after the first sample and before the last, none."""
+    rng = np.random.default_rng(31)
+    found = 0
+    for period_s, n_samples in ((0.05, 6000), (0.1538, 900), (0.05, 50)):
+        index = np.arange(n_samples, dtype=np.float64)
+        for at, dropped in (
+            (1, 3),
+            (n_samples - 2, 5),
+            *zip(rng.integers(2, n_samples - 2, 15), rng.integers(1, 40, 15), strict=True),
+        ):
+            index[at:] += dropped
+        for stamps in (
+            index * period_s,
+            index * period_s * (1 + rng.uniform(-0.2, 0.2, n_samples) * 0.05),
+            np.arange(n_samples) * period_s,
+        ):
+            offset_s = np.sort(stamps) - np.min(stamps)
+            n_bins = int((offset_s[-1] + period_s) / BIN_S)
+            centre_s = (np.arange(n_bins) + 0.5) * BIN_S
+            at = _sample_at_centres(offset_s, n_bins)
+            step_s = np.diff(offset_s, append=offset_s[-1] + period_s)
+            every = (step_s[at] > GAP_FACTOR * period_s) & (centre_s - offset_s[at] > period_s)
+            assert np.array_equal(
+                _gap_bins(offset_s, at, period_s, centre_s), np.flatnonzero(every)
+            )
+            found += int(every.sum())
+    assert found > 1000  # (gaps there were)

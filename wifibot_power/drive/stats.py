@@ -154,8 +154,9 @@ def drive_stats(run: Run, segmentation: Segmentation | None = None) -> DriveStat
     else:
         time_s = run.time_s
         offset_s = time_s - time_s[0]
-        at = _sample_at_centres(offset_s, n_bins)  # found once for the bins and their surface
-        binned = _held(offset_s, at, period_s, run.power_W, speed_mps, yaw_radps)
+        centre_s = _centres(n_bins)
+        at = _sample_at_centres(offset_s, n_bins, centre_s)  # once for the bins and surface
+        binned = _held(offset_s, at, period_s, run.power_W, speed_mps, yaw_radps, centre_s)
         bin_surface = np.zeros(n_bins) if surface_index is None else surface_index[at]
     power_W, bin_speed_mps, bin_yaw_radps = binned
     energy_J, _ = run.energy_and_mean()
@@ -306,14 +307,22 @@ def _bin_means(
     return out[0], out[1], out[2]
 
 
-def _sample_at_centres(offset_s: np.ndarray, n_bins: int) -> np.ndarray:
+def _centres(n_bins: int) -> np.ndarray:
+    """Each bin's centre [s from the first stamp]."""
+    return (np.arange(n_bins) + 0.5) * BIN_S
+
+
+def _sample_at_centres(
+    offset_s: np.ndarray, n_bins: int, centre_s: np.ndarray | None = None
+) -> np.ndarray:
     """The sample at each bin's centre: the last stamped at or before it (the first sample
     for a centre before every stamp): `np.searchsorted(offset_s, centres, "right") - 1`
     clipped to the samples, from np.interp of the samples' indices (its search goes on from
     the last one found: ~2x faster than a binary search per centre). Between stamps j and
     j + 1 the interpolated index is j plus a fraction in [0, 1), which its rounding may make
-    j + 1: taken back where that stamp is after the centre. (The stamps increase: reader.)"""
-    centre_s = (np.arange(n_bins) + 0.5) * BIN_S
+    j + 1: taken back where that stamp is after the centre. (The stamps increase: reader.)
+    `centre_s`: `_centres(n_bins)` when the caller has them."""
+    centre_s = _centres(n_bins) if centre_s is None else centre_s
     position = np.interp(centre_s, offset_s, np.arange(offset_s.size, dtype=np.float64))
     at = position.astype(np.intp)  # (>= 0: the floor)
     at -= (offset_s[at] > centre_s) & (at > 0)  # (a centre before every stamp: the first)
@@ -327,14 +336,14 @@ def _held(
     power_W: np.ndarray,
     speed_mps: np.ndarray,
     yaw_radps: np.ndarray | None,
+    centre_s: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A slow logger's samples on the bins (`at`: the sample at each bin's centre,
-    `_sample_at_centres`): power held over each sample's period (the rectangle rule), speed
-    and rate of turn interpolated; NaN inside a gap."""
+    `_sample_at_centres`; `centre_s`: `_centres`): power held over each sample's period (the
+    rectangle rule), speed and rate of turn interpolated; NaN inside a gap (`_gap_bins`)."""
     n_bins = at.size
-    centre_s = (np.arange(n_bins) + 0.5) * BIN_S
-    step_s = np.diff(offset_s, append=offset_s[-1] + period_s)
-    gap = (step_s[at] > GAP_FACTOR * period_s) & (centre_s - offset_s[at] > period_s)
+    centre_s = _centres(n_bins) if centre_s is None else centre_s
+    gap = _gap_bins(offset_s, at, period_s, centre_s)
     # a sample is the mean over its period (as power's, run.py): placed at the period's middle;
     # power is interpolated as speed is, so that both are seen through the same filter
     middle_s = offset_s + period_s / 2
@@ -345,6 +354,23 @@ def _held(
     yaw = np.interp(centre_s, middle_s, yaw_radps) if yaw_radps is not None else np.zeros(n_bins)
     yaw[gap] = np.nan
     return power, speed, yaw
+
+
+def _gap_bins(
+    offset_s: np.ndarray, at: np.ndarray, period_s: float, centre_s: np.ndarray
+) -> np.ndarray:
+    """The bins inside a gap (indices): their sample (`at`) is followed by a step over
+    `GAP_FACTOR` periods, and their centre lies over a period after it. Looked for among
+    the bins of those few samples only (`at` does not decrease: each sample's bins are one
+    stretch, found by a binary search), not by testing every bin."""
+    step_s = np.diff(offset_s, append=offset_s[-1] + period_s)
+    before_gap = np.flatnonzero(step_s > GAP_FACTOR * period_s)
+    first = np.searchsorted(at, before_gap, "left")
+    count = np.searchsorted(at, before_gap, "right") - first
+    # the bins of each stretch, one after the other: its first plus 0, 1, ... count - 1
+    starts = np.repeat(first - np.cumsum(count) + count, count)
+    bins = starts + np.arange(int(count.sum()))
+    return bins[centre_s[bins] - offset_s[at[bins]] > period_s]
 
 
 def speed_from_phases(run: Run, segmentation: Segmentation) -> np.ndarray:

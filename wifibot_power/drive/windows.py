@@ -27,6 +27,7 @@ import numpy as np
 from wifibot_power.drive.regressors import (
     _window_abs,
     inertial_regressors,
+    running_sums,
     speed_noise_per_sample,
     window_gain,
 )
@@ -192,7 +193,7 @@ class RunWindows:
         if lags[0] >= 0 and np.array_equal(lags, lags[0] + np.arange(lags.size)):
             # consecutive lags: each window's row is a stretch of the span means (a strided
             # view, rows gathered whole: no index per window and lag)
-            padded = _padded(means, (self.count - 1) * self.n + int(lags[-1]) + 1)
+            padded = self._padded_means((self.count - 1) * self.n + int(lags[-1]) + 1)
             rows = np.lib.stride_tricks.as_strided(
                 padded[lags[0] :],
                 shape=(self.count, lags.size),
@@ -201,12 +202,23 @@ class RunWindows:
             )
             if out is None:
                 return rows[windows]
-            # (windows are indices of rows: "clip" takes them as they are, unbuffered)
-            return np.take(rows, windows, axis=0, out=out, mode="clip")
+            # (indexing the strided rows, then a copy into `out`: np.take would first make the
+            # rows contiguous, then write into a strided `out` through a buffer, ~10x slower)
+            out[...] = rows[windows]
+            return out
         start = (windows * self.n)[:, None] + lags[None, :]
         power = means[np.minimum(start, means.size - 1)]
         power[start >= means.size] = np.nan
         return power if out is None else _into(out, power)
+
+    def _padded_means(self, size: int) -> np.ndarray:
+        """`_span_means` followed by NaN up to at least `size` values, made once a run (the
+        lag search's and the sums' strided rows read it: `power_at_lags`)."""
+        padded = self.__dict__.get("_padded")
+        if padded is None or padded.size < size:
+            padded = _padded(self._span_means, size)
+            self.__dict__["_padded"] = padded  # (a cache on a frozen dataclass, as cached_property)
+        return padded
 
     @cached_property
     def _span_means(self) -> np.ndarray:
@@ -424,20 +436,21 @@ def _motion(values: np.ndarray, enter: float, leave: float) -> np.ndarray:
     are missed. Idle's bias on the simulator (60 seeds, 20 Hz and 6.5 Hz; docs/drive-model.md,
     "Validation"), in standard errors: +0.76 and +1.39 cut at 3 deviations (before), -0.08
     and -0.58 followed to 0, +0.03 and -0.14 to half a deviation, +0.14 and +0.22 to one,
-    +0.55 and +0.85 to two. A drop-out (NaN) ends a stretch."""
-    out = np.zeros(values.shape, dtype=bool)
-    for sign in (1.0, -1.0):
-        signed = sign * values
-        candidate = signed > leave
-        # each stretch of candidates gets a number (0: before the first), and a stretch moves
-        # when one of its bins goes beyond `enter`
-        starts = candidate.copy()
-        starts[1:] &= ~candidate[:-1]
-        label = np.cumsum(starts)
-        confirmed = np.zeros(int(label[-1]) + 1 if label.size else 1, dtype=bool)
-        confirmed[label[candidate & (signed > enter)]] = True
-        out |= candidate & confirmed[label]
-    return out
+    +0.55 and +0.85 to two. A drop-out (NaN) ends a stretch.
+
+    Both sides at once, per stretch rather than per bin: each bin's side (+1 beyond `leave`,
+    -1 beyond -`leave`, else 0), the stretches where it stays the same, whether each holds
+    a bin beyond `enter` (a stretch is on one side: |value| is its side's), and the
+    stretches that move repeated over their bins (the same bins as labelling each side's
+    stretches by a running count and looking each bin's label up, in a third of the
+    passes: tests/test_drive_fast_paths.py)."""
+    if not values.size:
+        return np.zeros(values.shape, dtype=bool)
+    side = (values > leave).view(np.int8) - (values < -leave).view(np.int8)
+    starts = np.concatenate(([0], np.flatnonzero(side[1:] != side[:-1]) + 1))
+    strong = np.logical_or.reduceat(np.abs(values) > enter, starts)
+    moves = (side[starts] != 0) & strong
+    return np.repeat(moves, np.diff(np.append(starts, values.size)))
 
 
 def _trips(standing: np.ndarray, stop_windows: int) -> np.ndarray:
@@ -504,21 +517,6 @@ class StackedPower:
         ok = inside & (self.bad[end] - self.bad[start] == 0)
         mean = (self.total[end] - self.total[start]) / self.n
         return np.where(ok, mean, np.nan), ok
-
-
-def running_sums(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The running count of undefined (non-finite) values and the running sum of the values
-    (0 for the undefined), each from a leading 0: the count and the sum of values[i:j] are
-    their differences at j and i."""
-    bad = np.zeros(values.size + 1, dtype=np.intp)
-    total = np.zeros(values.size + 1)
-    finite = np.isfinite(values)
-    if finite.all():
-        np.cumsum(values, out=total[1:])  # (bad stays 0)
-    else:
-        np.cumsum(~finite, out=bad[1:])
-        np.cumsum(np.nan_to_num(values), out=total[1:])
-    return bad, total
 
 
 def _into(out: np.ndarray, values: np.ndarray) -> np.ndarray:

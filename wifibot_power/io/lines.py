@@ -54,6 +54,12 @@ class LineMap:
         row = min(max(row, 0), count - 1)
         return self._header_line + 2 + row if self._rows is None else int(self._rows[row])
 
+    @property
+    def rereadable(self) -> bool:
+        """Whether another process can find the lines again from the file (no bytes held in
+        memory: pickled, the map is its path and numbers)."""
+        return self._content.data is None
+
     def line_count(self) -> int:
         """Line ends up to the limit (a \\r\\n counts once)."""
         self._scan()

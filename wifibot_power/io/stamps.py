@@ -11,11 +11,13 @@ gaps time missing, and the note on its stamps says how its energy is read
 
 from __future__ import annotations
 
+import copyreg
 from collections.abc import Callable
 
 import numpy as np
 
 from wifibot_power.errors import LogError
+from wifibot_power.io.lines import LineMap
 from wifibot_power.io.options import SAMPLE_PERIOD_RANGE_S
 from wifibot_power.run import Problem
 
@@ -89,10 +91,12 @@ def _check_time(
             return _bursty(file, time_s, step_s, gaps, line_of)
     uneven: list[Problem] = []
     # the steps between gaps: their mean is within high - low of their median, so a log
-    # spaced evenly to 1% (every analyser's) is not looked at again; their sum is the span
-    # less the gaps' steps (no pass over the steps)
+    # spaced evenly to 1% (every analyser's, and with its gaps left out a clocked logger's
+    # that drops samples: `_regular_spread_s`) is not looked at again; their sum is the
+    # span less the gaps' steps (no pass over the steps)
     regular = step_s.size - gaps.size
-    if regular and high_s - low_s > UNEVEN_PCT / 100.0 * spacing_s:
+    spread_s = _regular_spread_s(step_s, gaps, low_s, high_s, spacing_s)
+    if regular and spread_s > UNEVEN_PCT / 100.0 * spacing_s:
         if reordered:
             step_s = None
             step_s = np.diff(time_s)
@@ -124,6 +128,26 @@ def _check_time(
         return period_s, uneven, None
     gap_list = _gap_problems(file, time_s, gaps, period_s, period_s, line_of)
     return period_s, uneven + gap_list, None
+
+
+def _regular_spread_s(
+    step_s: np.ndarray, gaps: np.ndarray, low_s: float, high_s: float, spacing_s: float
+) -> float:
+    """How far the steps spread (`high_s` - `low_s`, the gaps' steps included), or 0 when
+    those between the `gaps` lie within half the `UNEVEN_PCT` band of `spacing_s` of each
+    other: their quartiles and their mean then lie within the band too, so neither
+    `_stamped_on_arrival` nor an uneven period can come of them (a clocked logger that
+    drops samples, whose gaps alone made the spread: two quantiles of every step were
+    taken for nothing). `step_s`: the fresh diff (its gaps' steps are put back)."""
+    if not gaps.size:
+        return float(high_s - low_s)
+    held = step_s[gaps]
+    step_s[gaps] = low_s  # (a gap's step is no regular step: out of the maximum)
+    regular_high_s = float(step_s.max())
+    step_s[gaps] = held
+    if regular_high_s - low_s <= UNEVEN_PCT / 200.0 * spacing_s:
+        return 0.0
+    return float(high_s - low_s)
 
 
 def _gap_problems(
@@ -181,17 +205,76 @@ def _gap_list(
     line_of: Callable[[int], int],
     pattern: str,
 ) -> list[Problem]:
-    """One `gap` problem a gap: its line, where it starts and how much is missing."""
+    """One `gap` problem a gap: its line, where it starts and how much is missing (each
+    message written when first read: `GapProblem`)."""
     return [
-        Problem(
-            "gap",
-            f"line {line_of(int(index) + 1)}: {missing * 1e3:.4g} ms of samples dropped after "
-            f"t = {time_s[index]:.6g} s{pattern}",
-            float(time_s[index]) + period_s,
-            float(missing),
+        GapProblem(line_of, index, at_s, missing, period_s, pattern)
+        for index, at_s, missing in zip(
+            gaps.tolist(), time_s[gaps].tolist(), missing_s.tolist(), strict=True
         )
-        for index, missing in zip(gaps, missing_s, strict=True)
     ]
+
+
+class GapProblem(Problem):
+    """A `gap` problem whose message is written when it is first read: its line number
+    takes a scan of the file (io/lines.py `LineMap`: ~1.5 ms a 2 MB log, five times the
+    problems themselves), and a batch says the messages of its first few files only (the
+    others' gaps are counted: cli `warn_problems`); `inspect --json` lists each. The same
+    fields, message, equality and hash as the `Problem` it stands for. Pickled (a worker's
+    problems sent back) with its line map when that can read the file again (`LineMap.
+    rereadable`: no bytes held), else, or once written, as that plain `Problem`. A message
+    whose file can no longer be read for its line (gone since) names the data row."""
+
+    def __init__(
+        self,
+        line_of: Callable[[int], int],
+        index: int,
+        at_s: float,
+        missing_s: float,
+        period_s: float,
+        pattern: str,
+    ) -> None:
+        vars(self).update(  # (frozen, as `Problem`: its fields set once, here)
+            kind="gap",
+            t_start_s=at_s + period_s,
+            duration_s=missing_s,
+            _line_of=line_of,
+            _index=index,
+            _at_s=at_s,
+            _pattern=pattern,
+        )
+
+    @property
+    def message(self) -> str:  # type: ignore[override]
+        written = self.__dict__.get("_message")
+        if written is None:
+            try:
+                where = f"line {self._line_of(self._index + 1)}"
+            except (OSError, LogError):
+                where = f"data row {self._index + 2} (the file could not be read again)"
+            written = (
+                f"{where}: {self.duration_s * 1e3:.4g} ms of samples dropped after "
+                f"t = {self._at_s:.6g} s{self._pattern}"
+            )
+            object.__setattr__(self, "_message", written)
+        return written
+
+    def _fields(self) -> tuple[object, ...]:
+        return (self.kind, self.message, self.t_start_s, self.duration_s)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Problem):
+            return NotImplemented
+        return self._fields() == (other.kind, other.message, other.t_start_s, other.duration_s)
+
+    def __hash__(self) -> int:
+        return hash(self._fields())
+
+    def __reduce__(self):
+        holder = getattr(self._line_of, "__self__", None)
+        if "_message" in self.__dict__ or not (isinstance(holder, LineMap) and holder.rereadable):
+            return (Problem, self._fields())
+        return (copyreg.__newobj__, (GapProblem,), dict(self.__dict__))
 
 
 def _mostly_missing(file: str, summary: str, covered_s: float, line: int) -> None:
