@@ -275,7 +275,8 @@ class SumMoments:
         # the clusters with edge windows, each its own rows (not a mask over all of them)
         groups, first = np.unique(edge_cluster, return_index=True)
         assert np.all(np.diff(edge_cluster) >= 0), "edge windows in trip order"
-        for g, start, stop in zip(groups, first, [*first[1:], edge_cluster.size], strict=True):
+        stops = np.append(first[1:], edge_cluster.size) if groups.size else first
+        for g, start, stop in zip(groups, first, stops, strict=True):
             rows = W[start:stop]
             ww[g] += rows.T @ rows
             wy[g] += rows.T @ y[start:stop]
