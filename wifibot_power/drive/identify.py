@@ -114,6 +114,13 @@ class Identified:
     def predict_W(self, design: np.ndarray) -> np.ndarray:
         return design[:, self.kept] @ self.coef[self.kept]
 
+    def cov_of(self, j: int) -> float:
+        """Column j's variance (NaN where not kept)."""
+        if not self.kept[j]:
+            return np.nan
+        k = int(np.count_nonzero(self.kept[:j]))
+        return float(self.cov[k, k])
+
 
 def lag_grid(runs: list[RunWindows]) -> np.ndarray:
     """The whole lags [bins] the lag search tries: 0 to `MAX_LAG_S`."""
@@ -421,3 +428,104 @@ def bounded_from_gram(xx: np.ndarray, xy: np.ndarray, non_negative: np.ndarray) 
             break
         fixed[np.flatnonzero(release)[np.argmax(gradient[release])]] = False
     return coef / scale
+
+
+@dataclass(frozen=True)
+class Standing:
+    """The logs' own standing power (`standing_power`): the mean power [W] of the bins that
+    stand, its standard error [W] with the stops as clusters, and how many bins and stops."""
+
+    mean_W: float
+    se_W: float
+    bins: int
+    stops: int
+
+    def half_width_W(self) -> float:
+        """Its 95% half-width: t(0.975, stops - 1) x its standard error."""
+        return t_quantile(0.975, self.stops - 1) * self.se_W
+
+
+def standing_power(stats_list) -> Standing | None:
+    """The mean power of the bins where the robot stands (speed under `STANDING_MPS` and rate
+    of turn under `STANDING_RADPS`, windows.py, on every bin within `MAX_LAG_S` either side,
+    so that no lagged power of motion is in it), over every run (`stats.DriveStats`), with a
+    cluster-robust standard error, each stop (a stretch of standing bins) a cluster (CR1 of a
+    mean: Cameron & Miller 2015, Sec. II.C; a stop's draw drifts with the battery, its bins
+    do not). None when fewer than 2 stops stand: no interval."""
+    from wifibot_power.drive.windows import STANDING_MPS, STANDING_RADPS  # noqa: PLC0415
+
+    sums, counts = [], []
+    for stats in stats_list:
+        reach = int(round(MAX_LAG_S / stats.bin_s))
+        with np.errstate(invalid="ignore"):
+            still = (np.abs(stats.speed_mps) < STANDING_MPS) & (
+                np.abs(stats.yaw_rate_radps) < STANDING_RADPS
+            )
+        still &= np.isfinite(stats.power_W)
+        # a bin stands when every bin within `reach` of it does (a run's ends count as motion)
+        moving = np.concatenate((np.ones(reach), ~still, np.ones(reach)))
+        near = np.convolve(moving, np.ones(2 * reach + 1), mode="valid") > 0
+        stands = ~near
+        if not stands.any():
+            continue
+        label = np.cumsum(np.r_[stands[0], stands[1:] & ~stands[:-1]])[stands] - 1
+        counts.append(np.bincount(label))
+        sums.append(np.bincount(label, weights=stats.power_W[stands]))
+    if not counts:
+        return None
+    count, total = np.concatenate(counts), np.concatenate(sums)
+    G, n = count.size, int(count.sum())
+    if G < 2:
+        return None
+    mean = float(total.sum() / n)
+    se = float(np.sqrt(G / (G - 1) * np.sum(np.square(total - count * mean))) / n)
+    return Standing(mean, se, n, G)
+
+
+def idle_against_standing(
+    fitted: Identified, standing: Standing | None, unit: str = "W"
+) -> tuple[Identified, str | None]:
+    """The reported idle checked against the logs' standing power (docs/drive-model.md,
+    "Current-only logs"): idle is the power of standing still, so a fitted idle that differs
+    from the standing bins' mean by more than t(0.975) standard errors of the difference
+    (sqrt(se_idle^2 + se_standing^2), t with Welch-Satterthwaite's degrees of freedom) is not
+    what the logs measure standing: it carries a share of the moving power (a current proxy's
+    few standing windows against thousands moving: BorealTC flooring's idle 87 W against 17 W
+    standing). Such an idle is reported as not determined, with both numbers, and it stays in
+    the predictions (as a loose term does: `_honest`); the second value is the warning."""
+    j = fitted.columns.index("idle_W") if "idle_W" in fitted.columns else -1
+    if standing is None or j < 0 or not fitted.shown[j] or fitted.dof < 1:
+        return fitted, None
+    se_idle = float(np.sqrt(max(fitted.cov_of(j), 0.0)))
+    difference = float(fitted.coef[j]) - standing.mean_W
+    se = float(np.hypot(se_idle, standing.se_W))
+    # Welch-Satterthwaite's degrees of freedom of a difference of two means (Welch 1947,
+    # Biometrika 34, Eq. 9): the fewer of the two alone would take a 2-stop standing power's
+    # t(0.975, 1) = 12.7 however small its standard error
+    dof = se**4 / (se_idle**4 / fitted.dof + standing.se_W**4 / (standing.stops - 1))
+    t = t_quantile(0.975, dof)
+    if not np.isfinite(se) or abs(difference) <= t * se:
+        return fitted, None
+    half = fitted.half_width()[j]
+    measured = (
+        f"the logs' standing power, {standing.mean_W:.3g} ± {standing.half_width_W():.3g} W "
+        f"(95%; {standing.bins} bins in {standing.stops} stops)"
+    )
+    reason = (
+        f"idle_W: not determined, {fitted.coef[j]:.3g} ± {half:.3g} {unit} (95%) is not "
+        f"{measured}: {abs(difference) / se:.1f} standard errors apart; the fit gives the "
+        "constant a share of the moving power (it stays in the predictions)"
+    )
+    warning = (
+        f"idle_W ({fitted.coef[j]:.3g} {unit}) is not the power the logs draw standing still: "
+        f"{measured}; it is reported as not determined ('wbpower docs drive-model', "
+        "'Current-only logs')"
+    )
+    reported = fitted.shown.copy()
+    reported[j] = False
+    return (
+        replace(
+            fitted, reported=reported, not_determined=(*fitted.not_determined, ("idle_W", reason))
+        ),
+        warning,
+    )

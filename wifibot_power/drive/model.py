@@ -20,7 +20,13 @@ from wifibot_power.drive.heldout import (
     heldout_from_sums,
     lag_grid_of,
 )
-from wifibot_power.drive.identify import identify, identify_moments, lag_search
+from wifibot_power.drive.identify import (
+    identify,
+    identify_moments,
+    idle_against_standing,
+    lag_search,
+    standing_power,
+)
 from wifibot_power.drive.lagsums import SumsTable
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
 from wifibot_power.drive.sums import RunSums, sums_of
@@ -352,6 +358,9 @@ def _model(
         warnings.append("fewer than 4 trips: no held-out accuracy")
     proxies = sum(s.current_proxy for s in stats)
     kind = "power" if not proxies else "current_proxy" if proxies == len(stats) else "mixed"
+    # idle against the logs' own standing power (identify.py `idle_against_standing`)
+    fitted, idle_warning = idle_against_standing(fitted, standing_power(stats))
+    warnings += [idle_warning] if idle_warning else []
     terms, per_surface = _terms(fitted, surfaces, force_form=kind == "current_proxy")
     k = np.flatnonzero(fitted.kept)
     return DriveModel(
