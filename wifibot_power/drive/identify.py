@@ -483,7 +483,7 @@ def standing_power(stats_list) -> Standing | None:
 
 
 def idle_against_standing(
-    fitted: Identified, standing: Standing | None, unit: str = "W"
+    fitted: Identified, standing: Standing | None, force_form: bool
 ) -> tuple[Identified, str | None]:
     """The reported idle checked against the logs' standing power (docs/drive-model.md,
     "Current-only logs"): idle is the power of standing still, so a fitted idle that differs
@@ -492,9 +492,18 @@ def idle_against_standing(
     what the logs measure standing: it carries a share of the moving power (a current proxy's
     few standing windows against thousands moving: BorealTC flooring's idle 87 W against 17 W
     standing). Such an idle is reported as not determined, with both numbers, and it stays in
-    the predictions (as a loose term does: `_honest`); the second value is the warning."""
+    the predictions (as a loose term does: `_honest`); the second value is the warning.
+
+    The force form's only (`force_form`: every log a current proxy): it has no step on
+    moving, so idle and the rolling force (halved on an arc) are told apart by the standing
+    windows against every moving one. A power log's step (`drive_on_W`) is 0 exactly where a
+    window stands, so its idle is the standing windows' own fit; checked anyway, the two
+    readings of one number differed by 0.01-0.9 W, "significantly" where the standing power
+    came from 2 or 3 stops whose spread gives no standard error worth the name (the
+    simulator at field realism: 2 of 20 seeds, idle 12.0 W against 11.2 and 12.6 W
+    standing, truth 12; sample_logs: 23.292 against 23.300 W; docs/drive-model.md)."""
     j = fitted.columns.index("idle_W") if "idle_W" in fitted.columns else -1
-    if standing is None or j < 0 or not fitted.shown[j] or fitted.dof < 1:
+    if not force_form or standing is None or j < 0 or not fitted.shown[j] or fitted.dof < 1:
         return fitted, None
     se_idle = float(np.sqrt(max(fitted.cov_of(j), 0.0)))
     difference = float(fitted.coef[j]) - standing.mean_W
@@ -512,12 +521,12 @@ def idle_against_standing(
         f"(95%; {standing.bins} bins in {standing.stops} stops)"
     )
     reason = (
-        f"idle_W: not determined, {fitted.coef[j]:.3g} ± {half:.3g} {unit} (95%) is not "
+        f"idle_W: not determined, {fitted.coef[j]:.3g} ± {half:.3g} W (95%) is not "
         f"{measured}: {abs(difference) / se:.1f} standard errors apart; the fit gives the "
         "constant a share of the moving power (it stays in the predictions)"
     )
     warning = (
-        f"idle_W ({fitted.coef[j]:.3g} {unit}) is not the power the logs draw standing still: "
+        f"idle_W ({fitted.coef[j]:.3g} W) is not the power the logs draw standing still: "
         f"{measured}; it is reported as not determined ('wbpower docs drive-model', "
         "'Current-only logs')"
     )

@@ -358,8 +358,9 @@ def _model(
         warnings.append("fewer than 4 trips: no held-out accuracy")
     proxies = sum(s.current_proxy for s in stats)
     kind = "power" if not proxies else "current_proxy" if proxies == len(stats) else "mixed"
-    # idle against the logs' own standing power (identify.py `idle_against_standing`)
-    fitted, idle_warning = idle_against_standing(fitted, standing_power(stats))
+    # a proxy's idle against the logs' own standing power (identify.py)
+    standing = standing_power(stats) if kind == "current_proxy" else None
+    fitted, idle_warning = idle_against_standing(fitted, standing, kind == "current_proxy")
     warnings += [idle_warning] if idle_warning else []
     terms, per_surface = _terms(fitted, surfaces, force_form=kind == "current_proxy")
     k = np.flatnonzero(fitted.kept)
