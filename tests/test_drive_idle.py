@@ -21,12 +21,12 @@ from wifibot_power.run import Run, RunMeta
 IDLE_W, ROLLING_W, SPIN_W = 10.0, 60.0, 100.0
 
 
-def _run(k: int, arc_full_rolling: bool, seed: int = 0) -> Run:
+def _run(k: int, arc_full_rolling: bool, seed: int = 0, stands: bool = True) -> Run:
     """100 Hz: stand 2.5 s, straight 3 s (a speed per run), an arc 60 s (a rate of turn per
     run), a spin 4 s (another), stand 2.5 s: few standing windows against many moving. The
     proxy: idle, the rolling force while moving, the spin's moment spinning, half of it on an
     arc, and on an arc the rolling force in full (`arc_full_rolling`: the inner side still
-    drives) or half (the force form's arc)."""
+    drives) or half (the force form's arc). `stands` False: it drives straight where it stood."""
     rng = np.random.default_rng(seed + 100 * k)
     period_s = 0.01
     arc_radps, spin_radps = 0.3 + 0.1 * k, 0.6 + 0.1 * k
@@ -34,6 +34,8 @@ def _run(k: int, arc_full_rolling: bool, seed: int = 0) -> Run:
     speed_mps = 0.3 + 0.1 * k
     knots_v = [0, 0, speed_mps, speed_mps, speed_mps, speed_mps, 0, 0, 0, 0]
     knots_w = [0, 0, 0, 0, arc_radps, arc_radps, spin_radps, spin_radps, 0, 0]
+    if not stands:  # moving from the first sample to the last
+        knots_v[0], knots_v[-1] = speed_mps, speed_mps
     t = np.arange(0, 72.3, period_s)
     v, w = np.interp(t, knots_t, knots_v), np.interp(t, knots_t, knots_w)
     translating, turning = np.abs(v) > 1e-3, np.abs(w) > 1e-3
@@ -94,6 +96,16 @@ def _standing_W(stats) -> float:
     return float(np.mean(np.concatenate(parts)))
 
 
+def test_a_proxys_idle_is_not_reported_when_the_logs_never_stand():
+    # the force form's arcs exactly, so the fit's constant is right here (10 W): but nothing
+    # in these logs measures the standstill current, and on BorealTC such a constant was 4-7
+    # times the standing power
+    model = fit_drive([_run(k, False, stands=False) for k in range(6)])
+    assert "idle_W" not in model.terms, model.terms["idle_W"]
+    assert any("no bin of these logs stands" in r for r in model.not_determined)
+    assert any(w.startswith("idle_W") for w in model.warnings)
+
+
 DRIVE = Path(os.environ.get("WBPOWER_REAL_DRIVE") or "/work/real_drive") / "borealtc"
 
 
@@ -110,3 +122,16 @@ def test_a_real_proxys_idle_that_carries_the_moving_force_is_not_reported(surfac
     assert standing < 30.0
     assert "idle_W" not in model.terms, (surface, model.terms["idle_W"], standing)
     assert any(r.startswith("idle_W: not determined") for r in model.not_determined)
+
+
+VULPI = DRIVE.parent / "vulpi"
+
+
+@pytest.mark.skipif(not VULPI.is_dir(), reason=f"no converted Vulpi logs in {VULPI}")
+def test_a_real_proxy_that_never_stands_reports_no_idle():
+    # `fit` of the whole Vulpi set gave idle_W 132 [71, 193] W from logs that never stand
+    from wifibot_power.io import read_log
+
+    runs = [read_log(path) for path in sorted(VULPI.rglob("*.csv.gz"))]
+    model = fit_drive(runs)
+    assert "idle_W" not in model.terms, model.terms["idle_W"]

@@ -37,7 +37,8 @@ intervals from a covariance robust to autocorrelation within a cluster (a run).
   carry the moving force (BorealTC flooring: 87 W against 17 W standing). The logs' standing
   bins measure idle directly (`standing_power`): a fitted idle that differs from their mean
   by more than t(0.975) standard errors of the difference is reported as not determined,
-  with both numbers and a warning, and still predicts.
+  with both numbers and a warning, and still predicts; so is idle from logs that never stand
+  (nothing measures it: BorealTC's moving windows alone gave 4-7 times the standing power).
 """
 
 from __future__ import annotations
@@ -457,7 +458,8 @@ def standing_power(stats_list) -> Standing | None:
     so that no lagged power of motion is in it), over every run (`stats.DriveStats`), with a
     cluster-robust standard error, each stop (a stretch of standing bins) a cluster (CR1 of a
     mean: Cameron & Miller 2015, Sec. II.C; a stop's draw drifts with the battery, its bins
-    do not). None when fewer than 2 stops stand: no interval."""
+    do not). Its mean and standard error are NaN without a stop, its standard error with
+    one."""
     from wifibot_power.drive.windows import STANDING_MPS, STANDING_RADPS  # noqa: PLC0415
 
     sums, counts = [], []
@@ -468,8 +470,9 @@ def standing_power(stats_list) -> Standing | None:
                 np.abs(stats.yaw_rate_radps) < STANDING_RADPS
             )
         still &= np.isfinite(stats.power_W)
-        # a bin stands when every bin within `reach` of it does (a run's ends count as motion)
-        moving = np.concatenate((np.ones(reach), ~still, np.ones(reach)))
+        # a bin stands when every bin within `reach` of it does (before a run's first bin and
+        # after its last: no motion)
+        moving = np.concatenate((np.zeros(reach), ~still, np.zeros(reach)))
         near = np.convolve(moving, np.ones(2 * reach + 1), mode="valid") > 0
         stands = ~near
         if not stands.any():
@@ -478,11 +481,11 @@ def standing_power(stats_list) -> Standing | None:
         counts.append(np.bincount(label))
         sums.append(np.bincount(label, weights=stats.power_W[stands]))
     if not counts:
-        return None
+        return Standing(np.nan, np.nan, 0, 0)
     count, total = np.concatenate(counts), np.concatenate(sums)
     G, n = count.size, int(count.sum())
     if G < 2:
-        return None
+        return Standing(float(total.sum() / n), np.nan, n, G)
     mean = float(total.sum() / n)
     se = float(np.sqrt(G / (G - 1) * np.sum(np.square(total - count * mean))) / n)
     return Standing(mean, se, n, G)
@@ -509,7 +512,20 @@ def idle_against_standing(
     simulator at field realism: 2 of 20 seeds, idle 12.0 W against 11.2 and 12.6 W
     standing, truth 12; sample_logs: 23.292 against 23.300 W; docs/drive-model.md)."""
     j = fitted.columns.index("idle_W") if "idle_W" in fitted.columns else -1
-    if not force_form or standing is None or j < 0 or not fitted.shown[j] or fitted.dof < 1:
+    if not force_form or standing is None or j < 0 or not fitted.shown[j]:
+        return fitted, None
+    if standing.stops == 0:
+        # never standing, the constant is found from the moving windows alone (an arc's
+        # halved rolling force against it): where BorealTC's logs did stand, that gave 4-7
+        # times their standing power
+        return _idle_not_determined(
+            fitted,
+            j,
+            "no bin of these logs stands (still, with a second either side): the standstill "
+            "current is not measured, and a constant found from moving windows alone carried "
+            "the moving force where the logs did stand",
+        )
+    if standing.stops < 2 or fitted.dof < 1:
         return fitted, None
     se_idle = float(np.sqrt(max(fitted.cov_of(j), 0.0)))
     difference = float(fitted.coef[j]) - standing.mean_W
@@ -521,19 +537,31 @@ def idle_against_standing(
     t = t_quantile(0.975, dof)
     if not np.isfinite(se) or abs(difference) <= t * se:
         return fitted, None
-    half = fitted.half_width()[j]
     measured = (
         f"the logs' standing power, {standing.mean_W:.3g} ± {standing.half_width_W():.3g} W "
         f"(95%; {standing.bins} bins in {standing.stops} stops)"
     )
-    reason = (
-        f"idle_W: not determined, {fitted.coef[j]:.3g} ± {half:.3g} W (95%) is not "
-        f"{measured}: {abs(difference) / se:.1f} standard errors apart; the fit gives the "
-        "constant a share of the moving power (it stays in the predictions)"
+    return _idle_not_determined(
+        fitted,
+        j,
+        f"it is not {measured}: {abs(difference) / se:.1f} standard errors apart; the fit "
+        "gives the constant a share of the moving power",
     )
+
+
+def _idle_not_determined(fitted: Identified, j: int, why: str) -> tuple[Identified, str]:
+    """`fitted` with idle (column j) reported as not determined because `why`, and the
+    warning (`idle_against_standing`)."""
+    half = fitted.half_width()[j]
+    value = (
+        f"{fitted.coef[j]:.3g} ± {half:.3g} W (95%)"
+        if np.isfinite(half)
+        else (f"{fitted.coef[j]:.3g} W")
+    )
+    reason = f"idle_W: not determined, {value}: {why} (it stays in the predictions)"
     warning = (
-        f"idle_W ({fitted.coef[j]:.3g} W) is not the power the logs draw standing still: "
-        f"{measured}; it is reported as not determined ('wbpower docs drive-model', "
+        f"idle_W ({fitted.coef[j]:.3g} W) is not the power these logs draw standing still: "
+        f"{why}; it is reported as not determined ('wbpower docs drive-model', "
         "'Current-only logs')"
     )
     reported = fitted.shown.copy()
