@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+import wifibot_power.drive.identify as identification
 from wifibot_power.drive.heldout import (
     HeldOut,
     HeldOutRun,
@@ -20,13 +21,7 @@ from wifibot_power.drive.heldout import (
     heldout_from_sums,
     lag_grid_of,
 )
-from wifibot_power.drive.identify import (
-    identify,
-    identify_moments,
-    idle_against_standing,
-    lag_search,
-    standing_power,
-)
+from wifibot_power.drive.identify import identify, identify_moments, lag_search
 from wifibot_power.drive.lagsums import SumsTable
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
 from wifibot_power.drive.sums import RunSums, sums_of
@@ -359,8 +354,9 @@ def _model(
     proxies = sum(s.current_proxy for s in stats)
     kind = "power" if not proxies else "current_proxy" if proxies == len(stats) else "mixed"
     # a proxy's idle against the logs' own standing power (identify.py)
-    standing = standing_power(stats) if kind == "current_proxy" else None
-    fitted, idle_warning = idle_against_standing(fitted, standing, kind == "current_proxy")
+    proxy = kind == "current_proxy"
+    standing = identification.standing_power(stats) if proxy else None
+    fitted, idle_warning = identification.idle_against_standing(fitted, standing, proxy)
     warnings += [idle_warning] if idle_warning else []
     terms, per_surface = _terms(fitted, surfaces, force_form=kind == "current_proxy")
     k = np.flatnonzero(fitted.kept)
