@@ -120,7 +120,13 @@ def test_force_form_fit_finds_the_forces():
     assert_allclose(model.terms["effective_mass_kg"].value, TRUE["mass"], rtol=0.05)
     assert_allclose(model.terms["braking_mass_kg"].value, TRUE["braking"], rtol=0.1)
     assert_allclose(model.terms["quadratic_W_per_mps2"].value, TRUE["viscous"], rtol=0.1)
-    assert_allclose(model.terms["idle_W"].value, TRUE["idle"], atol=1.0)
+    # the fitted constant is 9.43 W, but its interval (± 0.10 W) misses the logs' standing
+    # power, exactly 10 W here (the moving terms' small biases, rolling 60.55 W and mass
+    # 151.2 against 60 and 150, leave it 0.57 W low): it is reported as not determined (identify.py
+    # `idle_against_standing`) and still predicts
+    assert_allclose(model.coefficient("idle_W"), TRUE["idle"], atol=1.0)
+    assert "idle_W" not in model.terms
+    assert any("the logs' standing power, 10 ± 0 W" in r for r in model.not_determined)
     # the constant force while translating: the rolling term, or the step on moving (the
     # two regressors are one here: no turning)
     constant = model.surfaces["floor"]["rolling_W_per_mps"].value

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+import wifibot_power.drive.identify as identification
 from wifibot_power.drive.heldout import (
     HeldOut,
     HeldOutRun,
@@ -350,6 +351,11 @@ def _model(
         warnings.append("fewer than 4 trips: no held-out accuracy")
     proxies = sum(s.current_proxy for s in stats)
     kind = "power" if not proxies else "current_proxy" if proxies == len(stats) else "mixed"
+    # a proxy's idle against the logs' own standing power (identify.py)
+    proxy = kind == "current_proxy"
+    standing = identification.standing_power(stats) if proxy else None
+    fitted, idle_warning = identification.idle_against_standing(fitted, standing, proxy)
+    warnings += [idle_warning] if idle_warning else []
     terms, per_surface = _terms(fitted, surfaces, force_form=kind == "current_proxy")
     k = np.flatnonzero(fitted.kept)
     return DriveModel(

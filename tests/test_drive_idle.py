@@ -1,0 +1,137 @@
+"""A fitted idle_W checked against the logs' own standing power (identify.py
+`idle_against_standing`; docs/drive-model.md, "Current-only logs": issue 25, a confident wrong
+answer is the worst outcome). A current proxy's force form tells idle from the rolling force by
+its few standing windows only; where the moving windows hold power the form does not (here: an
+arc that draws its full rolling force, where the form counts half), thousands of them put it
+into the constant, and the fit reported an idle the standing samples contradict."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from wifibot_power.drive import fit_drive
+from wifibot_power.drive.stats import drive_stats
+from wifibot_power.run import Run, RunMeta
+
+#: the simulated proxy's standing draw, rolling force and spin moment [W] (force form: u_0 F)
+IDLE_W, ROLLING_W, SPIN_W = 10.0, 60.0, 100.0
+
+
+def _run(k: int, arc_full_rolling: bool, seed: int = 0, stands: bool = True) -> Run:
+    """100 Hz: stand 2.5 s, straight 3 s (a speed per run), an arc 60 s (a rate of turn per
+    run), a spin 4 s (another), stand 2.5 s: few standing windows against many moving. The
+    proxy: idle, the rolling force while moving, the spin's moment spinning, half of it on an
+    arc, and on an arc the rolling force in full (`arc_full_rolling`: the inner side still
+    drives) or half (the force form's arc). `stands` False: it drives straight where it stood."""
+    rng = np.random.default_rng(seed + 100 * k)
+    period_s = 0.01
+    arc_radps, spin_radps = 0.3 + 0.1 * k, 0.6 + 0.1 * k
+    knots_t = [0, 2.5, 2.8, 5.5, 5.8, 65.5, 65.8, 69.5, 69.8, 72.3]
+    speed_mps = 0.3 + 0.1 * k
+    knots_v = [0, 0, speed_mps, speed_mps, speed_mps, speed_mps, 0, 0, 0, 0]
+    knots_w = [0, 0, 0, 0, arc_radps, arc_radps, spin_radps, spin_radps, 0, 0]
+    if not stands:  # moving from the first sample to the last
+        knots_v[0], knots_v[-1] = speed_mps, speed_mps
+    t = np.arange(0, 72.3, period_s)
+    v, w = np.interp(t, knots_t, knots_v), np.interp(t, knots_t, knots_w)
+    translating, turning = np.abs(v) > 1e-3, np.abs(w) > 1e-3
+    arc = translating & turning
+    rolling = ROLLING_W * np.where(arc & ~arc_full_rolling, 0.5, 1.0) * (translating | turning)
+    moment = SPIN_W * np.where(arc, 0.5, 1.0) * turning
+    power = IDLE_W + rolling + moment + rng.normal(0.0, 2.0, t.size)
+    meta = RunMeta(
+        run_id=f"r{k}",
+        sample_period_s=period_s,
+        extra={"surface": "floor", "voltage_assumed_V": "24 (nominal: motor currents only)"},
+    )
+    return Run(f"r{k}.csv", "wbpower-csv", meta, t, power, speed_mps=v, yaw_rate_radps=w)
+
+
+def _fit(arc_full_rolling: bool):
+    runs = [_run(k, arc_full_rolling) for k in range(6)]
+    return fit_drive(runs), runs
+
+
+def test_the_standing_power_is_the_standing_bins_mean_with_stops_as_clusters():
+    from wifibot_power.drive.identify import standing_power
+
+    runs = [_run(k, True) for k in range(6)]
+    standing = standing_power([drive_stats(run) for run in runs])
+    # each run stands at its start and end: 12 stops, each read at the true idle (noise 2 W)
+    assert standing.stops == 12
+    assert abs(standing.mean_W - IDLE_W) < 0.5
+    assert standing.se_W < 0.5
+
+
+def test_an_idle_the_standing_samples_contradict_is_not_determined():
+    model, _ = _fit(arc_full_rolling=True)
+    reasons = [r for r in model.not_determined if r.startswith("idle_W: not determined")]
+    assert "idle_W" not in model.terms, model.terms["idle_W"]
+    assert len(reasons) == 1 and "standing power" in reasons[0], model.not_determined
+    assert any(w.startswith("idle_W") and "standing still" in w for w in model.warnings)
+
+
+def test_an_idle_the_standing_samples_confirm_is_reported():
+    # the same robot whose arcs draw what the force form says: idle is the standing draw
+    model, _ = _fit(arc_full_rolling=False)
+    idle = model.terms["idle_W"]
+    assert idle.ci95[0] <= IDLE_W <= idle.ci95[1], idle
+    assert not any(r.startswith("idle_W") for r in model.not_determined)
+    assert not any(w.startswith("idle_W") for w in model.warnings)
+
+
+def _standing_W(stats) -> float:
+    """The mean power of the bins that stand, with a second of standing either side (this
+    file's own reading; identify.py `standing_power` is tested against it above)."""
+    parts = []
+    for s in stats:
+        still = (np.abs(s.speed_mps) < 0.02) & (np.abs(s.yaw_rate_radps) < 0.05)
+        reach = int(round(1.0 / s.bin_s))
+        margin = np.convolve(~still, np.ones(2 * reach + 1), mode="same") == 0
+        parts.append(s.power_W[margin & still])
+    return float(np.mean(np.concatenate(parts)))
+
+
+def test_a_proxys_idle_is_not_reported_when_the_logs_never_stand():
+    # the force form's arcs exactly, so the fit's constant is right here (10 W): but nothing
+    # in these logs measures the standstill current, and on BorealTC such a constant was 4-7
+    # times the standing power
+    model = fit_drive([_run(k, False, stands=False) for k in range(6)])
+    assert "idle_W" not in model.terms, model.terms["idle_W"]
+    assert any("no bin of these logs stands" in r for r in model.not_determined)
+    assert any(w.startswith("idle_W") for w in model.warnings)
+
+
+DRIVE = Path(os.environ.get("WBPOWER_REAL_DRIVE") or "/work/real_drive") / "borealtc"
+
+
+@pytest.mark.skipif(not DRIVE.is_dir(), reason=f"no converted BorealTC logs in {DRIVE}")
+@pytest.mark.parametrize("surface", ["flooring", "asphalt", "ice", "snow"])
+def test_a_real_proxys_idle_that_carries_the_moving_force_is_not_reported(surface):
+    # `fit` of these folders gave idle_W 87-119 W with intervals clear of the logs' standing
+    # power (16-24 W): such an idle is not the robot's standstill draw
+    from wifibot_power.io import read_log
+
+    runs = [read_log(path) for path in sorted((DRIVE / surface).rglob("*.csv.gz"))]
+    model = fit_drive(runs)
+    standing = _standing_W([drive_stats(run) for run in runs])
+    assert standing < 30.0
+    assert "idle_W" not in model.terms, (surface, model.terms["idle_W"], standing)
+    assert any(r.startswith("idle_W: not determined") for r in model.not_determined)
+
+
+VULPI = DRIVE.parent / "vulpi"
+
+
+@pytest.mark.skipif(not VULPI.is_dir(), reason=f"no converted Vulpi logs in {VULPI}")
+def test_a_real_proxy_that_never_stands_reports_no_idle():
+    # `fit` of the whole Vulpi set gave idle_W 132 [71, 193] W from logs that never stand
+    from wifibot_power.io import read_log
+
+    runs = [read_log(path) for path in sorted(VULPI.rglob("*.csv.gz"))]
+    model = fit_drive(runs)
+    assert "idle_W" not in model.terms, model.terms["idle_W"]
