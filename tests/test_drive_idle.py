@@ -1,4 +1,4 @@
-"""A fitted idle_W checked against the logs' own standing power (identify.py
+"""A fitted idle_W checked against the logs' own standing power (drive/standing.py
 `idle_against_standing`; docs/drive-model.md, "Current-only logs": issue 25, a confident wrong
 answer is the worst outcome). A current proxy's force form tells idle from the rolling force by
 its few standing windows only; where the moving windows hold power the form does not (here: an
@@ -21,7 +21,9 @@ from wifibot_power.run import Run, RunMeta
 IDLE_W, ROLLING_W, SPIN_W = 10.0, 60.0, 100.0
 
 
-def _run(k: int, arc_full_rolling: bool, seed: int = 0, stands: bool = True) -> Run:
+def _run(
+    k: int, arc_full_rolling: bool, seed: int = 0, stands: bool = True, noise_W: float = 2.0
+) -> Run:
     """100 Hz: stand 2.5 s, straight 3 s (a speed per run), an arc 60 s (a rate of turn per
     run), a spin 4 s (another), stand 2.5 s: few standing windows against many moving. The
     proxy: idle, the rolling force while moving, the spin's moment spinning, half of it on an
@@ -42,7 +44,7 @@ def _run(k: int, arc_full_rolling: bool, seed: int = 0, stands: bool = True) -> 
     arc = translating & turning
     rolling = ROLLING_W * np.where(arc & ~arc_full_rolling, 0.5, 1.0) * (translating | turning)
     moment = SPIN_W * np.where(arc, 0.5, 1.0) * turning
-    power = IDLE_W + rolling + moment + rng.normal(0.0, 2.0, t.size)
+    power = IDLE_W + rolling + moment + rng.normal(0.0, noise_W, t.size)
     meta = RunMeta(
         run_id=f"r{k}",
         sample_period_s=period_s,
@@ -57,10 +59,10 @@ def _fit(arc_full_rolling: bool):
 
 
 def test_the_standing_power_is_the_standing_bins_mean_with_stops_as_clusters():
-    from wifibot_power.drive.identify import standing_power
+    from wifibot_power.drive.standing import standing_power, standing_stops
 
     runs = [_run(k, True) for k in range(6)]
-    standing = standing_power([drive_stats(run) for run in runs])
+    standing = standing_power([standing_stops(drive_stats(run)) for run in runs])
     # each run stands at its start and end: 12 stops, each read at the true idle (noise 2 W)
     assert standing.stops == 12
     assert abs(standing.mean_W - IDLE_W) < 0.5
@@ -86,7 +88,7 @@ def test_an_idle_the_standing_samples_confirm_is_reported():
 
 def _standing_W(stats) -> float:
     """The mean power of the bins that stand, with a second of standing either side (this
-    file's own reading; identify.py `standing_power` is tested against it above)."""
+    file's own reading; standing.py `standing_power` is tested against it above)."""
     parts = []
     for s in stats:
         still = (np.abs(s.speed_mps) < 0.02) & (np.abs(s.yaw_rate_radps) < 0.05)
@@ -135,3 +137,68 @@ def test_a_real_proxy_that_never_stands_reports_no_idle():
     runs = [read_log(path) for path in sorted(VULPI.rglob("*.csv.gz"))]
     model = fit_drive(runs)
     assert "idle_W" not in model.terms, model.terms["idle_W"]
+
+
+def _stops_by_convolution(stats) -> tuple[np.ndarray, np.ndarray]:
+    """The stops as idleproxy first wrote them (a convolution over each bin's neighbours):
+    the reference the running count must equal."""
+    from wifibot_power.drive.identify import MAX_LAG_S
+    from wifibot_power.drive.windows import STANDING_MPS, STANDING_RADPS
+
+    reach = int(round(MAX_LAG_S / stats.bin_s))
+    with np.errstate(invalid="ignore"):
+        still = (np.abs(stats.speed_mps) < STANDING_MPS) & (
+            np.abs(stats.yaw_rate_radps) < STANDING_RADPS
+        )
+    still &= np.isfinite(stats.power_W)
+    moving = np.concatenate((np.zeros(reach), ~still, np.zeros(reach)))
+    stands = ~(np.convolve(moving, np.ones(2 * reach + 1), mode="valid") > 0)
+    if not stands.any():
+        return np.zeros(0, np.intp), np.zeros(0)
+    label = np.cumsum(np.r_[stands[0], stands[1:] & ~stands[:-1]])[stands] - 1
+    return np.bincount(label), np.bincount(label, weights=stats.power_W[stands])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_runs_stops_are_the_convolutions_bin_for_bin(seed):
+    """`standing_stops`' running count of moving neighbours finds the stops a convolution
+    does, at the edges of a run too (short stops, motion in the first and last second,
+    NaN drop-outs); fails when the count's window is a bin short on either side."""
+    from wifibot_power.drive.standing import standing_stops
+
+    rng = np.random.default_rng(seed)
+    run = _run(seed % 3, False, seed, stands=bool(seed % 2))
+    v = run.speed_mps.copy()
+    for start in rng.integers(0, v.size - 300, 4):  # short stops and bursts of motion
+        v[start : start + rng.integers(50, 250)] = 0.0 if rng.random() < 0.5 else 0.2
+    v[rng.integers(0, v.size, 20)] = np.nan
+    run = Run(run.file, run.format, run.meta, run.stamps_s, run.power_W, v, run.yaw_rate_radps)
+    stats = drive_stats(run)
+    made = standing_stops(stats)
+    bins, sums = _stops_by_convolution(stats)
+    np.testing.assert_array_equal(made.bins, bins)
+    np.testing.assert_array_equal(made.power_sum_W, sums)
+
+
+def test_a_proxy_folder_is_fitted_without_reading_its_logs_again(tmp_path, monkeypatch):
+    """The idle check's stops are made in the workers (`WorkerStats.standing`): a plain
+    `fit_logs` of current-proxy logs, whose records leave the bins out, never reads a log
+    again for them (it read all 71 BorealTC logs a second time). Noisy enough that no run
+    keeps its bins for a lag search over the windows (`drive.sums.AT_RISK_SHARE`)."""
+    from wifibot_power.fit import fit_logs
+    from wifibot_power.pipeline.gather import ReadAgain
+
+    for k in range(6):
+        run = _run(k, True, noise_W=20.0)
+        header = "".join(f"# {key}: {value}\n" for key, value in run.meta.extra.items())
+        columns = np.column_stack((run.stamps_s, run.power_W, run.speed_mps, run.yaw_rate_radps))
+        with open(tmp_path / f"r{k}.csv", "w") as f:
+            f.write(f"# wbpower-log: 1\n# run_id: r{k}\n{header}")
+            f.write("time_s,power_W,speed_mps,yaw_rate_radps\n")
+            np.savetxt(f, columns, delimiter=",", fmt="%.6g")
+    called = []
+    monkeypatch.setattr(ReadAgain, "__call__", lambda self: called.append(self))
+    result = fit_logs([tmp_path], jobs=1)
+    assert result.drive is not None and result.drive.power_kind == "current_proxy"
+    assert called == []
+    assert any("idle_W" in r and "standing power" in r for r in result.drive.not_determined)

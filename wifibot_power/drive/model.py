@@ -13,7 +13,6 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-import wifibot_power.drive.identify as identification
 from wifibot_power.drive.heldout import (
     HeldOut,
     HeldOutRun,
@@ -23,6 +22,7 @@ from wifibot_power.drive.heldout import (
 )
 from wifibot_power.drive.identify import WindowSearch, identify, identify_moments, lag_search
 from wifibot_power.drive.lagsums import SumsTable
+from wifibot_power.drive.standing import idle_against_standing, run_stops, standing_power
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
 from wifibot_power.drive.sums import RunSums, sums_of
 from wifibot_power.drive.terms import TERM_BY_NAME, TERMS, term_unit
@@ -353,8 +353,8 @@ def _model(
     kind = "power" if not proxies else "current_proxy" if proxies == len(stats) else "mixed"
     # a proxy's idle against the logs' own standing power (identify.py)
     proxy = kind == "current_proxy"
-    standing = identification.standing_power(stats) if proxy else None
-    fitted, idle_warning = identification.idle_against_standing(fitted, standing, proxy)
+    standing = standing_power([run_stops(s) for s in stats]) if proxy else None
+    fitted, idle_warning = idle_against_standing(fitted, standing, proxy)
     warnings += [idle_warning] if idle_warning else []
     terms, per_surface = _terms(fitted, surfaces, force_form=kind == "current_proxy")
     k = np.flatnonzero(fitted.kept)

@@ -34,6 +34,7 @@ from wifibot_power.models.base import FitOptions, FittedModel, ModelFamily
 
 if TYPE_CHECKING:
     from wifibot_power.drive.model import DriveModel
+    from wifibot_power.drive.standing import StandingStops
     from wifibot_power.drive.stats import DriveStats
     from wifibot_power.drive.sums import RunSums
     from wifibot_power.phases import Segmentation
@@ -70,9 +71,13 @@ class WorkerStats:
     search whose sums lose their digits, a trace), they are read again from the log
     (`read_again`, set by `pipeline.gather`), every such run of the batch at once."""
 
-    def __init__(self, stats: DriveStats | None, sums: RunSums) -> None:
+    def __init__(
+        self, stats: DriveStats | None, sums: RunSums, standing: StandingStops | None = None
+    ) -> None:
         self._stats = stats
         self.sums = sums
+        #: a current proxy's stops (`drive.standing.standing_stops`: the idle check's), else None
+        self.standing = standing
         #: the bins' scalars (`DriveStats` with its arrays None) while the bins are left out
         self._scalars: DriveStats | None = None
         #: reads the left-out bins of the batch again (`pipeline.gather.ReadAgain`)
@@ -99,7 +104,7 @@ class WorkerStats:
 
         if self._stats is None or not own_share(self.sums) >= AT_RISK_SHARE:
             return self
-        light = WorkerStats(None, self.sums)
+        light = WorkerStats(None, self.sums, self.standing)
         light._scalars = dataclasses.replace(self._stats, **dict.fromkeys(_BIN_ARRAYS))
         return light
 
@@ -128,7 +133,7 @@ class WorkerStats:
     def __getattr__(self, name: str) -> object:
         """The bins' attribute (`DriveStats`), for what reads a run's drive statistics: a
         scalar from the scalars kept while the bins are left out, else from the bins."""
-        if name.startswith("_") or name in ("stats", "sums", "read_again"):
+        if name.startswith("_") or name in ("stats", "sums", "read_again", "standing"):
             raise AttributeError(name)
         if self._stats is None and name in _SCALAR_FIELDS:
             return getattr(self._scalars, name)
@@ -183,13 +188,19 @@ class DriveFamily(ModelFamily):
     name: ClassVar[str] = "drive"
 
     def run_stats(self, run: Run, segmentation: Segmentation | None) -> WorkerStats | None:
+        from wifibot_power.drive.standing import standing_stops
         from wifibot_power.drive.stats import drive_stats
         from wifibot_power.drive.sums import sums_of
 
         # an empty segmentation (a run of unknown mode the pipeline did not segment) has no
         # phases to reconstruct a speed from: the run's own speed column, if any, is used
         stats = drive_stats(run, segmentation if segmentation and segmentation.phases else None)
-        return None if stats is None else WorkerStats(stats, sums_of(stats))
+        if stats is None:
+            return None
+        # a current proxy's stops for the idle check, here where the bins are (the fit's
+        # records leave them out)
+        standing = standing_stops(stats) if stats.current_proxy else None
+        return WorkerStats(stats, sums_of(stats), standing)
 
     def stats_to_json(self, stats: DriveStats | WorkerStats | KeptStats | None) -> object:
         if stats is None:
