@@ -256,3 +256,41 @@ def test_the_import_graph_sees_imports_inside_functions_not_type_checking(tmp_pa
     modules = {module_name(p) for p in PACKAGE.rglob("*.py")}
     found = imported_modules(planted, modules, package)
     assert found == {"wifibot_power.causes", "wifibot_power.causes.design"}
+
+
+# -- sizes ----------------------------------------------------------------------------------
+#: Issue 24: no module over ~600 lines, no function over ~80, "except where the docs say why":
+#: the exceptions, each with where docs/architecture.md ("Where this stops today") says why.
+MODULE_LINES, FUNCTION_LINES = 600, 80
+SIZE_EXCEPTIONS = {"wifibot_power/simulate.py": "605 lines, at the mark (docs/architecture.md)"}
+
+
+def oversized(package: Path = PACKAGE) -> list[str]:
+    """Every module over MODULE_LINES lines and function over FUNCTION_LINES, not excepted."""
+    found = []
+    for path in sorted(package.rglob("*.py")):
+        name = path.relative_to(package.parent).as_posix()
+        text = path.read_text()
+        if text.count("\n") > MODULE_LINES and name not in SIZE_EXCEPTIONS:
+            found.append(f"{name}: {text.count(chr(10))} lines")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                lines = node.end_lineno - node.lineno + 1
+                if lines > FUNCTION_LINES and f"{name}:{node.name}" not in SIZE_EXCEPTIONS:
+                    found.append(f"{name}:{node.name}: {lines} lines")
+    return found
+
+
+def test_no_module_or_function_is_over_the_sizes() -> None:
+    assert oversized() == []
+
+
+def test_the_size_check_finds_a_long_function_and_module(tmp_path) -> None:
+    package = tmp_path / "wifibot_power"
+    package.mkdir()
+    body = "".join(f"    x{i} = {i}\n" for i in range(FUNCTION_LINES))
+    (package / "long.py").write_text("def f():\n" + body + "\n" * (MODULE_LINES - FUNCTION_LINES))
+    assert oversized(package) == [
+        f"wifibot_power/long.py: {MODULE_LINES + 1} lines",
+        f"wifibot_power/long.py:f: {FUNCTION_LINES + 1} lines",
+    ]

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from wifibot_power.drive import drive_stats
+from wifibot_power.drive.moving import motion_bins
 from wifibot_power.drive.regressors import (
     CLIP_DEVIATIONS,
     CLIP_ROUNDS,
@@ -17,7 +18,7 @@ from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
 from wifibot_power.drive.stats import BIN_S, GAP_FACTOR, _gap_bins, _sample_at_centres
 from wifibot_power.drive.sums import run_sums
 from wifibot_power.drive.terms import TERMS
-from wifibot_power.drive.windows import REGRESSOR_OF, _motion, regressor_rows, run_windows
+from wifibot_power.drive.windows import REGRESSOR_OF, regressor_rows, run_windows
 
 
 def _field_windows(seed: int = 4):
@@ -180,7 +181,7 @@ def test_the_sample_at_each_centre_is_the_binary_searchs() -> None:
 
 
 def _motion_by_labels(values: np.ndarray, enter: float, leave: float) -> np.ndarray:
-    """windows.py `_motion` as it was: each side's stretches labelled by a running count, a
+    """windows.py `motion_bins` as it was: each side's stretches labelled by a running count, a
     stretch confirmed by any bin beyond `enter`, each bin's label looked up."""
     out = np.zeros(values.shape, dtype=bool)
     for sign in (1.0, -1.0):
@@ -196,7 +197,7 @@ def _motion_by_labels(values: np.ndarray, enter: float, leave: float) -> np.ndar
 
 
 def test_motion_per_stretch_is_the_labelled_motion() -> None:
-    """windows.py `_motion` (both sides at once, per stretch) against the bins it labelled one
+    """windows.py `motion_bins` (both sides at once, per stretch) against the bins it labelled one
     side at a time: noise around 0, ramps, reversing, an encoder's quantized steps, NaN
     drop-outs, a stretch at either end, `enter` below `leave`, one bin, none."""
     rng = np.random.default_rng(21)
@@ -210,7 +211,7 @@ def test_motion_per_stretch_is_the_labelled_motion() -> None:
     for values in cases:
         for enter, leave in ((0.06, 0.02), (0.03, 0.03), (0.001, 0.001), (0.01, 0.05)):
             assert np.array_equal(
-                _motion(values, enter, leave), _motion_by_labels(values, enter, leave)
+                motion_bins(values, enter, leave), _motion_by_labels(values, enter, leave)
             )
 
 

@@ -1,5 +1,5 @@
 """The share of a window moving (`drive_on_W`'s regressor) and the |x| of a window that does
-not turn (drive/windows.py `_motion`, drive/regressors.py `_window_abs`, `window_gain`;
+not turn (drive/windows.py `motion_bins`, drive/regressors.py `_window_abs`, `window_gain`;
 docs/drive-model.md, "Validation")."""
 
 from __future__ import annotations
@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
+from wifibot_power.drive.moving import motion_bins
 from wifibot_power.drive.regressors import _window_abs, sample_gain, window_gain
 from wifibot_power.drive.simulate import FreeRun, as_run
 from wifibot_power.drive.stats import drive_stats
-from wifibot_power.drive.windows import _motion, run_windows
+from wifibot_power.drive.windows import run_windows
 
 
 def test_motion_follows_a_confirmed_stretch_down_to_its_leave_threshold():
@@ -25,11 +26,11 @@ def test_motion_follows_a_confirmed_stretch_down_to_its_leave_threshold():
         [0, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0],
         dtype=bool,
     )
-    assert np.array_equal(_motion(values, enter=3.0, leave=1.0), expected)
+    assert np.array_equal(motion_bins(values, enter=3.0, leave=1.0), expected)
     # each side of 0 on its own: the same stretch the other way round
-    assert np.array_equal(_motion(-values, enter=3.0, leave=1.0), expected)
+    assert np.array_equal(motion_bins(-values, enter=3.0, leave=1.0), expected)
     # with one threshold it is the plain test beyond `enter`
-    assert np.array_equal(_motion(values, 3.0, 3.0), np.nan_to_num(values) > 3.0)
+    assert np.array_equal(motion_bins(values, 3.0, 3.0), np.nan_to_num(values) > 3.0)
 
 
 def _start_stop_share(period_s: float, seed: int, cycles: int = 20) -> tuple[float, float]:

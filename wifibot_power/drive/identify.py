@@ -316,7 +316,7 @@ PREFERENCE = (
     "drive_on_W",
     "quadratic_W_per_mps2",
 )
-#: The same for a current proxy's force form (windows.py `_force_form`): its idle is the
+#: The same for a current proxy's force form (moving.py `force_form_regressors`): its idle is the
 #: motors' standstill current (the Husky's 0.6 A a motor: 29 W of proxy) and the force
 #: always there while moving is the rolling force, so where the two are one column (trips
 #: that never stand) the rolling term is kept and idle left out. Held out per surface on

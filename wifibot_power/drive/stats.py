@@ -70,7 +70,7 @@ class DriveStats:
     #: with the power they draw, and the drive model takes its force form (windows.py)
     current_proxy: bool = False
     #: the wheels' track [m] (the log's `track_m` metadata; NaN: unknown): the turning radius
-    #: over it sets a current proxy's scrubbing moment on an arc (windows.py `_force_form`)
+    #: over it sets a current proxy's scrubbing moment on an arc (moving.py `force_form_regressors`)
     track_m: float = float("nan")
 
     @property

@@ -22,7 +22,7 @@ force |v|, m_eff a sign(v), and for turning a Coulomb moment while turning (its 
 `turning_coulomb_W`, of the force form only; a motor current holds no drivers' step, so
 `drive_on_W` has no column there) plus its part in |yaw rate|; on an arc only the outer side
 drives (the inner one brakes, its current not logged), so every longitudinal and moment
-column counts half there (windows.py `_force_form`; Wong, "Theory of Ground Vehicles", 4th
+column counts half there (moving.py `force_form_regressors`; Wong, "Theory of Ground Vehicles", 4th
 ed., 2008, Sec. 7.2: F_out = F/2 + M/B, F_in = F/2 - M/B).
 
 References
@@ -105,7 +105,7 @@ def turning_power_W(yaw_rate_radps: np.ndarray, turning_Nm: float) -> np.ndarray
     mu m g l / 4 for a uniform load times the rate of turn, over the drive efficiency). [1]
     finds M_r varies with the turning radius (larger on tight turns); a constant moment is
     its spin-in-place value (a current proxy's force form scales an arc's by Wong's
-    0.925 / (0.925 + 0.15 R/B) where the track is known: windows.py `_radius_factor`). For a
+    0.925 / (0.925 + 0.15 R/B) where the track is known: moving.py `radius_factor`). For a
     differential drive the same form holds with a much smaller moment (caster scrub, [2],
     Sec. 3.2). Depends on the surface."""
     return turning_Nm * np.abs(yaw_rate_radps)
@@ -150,7 +150,7 @@ TERMS: tuple[Term, ...] = (
 )
 TERM_BY_NAME = {term.name: term for term in TERMS}
 #: Each term's unit in the force form, the terms of logs whose "power" is a nominal voltage
-#: times motor currents (~ torque: stats.py `current_proxy`, windows.py `_force_form`): a
+#: times motor currents (~ torque: stats.py `current_proxy`, moving.py `force_form_regressors`): a
 #: coefficient is a force (or moment) times the motors' no-load speed, in the proxy's W.
 FORCE_FORM_UNITS = {
     "idle_W": "W",

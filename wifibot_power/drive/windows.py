@@ -12,7 +12,7 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
   wheels' force) gets the force form of the regressors (terms.py): the share of the window
   moving, |v|, the change of |v| (not of v^2/2), the share turning, and |yaw rate|, with an
   arc's (translating and turning) longitudinal and moment columns counted half: only its
-  outer side drives (`_force_form`).
+  outer side drives (`force_form_regressors`).
 - Trips: a run is cut at its stops (the robot standing, not turning, for at least `STOP_S`),
   in the middle of each stop; a trip is the unit held out (heldout.py).
 """
@@ -24,6 +24,12 @@ from functools import cached_property
 
 import numpy as np
 
+from wifibot_power.drive.moving import (
+    force_form_regressors,
+    motion_bins,
+    radius_factor,
+    trip_numbers,
+)
 from wifibot_power.drive.regressors import (
     _window_abs,
     inertial_regressors,
@@ -46,7 +52,7 @@ STANDING_RADPS = 0.05
 #: estimate (a resolution: 1 mm/s, 1 mrad/s).
 NOISE_FLOOR_MPS = 1e-3
 NOISE_FLOOR_RADPS = 1e-3
-#: A stretch of motion (`_motion`) is followed on from its bins beyond 3 noise deviations to
+#: A stretch of motion (`motion_bins`) is followed on from its bins beyond 3 noise deviations to
 #: where the speed (or rate of turn) comes within this many deviations of 0.
 MOTION_LEAVE_DEVIATIONS = 1.0
 #: A stop at least this long [s] cuts a run into trips.
@@ -83,7 +89,7 @@ class Windows:
     run_ids: tuple[str, ...]
     surfaces: tuple[str, ...]
     window_s: float
-    #: every run is a current proxy: the columns are the terms' force form (`_force_form`)
+    #: every run is a current proxy: the columns are the terms' force form (`force_form_regressors`)
     force_form: bool = False
     #: per window: its log is a current proxy (the force form's columns)
     proxy: np.ndarray | None = None
@@ -244,25 +250,7 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     # square (`_denoised_abs`) instead of adding its mean |noise| to the regressor
     mean_speed = speed[:used].reshape(shape).mean(axis=1)
     mean_yaw = stats.yaw_rate_radps[:used].reshape(shape).mean(axis=1)
-    # the speed's noise per sample: the smaller of the bins' mean square second difference
-    # (`speed_noise_per_sample`), which real fast motion inflates, and stats.py's median
-    # successive difference, which reads an encoder's quantized speed as a step of noise
-    # (0.021 m/s for the simulator's 0.0115); a speed from phases has none. For the edges'
-    # noise (`calibrated`), |v|'s (`_denoised_abs`), standing still and where a stretch of
-    # motion ends (`_motion`); the test that a bin moves keeps stats.py's (with this one,
-    # BorealTC flooring's held-out MAPE went 5.8 -> 7.6%)
-    sample_noise_mps = (
-        0.0
-        if stats.speed_from_phases
-        else min(speed_noise_per_sample(speed, stats.samples_per_bin), stats.speed_noise_mps)
-    )
-    # the rate of turn's alike: stats.py's median reads motion at a slow logger (0.034 rad/s
-    # at 6.5 Hz for the simulator's 0.03, 0.0058 at 20 Hz for 0.005), and `_denoised_abs`
-    # reads a true 0 below 0 with too large a noise
-    sample_noise_radps = min(
-        speed_noise_per_sample(stats.yaw_rate_radps, stats.samples_per_bin),
-        stats.yaw_noise_radps,
-    )
+    sample_noise_mps, sample_noise_radps = _noise_per_sample(stats)
     # a window mean's noise over a sample's: `window_gain`
     gain = np.sqrt(window_gain(n, stats.samples_per_bin))
     speed_noise = sample_noise_mps * gain
@@ -288,37 +276,15 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
         & (np.abs(mean_speed) < 3.0 * max(speed_noise, NOISE_FLOOR_MPS))
         & (np.abs(mean_yaw) < 3.0 * max(yaw_noise, NOISE_FLOOR_RADPS))
     )
-    # moving: a bin whose speed or rate of turn is beyond 3 deviations of its own noise (and
-    # the resolution floor), and the bins next to it on to where the speed comes within one
-    # deviation of 0 (`_motion`): a ramp starting is moving from its first mm/s on an exact
-    # log, from its first encoder step or so on a noisy one
     speed_bins = speed[:used]
-    speed_floor = max(NOISE_FLOOR_MPS, 3.0 * stats.speed_noise_mps / bin_root)
-    yaw_floor = max(NOISE_FLOOR_RADPS, 3.0 * stats.yaw_noise_radps / bin_root)
+    translating, turning_bins, moving = _moving(
+        stats, speed_bins, yaw_bins, shape, (sample_noise_mps, sample_noise_radps), bin_root
+    )
     if stats.current_proxy:
-        # a current proxy's shares (the force form's) keep the one threshold: with the ends
-        # of motion counted, Vulpi's held-out MAPE went 7.2 -> 7.8% (ploughed 4.9 -> 6.9%),
-        # BorealTC's within 0.1 point: no gain measured
-        translating = (np.abs(speed_bins) > speed_floor).reshape(shape)
-        turning_bins = (np.abs(yaw_bins) > yaw_floor).reshape(shape)
-        moving = np.zeros(count)  # a motor current holds no drivers' step (no drive_on_W)
-    else:
-        translating = _motion(
-            speed_bins,
-            speed_floor,
-            max(NOISE_FLOOR_MPS, MOTION_LEAVE_DEVIATIONS * sample_noise_mps / bin_root),
-        )
-        turning_bins = _motion(
-            yaw_bins,
-            yaw_floor,
-            max(NOISE_FLOOR_RADPS, MOTION_LEAVE_DEVIATIONS * sample_noise_radps / bin_root),
-        )
-        moving = (translating | turning_bins).reshape(shape).mean(axis=1)
-    if stats.current_proxy:
-        radius_w = _radius_factor(
+        radius_w = radius_factor(
             speed[:used].reshape(shape), stats.yaw_rate_radps[:used].reshape(shape), stats.track_m
         )
-        abs_speed, speed2, turning, abs_yaw, av_up, av_down = _force_form(
+        abs_speed, speed2, turning, abs_yaw, av_up, av_down = force_form_regressors(
             translating, turning_bins, radius_w, abs_speed, abs_yaw, av_up, av_down
         )
     else:
@@ -331,7 +297,7 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     # simulator, the step 1.3 low; 0.8 and 1.1 with the shares kept)
     for regressor in (abs_speed, speed2, abs_yaw):
         regressor[still] = 0.0
-    trip = _trips(standing, max(int(round(STOP_S / (n * stats.bin_s))), 1))
+    trip = trip_numbers(standing, max(int(round(STOP_S / (n * stats.bin_s))), 1))
     return RunWindows(
         stats,
         n,
@@ -349,122 +315,71 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     )
 
 
-#: Wong's empirical lateral resistance of a skid-steer turn, mu_t = mu_max / (A + B_R R/B)
-#: (`_radius_factor`)
-WONG_A, WONG_B = 0.925, 0.15
+def _noise_per_sample(stats: DriveStats) -> tuple[float, float]:
+    """The speed's and the rate of turn's noise per sample [m/s, rad/s] (`run_windows`)."""
+    # the speed's: the smaller of the bins' mean square second difference
+    # (`speed_noise_per_sample`), which real fast motion inflates, and stats.py's median
+    # successive difference, which reads an encoder's quantized speed as a step of noise
+    # (0.021 m/s for the simulator's 0.0115); a speed from phases has none. For the edges'
+    # noise (`calibrated`), |v|'s (`_denoised_abs`), standing still and where a stretch of
+    # motion ends (`motion_bins`); the test that a bin moves keeps stats.py's (with this one,
+    # BorealTC flooring's held-out MAPE went 5.8 -> 7.6%)
+    sample_noise_mps = (
+        0.0
+        if stats.speed_from_phases
+        else min(
+            speed_noise_per_sample(stats.speed_mps, stats.samples_per_bin),
+            stats.speed_noise_mps,
+        )
+    )
+    # the rate of turn's alike: stats.py's median reads motion at a slow logger (0.034 rad/s
+    # at 6.5 Hz for the simulator's 0.03, 0.0058 at 20 Hz for 0.005), and `_denoised_abs`
+    # reads a true 0 below 0 with too large a noise
+    sample_noise_radps = min(
+        speed_noise_per_sample(stats.yaw_rate_radps, stats.samples_per_bin),
+        stats.yaw_noise_radps,
+    )
+    return sample_noise_mps, sample_noise_radps
 
 
-def _radius_factor(speed_mps: np.ndarray, yaw_rate_radps: np.ndarray, track_m: float):
-    """Each bin's scrubbing moment on a turn of radius R = |v| / |yaw rate| over its value
-    turning in place, 0.925 / (0.925 + 0.15 R/B), B the track (1 where the track is unknown
-    or the bin does not turn). The lateral resistance of a skid-steer vehicle falls with the
-    turning radius: Wong, "Theory of Ground Vehicles", 4th ed., 2008, Sec. 7.2, the empirical
-    mu_t = mu_max / (0.925 + 0.15 R/B) of Steeds; Morales et al. 2009 ([1] of terms.py) find
-    the Auriga's moment larger on tight turns. On BorealTC's Husky (R from the wheel
-    speeds), sandy loam's one arc (R/B ~1.2) turns with ~0.7 of its spins' moment by the
-    sides' currents (the formula: 0.84); held out per surface with the factor, MAPE 17.0% ->
-    16.1% (median 7.1%): asphalt 25.6 -> 19.5%, sandy loam 5.8 -> 5.0%, its arc +23% ->
-    +10%. Used by the force form only (measured on current proxies; the simulator's robot
-    has a constant moment)."""
-    if not track_m > 0:
-        return np.ones_like(speed_mps)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.abs(speed_mps) / (np.abs(yaw_rate_radps) * track_m)
-    factor = WONG_A / (WONG_A + WONG_B * ratio)
-    return np.where(np.isfinite(factor), factor, 1.0)
-
-
-def _force_form(
-    translating: np.ndarray,
-    turning: np.ndarray,
-    radius_w: np.ndarray,
-    abs_speed: np.ndarray,
-    abs_yaw: np.ndarray,
-    av_up: np.ndarray,
-    av_down: np.ndarray,
-) -> tuple[np.ndarray, ...]:
-    """A current proxy's regressors (docs/drive-model.md, "Current-only logs"), from each
-    bin's `translating`, `turning` and moment factor `radius_w` (a row of bins per window;
-    `_radius_factor`) and the window's |v|, |yaw rate| and d|v|/dt: (rolling, viscous,
-    Coulomb moment, rate moment, speeding up, braking), in the slots of (|v|, v^2,
-    `turning_coulomb_W`'s share, |yaw rate|, (a v)+, (a v)-).
-
-    The proxy is V_nom (|I_left| + |I_right|), each side's current its motor's torque while
-    it drives (the Husky's controller reads ~0 A on a side that brakes: below). A skid-steer
-    robot's two sides share the longitudinal force F (rolling F_r, viscous c|v|, inertial
-    m a) and make the scrubbing moment M between them: F_out = F/2 + M/B, F_in = F/2 - M/B
-    (Wong, "Theory of Ground Vehicles", 4th ed., Wiley 2008, Sec. 7.2, the kinetics of skid
-    steering; Morales et al. 2009, [1] of terms.py, Eq. 20-22 for M). So the proxy is u_0 F
-    driving straight; u_0 (F_r + 2 M/B) turning in place (each side drives its own way,
-    rolling included); and u_0 (F/2 + M/B) on an arc where M/B > F/2: the inner side
-    brakes, its current is not in the log, and every longitudinal force and the moment
-    count half. On BorealTC's Husky logs the inner side reads <= 0.6 A (the standstill
-    current) in 51-98% of the arc samples per surface (turning at > 0.15 rad/s, both sides
-    forward; Vulpi's few arcs: 27-45%), against 0-9% of the slower side driving straight or
-    spinning; its median is 0.0-0.6 A while the outer side's is about one side of a spin's
-    on the same surface (3.6-12.7 A against 3.5-11.8 A: benchmarks/validate_drive_real.py,
-    "The sides of an arc"). An arc's moment is its spin's times the radius factor. The
-    moment's part growing with the rate of turn is |yaw rate|'s column, halved on an arc
-    alike (within a trip the Husky's currents grow with the rate:
-    83 W window RMS on BorealTC against 96 W with the Coulomb part alone; from trip to trip
-    its spins' currents are flat in the rate, which the Coulomb part carries). Held out (one
-    fit per surface, BorealTC): MAPE 19.8% -> 17.5%, median 10.1% -> 7.1%, against an arc
-    counted as a spin plus a straight run."""
-    arc_bins = translating & turning
-    arc = arc_bins.mean(axis=1)
-    # an arc's moment, each bin's by its radius (`_radius_factor`; 1: a spin's)
-    arc_moment = (arc_bins * radius_w).mean(axis=1)
-    half = 1.0 - arc / 2.0
-    moving = (translating | turning).mean(axis=1)
-    rolling = moving - arc / 2.0
-    coulomb = turning.mean(axis=1) - arc + arc_moment / 2.0
-    rate = abs_yaw * (1.0 - arc + arc_moment / 2.0)
-    return rolling, abs_speed * half, coulomb, rate, av_up * half, av_down * half
-
-
-def _motion(values: np.ndarray, enter: float, leave: float) -> np.ndarray:
-    """Which bins move by `values` (a speed [m/s] or a rate of turn [rad/s], a bin each):
-    those beyond `leave` on one side of 0 in an unbroken stretch on that side that goes
-    beyond `enter` somewhere (hysteresis, the two thresholds of Canny's edge linking: J.
-    Canny, IEEE Trans. PAMI 8(6), 1986, Sec. VI). A speed is continuous: motion confirmed by
-    a bin beyond 3 noise deviations (`enter`) began where the speed left 0 and ends where it
-    comes back, so the stretch is followed down to one deviation of the noise (`leave`),
-    not cut at 3: a start's and a stop's first bins of motion are moving, and their drivers'
-    step is not left to idle. At one deviation a standing bin next to motion joins it with
-    the normal's tail, 16%, whether the speed is quantized or not (followed to 0: half the
-    bins of a continuous noise, few of an encoder's), while a ramp's bins below one deviation
-    are missed. Idle's bias on the simulator (60 seeds, 20 Hz and 6.5 Hz; docs/drive-model.md,
-    "Validation"), in standard errors: +0.76 and +1.39 cut at 3 deviations (before), -0.08
-    and -0.58 followed to 0, +0.03 and -0.14 to half a deviation, +0.14 and +0.22 to one,
-    +0.55 and +0.85 to two. A drop-out (NaN) ends a stretch.
-
-    Both sides at once, per stretch rather than per bin: each bin's side (+1 beyond `leave`,
-    -1 beyond -`leave`, else 0), the stretches where it stays the same, whether each holds
-    a bin beyond `enter` (a stretch is on one side: |value| is its side's), and the
-    stretches that move repeated over their bins (the same bins as labelling each side's
-    stretches by a running count and looking each bin's label up, in a third of the
-    passes: tests/test_drive_fast_paths.py)."""
-    if not values.size:
-        return np.zeros(values.shape, dtype=bool)
-    side = (values > leave).view(np.int8) - (values < -leave).view(np.int8)
-    starts = np.concatenate(([0], np.flatnonzero(side[1:] != side[:-1]) + 1))
-    strong = np.logical_or.reduceat(np.abs(values) > enter, starts)
-    moves = (side[starts] != 0) & strong
-    return np.repeat(moves, np.diff(np.append(starts, values.size)))
-
-
-def _trips(standing: np.ndarray, stop_windows: int) -> np.ndarray:
-    """Each window's trip number: a new trip starts in the middle of every stretch of at least
-    `stop_windows` standing windows that has motion on both sides."""
-    if not standing.size:
-        return np.zeros(0, dtype=np.intp)
-    change = np.flatnonzero(np.diff(standing.astype(np.int8))) + 1
-    bounds = np.concatenate(([0], change, [standing.size]))
-    cuts = np.zeros(standing.size, dtype=np.intp)
-    for start, end in zip(bounds[:-1], bounds[1:], strict=True):  # a loop over stops, not samples
-        if standing[start] and end - start >= stop_windows and start > 0 and end < standing.size:
-            cuts[(start + end) // 2] = 1
-    return np.cumsum(cuts)
+def _moving(
+    stats: DriveStats,
+    speed_bins: np.ndarray,
+    yaw_bins: np.ndarray,
+    shape: tuple[int, int],
+    sample_noise: tuple[float, float],
+    bin_root: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which of the window's bins translate and turn (a row of bins per window), and the share
+    of each window moving (`run_windows`; `sample_noise`: `_noise_per_sample`'s)."""
+    sample_noise_mps, sample_noise_radps = sample_noise
+    count = shape[0]
+    # moving: a bin whose speed or rate of turn is beyond 3 deviations of its own noise (and
+    # the resolution floor), and the bins next to it on to where the speed comes within one
+    # deviation of 0 (`motion_bins`): a ramp starting is moving from its first mm/s on an exact
+    # log, from its first encoder step or so on a noisy one
+    speed_floor = max(NOISE_FLOOR_MPS, 3.0 * stats.speed_noise_mps / bin_root)
+    yaw_floor = max(NOISE_FLOOR_RADPS, 3.0 * stats.yaw_noise_radps / bin_root)
+    if stats.current_proxy:
+        # a current proxy's shares (the force form's) keep the one threshold: with the ends
+        # of motion counted, Vulpi's held-out MAPE went 7.2 -> 7.8% (ploughed 4.9 -> 6.9%),
+        # BorealTC's within 0.1 point: no gain measured
+        translating = (np.abs(speed_bins) > speed_floor).reshape(shape)
+        turning_bins = (np.abs(yaw_bins) > yaw_floor).reshape(shape)
+        moving = np.zeros(count)  # a motor current holds no drivers' step (no drive_on_W)
+    else:
+        translating = motion_bins(
+            speed_bins,
+            speed_floor,
+            max(NOISE_FLOOR_MPS, MOTION_LEAVE_DEVIATIONS * sample_noise_mps / bin_root),
+        )
+        turning_bins = motion_bins(
+            yaw_bins,
+            yaw_floor,
+            max(NOISE_FLOOR_RADPS, MOTION_LEAVE_DEVIATIONS * sample_noise_radps / bin_root),
+        )
+        moving = (translating | turning_bins).reshape(shape).mean(axis=1)
+    return translating, turning_bins, moving
 
 
 def design_columns(surfaces: tuple[str, ...]) -> tuple[str, ...]:
