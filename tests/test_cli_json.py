@@ -305,3 +305,19 @@ def test_print_json_keeps_what_json_safe_would_make_of_odd_keys_and_leaves(capsy
     printed = json.loads(capsys.readouterr().out)
     assert printed["('a', 1)"] == [1.0, None]
     assert printed["p"] == "x/y.csv" and printed["f"] == 2.0
+
+
+def test_print_json_refuses_at_once_what_would_fail_when_printed():
+    """np.datetime64 becomes a datetime under `json_safe`, which JSON cannot hold: refused by
+    `print_json` (the command's one-line error), not a traceback when the document is
+    printed at the end."""
+    from wifibot_power.cli.json_document import DOCUMENT, JsonDocument, print_json
+
+    document = JsonDocument()
+    token = DOCUMENT.set(document)
+    try:
+        with pytest.raises(TypeError, match="not JSON serializable"):
+            print_json({"started": np.datetime64("2026-11-28T03:00")})
+    finally:
+        DOCUMENT.reset(token)
+    assert document.result is None

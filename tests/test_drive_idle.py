@@ -202,3 +202,59 @@ def test_a_proxy_folder_is_fitted_without_reading_its_logs_again(tmp_path, monke
     assert result.drive is not None and result.drive.power_kind == "current_proxy"
     assert called == []
     assert any("idle_W" in r and "standing power" in r for r in result.drive.not_determined)
+
+
+def _cut(run: Run, keep_s: float) -> Run:
+    keep = run.stamps_s < keep_s
+    return Run(
+        run.file,
+        run.format,
+        run.meta,
+        run.stamps_s[keep],
+        run.power_W[keep],
+        speed_mps=run.speed_mps[keep],
+        yaw_rate_radps=run.yaw_rate_radps[keep],
+    )
+
+
+def test_a_set_that_stood_once_is_still_checked():
+    """Five runs that never stand and one cut after its first stop (30 bins standing at
+    10 W): the fit's constant, 55 W from the moving windows, is withheld against that one
+    stop's reading (it was reported, with an interval excluding 10 W, when one stop meant
+    no check)."""
+    from wifibot_power.drive.standing import standing_power, standing_stops
+
+    runs = [_run(k, True, stands=False) for k in range(5)] + [_cut(_run(5, True), 66.0)]
+    standing = standing_power([standing_stops(drive_stats(run)) for run in runs])
+    assert standing.stops == 1 and abs(standing.mean_W - IDLE_W) < 0.5
+    model = fit_drive(runs)
+    assert "idle_W" not in model.terms
+    assert any("idle_W" in r and "one stop" in r for r in model.not_determined)
+
+
+def test_exact_logs_give_no_difference_to_judge_and_no_crash():
+    """Both standard errors 0 (noise-free idle and standing readings): no check, no
+    ZeroDivisionError from Welch's degrees of freedom; with only the standing one 0, the
+    test rests on the idle's (a difference of 2 W at a standard error of 0.1 W is flagged)."""
+    from wifibot_power.drive.identify import Identified
+    from wifibot_power.drive.standing import Standing, idle_against_standing
+
+    def fitted(idle_W: float, variance: float) -> Identified:
+        return Identified(
+            columns=("idle_W", "rolling_W_per_mps[floor]"),
+            kept=np.array([True, True]),
+            coef=np.array([idle_W, 60.0]),
+            cov=np.diag([variance, 1.0]),
+            dof=5,
+            clusters=6,
+            lag_bins=0.0,
+            not_determined=(),
+            residual_W=None,
+        )
+
+    exact = fitted(IDLE_W + 2.0, 0.0)
+    assert idle_against_standing(exact, Standing(IDLE_W, 0.0, 100, 3), True) == (exact, None)
+    _, warning = idle_against_standing(
+        fitted(IDLE_W + 2.0, 0.01), Standing(IDLE_W, 0.0, 100, 3), True
+    )
+    assert warning is not None and "20.0 standard errors apart" in warning

@@ -147,3 +147,14 @@ def test_a_gap_whose_file_is_gone_names_its_data_row(tmp_path):
     assert sent[0].message == (
         "data row 102 (the file could not be read again): 100 ms of samples dropped after t = 5 s"
     )
+
+
+def test_a_gap_whose_file_changed_since_names_its_data_row(tmp_path):
+    """A line inserted after the header between the read and the message (a worker's gaps
+    are written in the parent, at the end of a batch): the line number would be the new
+    file's (105 for 104); the message names the data row instead."""
+    path = _log_with_gaps(tmp_path)
+    sent = pickle.loads(pickle.dumps(read_log(path).problems))
+    text = path.read_text().replace("time_s,power_W\n", "time_s,power_W\n\n", 1)
+    path.write_text(text)
+    assert sent[0].message.startswith("data row 102 (the file could not be read again)")

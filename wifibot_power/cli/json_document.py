@@ -94,7 +94,9 @@ def _leaf(value: object) -> object:
     """What `json_safe` makes of a value json's encoder cannot hold (a numpy scalar or array,
     a path, a date), or TypeError as json raises it."""
     safe = json_safe(value)
-    if safe is value:
+    # what json_safe makes of it is printed as it is (`dumps_indented`): a leaf it leaves
+    # unplain (np.datetime64's datetime) fails now, as it would at the end
+    if safe is value or not isinstance(safe, str | int | float | list | dict | None):
         raise TypeError(f"Object of type {type(value).__name__} is not JSON serializable")
     return safe
 

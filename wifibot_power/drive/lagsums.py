@@ -278,7 +278,7 @@ class SumMoments:
         stops = np.append(first[1:], edge_cluster.size) if groups.size else first
         for g, start, stop in zip(groups, first, stops, strict=True):
             rows = W[start:stop]
-            ww[g] += rows.T @ rows
+            ww[g] += rows.T @ rows.copy()  # two buffers: gemm, as the masked rows were (not syrk)
             wy[g] += rows.T @ y[start:stop]
         return ww, wy
 

@@ -128,22 +128,31 @@ def idle_against_standing(
             "current is not measured, and a constant found from moving windows alone carried "
             "the moving force where the logs did stand",
         )
-    if standing.stops < 2 or fitted.dof < 1:
+    if fitted.dof < 1:
         return fitted, None
     se_idle = float(np.sqrt(max(fitted.cov_of(j), 0.0)))
     difference = float(fitted.coef[j]) - standing.mean_W
-    se = float(np.hypot(se_idle, standing.se_W))
+    # one stop: the standing power's spread from stop to stop is not measured, so the test
+    # rests on the fit's own error (a stop's mean is a direct reading; left unchecked, a
+    # set that stood once reported the moving windows' constant: 54.9 W against 9.9 W)
+    se_standing = standing.se_W if standing.stops >= 2 else 0.0
+    se = float(np.hypot(se_idle, se_standing))
+    if not se > 0:  # exact on both sides (noise-free logs): no error to judge a difference by
+        return fitted, None
     # Welch-Satterthwaite's degrees of freedom of a difference of two means (Welch 1947,
     # Biometrika 34, Eq. 9): the fewer of the two alone would take a 2-stop standing power's
     # t(0.975, 1) = 12.7 however small its standard error
-    dof = se**4 / (se_idle**4 / fitted.dof + standing.se_W**4 / (standing.stops - 1))
+    standing_term = se_standing**4 / (standing.stops - 1) if standing.stops >= 2 else 0.0
+    dof = se**4 / (se_idle**4 / fitted.dof + standing_term)
     t = t_quantile(0.975, dof)
     if not np.isfinite(se) or abs(difference) <= t * se:
         return fitted, None
-    measured = (
-        f"the logs' standing power, {standing.mean_W:.3g} ± {standing.half_width_W():.3g} W "
-        f"(95%; {standing.bins} bins in {standing.stops} stops)"
+    spread = (
+        f"± {standing.half_width_W():.3g} W (95%; {standing.bins} bins in {standing.stops} stops)"
+        if standing.stops >= 2
+        else f"W ({standing.bins} bins in one stop: its spread not measured)"
     )
+    measured = f"the logs' standing power, {standing.mean_W:.3g} {spread}"
     return _idle_not_determined(
         fitted,
         j,

@@ -8,11 +8,14 @@ messages are worked out only when a message needs one, by reading the file again
 
 from __future__ import annotations
 
+import os
 import re
 from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from wifibot_power.errors import LogError
 
 if TYPE_CHECKING:
     from wifibot_power.io.transport import Content
@@ -26,6 +29,9 @@ class LineMap:
 
     def __init__(self, content: Content, header_line: int, limit: int | None = None) -> None:
         self._content = content
+        #: the file's size and modification time as read: a message written later (a gap's,
+        #: `stamps.GapProblem`) never takes its line from a file changed since
+        self._stamp = _file_stamp(content)
         self._header_line = header_line
         self._limit = limit
         self._rows: np.ndarray | None = None
@@ -37,6 +43,12 @@ class LineMap:
     def _scan(self) -> None:
         if self._rows is not None or self._plain is not None:
             return
+        if self._stamp is not None and _file_stamp(self._content) != self._stamp:
+            raise LogError(
+                "the file changed since it was read: its line numbers are not those read",
+                file=str(self._content.path),
+                fix="read it again when no program writes it",
+            )
         plain = plain_lines(self._content.chunks(self._limit), self._header_line)
         if plain is not None:
             self._plain, self._line_ends = plain
@@ -71,6 +83,17 @@ class LineMap:
             if index > self._header_line and line and match(line):
                 return index + 1, line
         return None
+
+
+def _file_stamp(content: Content) -> tuple[int, int] | None:
+    """A file's size and modification time [ns] (None for bytes in memory or no file)."""
+    if content.data is not None:
+        return None
+    try:
+        stat = os.stat(content.path)
+    except OSError:
+        return None
+    return stat.st_size, stat.st_mtime_ns
 
 
 def iter_lines(chunks: Iterator[bytes]) -> Iterator[bytes]:

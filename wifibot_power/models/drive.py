@@ -188,7 +188,6 @@ class DriveFamily(ModelFamily):
     name: ClassVar[str] = "drive"
 
     def run_stats(self, run: Run, segmentation: Segmentation | None) -> WorkerStats | None:
-        from wifibot_power.drive.standing import standing_stops
         from wifibot_power.drive.stats import drive_stats
         from wifibot_power.drive.sums import sums_of
 
@@ -199,7 +198,11 @@ class DriveFamily(ModelFamily):
             return None
         # a current proxy's stops for the idle check, here where the bins are (the fit's
         # records leave them out)
-        standing = standing_stops(stats) if stats.current_proxy else None
+        standing = None
+        if stats.current_proxy:
+            from wifibot_power.drive.standing import standing_stops
+
+            standing = standing_stops(stats)
         return WorkerStats(stats, sums_of(stats), standing)
 
     def stats_to_json(self, stats: DriveStats | WorkerStats | KeptStats | None) -> object:
