@@ -172,7 +172,15 @@ def test_a_runs_stops_are_the_convolutions_bin_for_bin(seed):
     for start in rng.integers(0, v.size - 300, 4):  # short stops and bursts of motion
         v[start : start + rng.integers(50, 250)] = 0.0 if rng.random() < 0.5 else 0.2
     v[rng.integers(0, v.size, 20)] = np.nan
-    run = Run(run.file, run.format, run.meta, run.stamps_s, run.power_W, v, run.yaw_rate_radps)
+    run = Run(
+        run.file,
+        run.format,
+        run.meta,
+        run.stamps_s,
+        run.power_W,
+        speed_mps=v,
+        yaw_rate_radps=run.yaw_rate_radps,
+    )
     stats = drive_stats(run)
     made = standing_stops(stats)
     bins, sums = _stops_by_convolution(stats)
@@ -258,3 +266,28 @@ def test_exact_logs_give_no_difference_to_judge_and_no_crash():
         fitted(IDLE_W + 2.0, 0.01), Standing(IDLE_W, 0.0, 100, 3), True
     )
     assert warning is not None and "20.0 standard errors apart" in warning
+
+
+def test_drop_outs_of_the_power_alone_leave_a_stop_standing():
+    """A stop whose power drops out every 0.5 s (speed logged: the robot known still) is
+    still a stop: its logged bins are its reading (they were counted as motion, and a
+    neighbourhood of a second either side of each drop-out with them: no bin stood)."""
+    from wifibot_power.drive.standing import standing_stops
+
+    run = _run(0, False)
+    standing_at = run.stamps_s < 2.5  # the first stop, 2.5 s
+    power = run.power_W.copy()
+    power[standing_at & (np.round(run.stamps_s * 100) % 50 == 0)] = np.nan
+    run = Run(
+        run.file,
+        run.format,
+        run.meta,
+        run.stamps_s,
+        power,
+        speed_mps=run.speed_mps,
+        yaw_rate_radps=run.yaw_rate_radps,
+    )
+    stops = standing_stops(drive_stats(run))
+    clean = standing_stops(drive_stats(_run(0, False)))
+    assert stops.bins.size == clean.bins.size and stops.bins[0] > 0
+    assert abs(stops.power_sum_W[0] / stops.bins[0] - IDLE_W) < 1.0

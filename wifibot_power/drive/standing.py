@@ -44,11 +44,10 @@ def standing_stops(stats: DriveStats) -> StandingStops:
     Made in the worker from the bins (a current proxy's: `models.drive.WorkerStats`), so
     that the fit reads no run's bins again for it."""
     reach = int(round(MAX_LAG_S / stats.bin_s))
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore"):  # a drop-out of the speed: not known still
         still = (np.abs(stats.speed_mps) < STANDING_MPS) & (
             np.abs(stats.yaw_rate_radps) < STANDING_RADPS
         )
-    still &= np.isfinite(stats.power_W)
     # a bin stands when no bin within `reach` of it moves: the moving bins counted over each
     # bin's 2 reach + 1 neighbours by a running count (whole numbers: exact)
     moving = np.concatenate((np.zeros(reach + 1, np.intp), np.cumsum(~still, dtype=np.intp)))
@@ -58,8 +57,15 @@ def standing_stops(stats: DriveStats) -> StandingStops:
     stands = ~near
     if not stands.any():
         return StandingStops(np.zeros(0, np.intp), np.zeros(0))
+    # each stop's bins whose power was logged: a drop-out of the power alone leaves its stop
+    # (and its neighbours) standing, not moving (counted as motion, drop-outs a second or two
+    # apart left a log "never standing")
     label = np.cumsum(np.r_[stands[0], stands[1:] & ~stands[:-1]])[stands] - 1
-    return StandingStops(np.bincount(label), np.bincount(label, weights=stats.power_W[stands]))
+    power = stats.power_W[stands]
+    logged = np.isfinite(power)
+    bins = np.bincount(label, weights=logged).astype(np.intp)
+    sums = np.bincount(label, weights=np.where(logged, power, 0.0))
+    return StandingStops(bins[bins > 0], sums[bins > 0])
 
 
 def run_stops(stats: object) -> StandingStops:
