@@ -267,6 +267,10 @@ def test_drive_power_figure_and_report_on_free_driving(free, tmp_path):
     assert {"drive_power", "drive_energy", "drive_terms"} <= drawn
     assert "power_speed" not in drawn
     assert "power_speed: not drawn: the paper's models" in result.stderr
+    # no empty table of the paper's parameters: a note says why there is none
+    page = (out / "report.html").read_text()
+    assert "<th>parameter</th>" not in page
+    assert "were not fitted: they need step runs" in page
 
 
 # -- the paper's step runs (sample_logs): the drive model beside P_acc(v) and P_v(v) --------
@@ -441,3 +445,29 @@ def test_heldout_beside_paper_sums_a_runs_trips_but_not_a_run_id_with_a_hash(mon
     assert beside.n_runs == 3
     assert beside.drive_mape_pct == pytest.approx((1.0 + 1.0 + 2.0) / 3)
     assert beside.paper_mape_pct == pytest.approx(3.0)
+
+
+def test_the_terms_figure_title_fits_a_single_panel(tmp_path):
+    """One determined term (BorealTC flooring's case): the figure is one 3.6 in panel, and its
+    title stays inside it (drawn, its extent within the figure's), on two lines."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from wifibot_power.drive.model import DriveModel, TermValue
+    from wifibot_power.figures.drive_terms import drive_terms_figure
+
+    model = DriveModel(
+        terms={"braking_mass_kg": TermValue(19.0, (-122.0, 159.0), "W/(m/s^2)")},
+        surfaces={},
+        lag_s=0.26,
+        n_runs=10,
+        heldout=None,
+        not_determined=(),
+        warnings=(),
+    )
+    figure = drive_terms_figure(model)
+    renderer = figure.canvas.get_renderer()
+    title = figure._suptitle.get_window_extent(renderer)
+    frame = figure.bbox
+    assert title.x0 >= frame.x0 and title.x1 <= frame.x1
+    assert "\n" in figure._suptitle.get_text()

@@ -183,13 +183,21 @@ def _summary_html(report: Report, said: set[str]) -> list[str]:
     from wifibot_power.models.paper_table import format_number as num
 
     out: list[str] = []
-    if report.fit is not None:
+    rows = report.fit.table_rows() if report.fit is not None else []
+    if report.fit is not None and not rows:  # free driving alone: the drive model only
+        out.append(
+            '<h2>Fitted model</h2><p class="note">The paper\'s models (P_acc, P_v, t_acc, '
+            "idle) were not fitted: they need step runs (straight runs at set speeds, each "
+            "accelerate / cruise / stop). The drive model fitted from these logs is in "
+            "the drive model's sections below.</p>"
+        )
+    elif report.fit is not None:
         out.append("<h2>Fitted model (95% CI: OLS t intervals by run)</h2><table>")
         out.append(
             "<tr><th>parameter</th><th>unit</th><th>fitted</th><th>95% CI</th><th>R²</th>"
             "<th>paper</th><th>n runs</th></tr>"
         )
-        for r in report.fit.table_rows():
+        for r in rows:
             low = r["ci95_low"]
             ci = f"[{num(low)}, {num(r['ci95_high'])}]" if np.isfinite(low) else "-"
             out.append(

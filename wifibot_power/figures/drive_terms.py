@@ -37,7 +37,9 @@ def drive_terms_figure(model: DriveModel) -> Figure:
         ax.set_xlabel("surface", fontsize=8)
     for ax in axes[len(named) :]:
         ax.set_visible(False)
-    figure.suptitle(f"Drive model terms with 95% intervals (lag {model.lag_s:.2f} s)")
+    # one panel is 3.6 in wide: the title on two lines there (on one it was cut at both ends)
+    wrap = "\n" if columns < 2 else " "
+    figure.suptitle(f"Drive model terms with 95% intervals{wrap}(lag {model.lag_s:.2f} s)")
     return figure
 
 
