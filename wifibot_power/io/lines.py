@@ -87,10 +87,11 @@ class LineMap:
 
 def _file_stamp(content: Content) -> tuple[int, int] | None:
     """A file's size and modification time [ns] (None for bytes in memory or no file)."""
-    if content.data is not None:
+    path = getattr(content, "path", None)
+    if getattr(content, "data", None) is not None or path is None:
         return None
     try:
-        stat = os.stat(content.path)
+        stat = os.stat(path)
     except OSError:
         return None
     return stat.st_size, stat.st_mtime_ns
