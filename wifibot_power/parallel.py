@@ -336,11 +336,13 @@ def _collect(
     while pending:
         for future in _finished(pending, processes):
             index = pending.pop(future)
-            results[index] = future.result()
+            with signals.blocked():  # a future's lock, and the pool's, taken and given back
+                results[index] = future.result()
             on_done(index)
             next_index = next(queue, None)
             if next_index is not None:
-                pending[pool.submit(_run_task, next_index)] = next_index
+                with signals.blocked():
+                    pending[pool.submit(_run_task, next_index)] = next_index
     return results
 
 
@@ -361,10 +363,20 @@ def _finished(
     done), raises without that lock and then releases it from under the pool's thread,
     which dies ("Exception in thread ... RuntimeError: release unlocked lock": a traceback
     on stderr, seen once in ~60 interrupted runs under load). A sleep interrupted raises
-    with no lock held."""
+    with no lock held.
+
+    Each look at the futures (`Future.done`: `with self._condition`) runs with the signals
+    blocked (`signals.blocked`: the handler acts once they are unblocked): a SIGTERM landing
+    in `Condition.__enter__` after its lock was taken raised before the `with` could give it
+    back, so the pool's thread, marking that future, waited for the lock forever and
+    `shutdown(wait=True)` for that thread: `fit` hung (1 in ~200 SIGTERMs sent as its
+    workers start, under load; stacks dumped from the stuck process: the pool's thread in
+    `terminate_broken` -> `Future.set_exception` -> `Condition.__enter__`, the main thread
+    in `shutdown` -> `join`). Only the sleep between looks is interruptible."""
     waited_s = 0.0
     while True:
-        done = [future for future in pending if future.done()]
+        with signals.blocked():
+            done = [future for future in pending if future.done()]
         if done:
             return done
         time.sleep(_POLL_S)
