@@ -471,3 +471,13 @@ def test_the_terms_figure_title_fits_a_single_panel(tmp_path):
     frame = figure.bbox
     assert title.x0 >= frame.x0 and title.x1 <= frame.x1
     assert "\n" in figure._suptitle.get_text()
+
+
+def test_the_heldout_caption_says_the_coverage_is_of_the_trips_with_an_interval():
+    """A trip predicted at 0 J has no interval and is out of the coverage (drive/heldout.py):
+    the human table, which counts every trip, says of how many the coverage is."""
+    from wifibot_power.cli.fit_tables import _without_interval
+
+    runs = [{"predicted_J": 0.0}, {"predicted_J": 12.5}, {"predicted_J": 3.0}]
+    assert _without_interval(runs) == " (of the 2 trips with one: 1 predicted at 0 J have none)"
+    assert _without_interval(runs[1:]) == ""
