@@ -35,8 +35,9 @@ intervals from a covariance robust to autocorrelation within a cluster (a run).
 - Idle against standing (drive/standing.py, called by `model._model`; the force form's): a
   current proxy's idle is told from its rolling force by a few standing windows against
   thousands moving, and can carry the moving force (BorealTC flooring: 87 W against 17 W
-  standing). The logs' standing bins measure idle directly (`standing_power`): a fitted idle that differs from their mean
-  by more than t(0.975) standard errors of the difference is reported as not determined,
+  standing). The logs' standing bins measure idle directly (`standing_power`): a fitted
+  idle that differs from their mean by more than t(0.975) standard errors of the
+  difference is reported as not determined,
   with both numbers and a warning, and still predicts; so is idle from logs that never stand
   (nothing measures it: BorealTC's moving windows alone gave 4-7 times the standing power).
 """
