@@ -133,6 +133,7 @@ def idle_against_standing(
             "no bin of these logs stands (still, with a second either side): the standstill "
             "current is not measured, and a constant found from moving windows alone carried "
             "the moving force where the logs did stand",
+            measured=False,
         )
     if fitted.dof < 1:
         return fitted, None
@@ -167,9 +168,12 @@ def idle_against_standing(
     )
 
 
-def _idle_not_determined(fitted: Identified, j: int, why: str) -> tuple[Identified, str]:
+def _idle_not_determined(
+    fitted: Identified, j: int, why: str, measured: bool = True
+) -> tuple[Identified, str]:
     """`fitted` with idle (column j) reported as not determined because `why`, and the
-    warning (`idle_against_standing`)."""
+    warning (`idle_against_standing`); `measured` False: no standing bin to compare with (the
+    warning then says it is not measured, not that it differs)."""
     half = fitted.half_width()[j]
     value = (
         f"{fitted.coef[j]:.3g} ± {half:.3g} W (95%)"
@@ -178,8 +182,9 @@ def _idle_not_determined(fitted: Identified, j: int, why: str) -> tuple[Identifi
     )
     reason = f"idle_W: not determined, {value}: {why} (it stays in the predictions)"
     warning = (
-        f"idle_W ({fitted.coef[j]:.3g} W) is not the power these logs draw standing still: "
-        f"{why}; it is reported as not determined ('wbpower docs drive-model', "
+        f"idle_W ({fitted.coef[j]:.3g} W) is "
+        + ("not the power these logs draw standing still" if measured else "not measured")
+        + f": {why}; it is reported as not determined ('wbpower docs drive-model', "
         "'Current-only logs')"
     )
     reported = fitted.shown.copy()
