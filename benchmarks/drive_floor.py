@@ -35,6 +35,8 @@ import pyarrow.csv as pacsv
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from measure import BARE_PARSE  # noqa: E402
 
+from wifibot_power.drive.stats import _median  # noqa: E402
+
 WINDOW_S = 0.5
 COLUMNS = ["time_s", "power_W", "speed_mps", "yaw_rate_radps"]
 
@@ -66,7 +68,9 @@ def _serial_parse(path: Path, skip: int) -> pa.Table:
 def _floor(table: pa.Table) -> float:
     """The per-window sums of the floor (module docstring); returns a checksum."""
     t, p, v, w = (table[c].to_numpy() for c in COLUMNS)
-    window = ((t - t[0]) // WINDOW_S).astype(np.intp)
+    # t - t[0] >= 0, so truncation is the floor; dividing by 0.5 s and multiplying by its
+    # inverse are both exact (a power of 2): the windows of `// WINDOW_S`, ~6x cheaper
+    window = ((t - t[0]) * (1.0 / WINDOW_S)).astype(np.intp)
     n = int(window[-1]) + 1
     speed = np.abs(v)
     accel = np.diff(v, prepend=v[0]) / np.diff(t, prepend=t[0] - 1.0)
@@ -75,7 +79,8 @@ def _floor(table: pa.Table) -> float:
         total += float(np.bincount(window, weights, minlength=n).sum())
     for lag in (0, 1, 2):  # the power a whole bin (here a sample) later
         total += float(np.bincount(window[: p.size - lag], p[lag:], minlength=n).sum())
-    total += float(np.median(np.abs(np.diff(v))))  # a noise estimate's differences
+    # a noise estimate's differences and their median, as drive/stats.py takes it (by counting)
+    total += _median(np.abs(np.diff(v)))
     return total
 
 
