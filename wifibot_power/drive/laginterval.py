@@ -119,7 +119,7 @@ def lag_interval(
     found = lags[np.isfinite(lags)]
     if found.size < 2:
         return LagInterval(lag_bins * bin_s, (np.nan, np.nan), grid, found.size, G)
-    low, high = np.quantile(found, [0.025, 0.975])
+    low, high = (float(q) for q in np.quantile(found, [0.025, 0.975]))
     return LagInterval(lag_bins * bin_s, (low * bin_s, high * bin_s), grid, found.size, G)
 
 
