@@ -146,6 +146,6 @@ def test_interval_and_its_rules():
     assert not cut.determined and "reaches the longest lag tried" in cut.reason()
     at_zero = LagInterval(0.0, (0.0, 0.1), grid, 1000, 12)  # 0 is physics' bound: determined
     assert at_zero.determined and at_zero.reason() is None
-    alone = lag_interval(FoldGrams(*(a[:1] for a in (grams.count, grams.xx, grams.xy,
-                                                     grams.yy)), grams.lags), found, 0.05)  # fmt: skip
+    one = FoldGrams(*(a[:1] for a in (grams.count, grams.xx, grams.xy, grams.yy)), grams.lags)
+    alone = lag_interval(one, found, 0.05)
     assert not alone.determined and "no interval (1 cluster" in alone.reason()
