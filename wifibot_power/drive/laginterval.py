@@ -10,7 +10,12 @@ replacement out of the G, sums their lag-search sums (gram.py `FoldGrams`, a "fo
 X'X, X'Y at each whole lag, Y's band, the noise of the inertial columns) with the draw's counts
 as weights, and searches the lag as the fit does (the corrected least squares' sum of squares
 at each whole lag, refined to a fraction of a bin: gram.py `refine_lag`, here for every
-replicate at once). The interval is the 2.5% and 97.5% quantiles of the replicates' lags.
+replicate at once). The interval is the 2.5% and 97.5% quantiles of the replicates' lags,
+widened about the lag found by t(0.975, G - 1) / z(0.975) x sqrt(G / (G - 1)): with few
+clusters the bootstrap's spread is the (G - 1)/G-biased one (CR0's, not CR1's) and its
+quantiles are normal-like where the intervals of G clusters need Student's t with G - 1
+degrees of freedom (Cameron & Miller 2015, Sec. VI.A and VI.C: the corrections the terms'
+intervals get, identify.py). 1.17 for 12 clusters, 1.58 for 5.
 
 Why not the joint sandwich's own lag variance (identify.py `_fit_kept` has it): it is a
 linearisation at the minimum, so it reads the criterion's curvature there and nothing of a
@@ -33,6 +38,7 @@ windows: the sums are the fit's, a few arrays of clusters x p x lags.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,6 +46,7 @@ import numpy as np
 from wifibot_power.drive.gram import FoldGrams
 from wifibot_power.drive.lagsums import SumsTable
 from wifibot_power.drive.windows import RunWindows
+from wifibot_power.stats import t_quantile
 
 #: Bootstrap replicates: the 2.5% quantile of 1000 draws has a Monte Carlo standard error of
 #: ~0.5 percentile points (Efron & Tibshirani 1993, Sec. 19.3: ~1000 for percentile intervals).
@@ -68,25 +75,28 @@ class LagInterval:
         return self._why() is None
 
     def _why(self) -> str | None:
+        """Why the lag is not determined (every rule that applies), None when it is."""
         low, high = self.ci95_s
         first, last = self.grid_s
         if not (np.isfinite(low) and np.isfinite(high)):
             return f"no interval ({self.clusters} cluster(s): at least 2 are needed)"
-        said = f"its 95% interval [{low:.2f}, {high:.2f}] s"
         span = last - first
+        why = []
         if high - low > UNDETERMINED_SHARE * span:
-            return (
-                f"{said} spans {100 * (high - low) / span:.0f}% of the lags tried "
-                f"({first:.2f}-{last:.2f} s; over {100 * UNDETERMINED_SHARE:.0f}%): these logs "
-                "hold little that times a change of speed against the power (e.g. no start "
+            why.append(
+                f"spans {100 * (high - low) / span:.0f}% of the lags tried "
+                f"({first:.2f}-{last:.2f} s; over {100 * UNDETERMINED_SHARE:.0f}%: these logs "
+                "hold little that times a change of speed against the power, e.g. no start "
                 "from rest)"
             )
         if high >= last - 1e-9 * span:
-            return (
-                f"{said} reaches the longest lag tried ({last:.2f} s): these logs do not bound "
-                "it from above (the search stops there)"
+            why.append(
+                f"reaches the longest lag tried ({last:.2f} s: these logs do not bound it from "
+                "above; the search stops there)"
             )
-        return None
+        if not why:
+            return None
+        return f"its 95% interval [{low:.2f}, {high:.2f}] s " + " and ".join(why)
 
     def reason(self) -> str | None:
         """The `not_determined` entry (None when determined)."""
@@ -119,8 +129,21 @@ def lag_interval(
     found = lags[np.isfinite(lags)]
     if found.size < 2:
         return LagInterval(lag_bins * bin_s, (np.nan, np.nan), grid, found.size, G)
-    low, high = (float(q) for q in np.quantile(found, [0.025, 0.975]))
+    low, high = np.quantile(found, [0.025, 0.975])
+    # the few-clusters correction (module docstring), about the lag found (held within the
+    # quantiles: a replicate distribution of two modes may leave it out), within the grid
+    centre = min(max(lag_bins, low), high)
+    widen = few_clusters_factor(G)
+    low = max(centre - widen * (centre - low), float(grams.lags[0]))
+    high = min(centre + widen * (high - centre), float(grams.lags[-1]))
     return LagInterval(lag_bins * bin_s, (low * bin_s, high * bin_s), grid, found.size, G)
+
+
+def few_clusters_factor(clusters: int) -> float:
+    """How much wider than the bootstrap's percentiles the interval is with G clusters:
+    t(0.975, G - 1) / z(0.975) x sqrt(G / (G - 1)) (module docstring; 1.17 for 12)."""
+    G = clusters
+    return t_quantile(0.975, G - 1) / t_quantile(0.975, 10**9) * math.sqrt(G / (G - 1))
 
 
 def cluster_grams_of_table(table: SumsTable, by_run: bool, lags: np.ndarray) -> FoldGrams:
