@@ -132,6 +132,9 @@ def lag_interval(
     low, high = np.quantile(found, [0.025, 0.975])
     # the few-clusters correction (module docstring), about the lag found (held within the
     # quantiles: a replicate distribution of two modes may leave it out), within the grid
+    # a replicate at the grid's first lag is not refined (gram.py `refine_lag`): known to half
+    # a bin, so an interval of such replicates alone ([0, 0]) reaches half a bin
+    high = max(high, float(grams.lags[0]) + 0.5)
     centre = min(max(lag_bins, low), high)
     widen = few_clusters_factor(G)
     low = max(centre - widen * (centre - low), float(grams.lags[0]))
