@@ -149,3 +149,25 @@ def test_interval_and_its_rules():
     one = FoldGrams(*(a[:1] for a in (grams.count, grams.xx, grams.xy, grams.yy)), grams.lags)
     alone = lag_interval(one, found, 0.05)
     assert not alone.determined and "no interval (1 cluster" in alone.reason()
+
+
+def test_lag_at_the_grids_first_lag_reaches_half_a_bin():
+    # every replicate's search ends at lag 0, where it is not refined: the interval says the
+    # half bin it is known to, not [0, 0]
+    grams = _grams(0)
+    found = grams.search(-1)[0]
+    assert found == 0.0
+    low, high = lag_interval(grams, found, 0.05).ci95_s
+    assert low == 0.0 and 0.025 <= high < 0.1
+
+
+def test_interval_is_the_bootstraps_percentiles_widened_for_few_clusters():
+    # 5 clusters: t(0.975, 4) = 2.776 (Student's table) over z = 1.960, x sqrt(5/4) = 1.584
+    grams = _grams(4, clusters=5)
+    found = grams.search(-1)[0]
+    draws = np.random.default_rng(0).multinomial(5, np.full(5, 0.2), size=1000).astype(float)
+    low, high = np.quantile(searches(grams, draws), [0.025, 0.975])
+    assert low <= found <= high
+    widen = 2.776 / 1.960 * np.sqrt(5 / 4)
+    got = lag_interval(grams, found, 1.0, seed=0).ci95_s
+    assert_allclose(got, (found - widen * (found - low), found + widen * (high - found)), rtol=1e-3)
