@@ -148,7 +148,10 @@ def test_interval_and_its_rules():
     assert at_zero.determined and at_zero.reason() is None
     one = FoldGrams(*(a[:1] for a in (grams.count, grams.xx, grams.xy, grams.yy)), grams.lags)
     alone = lag_interval(one, found, 0.05)
-    assert not alone.determined and "no interval (1 cluster" in alone.reason()
+    assert not alone.determined and "no interval (1 cluster:" in alone.reason()
+    none = FoldGrams(*(a[:0] for a in (grams.count, grams.xx, grams.xy, grams.yy)), grams.lags)
+    unsearched = lag_interval(none, 0.0, 0.05)
+    assert "not searched" in unsearched.reason() and "minimum" not in unsearched.reason()
 
 
 def test_lag_at_the_grids_first_lag_reaches_half_a_bin():

@@ -78,8 +78,13 @@ class LagInterval:
         """Why the lag is not determined (every rule that applies), None when it is."""
         low, high = self.ci95_s
         first, last = self.grid_s
+        if self.clusters == 0:  # the search's own sums are empty: it returned its first lag
+            return (
+                f"not searched: no window has a power at every lag tried ({first:.2f}-"
+                f"{last:.2f} s; runs too short, or cut by drop-outs)"
+            )
         if not (np.isfinite(low) and np.isfinite(high)):
-            return f"no interval ({self.clusters} cluster(s): at least 2 are needed)"
+            return f"no interval ({self.clusters} cluster: at least 2 are needed)"
         span = last - first
         why = []
         if high - low > UNDETERMINED_SHARE * span:
@@ -104,9 +109,9 @@ class LagInterval:
         if why is None:
             return None
         how = f" (cluster bootstrap of the search over {self.clusters} clusters)"
-        return (
-            f"lag_s: not determined, {why}; the predictions use the lag search's minimum, "
-            f"{self.lag_s:.2f} s" + (how if self.replicates else "")
+        used = "" if self.clusters == 0 else "the lag search's minimum, "
+        return f"lag_s: not determined, {why}; the predictions use {used}{self.lag_s:.2f} s" + (
+            how if self.replicates else ""
         )
 
 
