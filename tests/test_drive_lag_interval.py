@@ -15,8 +15,9 @@ from wifibot_power.cli.fit_tables import _lag_said
 from wifibot_power.drive import fit_drive
 from wifibot_power.drive.gram import FoldGrams
 from wifibot_power.drive.laginterval import LagInterval, lag_interval, searches
-from wifibot_power.drive.model import DriveModel
+from wifibot_power.drive.model import DriveModel, fit_drive_stats
 from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
+from wifibot_power.drive.stats import drive_stats
 from wifibot_power.run import Run, RunMeta
 
 
@@ -176,3 +177,14 @@ def test_interval_is_the_bootstraps_percentiles_widened_for_few_clusters():
     assert_allclose(
         (found - got[0], got[1] - found), widen * np.array([found - low, high - found]), rtol=1e-3
     )
+
+
+def test_interval_from_the_windows_is_the_one_from_the_sums():
+    # fit_drive_stats(direct=True) bootstraps sums made from the windows (laginterval.py
+    # `cluster_grams_of_windows`), the fit the workers' per-trip sums: the same numbers
+    config = FreeDriveConfig(seed=3, runs_per_surface=3, run_s=60.0, realism="field")
+    stats = [drive_stats(as_run(r)) for r in simulate_free(config)]
+    from_sums, from_windows = fit_drive_stats(stats), fit_drive_stats(stats, direct=True)
+    assert_allclose(from_windows.lag_s, from_sums.lag_s, atol=1e-9)
+    assert_allclose(from_windows.lag_ci95_s, from_sums.lag_ci95_s, atol=1e-9)
+    assert from_sums.lag_ci95_s[1] > from_sums.lag_ci95_s[0]
