@@ -188,3 +188,19 @@ def test_interval_from_the_windows_is_the_one_from_the_sums():
     assert_allclose(from_windows.lag_s, from_sums.lag_s, atol=1e-9)
     assert_allclose(from_windows.lag_ci95_s, from_sums.lag_ci95_s, atol=1e-9)
     assert from_sums.lag_ci95_s[1] > from_sums.lag_ci95_s[0]
+
+
+def test_a_replicate_with_collinear_columns_is_searched_as_the_fit_searches_it():
+    # one column twice (one speed only makes |v| and v^2 one regressor): the Gram is singular,
+    # the search's pseudo-inverse is taken (not the plain inverse), the same lag
+    grams = _grams(4)
+    G = grams.folds
+    xx = np.zeros((G, 3, 3))
+    xx[:, :2, :2] = grams.xx
+    xx[:, 2, :2] = xx[:, :2, 2] = grams.xx[:, 1]
+    xx[:, 2, 2] = grams.xx[:, 1, 1]
+    xy = np.concatenate([grams.xy, grams.xy[:, 1:2]], axis=1)
+    twice = FoldGrams(grams.count, xx, xy, grams.yy, grams.lags)
+    found = twice.search(-1)[0]
+    assert abs(found - 4) < 0.1
+    assert_allclose(searches(twice, np.ones((1, G))), [found], atol=1e-9)
