@@ -335,14 +335,19 @@ def scores(measured: np.ndarray, predicted: np.ndarray) -> tuple[float, float, f
     )
 
 
-def drive_heldout(runs: list[Run], trips: list[Trip]) -> dict[str, object] | None:
+def drive_heldout(
+    runs: list[Run], trips: list[Trip], lags: list[str] | None = None, label: str = ""
+) -> dict[str, object] | None:
     """`fit_drive`'s held-out trips of `runs` (whole runs, as `fit` gives them), by trip id:
     each `HeldOutRun` (measured and predicted energy, 90% interval). None when it has no
     held-out accuracy. Its trips are `trips` (the same cut, `trips_of`); a trip of one and
-    not the other is said on stderr (the tables would not compare the same trips)."""
+    not the other is said on stderr (the tables would not compare the same trips). `lags`:
+    the fit's lag row is added to it (`lag_row`, `label` its group)."""
     from wifibot_power.drive import fit_drive  # noqa: PLC0415
 
     model = fit_drive(runs)
+    if lags is not None and model is not None:
+        lags.append(lag_row(label, model))
     if model is None or model.heldout is None:
         return None
     held = {r.run_id: r for r in model.heldout.runs}
@@ -354,6 +359,16 @@ def drive_heldout(runs: list[Run], trips: list[Trip]) -> dict[str, object] | Non
             file=sys.stderr,
         )
     return held
+
+
+def lag_row(label: str, model) -> str:
+    """The fit's lag, its 95% interval (`lag_ci95_s`, drive/laginterval.py) and whether
+    the logs determine it (its `not_determined` entry), as a table row."""
+    ci = model.lag_ci95_s
+    interval = f"[{ci[0]:.2f}, {ci[1]:.2f}]" if ci is not None else "none"
+    entry = [r for r in model.not_determined if r.startswith("lag_s:")]
+    said = "no: " + entry[0].split(", ", 1)[1].split("; the predictions")[0] if entry else "yes"
+    return f"| {label} | {model.lag_s:.3f} | {interval} | {said} |"
 
 
 def drive_model_rows(trips: list[Trip], held: dict[str, object]) -> list[str]:
@@ -701,13 +716,15 @@ def report() -> str:
         # folder); and, where the groups are surfaces of one robot, one fit for the set
         # (per-surface rolling and turning terms, the rest shared: `fit` on the set's folder)
         per_group: dict[str, object] = {}
+        lags: list[str] = []
         for g in groups:
             members = [trips[i] for i in range(len(trips)) if trips[i].group == g]
-            held = drive_heldout([runs[k] for k in sorted({tr.run for tr in members})], members)
+            chosen = [runs[k] for k in sorted({tr.run for tr in members})]
+            held = drive_heldout(chosen, members, lags, g)
             per_group.update(held or {})
         out += same_folds_rows(trips, groups, per[False], per_group)
         for by_group in (True,) if vehicles else (True, False):
-            held = per_group if by_group else drive_heldout(runs, trips)
+            held = per_group if by_group else drive_heldout(runs, trips, lags, "all")
             how, whose = (
                 ("one fit per group", "group's") if by_group else ("one fit for the set", "set's")
             )
@@ -719,6 +736,15 @@ def report() -> str:
                 *drive_model_rows(trips, held or {}),
                 "",
             ]
+        out += [
+            "The lag of each fit above (`lag_s`; its 95% interval `lag_ci95_s`, a cluster "
+            "bootstrap of the lag search: drive/laginterval.py; determined unless the interval "
+            "spans over half the lags tried, reaches the longest, or cannot be made):\n",
+            "| group | lag_s [s] | 95% interval [s] | determined |",
+            "|---|---|---|---|",
+            *lags,
+            "",
+        ]
     return "\n".join(out) + "\n"
 
 

@@ -77,6 +77,7 @@ def test_summary_is_the_cli_shape_and_round_trips(field_model):
         "terms",
         "surfaces",
         "lag_s",
+        "lag_ci95_s",  # issue 25: the lag's interval (drive/laginterval.py)
         "n_runs",
         "heldout",
         "not_determined",

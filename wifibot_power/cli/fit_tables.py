@@ -182,20 +182,30 @@ def _print_drive_terms(summary: dict) -> None:
     not_determined = "".join(f"\n- {r}" for r in summary["not_determined"]) or " none"
     # the drive model's assumptions, said under its table (and in `fit --json` drive.warnings)
     said = "".join(f"\nwarning: {w}" for w in summary["warnings"])
-    title = (
-        f"Drive model over {summary['n_runs']} run(s), power lags speed by {summary['lag_s']:.2f} s"
-    )
+    lag = _lag_said(summary)
+    title = f"Drive model over {summary['n_runs']} run(s), power lags speed by {lag}"
     notes = f"not determined:{not_determined}{said}"
     if not cells:  # no term has a number: the reasons, not an empty table's frame
         line = (
-            f"Drive model over {summary['n_runs']} run(s): no term determined; the lag search's "
-            f"best, {summary['lag_s']:.2f} s, has no interval either"
+            f"Drive model over {summary['n_runs']} run(s): no term determined; the lag "
+            f"search's best: {lag}"
         )
         stdout.print(line, markup=False, highlight=False)
         stdout.print(notes, markup=False, highlight=False)
     else:
         title += " (95% CI: cluster-robust, by run or trip)"
         print_table(stdout, title, _DRIVE_TERM_COLUMNS, cells, notes=notes)
+
+
+def _lag_said(summary: dict) -> str:
+    """The lag with its 95% interval, and "not determined" when its `not_determined` entry
+    says so (drive/laginterval.py): "0.26 s [0.21, 0.33]", "0.61 s (not determined, 95% CI
+    [0.50, 1.00] s)", "0.04 s (not determined, no interval)"."""
+    lag, ci = summary["lag_s"], summary.get("lag_ci95_s")
+    interval = f"95% CI [{ci[0]:.2f}, {ci[1]:.2f}] s" if ci is not None else "no interval"
+    if any(reason.startswith("lag_s:") for reason in summary["not_determined"]):
+        return f"{lag:.2f} s (not determined, {interval}; the predictions use it)"
+    return f"{lag:.2f} s [{ci[0]:.2f}, {ci[1]:.2f}]" if ci is not None else f"{lag:.2f} s"
 
 
 def _print_drive_heldout(held: dict) -> None:

@@ -95,6 +95,10 @@ class Identified:
     #: bool per column: reported as a term (kept, and its interval not too loose to mean
     #: anything: `_honest`); None: every kept column
     reported: np.ndarray | None = None
+    #: the joint sandwich's variance of the lag [s^2] (`_fit_kept`; NaN when the fitted power
+    #: does not move with the lag or no covariance was made): the linearised alternative to
+    #: laginterval.py's bootstrap, kept for the validation that chose between them
+    lag_var_s2: float = np.nan
 
     @property
     def shown(self) -> np.ndarray:
@@ -344,6 +348,7 @@ def _fit_kept(
     coef[kept] = coef_k
     p = int(kept.sum())
     cov, dof, groups = np.full((p, p), np.nan), 0, 0
+    lag_var_s2 = np.nan
     if not coefficients_only:
         # the lag was estimated from these same windows: its uncertainty is carried into the
         # coefficients' by the joint sandwich of (coefficients, lag), the lag's column being
@@ -355,6 +360,8 @@ def _fit_kept(
             cov, dof, groups = cluster_jackknife(*sums)
         else:
             cov = np.full((joint_p, joint_p), np.nan)
+        if joint_p > p:  # the lag's column is in [1/s]: its coefficient a lag in s
+            lag_var_s2 = float(cov[p, p])
         cov = cov[:p, :p]
     return Identified(
         columns=columns,
@@ -366,6 +373,7 @@ def _fit_kept(
         lag_bins=lag_bins,
         not_determined=tuple(reasons),
         residual_W=moments.residual_W,
+        lag_var_s2=lag_var_s2,
     )
 
 

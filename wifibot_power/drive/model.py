@@ -20,7 +20,19 @@ from wifibot_power.drive.heldout import (
     heldout_from_sums,
     lag_grid_of,
 )
-from wifibot_power.drive.identify import WindowSearch, identify, identify_moments, lag_search
+from wifibot_power.drive.identify import (
+    WindowSearch,
+    identify,
+    identify_moments,
+    lag_grid,
+    lag_search,
+)
+from wifibot_power.drive.laginterval import (
+    LagInterval,
+    cluster_grams_of_table,
+    cluster_grams_of_windows,
+    lag_interval,
+)
 from wifibot_power.drive.lagsums import SumsTable
 from wifibot_power.drive.standing import idle_against_standing, run_stops, standing_power
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
@@ -78,6 +90,9 @@ class DriveModel:
     #: what its logs' "power" is (terms.py `POWER_KINDS`): "current_proxy" when every log
     #: holds motor currents only (the force form: its terms are not the battery's power)
     power_kind: str = "power"
+    #: the lag's 95% interval [s] (laginterval.py: a cluster bootstrap of the lag search);
+    #: None from a model.json written before it was made, or with fewer than 2 clusters
+    lag_ci95_s: tuple[float, float] | None = None
     #: the model family's name (`models.base.FittedModel.family`)
     family: ClassVar[str] = "drive"
 
@@ -125,6 +140,7 @@ class DriveModel:
                 for surface, named in self.surfaces.items()
             },
             "lag_s": self.lag_s,
+            "lag_ci95_s": None if self.lag_ci95_s is None else list(self.lag_ci95_s),
             "n_runs": self.n_runs,
             "heldout": self.heldout.as_dict() if self.heldout is not None else None,
             "not_determined": list(self.not_determined),
@@ -196,6 +212,7 @@ class DriveModel:
             terms=terms_of(data["terms"]),
             surfaces={s: terms_of(named) for s, named in data["surfaces"].items()},
             lag_s=float(data["lag_s"]),
+            lag_ci95_s=_interval_of(data.get("lag_ci95_s")),
             n_runs=int(data["n_runs"]),
             heldout=heldout,
             not_determined=tuple(data["not_determined"]),
@@ -210,6 +227,14 @@ class DriveModel:
             dof=int(data["dof"]),
             power_kind=power_kind_of(data),
         )
+
+
+def _interval_of(given: list | None) -> tuple[float, float] | None:
+    """model.json's `lag_ci95_s` (absent from an older model.json: None)."""
+    if given is None or any(x is None for x in given):
+        return None
+    low, high = (float(x) for x in given)
+    return low, high
 
 
 def _aligned(
@@ -290,7 +315,9 @@ def _fit_from_sums(
     by_run = len(sums) >= MIN_RUN_CLUSTERS
     fitted = identify_moments(table.at_lag(lag_bins).moments(everything, by_run), lag_bins)
     heldout = heldout_from_sums(table, by_run, seed=seed, search_windows=search_windows)
-    model = _model(stats, fitted, heldout, lag_bins, table.window_s, surfaces)
+    by_cluster = cluster_grams_of_table(table, by_run, lag_grid_of(table))
+    lag = lag_interval(by_cluster, lag_bins, stats[0].bin_s, seed=seed)
+    model = _model(stats, fitted, heldout, lag, table.window_s, surfaces)
     return _with_noise_warning(model, [m.reliability for m in sums])
 
 
@@ -326,7 +353,9 @@ def _fit_from_windows(
     fitted = identify(windows, lag_bins, clusters)
     heldout = heldout_accuracy(runs, surfaces, by_run, seed=seed, gram=not direct)
     stats = [rw.stats for rw in runs]
-    model = _model(stats, fitted, heldout, lag_bins, windows.window_s, surfaces)
+    by_cluster = cluster_grams_of_windows(runs, surfaces, by_run, lag_grid(runs))
+    lag = lag_interval(by_cluster, lag_bins, stats[0].bin_s, seed=seed)
+    model = _model(stats, fitted, heldout, lag, windows.window_s, surfaces)
     return _with_noise_warning(model, [rw.reliability for rw in runs])
 
 
@@ -334,11 +363,12 @@ def _model(
     stats: list[DriveStats],
     fitted: Identified,
     heldout: HeldOut | None,
-    lag_bins: float,
+    lag: LagInterval,
     window_s: float,
     surfaces: tuple[str, ...],
 ) -> DriveModel:
-    """The `DriveModel` of a fit over `stats`' runs (each with a window), with its warnings."""
+    """The `DriveModel` of a fit over `stats`' runs (each with a window), with its warnings;
+    a lag the logs do not determine (laginterval.py) is in `not_determined`."""
     warnings: list[str] = []
     if len(stats) < MIN_RUN_CLUSTERS:
         warnings.append(
@@ -361,10 +391,12 @@ def _model(
     return DriveModel(
         terms=terms,
         surfaces=per_surface,
-        lag_s=lag_bins * stats[0].bin_s,
+        lag_s=lag.lag_s,
+        lag_ci95_s=lag.ci95_s if np.isfinite(lag.ci95_s).all() else None,
         n_runs=len(stats),
         heldout=heldout,
-        not_determined=tuple(reason for _, reason in fitted.not_determined),
+        not_determined=tuple(reason for _, reason in fitted.not_determined)
+        + ((lag.reason(),) if not lag.determined else ()),
         warnings=tuple(warnings),
         columns=fitted.columns,
         coef=tuple(float(c) for c in fitted.coef),

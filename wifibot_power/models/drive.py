@@ -167,7 +167,8 @@ class KeptDrive(FittedModel):
         return DriveModel.from_json(self.kept)
 
     def summary(self) -> dict[str, object]:
-        keys = ("terms", "surfaces", "lag_s", "n_runs", "heldout", "not_determined", "warnings")
+        keys = ("terms", "surfaces", "lag_s", "lag_ci95_s", "n_runs", "heldout")
+        keys += ("not_determined", "warnings")
         return {key: self.kept[key] for key in keys}
 
     def to_json(self) -> dict[str, object]:
