@@ -204,3 +204,17 @@ def test_a_replicate_with_collinear_columns_is_searched_as_the_fit_searches_it()
     found = twice.search(-1)[0]
     assert abs(found - 4) < 0.1
     assert_allclose(searches(twice, np.ones((1, G))), [found], atol=1e-9)
+
+
+def test_the_terms_figure_says_the_lag_as_fit_does(sharp_model):
+    """The terms figure's title gave the lag as a bare number ("(lag 0.61 s)") where `fit`
+    says it is not determined: both now read `drive.model.lag_said`."""
+    pytest.importorskip("matplotlib")
+    from wifibot_power.figures.drive_terms import drive_terms_figure
+
+    low, high = sharp_model.lag_ci95_s
+    sharp = drive_terms_figure(sharp_model).get_suptitle()
+    assert f"(lag {sharp_model.lag_s:.2f} s [{low:.2f}, {high:.2f}])" in sharp
+    flat_model = fit_drive([_steady_run(k) for k in range(12)])
+    flat = drive_terms_figure(flat_model).get_suptitle()
+    assert f"(lag {flat_model.lag_s:.2f} s, not determined)" in flat

@@ -198,14 +198,10 @@ def _print_drive_terms(summary: dict) -> None:
 
 
 def _lag_said(summary: dict) -> str:
-    """The lag with its 95% interval, and "not determined" when its `not_determined` entry
-    says so (drive/laginterval.py): "0.26 s [0.21, 0.33]", "0.61 s (not determined, 95% CI
-    [0.50, 1.00] s)", "0.04 s (not determined, no interval)"."""
-    lag, ci = summary["lag_s"], summary.get("lag_ci95_s")
-    interval = f"95% CI [{ci[0]:.2f}, {ci[1]:.2f}] s" if ci is not None else "no interval"
-    if any(reason.startswith("lag_s:") for reason in summary["not_determined"]):
-        return f"{lag:.2f} s (not determined, {interval}; the predictions use it)"
-    return f"{lag:.2f} s [{ci[0]:.2f}, {ci[1]:.2f}]" if ci is not None else f"{lag:.2f} s"
+    """The lag as `drive.model.lag_said` says it, from the `--json` document's values."""
+    from wifibot_power.drive.model import lag_said
+
+    return lag_said(summary["lag_s"], summary.get("lag_ci95_s"), summary["not_determined"])
 
 
 def _print_drive_heldout(held: dict) -> None:

@@ -229,6 +229,26 @@ class DriveModel:
         )
 
 
+def lag_said(
+    lag_s: float,
+    lag_ci95_s: tuple[float, float] | list[float] | None,
+    not_determined: tuple[str, ...] | list[str],
+    short: bool = False,
+) -> str:
+    """The lag with its 95% interval, and "not determined" when `not_determined` has the lag's
+    entry (laginterval.py): "0.26 s [0.21, 0.33]", "0.61 s (not determined, 95% CI [0.50,
+    1.00] s; the predictions use it)", "0.04 s (not determined, no interval; ...)"; `short`
+    (a figure's title): "0.61 s, not determined". What `fit` prints and the terms figure's
+    title say alike."""
+    ci = lag_ci95_s
+    if any(reason.startswith("lag_s:") for reason in not_determined):
+        if short:
+            return f"{lag_s:.2f} s, not determined"
+        interval = f"95% CI [{ci[0]:.2f}, {ci[1]:.2f}] s" if ci is not None else "no interval"
+        return f"{lag_s:.2f} s (not determined, {interval}; the predictions use it)"
+    return f"{lag_s:.2f} s [{ci[0]:.2f}, {ci[1]:.2f}]" if ci is not None else f"{lag_s:.2f} s"
+
+
 def _interval_of(given: list | None) -> tuple[float, float] | None:
     """model.json's `lag_ci95_s` (absent from an older model.json: None)."""
     if given is None or any(x is None for x in given):
@@ -501,4 +521,4 @@ def _terms(
     return terms, per_surface
 
 
-__all__ = ["TERMS", "DriveModel", "TermValue", "fit_drive", "fit_drive_stats"]
+__all__ = ["TERMS", "DriveModel", "TermValue", "fit_drive", "fit_drive_stats", "lag_said"]

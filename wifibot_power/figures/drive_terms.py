@@ -39,7 +39,10 @@ def drive_terms_figure(model: DriveModel) -> Figure:
         ax.set_visible(False)
     # one panel is 3.6 in wide: the title on two lines there (on one it was cut at both ends)
     wrap = "\n" if columns < 2 else " "
-    figure.suptitle(f"Drive model terms with 95% intervals{wrap}(lag {model.lag_s:.2f} s)")
+    from wifibot_power.drive.model import lag_said  # not at the figure registry's import
+
+    lag = lag_said(model.lag_s, model.lag_ci95_s, model.not_determined, short=True)
+    figure.suptitle(f"Drive model terms with 95% intervals{wrap}(lag {lag})")
     return figure
 
 
