@@ -3,7 +3,7 @@ held-out accuracy (`drive.heldout`) on each converted set and each of its surfac
 they are on disk (each log cut into trips at its stops by the drive model itself).
 
 docs/drive-model.md ("What a user of the CLI gets") quotes the table this prints. Since the
-fourteenth session benchmarks/validate_drive_real.py reads and cuts the logs as `fit` does, so
+thirteenth session benchmarks/validate_drive_real.py reads and cuts the logs as `fit` does, so
 its drive-model rows are these numbers (its MAPE and median leave out trips of net energy
 <= 0, which `fit` counts by their |measured|: the unicycles' rows differ so). The sets
 are read from `$WBPOWER_REAL_DRIVE` (default /work/real_drive; docs/real-logs.md, "Free

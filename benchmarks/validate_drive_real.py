@@ -16,7 +16,7 @@ predicted by a fit that saw it, and the drive model's rows are what `wbpower fit
   middle of every stop of at least 3 s with motion on both sides, so a trip holds half of
   each stop it borders; only trips with a window count (drive/heldout.py). Each trip's
   samples, from its first window's start to the next trip's, are the baseline's; its name
-  is the model's (`RUN`, `RUN#k` when the log has several). Until the fourteenth session
+  is the model's (`RUN`, `RUN#k` when the log has several). Until the thirteenth session
   the script cut its own trips (stops' samples left out, trips under 10 s dropped) and
   gave the drive model each trip as a run: flooring's 5.8 / 4.8% against `fit`'s 7.8 /
   6.0% (docs/drive-model.md, "Real logs").

@@ -144,7 +144,7 @@ def test_force_form_fits_a_real_current_log_as_well():
     # the Husky logs' "power" is 24 V x motor current. The force form is chosen by physics,
     # not by this data: fitted per surface on every other log as `fit` reads them, it leaves
     # 4% less squared residual on the windows than P = F v's (0.961; 7% more on the
-    # validation script's own trips before the fourteenth session: the data hardly choose
+    # validation script's own trips before the thirteenth session: the data hardly choose
     # between them); a force form without the rate-dependent part of turning (the Coulomb
     # part alone) left 37% more then and failed this
     from scripts import load_script

@@ -225,7 +225,7 @@ def test_the_validation_prints_what_the_cli_gives(surface: str, wbpower) -> None
     """`wbpower fit FOLDER --json` on a BorealTC surface takes the current proxy's force form
     (the warning says so), and the validation script's trips and drive-model numbers are its
     held-out trips, number for number: the script reads the logs with wbpower's reader and
-    takes the model's own trips. Until the fourteenth session it cut its own (dropping the
+    takes the model's own trips. Until the thirteenth session it cut its own (dropping the
     stops' samples and trips under 10 s) and quoted flooring at 5.8 / 4.8% where `fit` gives
     7.8 / 6.0% (docs/drive-model.md, "Real logs"). Through the CLI the logs were fitted as
     power logs until the twelfth session (the reader lower-cases '# voltage_assumed_V')."""
