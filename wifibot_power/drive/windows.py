@@ -19,7 +19,7 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -240,7 +240,7 @@ class RunWindows:
 
 def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     """A run's windows and their regressors (module docstring)."""
-    n = max(int(round(window_s / stats.bin_s)), 1)
+    n = _bins_a_window(stats, window_s)
     count = stats.bins // n
     used = count * n
     speed = stats.speed_mps
@@ -319,6 +319,28 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
         turning,
         reliable,
     )
+
+
+def windows_of(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
+    """`run_windows(stats, window_s)`: the windows the run's worker made and sent with its bins
+    (`send_with`) when they are those, else made here (the same arrays: one function of the
+    bins)."""
+    sent = stats.__dict__.get("_sent_windows")
+    if sent is not None and sent.stats is stats and sent.n == _bins_a_window(stats, window_s):
+        return sent
+    return run_windows(stats, window_s)
+
+
+def send_with(windows: RunWindows) -> None:
+    """Keep `windows` on the bins they were made from (`windows.stats`), so that they travel
+    with them to the process that fits (`windows_of` takes them): their fields only, not what
+    they made from them and keep (their running sums and span means over the bins, their
+    regressors' rates: made again where needed)."""
+    object.__setattr__(windows.stats, "_sent_windows", replace(windows))  # a cache, not a field
+
+
+def _bins_a_window(stats: DriveStats, window_s: float) -> int:
+    return max(int(round(window_s / stats.bin_s)), 1)
 
 
 def _noise_per_sample(stats: DriveStats, turns: bool = True) -> tuple[float, float]:
