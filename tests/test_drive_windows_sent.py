@@ -1,6 +1,6 @@
 """A step run at risk (its bins kept for the parent's lag search over the windows) sends the
 windows its worker made with them when they weigh little beside its samples (models/drive.py
-`SEND_WINDOWS_SHARE`), and the search takes them (windows.py `windows_of`) instead of making
+`SEND_WINDOWS_SHARE`), and the search takes them (sums.py `windows_of`) instead of making
 them again: the same arrays, the same model."""
 
 from __future__ import annotations
@@ -47,7 +47,8 @@ def _sent(period_s: float, name: str = "r"):
 
 
 def test_a_fast_step_run_sends_its_windows_and_the_search_takes_them(monkeypatch):
-    from wifibot_power.drive.windows import run_windows, windows_of
+    from wifibot_power.drive.sums import windows_of
+    from wifibot_power.drive.windows import run_windows
 
     worker = _sent(1e-4)
     stats = drive_stats_of(worker)

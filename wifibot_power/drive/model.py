@@ -24,9 +24,9 @@ from wifibot_power.drive.identify import WindowSearch, identify, identify_moment
 from wifibot_power.drive.lagsums import SumsTable
 from wifibot_power.drive.standing import idle_against_standing, run_stops, standing_power
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
-from wifibot_power.drive.sums import RunSums, sums_of
+from wifibot_power.drive.sums import RunSums, sums_of, windows_of
 from wifibot_power.drive.terms import TERM_BY_NAME, TERMS, term_unit
-from wifibot_power.drive.windows import WINDOW_S, assemble, run_windows, windows_of
+from wifibot_power.drive.windows import WINDOW_S, assemble, run_windows
 from wifibot_power.power_kind import PROXY_WARNING, power_kind_of
 
 if TYPE_CHECKING:

@@ -19,7 +19,7 @@ term's regressor (terms.py), its response the window's mean power `lag` later.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
@@ -240,7 +240,7 @@ class RunWindows:
 
 def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     """A run's windows and their regressors (module docstring)."""
-    n = _bins_a_window(stats, window_s)
+    n = window_bins(stats, window_s)
     count = stats.bins // n
     used = count * n
     speed = stats.speed_mps
@@ -249,9 +249,8 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     # averages out before the absolute value, and what is left of it is taken out of the
     # square (`_denoised_abs`) instead of adding its mean |noise| to the regressor
     mean_speed = speed[:used].reshape(shape).mean(axis=1)
-    # a run that never turns (the paper's step runs: no turning column, its rate of turn 0
-    # in every bin): its rate of turn's mean, noise, |.| and turning bins are 0 as computed,
-    # and are so without the ~40 small numpy calls on its zeros (`turns` False)
+    # a run that never turns (the step runs: no turning column, 0 in every bin): its rate of
+    # turn's mean, noise, |.| and turning bins are 0 without ~40 numpy calls on its zeros
     turns = stats.has_turning or bool(stats.yaw_rate_radps.any())
     mean_yaw = stats.yaw_rate_radps[:used].reshape(shape).mean(axis=1) if turns else np.zeros(count)
     sample_noise_mps, sample_noise_radps = _noise_per_sample(stats, turns)
@@ -321,25 +320,8 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     )
 
 
-def windows_of(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
-    """`run_windows(stats, window_s)`: the windows the run's worker made and sent with its bins
-    (`send_with`) when they are those, else made here (the same arrays: one function of the
-    bins)."""
-    sent = stats.__dict__.get("_sent_windows")
-    if sent is not None and sent.stats is stats and sent.n == _bins_a_window(stats, window_s):
-        return sent
-    return run_windows(stats, window_s)
-
-
-def send_with(windows: RunWindows) -> None:
-    """Keep `windows` on the bins they were made from (`windows.stats`), so that they travel
-    with them to the process that fits (`windows_of` takes them): their fields only, not what
-    they made from them and keep (their running sums and span means over the bins, their
-    regressors' rates: made again where needed)."""
-    object.__setattr__(windows.stats, "_sent_windows", replace(windows))  # a cache, not a field
-
-
-def _bins_a_window(stats: DriveStats, window_s: float) -> int:
+def window_bins(stats: DriveStats, window_s: float) -> int:
+    """The bins a window of `window_s` holds (a whole number, at least one)."""
     return max(int(round(window_s / stats.bin_s)), 1)
 
 

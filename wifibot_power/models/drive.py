@@ -112,7 +112,7 @@ class WorkerStats:
 
         if self._stats is None or not own_share(self.sums) >= AT_RISK_SHARE:
             if self._windows is not None and _light(self._windows):
-                from wifibot_power.drive.windows import send_with
+                from wifibot_power.drive.sums import send_with
 
                 send_with(self._windows)  # the parent's lag search takes them (`windows_of`)
             return self
