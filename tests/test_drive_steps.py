@@ -286,3 +286,30 @@ def test_simulated_step_runs_give_the_paper_lines():
         powers = step_phase_powers(model, v, v / config.robot.accel_mps2)
         assert abs(powers["cruise"][0] - (23.9 + 11.2 * v)) < 0.02, (v, powers)
         assert abs(powers["accel"][0] - (23.9 + 14.8 * v)) < 0.03, (v, powers)
+
+
+def test_a_run_that_never_turns_has_the_windows_of_its_zeros_computed():
+    """A run without a turning column (its rate of turn 0 in every bin: the step runs) skips
+    the rate of turn's computations on its zeros (windows.py `turns`): its windows are those
+    of the same bins made the whole way (`has_turning` set, the zeros then computed on), to
+    the bit, for a fast and a slow logger, and for a run that does turn (a rate of turn
+    given beside the zeros' flag: not skipped)."""
+    import dataclasses
+
+    from wifibot_power.drive.windows import run_windows
+
+    def fields(rw):
+        return {f.name: getattr(rw, f.name) for f in dataclasses.fields(rw) if f.name != "stats"}
+
+    for period_s in (0.0001, 0.01, 0.2):
+        run, segmentation, _ = _step_run(0.5, 0.5, period_s)
+        stats = drive_stats(run, segmentation)
+        assert not stats.has_turning and not stats.yaw_rate_radps.any()
+        yawing = dataclasses.replace(stats, yaw_rate_radps=np.sin(np.arange(stats.bins) / 7.0))
+        for quick, whole in ((stats, dataclasses.replace(stats, has_turning=True)),
+                             (yawing, dataclasses.replace(yawing, has_turning=True))):  # fmt: skip
+            made, reference = fields(run_windows(quick)), fields(run_windows(whole))
+            for name, value in reference.items():
+                assert np.array_equal(made[name], value), (period_s, name)
+                assert np.array_equal(np.signbit(made[name]), np.signbit(value)), name
+        assert run_windows(yawing).abs_yaw_radps.any()  # (turning is seen without the flag)

@@ -179,3 +179,29 @@ def test_the_checks_sums_are_over_the_samples_all_three_give(samples, seed, hole
         *sums, count = _twice_sums(power, current, voltage, masked=masked)
         assert count == kept.sum()
         np.testing.assert_allclose(sums, expected, rtol=1e-12, atol=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(samples=st.integers(1, 5000), seed=st.integers(0, 2**32 - 1))
+def test_the_checks_plain_sums_are_numpys_own_and_leave_the_columns_as_read(samples, seed):
+    """The plain sums (every sample finite) through one temporary are numpy's sums of each
+    quantity to the bit (the same arrays summed: no other order of summation), and the
+    columns are left as read (the temporary is the check's own)."""
+    from wifibot_power.io.validate import _twice_sums
+
+    rng = np.random.default_rng(seed)
+    voltage = 12 + rng.normal(0, 0.5, samples)
+    current = rng.normal(1, 2, samples)
+    power = -voltage * current * (1 + rng.normal(0, 0.01, samples))  # negative powers too
+    before = [column.copy() for column in (power, current, voltage)]
+    sums = _twice_sums(power, current, voltage)
+    assert sums == (
+        float(np.sum(power)),
+        float(np.sum(current * voltage)),
+        max(float(np.sum(np.abs(power))), float(np.sum(np.abs(current * voltage)))),
+        float(np.sum(np.abs(voltage))),
+        float(np.sum(np.abs(current))),
+        samples,
+    )
+    for column, read in zip((power, current, voltage), before, strict=True):
+        assert np.array_equal(column, read)

@@ -245,3 +245,28 @@ def test_run_energy_and_mean_power_are_the_samples_own_to_the_bit():
         assert row["energy_J"] == energy_J(power, PERIOD_S) == run.energy_J
         assert row["mean_power_W"] == float(power.mean()) == run.mean_power_W
         assert row["idle_mean_power_W"] == float(power.mean())
+
+
+def test_a_runs_energy_is_summed_once_for_the_row_and_the_drive_statistics(monkeypatch):
+    """`Run.energy_and_mean` is made once a run (the run table's row and the drive model's
+    statistics both read it: one pass over the samples, not two), and what the drive
+    statistics keep is the row's energy to the bit."""
+    from wifibot_power.drive.stats import drive_stats
+
+    run, segmentation = build(TWO_STEPS)
+    calls = []
+    real_sum = np.sum
+    monkeypatch.setattr(np, "sum", lambda *a, **k: calls.append(a[0].size) or real_sum(*a, **k))
+    row = run_row(run, segmentation)
+    stats = drive_stats(run, segmentation)
+    monkeypatch.undo()
+    assert calls.count(run.samples) == 1  # the samples summed whole once
+    assert stats is not None and stats.energy_J == row["energy_J"] == energy_J_of(run)
+    assert run.energy_and_mean() is run.energy_and_mean()
+
+
+def energy_J_of(run) -> float:
+    """The rectangle rule on the run's samples, made afresh."""
+    from wifibot_power.run import energy_J
+
+    return energy_J(run.power_W, run.sample_period_s)

@@ -36,7 +36,7 @@ from wifibot_power.drive.laginterval import (
 from wifibot_power.drive.lagsums import SumsTable
 from wifibot_power.drive.standing import idle_against_standing, run_stops, standing_power
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
-from wifibot_power.drive.sums import RunSums, sums_of
+from wifibot_power.drive.sums import RunSums, sums_of, windows_of
 from wifibot_power.drive.terms import TERM_BY_NAME, TERMS, term_unit
 from wifibot_power.drive.windows import WINDOW_S, assemble, run_windows
 from wifibot_power.power_kind import PROXY_WARNING, power_kind_of
@@ -351,7 +351,7 @@ def _window_search(
 
     def search(train: np.ndarray | None) -> tuple[float, np.ndarray]:
         if not made:
-            made.append(WindowSearch([run_windows(s, window_s) for s in stats], surfaces))
+            made.append(WindowSearch([windows_of(s, window_s) for s in stats], surfaces))
         return made[0].search_trips(train, trip_base)
 
     return search

@@ -22,7 +22,7 @@ order of summation (benchmarks/gram_equal.py, tests/test_drive_gram.py).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -37,6 +37,7 @@ from wifibot_power.drive.windows import (
     fill_design,
     run_windows,
     surface_of,
+    window_bins,
 )
 
 
@@ -158,6 +159,25 @@ def run_sums(rw: RunWindows) -> RunSums:
         edge_surface=surface[edge],
         reliability=rw.reliability,
     )
+
+
+def windows_of(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
+    """`run_windows(stats, window_s)`: the windows the run's worker made and sent with its bins
+    (`send_with`) when they are those, else made here (the same arrays: one function of the
+    bins)."""
+    sent = stats.__dict__.get("_sent_windows")
+    if sent is not None and sent.stats is stats and sent.n == window_bins(stats, window_s):
+        return sent
+    return run_windows(stats, window_s)
+
+
+def send_with(windows: RunWindows) -> None:
+    """Keep `windows` on the bins they were made from (`windows.stats`), so that they travel
+    with them to the process that fits (`windows_of` takes them): a run at risk, whose bins
+    go there for the lag search over the windows (`AT_RISK_SHARE`). Their fields only, not
+    what they made from them and keep (their running sums and span means over the bins,
+    their regressors' rates: made again where needed)."""
+    object.__setattr__(windows.stats, "_sent_windows", replace(windows))  # a cache, not a field
 
 
 def own_share(sums: RunSums) -> float:

@@ -240,7 +240,7 @@ class RunWindows:
 
 def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     """A run's windows and their regressors (module docstring)."""
-    n = max(int(round(window_s / stats.bin_s)), 1)
+    n = window_bins(stats, window_s)
     count = stats.bins // n
     used = count * n
     speed = stats.speed_mps
@@ -249,8 +249,11 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     # averages out before the absolute value, and what is left of it is taken out of the
     # square (`_denoised_abs`) instead of adding its mean |noise| to the regressor
     mean_speed = speed[:used].reshape(shape).mean(axis=1)
-    mean_yaw = stats.yaw_rate_radps[:used].reshape(shape).mean(axis=1)
-    sample_noise_mps, sample_noise_radps = _noise_per_sample(stats)
+    # a run that never turns (the step runs: no turning column, 0 in every bin): its rate of
+    # turn's mean, noise, |.| and turning bins are 0 without ~40 numpy calls on its zeros
+    turns = stats.has_turning or bool(stats.yaw_rate_radps.any())
+    mean_yaw = stats.yaw_rate_radps[:used].reshape(shape).mean(axis=1) if turns else np.zeros(count)
+    sample_noise_mps, sample_noise_radps = _noise_per_sample(stats, turns)
     # a window mean's noise over a sample's: `window_gain`
     gain = np.sqrt(window_gain(n, stats.samples_per_bin))
     speed_noise = sample_noise_mps * gain
@@ -262,8 +265,10 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
         speed[:used].reshape(shape), mean_speed, speed_noise, sample_noise_mps / bin_root
     )
     yaw_bins = stats.yaw_rate_radps[:used]
-    abs_yaw = _window_abs(
-        yaw_bins.reshape(shape), mean_yaw, yaw_noise, sample_noise_radps / bin_root
+    abs_yaw = (
+        _window_abs(yaw_bins.reshape(shape), mean_yaw, yaw_noise, sample_noise_radps / bin_root)
+        if turns
+        else np.zeros(count)  # (|0| with a noise <= 0: `_denoised_abs`' root alone)
     )
     speed2 = np.square(speed[:used]).reshape(shape).mean(axis=1)
     av_up, av_down, reliable = inertial_regressors(stats, n, count, mean_speed, sample_noise_mps)
@@ -278,7 +283,7 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     )
     speed_bins = speed[:used]
     translating, turning_bins, moving = _moving(
-        stats, speed_bins, yaw_bins, shape, (sample_noise_mps, sample_noise_radps), bin_root
+        stats, speed_bins, yaw_bins, shape, (sample_noise_mps, sample_noise_radps), bin_root, turns
     )
     if stats.current_proxy:
         radius_w = radius_factor(
@@ -315,8 +320,14 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     )
 
 
-def _noise_per_sample(stats: DriveStats) -> tuple[float, float]:
-    """The speed's and the rate of turn's noise per sample [m/s, rad/s] (`run_windows`)."""
+def window_bins(stats: DriveStats, window_s: float) -> int:
+    """The bins a window of `window_s` holds (a whole number, at least one)."""
+    return max(int(round(window_s / stats.bin_s)), 1)
+
+
+def _noise_per_sample(stats: DriveStats, turns: bool = True) -> tuple[float, float]:
+    """The speed's and the rate of turn's noise per sample [m/s, rad/s] (`run_windows`;
+    `turns` False: the rate of turn is 0 in every bin, its second differences too)."""
     # the speed's: the smaller of the bins' mean square second difference
     # (`speed_noise_per_sample`), which real fast motion inflates, and stats.py's median
     # successive difference, which reads an encoder's quantized speed as a step of noise
@@ -336,7 +347,7 @@ def _noise_per_sample(stats: DriveStats) -> tuple[float, float]:
     # at 6.5 Hz for the simulator's 0.03, 0.0058 at 20 Hz for 0.005), and `_denoised_abs`
     # reads a true 0 below 0 with too large a noise
     sample_noise_radps = min(
-        speed_noise_per_sample(stats.yaw_rate_radps, stats.samples_per_bin),
+        speed_noise_per_sample(stats.yaw_rate_radps, stats.samples_per_bin) if turns else 0.0,
         stats.yaw_noise_radps,
     )
     return sample_noise_mps, sample_noise_radps
@@ -349,9 +360,11 @@ def _moving(
     shape: tuple[int, int],
     sample_noise: tuple[float, float],
     bin_root: float,
+    turns: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Which of the window's bins translate and turn (a row of bins per window), and the share
-    of each window moving (`run_windows`; `sample_noise`: `_noise_per_sample`'s)."""
+    of each window moving (`run_windows`; `sample_noise`: `_noise_per_sample`'s; `turns`
+    False: the rate of turn is 0 in every bin, none turns)."""
     sample_noise_mps, sample_noise_radps = sample_noise
     count = shape[0]
     # moving: a bin whose speed or rate of turn is beyond 3 deviations of its own noise (and
@@ -373,6 +386,8 @@ def _moving(
             speed_floor,
             max(NOISE_FLOOR_MPS, MOTION_LEAVE_DEVIATIONS * sample_noise_mps / bin_root),
         )
+        if not turns:  # (a 0 is within the floors, > 0: no bin turns)
+            return translating, np.zeros(yaw_bins.shape, bool), translating.reshape(shape).mean(1)
         turning_bins = motion_bins(
             yaw_bins,
             yaw_floor,

@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     from wifibot_power.drive.standing import StandingStops
     from wifibot_power.drive.stats import DriveStats
     from wifibot_power.drive.sums import RunSums
+    from wifibot_power.drive.windows import RunWindows
     from wifibot_power.phases import Segmentation
     from wifibot_power.run import Run
 
@@ -72,10 +73,17 @@ class WorkerStats:
     (`read_again`, set by `pipeline.gather`), every such run of the batch at once."""
 
     def __init__(
-        self, stats: DriveStats | None, sums: RunSums, standing: StandingStops | None = None
+        self,
+        stats: DriveStats | None,
+        sums: RunSums,
+        standing: StandingStops | None = None,
+        windows: RunWindows | None = None,
     ) -> None:
         self._stats = stats
         self.sums = sums
+        #: the windows the sums were made from (in the worker only: `without_bins` sends them
+        #: with the bins of a run at risk when they weigh little, `SEND_WINDOWS_SHARE`)
+        self._windows = windows
         #: a current proxy's stops (`drive.standing.standing_stops`: the idle check's), else None
         self.standing = standing
         #: the bins' scalars (`DriveStats` with its arrays None) while the bins are left out
@@ -103,6 +111,10 @@ class WorkerStats:
         from wifibot_power.drive.sums import AT_RISK_SHARE, own_share
 
         if self._stats is None or not own_share(self.sums) >= AT_RISK_SHARE:
+            if self._windows is not None and _light(self._windows):
+                from wifibot_power.drive.sums import send_with
+
+                send_with(self._windows)  # the parent's lag search takes them (`windows_of`)
             return self
         light = WorkerStats(None, self.sums, self.standing)
         light._scalars = dataclasses.replace(self._stats, **dict.fromkeys(_BIN_ARRAYS))
@@ -127,8 +139,9 @@ class WorkerStats:
         self._stats = stats
 
     def __getstate__(self) -> dict[str, object]:
-        """Pickled without its `read_again` (the batch's reader stays in its process)."""
-        return {**self.__dict__, "read_again": None}
+        """Pickled without its `read_again` (the batch's reader stays in its process) and its
+        windows (sent with the bins where they weigh little: `without_bins`)."""
+        return {**self.__dict__, "read_again": None, "_windows": None}
 
     def __getattr__(self, name: str) -> object:
         """The bins' attribute (`DriveStats`), for what reads a run's drive statistics: a
@@ -138,6 +151,24 @@ class WorkerStats:
         if self._stats is None and name in _SCALAR_FIELDS:
             return getattr(self._scalars, name)
         return getattr(self.stats, name)
+
+
+#: A run at risk (its bins kept for the parent's lag search over the windows) sends its windows
+#: with them when they weigh under this share of its samples (8 bytes each): the parent then
+#: takes them instead of making them again (~0.3 ms a step run, all overhead on its ~70
+#: windows). A 10 kHz log's (500 samples a bin) are 0.2% of its samples; a 1 kHz log's
+#: (~49), 1.7%, are not sent: its record stays within tests/test_parallel.py's 2 bytes a
+#: sample (a run's record, its bins included, is ~1.9 there)
+SEND_WINDOWS_SHARE = 0.01
+
+
+def _light(windows: RunWindows) -> bool:
+    """Whether `windows` weigh under `SEND_WINDOWS_SHARE` of their run's samples."""
+    stats = windows.stats
+    weight = sum(
+        getattr(getattr(windows, f.name), "nbytes", 0) for f in dataclasses.fields(windows)
+    )
+    return weight <= SEND_WINDOWS_SHARE * 8.0 * stats.samples_per_bin * stats.bins
 
 
 #: `DriveStats`' per-bin arrays (what `WorkerStats.without_bins` leaves out)
@@ -190,7 +221,8 @@ class DriveFamily(ModelFamily):
 
     def run_stats(self, run: Run, segmentation: Segmentation | None) -> WorkerStats | None:
         from wifibot_power.drive.stats import drive_stats
-        from wifibot_power.drive.sums import sums_of
+        from wifibot_power.drive.sums import run_sums
+        from wifibot_power.drive.windows import run_windows
 
         # an empty segmentation (a run of unknown mode the pipeline did not segment) has no
         # phases to reconstruct a speed from: the run's own speed column, if any, is used
@@ -204,7 +236,8 @@ class DriveFamily(ModelFamily):
             from wifibot_power.drive.standing import standing_stops
 
             standing = standing_stops(stats)
-        return WorkerStats(stats, sums_of(stats), standing)
+        windows = run_windows(stats)  # (`sums_of`, the windows kept: `without_bins`)
+        return WorkerStats(stats, run_sums(windows), standing, windows)
 
     def stats_to_json(self, stats: DriveStats | WorkerStats | KeptStats | None) -> object:
         if stats is None:
