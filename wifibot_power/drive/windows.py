@@ -33,6 +33,8 @@ from wifibot_power.drive.moving import (
 from wifibot_power.drive.regressors import (
     _window_abs,
     inertial_regressors,
+    row_means,
+    row_shares,
     running_sums,
     speed_noise_per_sample,
     window_gain,
@@ -248,8 +250,8 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     # |mean| rather than mean |.|: noise around a true 0 (a gyro's, an encoder's jitter)
     # averages out before the absolute value, and what is left of it is taken out of the
     # square (`_denoised_abs`) instead of adding its mean |noise| to the regressor
-    mean_speed = speed[:used].reshape(shape).mean(axis=1)
-    mean_yaw = stats.yaw_rate_radps[:used].reshape(shape).mean(axis=1)
+    mean_speed = row_means(speed[:used].reshape(shape))
+    mean_yaw = row_means(stats.yaw_rate_radps[:used].reshape(shape))
     sample_noise_mps, sample_noise_radps = _noise_per_sample(stats)
     # a window mean's noise over a sample's: `window_gain`
     gain = np.sqrt(window_gain(n, stats.samples_per_bin))
@@ -265,7 +267,7 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     abs_yaw = _window_abs(
         yaw_bins.reshape(shape), mean_yaw, yaw_noise, sample_noise_radps / bin_root
     )
-    speed2 = np.square(speed[:used]).reshape(shape).mean(axis=1)
+    speed2 = row_means(np.square(speed[:used]).reshape(shape))
     av_up, av_down, reliable = inertial_regressors(stats, n, count, mean_speed, sample_noise_mps)
     ok = np.isfinite(abs_speed) & np.isfinite(abs_yaw) & np.isfinite(av_up + av_down)
     standing = (np.abs(mean_speed) < STANDING_MPS) & (np.abs(mean_yaw) < STANDING_RADPS)
@@ -378,7 +380,7 @@ def _moving(
             yaw_floor,
             max(NOISE_FLOOR_RADPS, MOTION_LEAVE_DEVIATIONS * sample_noise_radps / bin_root),
         )
-        moving = (translating | turning_bins).reshape(shape).mean(axis=1)
+        moving = row_shares((translating | turning_bins).reshape(shape))
     return translating, turning_bins, moving
 
 
