@@ -19,7 +19,7 @@ from wifibot_power.drive.regressors import (
 )
 from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
 from wifibot_power.drive.stats import BIN_S, GAP_FACTOR, _gap_bins, _sample_at_centres
-from wifibot_power.drive.sums import run_sums
+from wifibot_power.drive.sums import _any_per_row, run_sums
 from wifibot_power.drive.terms import TERMS
 from wifibot_power.drive.windows import REGRESSOR_OF, regressor_rows, run_windows
 
@@ -323,3 +323,22 @@ def test_running_sums_clean_only_the_undefined() -> None:
         assert np.array_equal(total, np.concatenate(([0.0], np.cumsum(np.nan_to_num(case)))))
         expected_bad = np.concatenate(([0], np.cumsum(~np.isfinite(case))))
         assert np.array_equal(bad, expected_bad) and bad.dtype == np.intp
+
+
+def test_every_windows_power_and_rows_any() -> None:
+    """`power_at_lags` of every window (no index: the strided rows copied as they are) is the
+    gathered power, written into a block of a wider matrix too; sums.py `_any_per_row` is
+    `any(axis=1)`."""
+    for rw in _field_windows(seed=5):
+        every = np.arange(rw.count)
+        for lags in (np.arange(21), np.arange(2, 7)):
+            expected = _gathered(rw, lags, every)
+            assert np.array_equal(rw.power_at_lags(lags), expected, equal_nan=True)
+            wide = np.zeros((rw.count, lags.size + 2))
+            rw.power_at_lags(lags, out=wide[:, 2:])
+            assert np.array_equal(wide[:, 2:], expected, equal_nan=True)
+            assert (wide[:, :2] == 0).all()
+    rng = np.random.default_rng(53)
+    for shape in ((500, 20), (500, 1), (0, 5), (500, 0)):
+        flags = rng.random(shape) < 0.05
+        assert np.array_equal(_any_per_row(flags), flags.any(axis=1))

@@ -192,7 +192,8 @@ class RunWindows:
         of `lags` [bins], a column each [W]; NaN where not defined (past the run's end, or
         over a drop-out). `out`: where to write them (a window a row), returned."""
         lags = np.asarray(lags, dtype=np.intp)
-        windows = np.arange(self.count) if windows is None else np.asarray(windows)
+        every = windows is None
+        windows = np.arange(self.count) if every else np.asarray(windows)
         means = self._span_means
         if not windows.size or not lags.size or not means.size:
             nothing = np.full((windows.size, lags.size), np.nan)
@@ -211,8 +212,9 @@ class RunWindows:
             if out is None:
                 return rows[windows]
             # (indexing the strided rows, then a copy into `out`: np.take would first make the
-            # rows contiguous, then write into a strided `out` through a buffer, ~10x slower)
-            out[...] = rows[windows]
+            # rows contiguous, then write into a strided `out` through a buffer, ~10x slower;
+            # every window's: the rows copied as they are, no index)
+            out[...] = rows if every else rows[windows]
             return out
         start = (windows * self.n)[:, None] + lags[None, :]
         power = means[np.minimum(start, means.size - 1)]
