@@ -108,9 +108,15 @@ def motion_bins(values: np.ndarray, enter: float, leave: float) -> np.ndarray:
         return np.zeros(values.shape, dtype=bool)
     side = (values > leave).view(np.int8) - (values < -leave).view(np.int8)
     starts = np.concatenate(([0], np.flatnonzero(side[1:] != side[:-1]) + 1))
-    strong = np.logical_or.reduceat(np.abs(values) > enter, starts)
-    moves = (side[starts] != 0) & strong
-    return np.repeat(moves, np.diff(np.append(starts, values.size)))
+    ends = np.append(starts[1:], values.size)
+    # a stretch holds a bin beyond `enter` where the running count of such bins grows over
+    # it (a count, not np.logical_or.reduceat: that copies each stretch's first value on
+    # its own, slow for the thousands of short stretches a noisy standstill makes)
+    beyond = np.empty(values.size + 1, dtype=np.intp)
+    beyond[0] = 0
+    np.cumsum(np.abs(values) > enter, out=beyond[1:])
+    moves = (side[starts] != 0) & (beyond[ends] > beyond[starts])
+    return np.repeat(moves, ends - starts)
 
 
 def trip_numbers(standing: np.ndarray, stop_windows: int) -> np.ndarray:

@@ -368,8 +368,12 @@ def speed_noise_per_sample(speed_mps: np.ndarray, samples_per_bin: float) -> flo
     lag = 1 if samples_per_bin >= 1.0 else max(1, int(round(1.0 / samples_per_bin)))
     if speed_mps.size <= 2 * lag:
         return 0.0
-    second = speed_mps[2 * lag :] - 2.0 * speed_mps[lag:-lag] + speed_mps[: -2 * lag]
-    square = np.square(second[np.isfinite(second)])
+    # (v[i + 2 lag] - 2 v[i + lag]) + v[i], the operations of the expression, in one array
+    second = np.multiply(speed_mps[lag:-lag], 2.0)
+    np.subtract(speed_mps[2 * lag :], second, out=second)
+    np.add(second, speed_mps[: -2 * lag], out=second)
+    finite = np.isfinite(second)
+    square = np.square(second, out=second) if finite.all() else np.square(second[finite])
     if not square.size:
         return 0.0
     gain = sample_gain(np.array([1.0, -2.0, 1.0]), np.array([0.0, lag, 2.0 * lag]), samples_per_bin)
