@@ -21,7 +21,7 @@ from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
 from wifibot_power.drive.stats import BIN_S, GAP_FACTOR, _gap_bins, _sample_at_centres
 from wifibot_power.drive.sums import _any_per_row, run_sums
 from wifibot_power.drive.terms import TERMS
-from wifibot_power.drive.windows import REGRESSOR_OF, regressor_rows, run_windows
+from wifibot_power.drive.windows import REGRESSOR_OF, _finite, regressor_rows, run_windows
 
 
 def _field_windows(seed: int = 4):
@@ -342,3 +342,17 @@ def test_every_windows_power_and_rows_any() -> None:
     for shape in ((500, 20), (500, 1), (0, 5), (500, 0)):
         flags = rng.random(shape) < 0.05
         assert np.array_equal(_any_per_row(flags), flags.any(axis=1))
+
+
+def test_finite_in_place_is_nan_to_num() -> None:
+    """windows.py `_finite` (the undefined values only) is `np.nan_to_num`: NaN 0, +-inf the
+    largest float with its sign, -0.0 kept; all finite: the array itself, untouched."""
+    rng = np.random.default_rng(59)
+    values = rng.normal(size=3000)
+    values[rng.random(3000) < 0.05] = np.nan
+    values[[3, 4, 5]] = np.inf, -np.inf, -0.0
+    got = _finite(values.copy())
+    assert np.array_equal(got, np.nan_to_num(values))
+    assert np.array_equal(np.signbit(got), np.signbit(np.nan_to_num(values)))
+    clean = rng.normal(size=100)
+    assert _finite(clean) is clean
