@@ -21,7 +21,13 @@ from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
 from wifibot_power.drive.stats import BIN_S, GAP_FACTOR, _gap_bins, _sample_at_centres
 from wifibot_power.drive.sums import _any_per_row, run_sums
 from wifibot_power.drive.terms import TERMS
-from wifibot_power.drive.windows import REGRESSOR_OF, _finite, regressor_rows, run_windows
+from wifibot_power.drive.windows import (
+    REGRESSOR_OF,
+    _finite,
+    gradient,
+    regressor_rows,
+    run_windows,
+)
 
 
 def _field_windows(seed: int = 4):
@@ -356,3 +362,16 @@ def test_finite_in_place_is_nan_to_num() -> None:
     assert np.array_equal(np.signbit(got), np.signbit(np.nan_to_num(values)))
     clean = rng.normal(size=100)
     assert _finite(clean) is clean
+
+
+def test_gradient_is_numpys() -> None:
+    """windows.py `gradient` (a window's rate of change) is `np.gradient` bit for bit: 2, 3
+    and thousands of values, NaN (a drop-out's window), spacings that do not round evenly."""
+    rng = np.random.default_rng(61)
+    for n in (2, 3, 4, 7201):
+        values = rng.normal(size=n) * rng.choice([1e-3, 1.0, 1e6], n)
+        values[rng.random(n) < 0.05] = np.nan
+        for spacing in (0.5, 0.1, 1 / 3, 0.65):
+            assert np.array_equal(
+                gradient(values, spacing), np.gradient(values, spacing), equal_nan=True
+            )
