@@ -6,19 +6,28 @@ from __future__ import annotations
 import numpy as np
 
 from wifibot_power.drive import drive_stats
-from wifibot_power.drive.moving import motion_bins
+from wifibot_power.drive.moving import motion_bins, trip_numbers
 from wifibot_power.drive.regressors import (
     CLIP_DEVIATIONS,
     CLIP_ROUNDS,
     _row_extremes,
+    gradient,
+    row_means,
+    row_shares,
+    running_sums,
     sample_gain,
     speed_noise_per_sample,
 )
 from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
 from wifibot_power.drive.stats import BIN_S, GAP_FACTOR, _gap_bins, _sample_at_centres
-from wifibot_power.drive.sums import run_sums
+from wifibot_power.drive.sums import _any_per_row, run_sums
 from wifibot_power.drive.terms import TERMS
-from wifibot_power.drive.windows import REGRESSOR_OF, regressor_rows, run_windows
+from wifibot_power.drive.windows import (
+    REGRESSOR_OF,
+    _finite,
+    regressor_rows,
+    run_windows,
+)
 
 
 def _field_windows(seed: int = 4):
@@ -245,3 +254,124 @@ def test_the_gap_bins_are_those_every_bin_tested_gives() -> None:
             )
             found += int(every.sum())
     assert found > 1000  # (gaps there were)
+
+
+def test_row_means_are_numpys_means_bit_for_bit() -> None:
+    """regressors.py `row_means` (numpy's pairwise order of additions, a column at a time) and
+    `row_shares` against `mean(axis=1)`: rows of 1-40 values and the ends of the 8-accumulator
+    blocks, NaN (a drop-out), infinities, -0.0 (a row of them: +0.0, as numpy's sum onto 0),
+    values of very different sizes (where the order of additions shows), strided views."""
+    rng = np.random.default_rng(41)
+    for n in [*range(1, 41), 63, 64, 65, 127, 128, 129]:
+        values = rng.normal(size=(2000, n)) * rng.choice([1e-3, 1.0, 1e3, 1e9], size=(2000, n))
+        values[rng.random(values.shape) < 0.01] = np.nan
+        values[rng.random(values.shape) < 0.02] = -0.0
+        values[5] = -0.0
+        values[7, 0], values[8, -1] = np.inf, -np.inf
+        for view in (values, values[:, 1:], values[:, :-1], values[::3]):
+            if not view.shape[1]:
+                continue
+            expected = view.mean(axis=1)
+            got = row_means(view)
+            assert np.array_equal(got, expected, equal_nan=True), n
+            assert np.array_equal(np.signbit(got), np.signbit(expected)), n
+            flags = view > 0.2
+            assert np.array_equal(row_shares(flags), flags.mean(axis=1)), n
+    # the order shows: summed in turn, a row of 10 differs from numpy's mean
+    rows = rng.normal(size=(2000, 10)) * rng.choice([1e-3, 1.0, 1e9], size=(2000, 10))
+    in_turn = rows[:, 0].copy()
+    for k in range(1, 10):
+        in_turn += rows[:, k]
+    assert not np.array_equal(in_turn / 10, row_means(rows))
+
+
+def test_trips_cut_per_stretch_are_the_loops() -> None:
+    """moving.py `trip_numbers` (every stretch at once) against the loop over stretches it
+    replaced: stops at either end (no cut), shorter than a stop, one window, none."""
+
+    def by_loop(standing: np.ndarray, stop_windows: int) -> np.ndarray:
+        if not standing.size:
+            return np.zeros(0, dtype=np.intp)
+        change = np.flatnonzero(np.diff(standing.astype(np.int8))) + 1
+        bounds = np.concatenate(([0], change, [standing.size]))
+        cuts = np.zeros(standing.size, dtype=np.intp)
+        for start, end in zip(bounds[:-1], bounds[1:], strict=True):
+            inside = 0 < start and end < standing.size
+            if standing[start] and end - start >= stop_windows and inside:
+                cuts[(start + end) // 2] = 1
+        return np.cumsum(cuts)
+
+    rng = np.random.default_rng(43)
+    cases = [
+        np.repeat(rng.random(400) < 0.5, rng.integers(1, 15, 400)),
+        np.repeat([True, False, True, False, True], [10, 5, 10, 3, 12]),  # stops at the ends
+        np.ones(30, dtype=bool),
+        np.zeros(30, dtype=bool),
+        np.array([True]),
+        np.array([], dtype=bool),
+    ]
+    for standing in cases:
+        for stop_windows in (1, 3, 6, 20):
+            got = trip_numbers(standing, stop_windows)
+            assert np.array_equal(got, by_loop(standing, stop_windows))
+    assert trip_numbers(cases[0], 6)[-1] > 10  # (trips there were)
+
+
+def test_running_sums_clean_only_the_undefined() -> None:
+    """regressors.py `running_sums` against its sums of `np.nan_to_num(values)`: NaN 0, an
+    infinity the largest float, the count of undefined values beside; all finite."""
+    rng = np.random.default_rng(47)
+    values = rng.normal(size=5000)
+    values[rng.random(5000) < 0.02] = np.nan
+    values[[10, 20]] = np.inf, -np.inf
+    for case in (values, np.nan_to_num(values), values[:1], values[:0]):
+        bad, total = running_sums(case)
+        assert np.array_equal(total, np.concatenate(([0.0], np.cumsum(np.nan_to_num(case)))))
+        expected_bad = np.concatenate(([0], np.cumsum(~np.isfinite(case))))
+        assert np.array_equal(bad, expected_bad) and bad.dtype == np.intp
+
+
+def test_every_windows_power_and_rows_any() -> None:
+    """`power_at_lags` of every window (no index: the strided rows copied as they are) is the
+    gathered power, written into a block of a wider matrix too; sums.py `_any_per_row` is
+    `any(axis=1)`."""
+    for rw in _field_windows(seed=5):
+        every = np.arange(rw.count)
+        for lags in (np.arange(21), np.arange(2, 7)):
+            expected = _gathered(rw, lags, every)
+            assert np.array_equal(rw.power_at_lags(lags), expected, equal_nan=True)
+            wide = np.zeros((rw.count, lags.size + 2))
+            rw.power_at_lags(lags, out=wide[:, 2:])
+            assert np.array_equal(wide[:, 2:], expected, equal_nan=True)
+            assert (wide[:, :2] == 0).all()
+    rng = np.random.default_rng(53)
+    for shape in ((500, 20), (500, 1), (0, 5), (500, 0)):
+        flags = rng.random(shape) < 0.05
+        assert np.array_equal(_any_per_row(flags), flags.any(axis=1))
+
+
+def test_finite_in_place_is_nan_to_num() -> None:
+    """windows.py `_finite` (the undefined values only) is `np.nan_to_num`: NaN 0, +-inf the
+    largest float with its sign, -0.0 kept; all finite: the array itself, untouched."""
+    rng = np.random.default_rng(59)
+    values = rng.normal(size=3000)
+    values[rng.random(3000) < 0.05] = np.nan
+    values[[3, 4, 5]] = np.inf, -np.inf, -0.0
+    got = _finite(values.copy())
+    assert np.array_equal(got, np.nan_to_num(values))
+    assert np.array_equal(np.signbit(got), np.signbit(np.nan_to_num(values)))
+    clean = rng.normal(size=100)
+    assert _finite(clean) is clean
+
+
+def test_gradient_is_numpys() -> None:
+    """windows.py `gradient` (a window's rate of change) is `np.gradient` bit for bit: 2, 3
+    and thousands of values, NaN (a drop-out's window), spacings that do not round evenly."""
+    rng = np.random.default_rng(61)
+    for n in (2, 3, 4, 7201):
+        values = rng.normal(size=n) * rng.choice([1e-3, 1.0, 1e6], n)
+        values[rng.random(n) < 0.05] = np.nan
+        for spacing in (0.5, 0.1, 1 / 3, 0.65):
+            assert np.array_equal(
+                gradient(values, spacing), np.gradient(values, spacing), equal_nan=True
+            )

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from wifibot_power.drive.regressors import row_means, row_shares
+
 #: Wong's empirical lateral resistance of a skid-steer turn, mu_t = mu_max / (A + B_R R/B)
 #: (`radius_factor`)
 WONG_A, WONG_B = 0.925, 0.15
@@ -69,13 +71,13 @@ def force_form_regressors(
     fit per surface, BorealTC): MAPE 19.8% -> 17.5%, median 10.1% -> 7.1%, against an arc
     counted as a spin plus a straight run."""
     arc_bins = translating & turning
-    arc = arc_bins.mean(axis=1)
+    arc = row_shares(arc_bins)
     # an arc's moment, each bin's by its radius (`radius_factor`; 1: a spin's)
-    arc_moment = (arc_bins * radius_w).mean(axis=1)
+    arc_moment = row_means(arc_bins * radius_w)
     half = 1.0 - arc / 2.0
-    moving = (translating | turning).mean(axis=1)
+    moving = row_shares(translating | turning)
     rolling = moving - arc / 2.0
-    coulomb = turning.mean(axis=1) - arc + arc_moment / 2.0
+    coulomb = row_shares(turning) - arc + arc_moment / 2.0
     rate = abs_yaw * (1.0 - arc + arc_moment / 2.0)
     return rolling, abs_speed * half, coulomb, rate, av_up * half, av_down * half
 
@@ -106,9 +108,15 @@ def motion_bins(values: np.ndarray, enter: float, leave: float) -> np.ndarray:
         return np.zeros(values.shape, dtype=bool)
     side = (values > leave).view(np.int8) - (values < -leave).view(np.int8)
     starts = np.concatenate(([0], np.flatnonzero(side[1:] != side[:-1]) + 1))
-    strong = np.logical_or.reduceat(np.abs(values) > enter, starts)
-    moves = (side[starts] != 0) & strong
-    return np.repeat(moves, np.diff(np.append(starts, values.size)))
+    ends = np.append(starts[1:], values.size)
+    # a stretch holds a bin beyond `enter` where the running count of such bins grows over
+    # it (a count, not np.logical_or.reduceat: that copies each stretch's first value on
+    # its own, slow for the thousands of short stretches a noisy standstill makes)
+    beyond = np.empty(values.size + 1, dtype=np.intp)
+    beyond[0] = 0
+    np.cumsum(np.abs(values) > enter, out=beyond[1:])
+    moves = (side[starts] != 0) & (beyond[ends] > beyond[starts])
+    return np.repeat(moves, ends - starts)
 
 
 def trip_numbers(standing: np.ndarray, stop_windows: int) -> np.ndarray:
@@ -117,9 +125,9 @@ def trip_numbers(standing: np.ndarray, stop_windows: int) -> np.ndarray:
     if not standing.size:
         return np.zeros(0, dtype=np.intp)
     change = np.flatnonzero(np.diff(standing.astype(np.int8))) + 1
-    bounds = np.concatenate(([0], change, [standing.size]))
+    start = np.concatenate(([0], change))  # each stretch of standing or moving windows
+    end = np.append(change, standing.size)
+    stop = standing[start] & (end - start >= stop_windows) & (start > 0) & (end < standing.size)
     cuts = np.zeros(standing.size, dtype=np.intp)
-    for start, end in zip(bounds[:-1], bounds[1:], strict=True):  # a loop over stops, not samples
-        if standing[start] and end - start >= stop_windows and start > 0 and end < standing.size:
-            cuts[(start + end) // 2] = 1
+    cuts[(start[stop] + end[stop]) // 2] = 1
     return np.cumsum(cuts)

@@ -157,7 +157,7 @@ def drive_stats(run: Run, segmentation: Segmentation | None = None) -> DriveStat
         centre_s = _centres(n_bins)
         at = _sample_at_centres(offset_s, n_bins, centre_s)  # once for the bins and surface
         binned = _held(offset_s, at, period_s, run.power_W, speed_mps, yaw_radps, centre_s)
-        bin_surface = np.zeros(n_bins) if surface_index is None else surface_index[at]
+        bin_surface = np.zeros(n_bins, np.int16) if surface_index is None else surface_index[at]
     power_W, bin_speed_mps, bin_yaw_radps = binned
     energy_J, _ = run.energy_and_mean()
     return DriveStats(
@@ -212,7 +212,8 @@ def _sample_noise(values: np.ndarray) -> float:
     sqrt(2) (robust to the minority of differences that are real motion: a MAD estimate of
     white noise's standard deviation), over the differences of known samples (a bag's speed
     is NaN where its odometry has no recent message: rosbag.py)."""
-    steps = np.abs(np.diff(values))
+    steps = np.subtract(values[1:], values[:-1])  # np.diff, made absolute in place
+    np.abs(steps, out=steps)
     if not np.isfinite(np.sum(steps)):  # (a finite sum: every step is finite)
         steps = steps[np.isfinite(steps)]
     if steps.size < 2:
@@ -308,8 +309,11 @@ def _bin_means(
 
 
 def _centres(n_bins: int) -> np.ndarray:
-    """Each bin's centre [s from the first stamp]."""
-    return (np.arange(n_bins) + 0.5) * BIN_S
+    """Each bin's centre [s from the first stamp]: (k + 0.5) x `BIN_S`, in place."""
+    centre_s = np.arange(n_bins, dtype=np.float64)
+    centre_s += 0.5
+    centre_s *= BIN_S
+    return centre_s
 
 
 def _sample_at_centres(

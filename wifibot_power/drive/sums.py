@@ -112,10 +112,10 @@ def run_sums(rw: RunWindows) -> RunSums:
     p = len(columns)
     surface = surface_of(rw, surfaces)
     common, edge = np.flatnonzero(rw.ok & defined), np.flatnonzero(rw.ok & ~defined)
-    # Z = [X R Y] over the common windows, each column written in place (no stacking copies)
-    Z = np.empty((common.size, 2 * p + lags.size))
-    _design_of(rw, surface, common, Z[:, :p], Z[:, p : 2 * p])
-    rw.power_at_lags(lags, common, out=Z[:, 2 * p :])
+    # Z = [X R Y] over the common windows: every window's row made once (`_window_rows`),
+    # then the common ones taken whole (all of them: the rows as they are)
+    every = _window_rows(rw, surface, lags)
+    Z = every if common.size == rw.count else every[common]
     X, Yc = Z[:, :p], Z[:, 2 * p :]
     trip = rw.trip[common]
     seen = seen_columns(X, columns)
@@ -130,9 +130,8 @@ def run_sums(rw: RunWindows) -> RunSums:
     seen_yy = np.zeros((len(columns), 2, L))
     seen_yy[:, 0] = seen_f @ square
     seen_yy[:, 1, :-1] = seen_f @ next_product
-    crossing = (next_product < 0).any(axis=1)
-    edge_x, edge_r = np.empty((edge.size, p)), np.empty((edge.size, p))
-    _design_of(rw, surface, edge, edge_x, edge_r)
+    crossing = _any_per_row(next_product < 0)
+    edge_rows = every[edge]
     return RunSums(
         run_id=rw.stats.run_id,
         surfaces=surfaces,
@@ -152,9 +151,9 @@ def run_sums(rw: RunWindows) -> RunSums:
         seen_abs=seen_f @ np.abs(Yc),
         cross_x=X[crossing],
         cross_y=Yc[crossing],
-        edge_x=edge_x,
-        edge_r=edge_r,
-        edge_y=rw.power_at_lags(lags, edge),
+        edge_x=np.ascontiguousarray(edge_rows[:, :p]),
+        edge_r=np.ascontiguousarray(edge_rows[:, p : 2 * p]),
+        edge_y=np.ascontiguousarray(edge_rows[:, 2 * p :]),
         edge_trip=rw.trip[edge],
         edge_surface=surface[edge],
         reliability=rw.reliability,
@@ -208,15 +207,31 @@ def own_share(sums: RunSums) -> float:
 AT_RISK_SHARE = 10 * CANCELLATION
 
 
-def _design_of(
-    rw: RunWindows, surface: np.ndarray, windows: np.ndarray, design: np.ndarray, rate: np.ndarray
-) -> None:
-    """The design and its rate (`windows.regressor_rows`' columns) of the run's `windows`
-    (indices; `surface`: each window's), written into `design` and `rate`."""
-    regressors, rates, on = rw.regressors(), rw.rates, surface[windows]
+def _window_rows(rw: RunWindows, surface: np.ndarray, lags: np.ndarray) -> np.ndarray:
+    """Every window's row [X R Y] (a window a row; `surface`: each window's): its design and
+    the design's rate (`windows.regressor_rows`' columns) and its power at each of `lags`
+    (`RunWindows.power_at_lags`: NaN where not defined). One pass per column over the run,
+    not one per column for each set of windows taken from it (the common and the edge)."""
+    regressors, rates = rw.regressors(), rw.rates
     S = len(rw.stats.surfaces)
-    fill_design(design, lambda name: regressors[name][windows], on, S)
-    fill_design(rate, lambda name: rates[name][windows], on, S, rate=True)
+    p = len(design_columns(rw.stats.surfaces))
+    rows = np.empty((rw.count, 2 * p + lags.size))
+    # (copies: `fill_design` makes each column finite in place)
+    fill_design(rows[:, :p], lambda name: regressors[name].copy(), surface, S)
+    fill_design(rows[:, p : 2 * p], lambda name: rates[name].copy(), surface, S, rate=True)
+    rw.power_at_lags(lags, out=rows[:, 2 * p :])
+    return rows
+
+
+def _any_per_row(flags: np.ndarray) -> np.ndarray:
+    """`flags.any(axis=1)`, a column at a time (numpy's reduction per short row is ~3x
+    slower)."""
+    if not flags.shape[1]:
+        return np.zeros(flags.shape[0], dtype=bool)
+    out = flags[:, 0].copy()
+    for k in range(1, flags.shape[1]):
+        out |= flags[:, k]
+    return out
 
 
 def _defined_at_every_lag(rw: RunWindows, lags: int) -> np.ndarray:
@@ -243,14 +258,13 @@ def _trip_sums(
     numpy makes Z'Z a symmetric rank update that OpenBLAS spreads over threads, ~6x slower
     at these sizes.)"""
     L = Z.shape[1] - q
-    ww = np.zeros((trips, q, q))
-    wy = np.zeros((trips, q, L))
+    wz = np.zeros((trips, q, q + L))
     yy = np.zeros((trips, 2, L))
     bounds = np.searchsorted(trip, np.arange(trips + 1))
     for g in np.flatnonzero(np.diff(bounds)):  # a loop over trips, each one matrix product
         rows = Z[bounds[g] : bounds[g + 1]]
-        wz = rows[:, :q].T @ rows
-        ww[g], wy[g] = wz[:, :q], wz[:, q:]
+        np.matmul(rows[:, :q].T, rows, out=wz[g])
+    ww, wy = np.ascontiguousarray(wz[:, :, :q]), np.ascontiguousarray(wz[:, :, q:])
     yy[:, 0] = group_sum(square, trip, trips)
     yy[:, 1, :-1] = group_sum(next_product, trip, trips)
     return ww, wy, yy

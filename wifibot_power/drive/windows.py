@@ -32,7 +32,10 @@ from wifibot_power.drive.moving import (
 )
 from wifibot_power.drive.regressors import (
     _window_abs,
+    gradient,
     inertial_regressors,
+    row_means,
+    row_shares,
     running_sums,
     speed_noise_per_sample,
     window_gain,
@@ -169,7 +172,7 @@ class RunWindows:
     def rates(self) -> dict[str, np.ndarray]:
         """Each regressor's rate of change from window to window [1/s] (`Windows.design_rate`)."""
         return {
-            name: np.gradient(values, self.n * self.stats.bin_s) if values.size > 1 else 0 * values
+            name: gradient(values, self.n * self.stats.bin_s) if values.size > 1 else 0 * values
             for name, values in self.regressors().items()
         }
 
@@ -190,7 +193,8 @@ class RunWindows:
         of `lags` [bins], a column each [W]; NaN where not defined (past the run's end, or
         over a drop-out). `out`: where to write them (a window a row), returned."""
         lags = np.asarray(lags, dtype=np.intp)
-        windows = np.arange(self.count) if windows is None else np.asarray(windows)
+        every = windows is None
+        windows = np.arange(self.count) if every else np.asarray(windows)
         means = self._span_means
         if not windows.size or not lags.size or not means.size:
             nothing = np.full((windows.size, lags.size), np.nan)
@@ -209,8 +213,9 @@ class RunWindows:
             if out is None:
                 return rows[windows]
             # (indexing the strided rows, then a copy into `out`: np.take would first make the
-            # rows contiguous, then write into a strided `out` through a buffer, ~10x slower)
-            out[...] = rows[windows]
+            # rows contiguous, then write into a strided `out` through a buffer, ~10x slower;
+            # every window's: the rows copied as they are, no index)
+            out[...] = rows if every else rows[windows]
             return out
         start = (windows * self.n)[:, None] + lags[None, :]
         power = means[np.minimum(start, means.size - 1)]
@@ -248,11 +253,11 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
     # |mean| rather than mean |.|: noise around a true 0 (a gyro's, an encoder's jitter)
     # averages out before the absolute value, and what is left of it is taken out of the
     # square (`_denoised_abs`) instead of adding its mean |noise| to the regressor
-    mean_speed = speed[:used].reshape(shape).mean(axis=1)
+    mean_speed = row_means(speed[:used].reshape(shape))
     # a run that never turns (the step runs: no turning column, 0 in every bin): its rate of
     # turn's mean, noise, |.| and turning bins are 0 without ~40 numpy calls on its zeros
     turns = stats.has_turning or bool(stats.yaw_rate_radps.any())
-    mean_yaw = stats.yaw_rate_radps[:used].reshape(shape).mean(axis=1) if turns else np.zeros(count)
+    mean_yaw = row_means(stats.yaw_rate_radps[:used].reshape(shape)) if turns else np.zeros(count)
     sample_noise_mps, sample_noise_radps = _noise_per_sample(stats, turns)
     # a window mean's noise over a sample's: `window_gain`
     gain = np.sqrt(window_gain(n, stats.samples_per_bin))
@@ -270,7 +275,7 @@ def run_windows(stats: DriveStats, window_s: float = WINDOW_S) -> RunWindows:
         if turns
         else np.zeros(count)  # (|0| with a noise <= 0: `_denoised_abs`' root alone)
     )
-    speed2 = np.square(speed[:used]).reshape(shape).mean(axis=1)
+    speed2 = row_means(np.square(speed[:used]).reshape(shape))
     av_up, av_down, reliable = inertial_regressors(stats, n, count, mean_speed, sample_noise_mps)
     ok = np.isfinite(abs_speed) & np.isfinite(abs_yaw) & np.isfinite(av_up + av_down)
     standing = (np.abs(mean_speed) < STANDING_MPS) & (np.abs(mean_yaw) < STANDING_RADPS)
@@ -387,13 +392,14 @@ def _moving(
             max(NOISE_FLOOR_MPS, MOTION_LEAVE_DEVIATIONS * sample_noise_mps / bin_root),
         )
         if not turns:  # (a 0 is within the floors, > 0: no bin turns)
-            return translating, np.zeros(yaw_bins.shape, bool), translating.reshape(shape).mean(1)
+            none_turn = np.zeros(yaw_bins.shape, bool)
+            return translating, none_turn, row_shares(translating.reshape(shape))
         turning_bins = motion_bins(
             yaw_bins,
             yaw_floor,
             max(NOISE_FLOOR_RADPS, MOTION_LEAVE_DEVIATIONS * sample_noise_radps / bin_root),
         )
-        moving = (translating | turning_bins).reshape(shape).mean(axis=1)
+        moving = row_shares((translating | turning_bins).reshape(shape))
     return translating, turning_bins, moving
 
 
@@ -475,8 +481,18 @@ def between_bins(power_at_whole, lag_bins: float) -> tuple[np.ndarray, np.ndarra
 
 def _finite(values: np.ndarray) -> np.ndarray:
     """`np.nan_to_num(values)` in place (NaN 0, an infinity the largest float), without its
-    cost where every value is finite."""
-    return values if np.isfinite(values).all() else np.nan_to_num(values, copy=False)
+    cost where every value is finite, and elsewhere of the undefined values only (its passes
+    over every value, one per kind of non-finite, cost more)."""
+    finite = np.isfinite(values)
+    if finite.all():
+        return values
+    undefined = np.logical_not(finite, out=finite)
+    bad = values[undefined]
+    # (np.nan_to_num of float64's: NaN 0, +-inf +-the largest float; its own call costs
+    # more than these few values)
+    largest = np.finfo(np.float64).max
+    values[undefined] = np.where(np.isnan(bad), 0.0, np.where(bad > 0, largest, -largest))
+    return values
 
 
 def _joined(parts: list[np.ndarray]) -> np.ndarray:
