@@ -260,7 +260,8 @@ def test_row_means_are_numpys_means_bit_for_bit() -> None:
     """regressors.py `row_means` (numpy's pairwise order of additions, a column at a time) and
     `row_shares` against `mean(axis=1)`: rows of 1-40 values and the ends of the 8-accumulator
     blocks, NaN (a drop-out), infinities, -0.0 (a row of them: +0.0, as numpy's sum onto 0),
-    values of very different sizes (where the order of additions shows), strided views."""
+    values of very different sizes (where the order of additions shows), strided views, an
+    F-ordered array (numpy's mean sums its rows in sequence: `row_means` then defers to it)."""
     rng = np.random.default_rng(41)
     for n in [*range(1, 41), 63, 64, 65, 127, 128, 129]:
         values = rng.normal(size=(2000, n)) * rng.choice([1e-3, 1.0, 1e3, 1e9], size=(2000, n))
@@ -268,7 +269,9 @@ def test_row_means_are_numpys_means_bit_for_bit() -> None:
         values[rng.random(values.shape) < 0.02] = -0.0
         values[5] = -0.0
         values[7, 0], values[8, -1] = np.inf, -np.inf
-        for view in (values, values[:, 1:], values[:, :-1], values[::3]):
+        # F-ordered and transposed layouts too: numpy sums those rows in sequence (review)
+        columns_first = np.asfortranarray(values)
+        for view in (values, values[:, 1:], values[:, :-1], values[::3], columns_first):
             if not view.shape[1]:
                 continue
             expected = view.mean(axis=1)

@@ -89,3 +89,17 @@ def test_a_slow_step_runs_windows_are_not_sent_and_the_model_is_the_same():
     with_sent, without = FAMILY.fit(fast), FAMILY.fit(bare)
     assert with_sent.to_json() == without.to_json()
     assert drive_sums_of(fast[0]) is not None
+
+
+def test_the_record_keeps_no_windows_in_process():
+    """In one process (`--jobs 1`) the record is the worker's object: it kept the worker's
+    windows and their bins-sized caches beside the bins (review, fourteenth session). After
+    `without_bins` it holds none; the sent copy is of their fields only."""
+    for period_s in (1e-4, 1e-3):
+        run, segmentation = _step_run(period_s)
+        made = FAMILY.run_stats(run, segmentation)
+        kept = made.without_bins()
+        assert made._windows is None and kept._windows is None
+        sent = drive_stats_of(kept).__dict__.get("_sent_windows")
+        if sent is not None:
+            assert not {"_padded", "_power_sums", "_span_means"} & set(sent.__dict__)

@@ -132,7 +132,8 @@ def _row_extremes(bins: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def row_means(bins: np.ndarray) -> np.ndarray:
-    """Each row's mean, bit for bit `bins.mean(axis=1)` of float64 rows (a window's bins), a
+    """Each row's mean, bit for bit `bins.mean(axis=1)` of float64 rows (a window's bins) of
+    any layout, a
     few passes over the columns instead of a call of numpy's sum per row (~3x slower for
     rows of 10). numpy sums a row of 8 to 128 values pairwise with 8 accumulators (value j
     in accumulator j mod 8, those added as ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)),
@@ -140,7 +141,9 @@ def row_means(bins: np.ndarray) -> np.ndarray:
     divides by the count: the same additions here, in the same order
     (tests/test_drive_fast_paths.py holds the two equal). Other rows: numpy's mean."""
     n = bins.shape[1] if bins.ndim == 2 else 0
-    if not 1 <= n <= 128 or bins.dtype != np.float64:
+    # numpy sums a row pairwise only where its values are adjacent in memory (a row-major
+    # array's rows); other layouts (F-ordered, transposed) it sums in sequence: its own mean
+    if not 1 <= n <= 128 or bins.dtype != np.float64 or bins.strides[1] != bins.itemsize:
         return bins.mean(axis=1)
     column = [bins[:, k] for k in range(n)]
     if n < 8:

@@ -490,7 +490,7 @@ def _finite(values: np.ndarray) -> np.ndarray:
     bad = values[undefined]
     # (np.nan_to_num of float64's: NaN 0, +-inf +-the largest float; its own call costs
     # more than these few values)
-    largest = np.finfo(np.float64).max
+    largest = np.finfo(values.dtype).max  # (float32: its own largest, as numpy)
     values[undefined] = np.where(np.isnan(bad), 0.0, np.where(bad > 0, largest, -largest))
     return values
 

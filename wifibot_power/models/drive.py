@@ -110,11 +110,15 @@ class WorkerStats:
         may be needed for a lag search over the windows."""
         from wifibot_power.drive.sums import AT_RISK_SHARE, own_share
 
+        # the record never keeps the worker's windows and their bins-sized caches (in
+        # process, `--jobs 1`, the record is this object): sent, they are a copy of their
+        # fields on the bins (`send_with`)
+        windows, self._windows = self._windows, None
         if self._stats is None or not own_share(self.sums) >= AT_RISK_SHARE:
-            if self._windows is not None and _light(self._windows):
+            if windows is not None and _light(windows):
                 from wifibot_power.drive.sums import send_with
 
-                send_with(self._windows)  # the parent's lag search takes them (`windows_of`)
+                send_with(windows)  # the parent's lag search takes them (`windows_of`)
             return self
         light = WorkerStats(None, self.sums, self.standing)
         light._scalars = dataclasses.replace(self._stats, **dict.fromkeys(_BIN_ARRAYS))
