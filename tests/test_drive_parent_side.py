@@ -4,6 +4,8 @@ shortcut against the way it replaced, written out here, bit for bit (docs/benchm
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -59,3 +61,31 @@ def test_a_fold_of_every_trip_sums_in_place_as_over_the_masked_copy(table) -> No
     tenth = np.random.default_rng(3).permutation(T) % 10
     got, want = table.fold_grams(tenth, 10, lags), _masked_fold_grams(table, tenth, 10, lags)
     assert _same_grams(got, want)
+
+
+def test_the_collector_is_held_off_while_a_document_is_built_and_set_back() -> None:
+    """`gc_paused` (outputs.py) holds the cyclic collector off inside, and sets it back as it
+    was after, on an exception too; the values it wraps are untouched."""
+    import gc
+
+    from wifibot_power.outputs import dumps_indented, gc_paused
+
+    assert gc.isenabled()
+    with gc_paused():
+        assert not gc.isenabled()
+    assert gc.isenabled()
+    with pytest.raises(ValueError), gc_paused():
+        raise ValueError
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        with gc_paused():
+            pass
+        assert not gc.isenabled()  # left as it was: off
+    finally:
+        gc.enable()
+    doc = {"a": [1.5, float("nan"), {"b": None}], "c": (1, "x")}
+    assert dumps_indented(doc) == json.dumps(
+        {"a": [1.5, None, {"b": None}], "c": [1, "x"]}, indent=2
+    )
+    assert gc.isenabled()
