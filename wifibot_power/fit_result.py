@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 from wifibot_power.io import Skipped
 from wifibot_power.model import PowerModel
 from wifibot_power.models.paper_table import format_number, table_rows, to_markdown
-from wifibot_power.outputs import json_safe
+from wifibot_power.outputs import gc_paused, json_safe
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -181,6 +181,10 @@ class FitResult:
         """The `fit --json` document (cli.md), JSON-safe (NaN -> null): the paper's section
         with the inputs left out and the batch's warnings, then each other family's (null
         when it did not fit: cli.md's `drive` is null when no log has a speed)."""
+        with gc_paused():  # (a dict per held-out trip: outputs.py `gc_paused`)
+            return self._summary()
+
+    def _summary(self) -> dict[str, object]:
         from wifibot_power.models import FAMILIES
         from wifibot_power.models.paper import PaperFit
 

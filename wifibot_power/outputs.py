@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import gc
 import json
 import math
 import os
@@ -94,6 +95,23 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
+@contextlib.contextmanager
+def gc_paused() -> Iterator[None]:
+    """CPython's cyclic garbage collector held off while a document is built or written (and
+    set back as it was, on an exception too). A `fit --json` document holds a dict per
+    held-out trip (16,568 on the bench corpus): that many new containers set off the
+    collector, whose oldest generation walks the whole heap (~0.05-0.09 s of the parent's
+    0.15 s `summary()` on the bench corpus, docs/benchmarks.md). The document makes no
+    reference cycle, so nothing is left for it to collect; the values are the same."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
+
+
 def dumps_indented(data: object) -> str:
     """`json.dumps(json_safe(data), indent=2, allow_nan=False)`, character for character, in
     one pass: CPython's encoder drops to pure-Python generators whenever `indent` is set
@@ -102,7 +120,8 @@ def dumps_indented(data: object) -> str:
     the generators look ~3x dearer). Strings are encoded by json's own C function, floats
     by `float.__repr__` as json does; a leaf of any other type goes through `json_safe` and,
     if still not plain, `json.dumps` itself (which raises TypeError as it would)."""
-    return _indented(data, "\n")
+    with gc_paused():
+        return _indented(data, "\n")
 
 
 def _indented(value: object, pad: str) -> str:

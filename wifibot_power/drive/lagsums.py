@@ -101,6 +101,10 @@ class SumsTable:
         noise = np.zeros((folds, P))
         for f in range(folds):
             rows = fold_of_trip == f
+            # a fold of every trip (the whole batch's search) reads the arrays in place: the
+            # same sums in the same order as over a masked copy (a copy of (L, T, P) of wy is
+            # ~30 MB of fresh pages: tests/test_drive_parent_side.py)
+            rows = slice(None) if rows.all() else rows
             count[f] = int(self.count[rows].sum())
             xx[f] = self.xx[rows].sum(axis=0)
             xy[f] = self.wy[:, rows, :P].sum(axis=1).T
