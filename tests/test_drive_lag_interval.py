@@ -218,3 +218,15 @@ def test_the_terms_figure_says_the_lag_as_fit_does(sharp_model):
     flat_model = fit_drive([_steady_run(k) for k in range(12)])
     flat = drive_terms_figure(flat_model).get_suptitle()
     assert f"(lag {flat_model.lag_s:.2f} s, not determined)" in flat
+
+
+def test_no_interval_from_too_few_searched_replicates_says_so():
+    """Review: 2 clusters whose replicates could not be searched were said to have "2
+    cluster: at least 2 are needed"; now the replicates are named."""
+    from wifibot_power.drive.laginterval import LagInterval
+
+    few = LagInterval(0.1, (np.nan, np.nan), (0.0, 1.0), replicates=0, clusters=2)
+    assert not few.determined
+    assert "only 0 bootstrap replicate(s) of 2 clusters" in few.reason()
+    one = LagInterval(0.1, (np.nan, np.nan), (0.0, 1.0), replicates=0, clusters=1)
+    assert "1 cluster: at least 2 are needed" in one.reason()

@@ -88,7 +88,13 @@ class LagInterval:
                 f"{last:.2f} s; runs too short, or cut by drop-outs)"
             )
         if not (np.isfinite(low) and np.isfinite(high)):
-            return f"no interval ({self.clusters} cluster: at least 2 are needed)"
+            if self.clusters < 2:
+                return f"no interval ({self.clusters} cluster: at least 2 are needed)"
+            # clusters enough, but fewer than 2 resampled searches could be solved
+            return (
+                f"no interval (only {self.replicates} bootstrap replicate(s) of "
+                f"{self.clusters} clusters could be searched: too few windows for the columns)"
+            )
         span = last - first
         why = []
         if high - low > UNDETERMINED_SHARE * span:
