@@ -123,6 +123,10 @@ def test_human_fit_shows_the_drive_terms_in_80_columns(free, monkeypatch):
     text = result.stdout
     assert max(len(line) for line in text.splitlines()) <= 80
     assert "Drive model over 4 run(s)" in text and "lags speed by 0.20 s" in text
+    # the lag's interval and the terms' interval note read apart (one "95% CI" each)
+    flat = " ".join(text.split())
+    lag_low, lag_high = json.loads(fitted.stdout)["drive"]["lag_ci95_s"]
+    assert f"lags speed by 0.20 s [{lag_low:.2f}, {lag_high:.2f}]; the terms' 95% CI" in flat
     for cell in ("turning_Nm", "rolling_W_per_mps", "asphalt", "grass", "N m", "kg"):
         assert cell in text
     assert "held-out runs" in text and "MAPE %" in text and "in 90% PI %" in text

@@ -193,7 +193,7 @@ def _print_drive_terms(summary: dict) -> None:
         stdout.print(line, markup=False, highlight=False)
         stdout.print(notes, markup=False, highlight=False)
     else:
-        title += " (95% CI: cluster-robust, by run or trip)"
+        title += "; the terms' 95% CI cluster-robust, by run or trip"
         print_table(stdout, title, _DRIVE_TERM_COLUMNS, cells, notes=notes)
 
 
