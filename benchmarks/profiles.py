@@ -18,7 +18,7 @@ FIT_STAGES = {
     "fit_logs (whole, 1 job)": ("fit.py", "fit_logs"),
     "read_log": ("reader.py", "read_log"),
     "  CSV parse to numpy (read_columns)": ("transport.py", "read_columns"),
-    "  sample checks (check_samples)": ("validate.py", "check_samples"),
+    "  sample checks (check_log_samples)": ("validate.py", "check_log_samples"),
     "segmentation (segment_run)": ("segment/__init__.py", "segment_run"),
     "run_row": ("runtable.py", "run_row"),
     "drive model's per-run statistics (drive_stats)": ("drive/stats.py", "drive_stats"),
@@ -28,15 +28,22 @@ FIT_STAGES = {
 #: the drive model's stages (the free-driving shape: `profile("fit", folder, drive=True)`)
 DRIVE_STAGES = {
     **FIT_STAGES,
-    "    lag searches (lag_search)": ("drive/identify.py", "lag_search"),
-    "    identifications (identify)": ("drive/identify.py", "identify"),
-    "    held-out K-fold (heldout_accuracy)": ("drive/heldout.py", "heldout_accuracy"),
+    # the fit from the workers' per-trip sums (drive/lagsums.py; until the thirteenth session
+    # lag_search, identify and heldout_accuracy over the windows: those are now the reference
+    # path only, `fit_drive_stats(direct=True)`)
+    "  drive model's per-run windows (run_windows)": ("drive/windows.py", "run_windows"),
+    "  drive model's per-trip sums (run_sums)": ("drive/sums.py", "run_sums"),
+    "    the sums laid out, whole and a lag (SumsTable, LagSums)": ("drive/lagsums.py", "__init__"),
+    "    lag searches (FoldGrams.search)": ("drive/gram.py", "search"),
+    "    identifications (identify_moments)": ("drive/identify.py", "identify_moments"),
+    "    held-out K-fold (heldout_from_sums)": ("drive/heldout.py", "heldout_from_sums"),
+    "    the lag's interval (lag_interval)": ("drive/laginterval.py", "lag_interval"),
 }
 DIAGNOSE_STAGES = {
     "diagnose_logs (whole, 1 job)": ("diagnose/batch.py", "diagnose_logs"),
     "read_log": ("reader.py", "read_log"),
     "  CSV parse to numpy (read_columns)": ("transport.py", "read_columns"),
-    "  sample checks (check_samples)": ("validate.py", "check_samples"),
+    "  sample checks (check_log_samples)": ("validate.py", "check_log_samples"),
     "per run (run_record)": ("record.py", "run_record"),
     "  segmentation (segment_run)": ("segment/__init__.py", "segment_run"),
     # until issue 24, "trace statistics (trace_stats)" and "causes' run statistics
