@@ -82,8 +82,9 @@ lint: $(VENV)/.installed
 
 # fit and diagnose beside a bare CSV parse on five shapes of log, and fit on 400 MB of free
 # driving (the drive model, issue 25; written once by `wbpower simulate --drive free`, ~45 s of
-# CPU) (docs/benchmarks.md), ~20 min on 2 idle cores plus ~1.5 min of CPU a fit of the drive
-# shape; the corpora (~2.9 GB) go to $$WBPOWER_BENCH_CORPUS, else bench_corpus/.
+# CPU) (docs/benchmarks.md): ~4 min on 2 idle cores once the corpora are built (measured
+# 2026-11-28; far longer on a loaded machine); the corpora (~2.9 GB) go to
+# $$WBPOWER_BENCH_CORPUS, else bench_corpus/.
 # BENCH_ARGS: e.g. --quick, --shapes power,n6705, --repeats 5 (benchmarks/run.py --help).
 BENCH_ARGS ?=
 bench: $(VENV)/.installed

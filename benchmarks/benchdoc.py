@@ -226,7 +226,7 @@ def write(record: dict) -> None:
         "## How to reproduce",
         "",
         "```",
-        "make bench                   # everything: 5-20 min on 2 cores (corpora built once)",
+        "make bench                   # everything: ~4 min on 2 idle cores (corpora built once)",
         ".venv/bin/python benchmarks/run.py --quick   # a subset, 1 repeat, for iterating",
         ".venv/bin/python benchmarks/run.py --shapes power,n6705 --repeats 5",
         ".venv/bin/python benchmarks/corpora.py --list   # the shapes; --root DIR to build them",
