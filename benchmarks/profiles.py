@@ -27,15 +27,22 @@ FIT_STAGES = {
 }
 #: the drive model's stages (the free-driving shape: `profile("fit", folder, drive=True)`)
 DRIVE_STAGES = {
-    **FIT_STAGES,
+    # free driving is not segmented into the paper's phases (no step runs): not a stage there
+    **{k: v for k, v in FIT_STAGES.items() if v[1] != "segment_run"},
     # the fit from the workers' per-trip sums (drive/lagsums.py; until the thirteenth session
     # lag_search, identify and heldout_accuracy over the windows: those are now the reference
-    # path only, `fit_drive_stats(direct=True)`)
+    # path only, `fit_drive_stats(direct=True)`). The indented rows overlap (cumulative times:
+    # the searches and identifications run inside the held-out folds, and lagsums.py's
+    # `__init__`s are SumsTable's, LagSums' and SumMoments'), so they add up to more than
+    # their parent row
     "  drive model's per-run windows (run_windows)": ("drive/windows.py", "run_windows"),
     "  drive model's per-trip sums (run_sums)": ("drive/sums.py", "run_sums"),
-    "    the sums laid out, whole and a lag (SumsTable, LagSums)": ("drive/lagsums.py", "__init__"),
-    "    lag searches (FoldGrams.search)": ("drive/gram.py", "search"),
-    "    identifications (identify_moments)": ("drive/identify.py", "identify_moments"),
+    "    sums laid out (lagsums.py __init__s; overlapping)": ("drive/lagsums.py", "__init__"),
+    "    lag searches (FoldGrams.search; overlapping)": ("drive/gram.py", "search"),
+    "    identifications (identify_moments; overlapping)": (
+        "drive/identify.py",
+        "identify_moments",
+    ),
     "    held-out K-fold (heldout_from_sums)": ("drive/heldout.py", "heldout_from_sums"),
     "    the lag's interval (lag_interval)": ("drive/laginterval.py", "lag_interval"),
 }

@@ -81,7 +81,8 @@ for seed in range(first, first + count):
     print(
         name,
         seed,
-        f"today {lag_bins * 0.05:.5f}s exact {exact_bins * 0.05:.5f}s sums {by_sums} "
+        f"today {lag_bins * runs[0].stats.bin_s:.5f}s "
+        f"exact {exact_bins * runs[0].stats.bin_s:.5f}s sums {by_sums} "
         f"cost {1000 * cost['today']:.1f}/{1000 * cost['exact']:.1f} ms",
         flush=True,
     )

@@ -302,10 +302,11 @@ def fit_drive_stats(
     pairs = [(s, m) for s, m in zip(stats_list, given, strict=True) if s is not None]
     if not pairs:
         return None
-    # the runs in the order of their run ids (a stable sort), as the paper's folds deal them
+    # the runs in the order of their run ids (then files: a batch's run ids are unique,
+    # pipeline/duplicates.py, a library caller's need not be), as the paper's folds deal them
     # (diagnose/folds.py `assign_folds`): the held-out folds, the lag's bootstrap draws and
     # every sum are then the same whatever order the logs were given in
-    pairs.sort(key=lambda pair: str(pair[0].run_id))
+    pairs.sort(key=lambda pair: (str(pair[0].run_id), str(pair[0].file)))
     if not direct:
         run_sums = [
             m if m is not None and m.window_s == _window_of(s, window_s) else sums_of(s, window_s)
