@@ -423,6 +423,9 @@ def test_incomplete_paper_model_still_writes_the_drive_model(free, tmp_path):
     # the paper's Eq. 5/6 cannot use it, and says so
     paper = _wbpower("energy", "--speed", 0.5, "--dist", 2, "--model", out / "model.json")
     assert paper.exit_code == 2 and "incomplete" in paper.stderr
+    # ... and says what the file can do (re-running `fit -o` would write it again)
+    assert "holds the drive model only" in paper.stderr and "--profile" in paper.stderr
+    assert "re-run" not in paper.stderr
     _check_profile(logs, out / "model.json")
     _check_exports(out / "model.json")
 

@@ -167,6 +167,18 @@ class PowerModel:
                 fit_warnings=tuple(str(w) for w in data.get("fit_warnings") or ()),
             )
         except (KeyError, TypeError, ValueError) as exc:
+            if "accel" not in data and isinstance(data.get("drive"), dict):
+                # `fit -o` on logs without usable step runs writes the drive model alone
+                # (fit_result.py `model_json`): re-running it gives the same file
+                raise UsageError(
+                    "holds the drive model only: the paper's model (P_acc, P_v, t_acc, idle) "
+                    "was incomplete or not fitted (it needs step runs at 2 speeds or more; "
+                    "'wbpower fit' said why)",
+                    file=file,
+                    fix="for a route's energy use its drive model ('wbpower energy --profile "
+                    "ROUTE.csv --model FILE'; in Python wifibot_power.drive.profile."
+                    "load_drive_model), or fit step runs for the paper's",
+                ) from None
             raise UsageError(
                 f"model file is incomplete ({exc})", file=file, fix="re-run 'wbpower fit -o'"
             ) from None
