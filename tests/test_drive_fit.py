@@ -173,6 +173,37 @@ def test_energy_profile_of_a_fitted_log_is_within_its_interval(free):
     _check_profile(logs, out / "model.json")
 
 
+def test_a_route_on_a_surface_the_model_lacks_names_the_models_surfaces(free, tmp_path):
+    logs, out, _ = free
+    route = tmp_path / "route.csv"
+    route.write_text("time_s,speed_mps,surface\n0,0,ice\n1,0.5,ice\n2,0.5,ice\n3,0,ice\n")
+    result = _wbpower("energy", "--profile", route, "--model", out / "model.json")
+    assert result.exit_code == 2
+    (line,) = result.stderr.strip().splitlines()
+    assert "surface 'ice' is not one the model was fitted on (its surfaces: asphalt, grass)" in line
+    assert "name a surface of the model" in line
+
+
+def test_a_route_naming_a_surface_for_a_model_of_none_is_told_to_leave_it_out(tmp_path):
+    import dataclasses
+
+    import numpy as np
+
+    from wifibot_power.drive import fit_drive
+    from wifibot_power.drive.profile import route_energy
+    from wifibot_power.drive.simulate import FreeDriveConfig, as_run, simulate_free
+
+    config = FreeDriveConfig(seed=2, runs_per_surface=3, run_s=60.0)
+    runs = [as_run(r) for r in simulate_free(config)]
+    # the same logs without their surface (a robot's logs that name none)
+    runs = [dataclasses.replace(r, meta=dataclasses.replace(r.meta, extra={})) for r in runs]
+    model = fit_drive(runs)
+    assert list(model.surface_names) == ["unknown"]  # drive/stats.py UNKNOWN_SURFACE
+    t = np.arange(0.0, 10.0, 0.1)
+    with pytest.raises(ValueError, match="fitted on logs that name none: leave the surface out"):
+        route_energy(model, t, np.full(t.size, 0.5), None, "asphalt")
+
+
 def test_export_of_fit_o_model_loads_in_each_tools_schema(free):
     _, out, _ = free
     _check_exports(out / "model.json")

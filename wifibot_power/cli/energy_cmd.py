@@ -244,7 +244,9 @@ def _route(profile: Path, model: str, json_out: bool) -> None:
     try:
         result = route_energy(drive, time_s, speed_mps, yaw_radps, surface)
     except ValueError as exc:
-        raise UsageError(str(exc), file=profile, fix="add a surface column naming one") from None
+        raise UsageError(
+            str(exc), file=profile, fix="name a surface of the model in its surface column"
+        ) from None
     progress_done()
     for message in result.warnings:
         warn(message)

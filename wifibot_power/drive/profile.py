@@ -134,7 +134,13 @@ def _route_surface(model: DriveModel, surface: str | None) -> str:
             raise ValueError(f"the model has several surfaces ({', '.join(surfaces)}): name one")
         surface = surfaces[0] if surfaces else UNKNOWN_SURFACE
     if surface not in model.surface_names:
-        raise ValueError(f"surface '{surface}' is not one the model was fitted on")
+        named = [s for s in surfaces if s != UNKNOWN_SURFACE]
+        fitted = (
+            f"its surfaces: {', '.join(named)}"
+            if named
+            else "it was fitted on logs that name none: leave the surface out"
+        )
+        raise ValueError(f"surface '{surface}' is not one the model was fitted on ({fitted})")
     return surface
 
 
