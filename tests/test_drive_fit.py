@@ -519,3 +519,19 @@ def test_the_heldout_caption_says_the_coverage_is_of_the_trips_with_an_interval(
     runs = [{"predicted_J": 0.0}, {"predicted_J": 12.5}, {"predicted_J": 3.0}]
     assert _without_interval(runs) == " (of the 2 trips with one: 1 predicted at 0 J have none)"
     assert _without_interval(runs[1:]) == ""
+
+
+def test_the_heldout_caption_says_which_runs_are_trips_and_what_measured_covers(free):
+    """The human table counts held-out runs, trips of a log among them ("a#2"): the caption
+    says how many and of how many logs, and that measured is over the predicted windows (a
+    drop-out's energy in neither: the log's own energy can be more)."""
+    from wifibot_power.cli.fit_tables import _trips_said
+
+    runs = [{"run_id": "a#1"}, {"run_id": "a#2"}, {"run_id": "b"}, {"run_id": "c#1"}]
+    assert _trips_said(runs) == "; 3 of the 4 are trips of 2 log(s) cut at their stops (run_id#k)"
+    assert _trips_said(runs[2:3]) == ""
+    logs, _, _ = free
+    shown = _wbpower("fit", logs)
+    assert shown.exit_code == 0, shown.output
+    text = " ".join(shown.stdout.split())
+    assert "measured and predicted over the same 0.5 s windows" in text

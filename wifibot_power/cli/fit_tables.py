@@ -220,7 +220,23 @@ def _print_drive_heldout(held: dict) -> None:
             ]
         ],
         caption="MAPE: mean absolute % error of run energy; in 90% PI: how often the "
-        "90% prediction interval held the measured energy" + _without_interval(held["runs"]),
+        "90% prediction interval held the measured energy; measured and predicted over the "
+        "same 0.5 s windows (a drop-out's energy, unknown, is in neither: a log's whole "
+        "energy can be more)" + _trips_said(held["runs"]) + _without_interval(held["runs"]),
+    )
+
+
+def _trips_said(runs: list[dict]) -> str:
+    """The caption's note on runs held out as trips: a long log is cut into trips at its
+    stops (drive/moving.py), each held out on its own as `run_id#k` (cli.md: "a long
+    free-driving log may be cut into trips at its stops")."""
+    trips = [run["run_id"] for run in runs if "#" in run["run_id"]]
+    if not trips:
+        return ""
+    logs = len({run_id.rsplit("#", 1)[0] for run_id in trips})
+    return (
+        f"; {len(trips)} of the {len(runs)} are trips of {logs} log(s) cut at their stops "
+        "(run_id#k)"
     )
 
 
