@@ -535,3 +535,27 @@ def test_the_heldout_caption_says_which_runs_are_trips_and_what_measured_covers(
     assert shown.exit_code == 0, shown.output
     text = " ".join(shown.stdout.split())
     assert "measured and predicted over the same 0.5 s windows" in text
+
+
+def test_fewer_than_four_trips_give_no_heldout_accuracy_and_say_so():
+    """Three runs that never stop are three trips: no K-fold accuracy of so few (heldout.py
+    MIN_TRIPS), `heldout` null in the document and the reason in its warnings."""
+    import numpy as np
+
+    from wifibot_power.drive import fit_drive
+    from wifibot_power.drive.heldout import MIN_TRIPS
+    from wifibot_power.run import Run, RunMeta
+
+    def steady(k: int) -> Run:
+        rng = np.random.default_rng(k)
+        t = np.arange(0, 60.0, 0.05)
+        v = 0.3 + 0.1 * k + 0.05 * np.sin(t / (3.0 + k))
+        power = 10 + 20 * v + 8 * v**2 + rng.normal(0.0, 1.0, t.size)
+        meta = RunMeta(run_id=f"steady{k}", sample_period_s=0.05, extra={"surface": "floor"})
+        return Run(f"steady{k}.csv", "wbpower-csv", meta, t, power, speed_mps=v)
+
+    assert MIN_TRIPS == 4
+    model = fit_drive([steady(k) for k in range(3)])
+    doc = model.summary()
+    assert doc["heldout"] is None
+    assert "fewer than 4 trips: no held-out accuracy" in doc["warnings"]
