@@ -18,7 +18,9 @@ def blocks() -> list[str]:
 
 def test_the_page_has_examples_of_every_step() -> None:
     text = "\n".join(blocks())
-    for call in ("read_log(", "segment_run(", "fit_logs(", "trip_energy(", "diagnose_logs("):
+    calls = ("read_log(", "segment_run(", "fit_logs(", "trip_energy(", "diagnose_logs(")
+    calls += ("fit_drive(", "route_energy(", "export_model(")  # the drive model (issue 25)
+    for call in calls:
         assert call in text, call
     assert "FIGURES[" in text
 
