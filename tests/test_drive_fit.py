@@ -559,3 +559,10 @@ def test_fewer_than_four_trips_give_no_heldout_accuracy_and_say_so():
     doc = model.summary()
     assert doc["heldout"] is None
     assert "fewer than 4 trips: no held-out accuracy" in doc["warnings"]
+
+
+def test_a_route_table_shows_a_share_that_rounds_to_nothing_as_0_not_minus_0():
+    from wifibot_power.cli.energy_cmd import _joules
+
+    assert _joules(-0.3, 0) == "0" and _joules(-0.04, 1) == "0.0"
+    assert _joules(-12.6, 0) == "-13" and _joules(5.25, 1) == f"{5.25:.1f}"

@@ -225,6 +225,12 @@ def energy_command(
         _print_report(report)
 
 
+def _joules(value: float, digits: int) -> str:
+    """An energy to `digits` decimals, a small negative share that rounds to nothing shown as
+    0, not -0 (a braking term's few J returned on a route)."""
+    return f"{round(value, digits) + 0.0:.{digits}f}"
+
+
 def _route(profile: Path, model: str, json_out: bool) -> None:
     """`--profile`: a route's energy from the drive model (drive/profile.py)."""
     from wifibot_power.drive.profile import load_drive_model, read_profile, route_energy
@@ -266,17 +272,17 @@ def _route(profile: Path, model: str, json_out: bool) -> None:
     caption = (
         f"90% interval {pi[0]:.{digits}f}-{pi[1]:.{digits}f} J" if pi else ("no held-out interval")
     )
-    rows = [[name, f"{joules:.{digits}f}"] for name, joules in result.terms_J.items()]
+    rows = [[name, _joules(joules, digits)] for name, joules in result.terms_J.items()]
     if result.undetermined_terms:  # one share: the logs could not tell these terms apart
         label = f"not determined ({', '.join(result.undetermined_terms)})"
-        rows.append([label, f"{result.undetermined_J:.{digits}f}"])
-    rows.append(["total", f"{result.energy_J:.{digits}f}"])
+        rows.append([label, _joules(result.undetermined_J, digits)])
+    rows.append(["total", _joules(result.energy_J, digits)])
     title = (
         f"{result.distance_m:.1f} m in {result.time_s:.1f} s, "
         f"mean {result.mean_power_W:.{watts}f} W"
     )
     if run is not None:
-        rows.append(["measured", f"{run.energy_J:.{digits}f}"])
+        rows.append(["measured", _joules(run.energy_J, digits)])
     columns = (Col("term", "text", key=True), Col("energy J"))
     print_table(stdout, title, columns, rows, caption=caption)
 
