@@ -566,3 +566,49 @@ def test_a_route_table_shows_a_share_that_rounds_to_nothing_as_0_not_minus_0():
 
     assert _joules(-0.3, 0) == "0" and _joules(-0.04, 1) == "0.0"
     assert _joules(-12.6, 0) == "-13" and _joules(5.25, 1) == f"{5.25:.1f}"
+
+
+def test_a_route_that_crosses_surfaces_takes_each_surfaces_terms(free, tmp_path):
+    """A route whose `surface` column changes (cli.md allows the column): each window takes
+    its surface's terms, as a log's windows do in the fit; the energy is the two routes'
+    sum, each surface's term named with its surface."""
+    logs, out, _ = free
+    model = out / "model.json"
+
+    def route(path, surfaces) -> None:
+        rows = ["time_s,speed_mps,yaw_rate_radps,surface"]
+        for i in range(400):
+            t = 0.1 * i
+            rows.append(f"{t:.1f},{0.0 if t < 2 or t > 38 else 0.5},0.0,{surfaces(t)}")
+        path.write_text("\n".join(rows) + "\n")
+
+    route(tmp_path / "cross.csv", lambda t: "asphalt" if t < 20 else "grass")
+    route(tmp_path / "asphalt.csv", lambda t: "asphalt")
+    route(tmp_path / "grass.csv", lambda t: "grass")
+    docs = {}
+    for name in ("cross", "asphalt", "grass"):
+        result = _wbpower(
+            "energy", "--profile", tmp_path / f"{name}.csv", "--model", model, "--json"
+        )
+        assert result.exit_code == 0, result.output
+        docs[name] = json.loads(result.stdout)
+    cross = docs["cross"]
+    terms = cross["terms_J"]
+    assert {"rolling_W_per_mps[asphalt]", "rolling_W_per_mps[grass]"} <= set(terms)
+    assert "rolling_W_per_mps" not in terms
+    # half the driving on each: its rolling share is half of each one-surface route's
+    for surface in ("asphalt", "grass"):
+        whole = docs[surface]["terms_J"]["rolling_W_per_mps"]
+        assert terms[f"rolling_W_per_mps[{surface}]"] == pytest.approx(whole / 2, rel=0.05)
+    assert sum(terms.values()) + cross["undetermined_J"] == pytest.approx(cross["energy_J"])
+    shown = _wbpower("energy", "--profile", tmp_path / "cross.csv", "--model", model)
+    assert "rolling_W_per_mps[grass]" in shown.stdout  # not taken for a rich style
+
+
+def test_a_route_crossing_surfaces_with_a_row_naming_none_is_refused(free, tmp_path):
+    _, out, _ = free
+    path = tmp_path / "gap.csv"
+    path.write_text("time_s,speed_mps,surface\n0,0,asphalt\n1,0.5,\n2,0.5,grass\n3,0,grass\n")
+    result = _wbpower("energy", "--profile", path, "--model", out / "model.json")
+    assert result.exit_code == 2
+    assert "leaves some rows without one" in result.stderr and "Traceback" not in result.output

@@ -126,8 +126,12 @@ def tables(
     caption: str | None = None,
     row_styles: Sequence[str | None] | None = None,
 ) -> list[Table]:
-    """The rich table(s) showing `rows` under `cols` in `width` columns (see the module)."""
+    """The rich table(s) showing `rows` under `cols` in `width` columns (see the module).
+    Cells are plain text, never rich markup: a term of one surface, "rolling_W_per_mps[grass]",
+    or a file or run id with brackets is shown as it is (as a string, rich took "[grass]" for
+    a style and dropped it)."""
     from rich.table import Table
+    from rich.text import Text
 
     drawn, said = _said_once(cols, rows)
     if said:
@@ -159,7 +163,7 @@ def tables(
                 )
         for k, row in enumerate(rows):
             style = row_styles[k] if row_styles else None
-            table.add_row(*(row[i] for i in part), style=style)
+            table.add_row(*(Text(row[i]) for i in part), style=style)
         if number == len(parts) and caption:
             table.caption = caption
             table.caption_justify = "left"

@@ -66,14 +66,17 @@ def route_energy(
     time_s: np.ndarray,
     speed_mps: np.ndarray,
     yaw_rate_radps: np.ndarray | None = None,
-    surface: str | None = None,
+    surface: str | np.ndarray | None = None,
 ) -> RouteEnergy:
     """The energy of a route (module docstring). Its samples are what the robot should do at
     each time (a planner's profile, evenly spaced or not); `surface` names the model's
-    surface it drives on (the model's only one when None)."""
+    surface it drives on (the model's only one when None), or each sample's (a route that
+    crosses surfaces: each window takes its surface's terms, as a log's windows do in the
+    fit, and `terms_J` names a surface's term with its surface, "rolling_W_per_mps[grass]")."""
     time_s = np.asarray(time_s, dtype=np.float64)
     speed_mps = np.asarray(speed_mps, dtype=np.float64)
-    surface = _route_surface(model, surface)
+    index, names = _route_surfaces(model, surface, time_s.size)
+    surface = names[0]
     period_s = float(np.median(np.diff(time_s))) if time_s.size > 1 else model.window_s
     extra = {"surface": surface}
     warnings = _power_kind_warnings(model, speed_mps, yaw_rate_radps)
@@ -88,6 +91,8 @@ def route_energy(
         power_W=np.zeros(time_s.size),
         speed_mps=speed_mps,
         yaw_rate_radps=None if yaw_rate_radps is None else np.asarray(yaw_rate_radps, float),
+        surface_index=index,
+        surface_names=names if index is not None else (),
     )
     stats = drive_stats(run)
     windows = assemble([run_windows(stats, model.window_s)], 0, model.surface_names)
@@ -96,7 +101,7 @@ def route_energy(
     contributions_J = windows.design[:, kept] * coef[kept] * windows.window_s
     energy_J = float(contributions_J.sum())
     terms_J, undetermined_J, undetermined = _shares(
-        model, surface, np.array(model.columns)[kept], contributions_J.sum(axis=0)
+        model, names, np.array(model.columns)[kept], contributions_J.sum(axis=0)
     )
     used = np.any(windows.design[:, ~kept] != 0, axis=0)
     for column in np.array(model.columns)[~kept][used]:
@@ -124,6 +129,25 @@ def route_energy(
         undetermined_J=undetermined_J,
         undetermined_terms=undetermined,
     )
+
+
+def _route_surfaces(
+    model: DriveModel, surface: str | np.ndarray | None, samples: int
+) -> tuple[np.ndarray | None, tuple[str, ...]]:
+    """The route's surfaces: (None, (its one surface,)) (`_route_surface`), or for a name per
+    sample each sample's index into the names (every one a surface of the model's)."""
+    if surface is None or isinstance(surface, str):
+        return None, (_route_surface(model, surface),)
+    labels = np.asarray(surface, dtype=str)
+    if labels.shape != (samples,):
+        raise ValueError(f"{labels.size} surfaces for {samples} samples: give one a sample")
+    names, index = np.unique(np.char.strip(labels), return_inverse=True)
+    if "" in names:
+        raise ValueError("a sample of the route names no surface: name one for every sample")
+    names = tuple(_route_surface(model, str(name)) for name in names)
+    if len(names) == 1:
+        return None, names
+    return index.astype(np.int16), names
 
 
 def _route_surface(model: DriveModel, surface: str | None) -> str:
@@ -170,24 +194,28 @@ def _power_kind_warnings(
 
 
 def _shares(
-    model: DriveModel, surface: str, columns: np.ndarray, joules: np.ndarray
+    model: DriveModel, surfaces: tuple[str, ...], columns: np.ndarray, joules: np.ndarray
 ) -> tuple[dict[str, float], float, tuple[str, ...]]:
     """Each fitted column's energy [J] under its term's name where the model reports the term
     (`model.terms`, or the surface's `model.surfaces`), else summed into one undetermined
-    share with the names of its terms (module docstring)."""
-    shown = set(model.terms) | set(model.surfaces.get(surface, {}))
+    share with the names of its terms (module docstring). On a route of several `surfaces`
+    a surface's term is named with its surface ("rolling_W_per_mps[grass]")."""
     terms_J: dict[str, float] = {}
     undetermined_J = 0.0
     undetermined: list[str] = []
     for column, share_J in zip(columns, joules, strict=True):
         name, _, rest = str(column).partition("[")
-        if rest and rest[:-1] != surface:  # another surface's column: 0 on this route
+        on = rest[:-1]
+        if rest and on not in surfaces:  # another surface's column: 0 on this route
             continue
+        shown = set(model.terms) | set(model.surfaces.get(on or surfaces[0], {}))
+        key = f"{name}[{on}]" if rest and len(surfaces) > 1 else name
         if name in shown:
-            terms_J[name] = terms_J.get(name, 0.0) + float(share_J)
+            terms_J[key] = terms_J.get(key, 0.0) + float(share_J)
         else:
             undetermined_J += float(share_J)
-            undetermined += [] if name in undetermined else [name]
+            key = name if len(surfaces) == 1 else key
+            undetermined += [] if key in undetermined else [key]
     return terms_J, undetermined_J, tuple(undetermined)
 
 
@@ -277,16 +305,21 @@ def read_profile(
             "the route's time_s does not go forwards", file=path, fix="sort it, 2 rows or more"
         )
     yaw = numbers("yaw_rate_radps") if "yaw_rate_radps" in names else None
-    surface = None
+    surface: str | np.ndarray | None = None
     if "surface" in names:
-        found = {str(s).strip() for s in table[names["surface"]].to_pylist() if s}
-        if len(found) > 1:
-            raise LogError(
-                f"the route crosses surfaces ({', '.join(sorted(found))})",
-                file=path,
-                fix="split it into one route per surface and add their energies",
-            )
-        surface = next(iter(found), None)
+        labels = ["" if s is None else str(s).strip() for s in table[names["surface"]].to_pylist()]
+        found = set(labels) - {""}
+        if len(found) > 1:  # a route that crosses surfaces: each sample's (`route_energy`)
+            if "" in labels:
+                raise LogError(
+                    f"the route crosses surfaces ({', '.join(sorted(found))}) and leaves some "
+                    "rows without one",
+                    file=path,
+                    fix="name the surface on every row",
+                )
+            surface = np.array(labels)
+        else:
+            surface = next(iter(found), None)
     return time_s, speed_mps, yaw, surface
 
 
