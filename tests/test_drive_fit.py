@@ -612,3 +612,30 @@ def test_a_route_crossing_surfaces_with_a_row_naming_none_is_refused(free, tmp_p
     result = _wbpower("energy", "--profile", path, "--model", out / "model.json")
     assert result.exit_code == 2
     assert "leaves some rows without one" in result.stderr and "Traceback" not in result.output
+
+
+def test_a_log_with_a_surface_column_given_as_a_route_takes_each_samples_surface(free, tmp_path):
+    """`energy --profile LOG` of a log whose `surface` column changes (BorealTC's mixed runs):
+    each sample's surface, as the fit reads it (stats.py `sample_surfaces`), not a refusal
+    ("the model has several surfaces: name one")."""
+    logs, out, _ = free
+    rows = ["time_s,power_W,speed_mps,yaw_rate_radps,surface"]
+    offset_s = 0.0
+    for path in (
+        sorted(logs.glob("free_*_asphalt.csv"))[0],
+        sorted(logs.glob("free_*_grass.csv"))[0],
+    ):
+        surface = path.stem.rsplit("_", 1)[1]
+        lines = [ln for ln in path.read_text().splitlines() if not ln.startswith("#")][1:]
+        for line in lines:
+            t, rest = line.split(",", 1)
+            rows.append(f"{float(t) + offset_s:.3f},{rest},{surface}")
+        offset_s += float(lines[-1].split(",", 1)[0]) + 0.05
+    log = tmp_path / "both.csv"
+    log.write_text("# wbpower-log: 1\n# run_id: both\n" + "\n".join(rows) + "\n")
+    result = _wbpower("energy", "--profile", log, "--model", out / "model.json", "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert {"rolling_W_per_mps[asphalt]", "rolling_W_per_mps[grass]"} <= set(doc["terms_J"])
+    low, high = doc["pi90_J"]
+    assert low < doc["measured_J"] < high

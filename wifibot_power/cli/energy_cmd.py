@@ -233,7 +233,12 @@ def _joules(value: float, digits: int) -> str:
 
 def _route(profile: Path, model: str, json_out: bool) -> None:
     """`--profile`: a route's energy from the drive model (drive/profile.py)."""
-    from wifibot_power.drive.profile import load_drive_model, read_profile, route_energy
+    from wifibot_power.drive.profile import (
+        load_drive_model,
+        log_surfaces,
+        read_profile,
+        route_energy,
+    )
 
     if model == "paper":
         raise UsageError(
@@ -244,7 +249,7 @@ def _route(profile: Path, model: str, json_out: bool) -> None:
     run = _as_log(profile)
     if run is not None:  # a log: measured beside predicted
         time_s, speed_mps, yaw_radps = run.time_s, run.speed_mps, run.yaw_rate_radps
-        surface = run.meta.extra.get("surface")
+        surface = log_surfaces(run)
     else:
         time_s, speed_mps, yaw_radps, surface = read_profile(profile)
     try:

@@ -27,7 +27,12 @@ from pathlib import Path
 import numpy as np
 
 from wifibot_power.drive.model import DriveModel
-from wifibot_power.drive.stats import UNKNOWN_SURFACE, VOLTAGE_ASSUMED_KEY, drive_stats
+from wifibot_power.drive.stats import (
+    UNKNOWN_SURFACE,
+    VOLTAGE_ASSUMED_KEY,
+    drive_stats,
+    sample_surfaces,
+)
 from wifibot_power.drive.terms import TERM_BY_NAME
 from wifibot_power.drive.windows import assemble, run_windows
 from wifibot_power.run import Run, RunMeta
@@ -131,6 +136,16 @@ def route_energy(
     )
 
 
+def log_surfaces(run: Run) -> str | np.ndarray | None:
+    """The surface a log drives on, as `route_energy` takes it: its samples' (a `surface`
+    column: each sample's name, an empty one the metadata's or `UNKNOWN_SURFACE`, as the fit
+    reads it, stats.py `sample_surfaces`), else its `surface` metadata (None without)."""
+    index, names = sample_surfaces(run)
+    if index is None:
+        return run.meta.extra.get("surface")
+    return np.asarray(names)[index]
+
+
 def _route_surfaces(
     model: DriveModel, surface: str | np.ndarray | None, samples: int
 ) -> tuple[np.ndarray | None, tuple[str, ...]]:
@@ -214,7 +229,6 @@ def _shares(
             terms_J[key] = terms_J.get(key, 0.0) + float(share_J)
         else:
             undetermined_J += float(share_J)
-            key = name if len(surfaces) == 1 else key
             undetermined += [] if key in undetermined else [key]
     return terms_J, undetermined_J, tuple(undetermined)
 

@@ -140,7 +140,7 @@ def drive_stats(run: Run, segmentation: Segmentation | None = None) -> DriveStat
         speed_mps = speed_from_phases(run, segmentation)
         from_phases = True
     yaw_radps = run.yaw_rate_radps
-    surface_index, surfaces = _surfaces(run)
+    surface_index, surfaces = sample_surfaces(run)
     period_s = run.sample_period_s
     span_s = run.time_at(-1) + period_s - run.time_at(0)
     n_bins = max(int(np.floor(span_s / BIN_S + 1e-9)), 1)
@@ -271,7 +271,7 @@ def _median_between(values: np.ndarray, sample: np.ndarray) -> float:
 _MEDIAN_MARGIN = 50
 
 
-def _surfaces(run: Run) -> tuple[np.ndarray | None, tuple[str, ...]]:
+def sample_surfaces(run: Run) -> tuple[np.ndarray | None, tuple[str, ...]]:
     """Each sample's surface as an index into the returned names: the log's `surface` column
     where it names one, else the `surface` metadata, else `UNKNOWN_SURFACE`. None when every
     sample's is the one name (no per-sample array made for it)."""
