@@ -34,6 +34,7 @@ from wifibot_power.drive.laginterval import (
     lag_interval,
 )
 from wifibot_power.drive.lagsums import SumsTable
+from wifibot_power.drive.plausible import mass_warning
 from wifibot_power.drive.standing import idle_against_standing, run_stops, standing_power
 from wifibot_power.drive.stats import UNKNOWN_SURFACE, DriveStats, drive_stats
 from wifibot_power.drive.sums import RunSums, sums_of, windows_of
@@ -412,6 +413,9 @@ def _model(
     fitted, idle_warning = idle_against_standing(fitted, standing, proxy)
     warnings += [idle_warning] if idle_warning else []
     terms, per_surface = _terms(fitted, surfaces, force_form=kind == "current_proxy")
+    # a proxy's effective_mass_kg is no mass (its force form), and mixed with one not a power's
+    said = mass_warning(stats, terms) if kind == "power" else None
+    warnings += [said] if said else []
     k = np.flatnonzero(fitted.kept)
     return DriveModel(
         terms=terms,

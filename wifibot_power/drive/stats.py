@@ -24,6 +24,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from wifibot_power.io.metadata import robot_mass_kg
+
 if TYPE_CHECKING:
     from wifibot_power.phases import Segmentation
     from wifibot_power.run import Run
@@ -72,6 +74,9 @@ class DriveStats:
     #: the wheels' track [m] (the log's `track_m` metadata; NaN: unknown): the turning radius
     #: over it sets a current proxy's scrubbing moment on an arc (moving.py `force_form_regressors`)
     track_m: float = float("nan")
+    #: the mass the drive accelerates [kg]: the log's `mass_kg` plus its `payload_kg` (NaN: no
+    #: mass_kg), what effective_mass_kg cannot be under (drive/plausible.py)
+    mass_kg: float = float("nan")
 
     @property
     def bins(self) -> int:
@@ -94,6 +99,7 @@ class DriveStats:
             "notes": list(self.notes),
             "current_proxy": self.current_proxy,
             "track_m": None if self.track_m != self.track_m else self.track_m,
+            "mass_kg": None if self.mass_kg != self.mass_kg else self.mass_kg,
         }
 
     @classmethod
@@ -111,6 +117,7 @@ class DriveStats:
             notes=tuple(data["notes"]),
             current_proxy=bool(data.get("current_proxy", False)),
             track_m=float("nan") if data.get("track_m") is None else float(data["track_m"]),
+            mass_kg=float("nan") if data.get("mass_kg") is None else float(data["mass_kg"]),
         )
 
 
@@ -178,6 +185,7 @@ def drive_stats(run: Run, segmentation: Segmentation | None = None) -> DriveStat
         speed_from_phases=from_phases,
         current_proxy=current_proxy(run),
         track_m=_track_m(run),
+        mass_kg=_mass_kg(run),
     )
 
 
@@ -205,6 +213,12 @@ def _track_m(run: Run) -> float:
     except ValueError:
         return float("nan")
     return track_m if track_m > 0 else float("nan")
+
+
+def _mass_kg(run: Run) -> float:
+    """The mass the run's drive accelerates [kg] (`io.metadata.robot_mass_kg`), NaN: unknown."""
+    mass_kg = robot_mass_kg(run.meta)
+    return float("nan") if mass_kg is None else mass_kg
 
 
 def _sample_noise(values: np.ndarray) -> float:

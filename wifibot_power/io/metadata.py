@@ -21,6 +21,11 @@ KNOWN_KEYS = (
     "sample_period_s",
 )
 
+#: The metadata key of the robot's own mass, without payload [kg] (log-format.md): it stays a
+#: string in `RunMeta.extra`, checked by `build_meta` (a number > 0), read by `robot_mass_kg`.
+MASS_KEY = "mass_kg"
+
+
 #: The key of `build_meta`'s values that holds the run_id to use when none is given (instead
 #: of the file name): set by a batch for logs whose file names collide (`discover.find_logs`).
 #: Not a name a metadata line or a manifest column can have: the readers lower-case those.
@@ -76,9 +81,17 @@ def build_meta(
     steps_f = _number(values, "steps", file, at("steps"))
     payload = _number(values, "payload_kg", file, at("payload_kg"))
     period = _number(values, "sample_period_s", file, at("sample_period_s"))
+    mass = _number(values, MASS_KEY, file, at(MASS_KEY))
 
     mode = _mode(values, speed, file, at)
     _check_values(values, mode, speed, distance, steps_f, payload, file, at)
+    if mass is not None and mass <= 0:
+        raise LogError(
+            f"mass_kg is {values[MASS_KEY]}",
+            file=file,
+            where=at(MASS_KEY),
+            fix="give the robot's own mass in kg (> 0), without its payload",
+        )
     _check_period(period, file, at)
     started = _started_at(values, file, at)
     extra = {k: v for k, v in values.items() if k not in KNOWN_KEYS and k != DEFAULT_RUN_ID}
@@ -184,6 +197,20 @@ def _started_at(values: dict[str, str], file: str, at: Callable[..., str]) -> da
             where=at("started_at"),
             fix="write e.g. 2015-06-01T10:00:00Z",
         ) from None
+
+
+def robot_mass_kg(meta: RunMeta) -> float | None:
+    """The mass the robot's drive accelerates [kg]: its `mass_kg` metadata plus its
+    `payload_kg` (log-format.md, "Metadata keys"), or None when the log gives no mass_kg.
+    The readers refuse a mass_kg that is not a number > 0 (`build_meta`); a `RunMeta` made
+    by hand with one gets None, as without it."""
+    try:
+        mass = _number(meta.extra, MASS_KEY, "", "")
+    except LogError:
+        return None
+    if mass is None or not mass > 0:
+        return None
+    return mass + meta.payload_kg
 
 
 #: The metadata key (as the readers lower-case it) of the most the robot can draw [W].

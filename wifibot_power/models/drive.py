@@ -181,7 +181,7 @@ _BIN_ARRAYS = ("power_W", "speed_mps", "yaw_rate_radps", "surface_index")
 _SCALAR_FIELDS = frozenset(
     ("run_id", "file", "bin_s", "surfaces", "has_turning", "energy_J", "duration_s")
     + ("speed_noise_mps", "yaw_noise_radps", "samples_per_bin", "speed_from_phases")
-    + ("notes", "current_proxy", "track_m")
+    + ("notes", "current_proxy", "track_m", "mass_kg")
 )
 
 
