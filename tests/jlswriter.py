@@ -6,7 +6,9 @@ pyjls's writer can deadlock (seen twice in CI, pyjls 0.x): its writer thread log
 `Writer.signal_def` waiting for the writer's lock. No Python-level timeout can fire then
 (pytest-timeout's thread waits for the GIL too), so the test run hung until CI killed it.
 `write` runs the writer in a child and kills and retries a child that hangs: a test run never
-hangs on it.
+hangs on it. After a skipping write the child sleeps (`SKIP_LOG_S`), so the writer thread logs
+its skip while no call holds the GIL: on an idle machine the deadlock had become certain (5 of
+5 children hung, the sixteenth session; 3 of 3 written with the pause).
 
     python tests/jlswriter.py ARRAYS.npz OUT.jls OPTIONS_JSON   # the child's command line
 """
@@ -17,6 +19,7 @@ import json
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +28,8 @@ RATE_HZ = 100_000  # blocks of 10 samples: 10 kHz
 #: how long one child may take [s], and how many children are tried
 CHILD_TIMEOUT_S = 30
 ATTEMPTS = 5
+#: a pause after a skipping write, while the writer thread logs the skip [s]
+SKIP_LOG_S = 0.2
 
 
 def write(
@@ -75,6 +80,9 @@ def _write_here(path: str, current, voltage, power: bool, names, skip) -> None:
                 start, n = skip
                 writer.fsr(signal_id, 0, np.ascontiguousarray(data[:start]))
                 writer.fsr(signal_id, start + n, np.ascontiguousarray(data[start + n :]))
+                # the writer thread logs the skip through Python (it needs the GIL): give it
+                # the GIL now, before signal_def holds it waiting for the writer's lock
+                time.sleep(SKIP_LOG_S)
 
 
 if __name__ == "__main__":
