@@ -174,3 +174,11 @@ def test_bag_drive_terms_are_the_csv_terms(logs, csv_runs, csv_model, kind):
         assert bag_value == pytest.approx(csv_value, rel=RELATIVE_TOLERANCE), name
         assert low <= bag_value <= high, (name, bag_value, (low, high))
     assert csv_model.lag_s - model.lag_s == pytest.approx(LAG_SHIFT_S, abs=ODOM_JITTER_NS * 1e-9)
+
+
+def test_a_bag_a_manifest_calls_motion_needs_no_commanded_speed(logs):
+    """A bag's odometry is its speed: a manifest row saying `mode: motion` without speed_mps
+    reads it as free driving (log-format.md, "Speed"), not as a step run missing its speed."""
+    path = logs["mcap"][0][0]
+    run = read_log(path, None, {"mode": "motion"})
+    assert run.meta.mode == "motion" and run.meta.speed_mps is None

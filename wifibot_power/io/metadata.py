@@ -64,11 +64,15 @@ def build_meta(
     stem: str,
     where: str,
     origins: dict[str, str] | None = None,
+    speed_column: bool = False,
 ) -> RunMeta:
     """A checked `RunMeta` from `key: value` strings (file metadata with manifest overrides).
 
     `origins` maps a key to where its value was set ("metadata line 3", "runs.csv line 4"),
-    so an error names the row at fault; `where` is the fallback.
+    so an error names the row at fault; `where` is the fallback. `speed_column`: the log has
+    a speed (a speed column or two wheel speeds), so a motion run needs no commanded
+    `speed_mps`: "a log with a speed column is a motion log whether or not its metadata
+    gives a commanded speed: it may be free driving" (log-format.md, "Speed").
     """
     origins = origins or {}
 
@@ -84,7 +88,7 @@ def build_meta(
     mass = _number(values, MASS_KEY, file, at(MASS_KEY))
 
     mode = _mode(values, speed, file, at)
-    _check_values(values, mode, speed, distance, steps_f, payload, file, at)
+    _check_values(values, mode, speed, distance, steps_f, payload, file, at, speed_column)
     if mass is not None and mass <= 0:
         raise LogError(
             f"mass_kg is {values[MASS_KEY]}",
@@ -130,9 +134,11 @@ def _check_values(
     payload: float | None,
     file: str,
     at: Callable[..., str],
+    speed_column: bool = False,
 ) -> None:
     """A `LogError` for a step count, a motion run's speed or distance, or a payload out of
-    range (`at(key)`: where the key was set)."""
+    range (`at(key)`: where the key was set); a motion run may leave its speed out when the
+    log has a speed column (`build_meta`)."""
     if steps_f is not None and (steps_f < 1 or steps_f != int(steps_f)):
         raise LogError(
             f"steps is {values.get('steps')}",
@@ -141,7 +147,7 @@ def _check_values(
             fix="steps must be a whole number >= 1",
         )
     if mode == "motion":
-        if speed is None or speed <= 0:
+        if (speed is None and not speed_column) or (speed is not None and speed <= 0):
             raise LogError(
                 f"a motion run with speed_mps {values.get('speed_mps', 'missing')}",
                 file=file,

@@ -93,9 +93,7 @@ def read_log(
     period_s, problems, grid = _checked(path, text, samples, meta, scale)
     if samples.time_s is not None and period_s != meta.sample_period_s:
         values["sample_period_s"] = repr(period_s)
-        meta = build_meta(
-            values, file=str(path), stem=log_stem(path), where="metadata", origins=where
-        )
+        meta = _meta(path, text, values, where)
     if grid is not None:  # a logger stamping rows as they arrive: read by sample and hold
         samples.on_grid(grid)
     return Run(
@@ -188,8 +186,22 @@ def _metadata(
         values["sample_period_s"] = repr(options.sample_period_s)
         where["sample_period_s"] = "--sample-period"
     text.log_format.check_metadata(path, values)
-    meta = build_meta(values, file=str(path), stem=log_stem(path), where="metadata", origins=where)
-    return values, where, meta
+    return values, where, _meta(path, text, values, where)
+
+
+def _meta(path: Path, text: _TextLog, values: dict[str, str], where: dict[str, str]) -> RunMeta:
+    """The checked `RunMeta` of a text log's metadata `values` (`build_meta`); a motion log
+    with a speed (a speed column, or two wheel speeds: their mean) needs no commanded one."""
+    turning = text.turning
+    has_speed = bool(text.speed_column or (turning.speed_left and turning.speed_right))
+    return build_meta(
+        values,
+        file=str(path),
+        stem=log_stem(path),
+        where="metadata",
+        origins=where,
+        speed_column=has_speed,
+    )
 
 
 @dataclass

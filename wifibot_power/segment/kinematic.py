@@ -296,7 +296,10 @@ def _kinematic_doubts(
             f"the run ends moving ({last:.3g} m/s over its last {edge_ms:.3g} ms): its "
             "last stop is not in the log"
         )
-    if run.meta.mode == "motion" and len(motions) != run.meta.steps:
+    # a motion log without a commanded speed (free driving: log-format.md, "Speed") has no
+    # step count to hold the motions to, unless its metadata gives one
+    stepped = run.meta.speed_mps is not None or run.meta.steps != 1
+    if run.meta.mode == "motion" and stepped and len(motions) != run.meta.steps:
         doubts.append(
             f"the speed column shows {len(motions)} motion(s) between standstills, the "
             f"metadata says {run.meta.steps} step(s)"

@@ -92,8 +92,15 @@ def samples_to_run(
     if options.sample_period_s is not None and "sample_period_s" not in values:
         values["sample_period_s"] = repr(options.sample_period_s)
         where["sample_period_s"] = "--sample-period"
-    stem = log_stem(path)
-    meta = build_meta(values, file=str(path), stem=stem, where="metadata", origins=where)
+    stem, speed_column = log_stem(path), samples.speed_mps is not None
+    meta = build_meta(
+        values,
+        file=str(path),
+        stem=stem,
+        where="metadata",
+        origins=where,
+        speed_column=speed_column,
+    )
     power_W = -samples.power_W if options.flip_current else samples.power_W
     try:
         period_s, problems, grid = check_log_samples(
@@ -112,7 +119,14 @@ def samples_to_run(
         _check_absurd(path, samples.speed_mps)
     if samples.time_s is not None and period_s != meta.sample_period_s:
         values["sample_period_s"] = repr(period_s)
-        meta = build_meta(values, file=str(path), stem=stem, where="metadata", origins=where)
+        meta = build_meta(
+            values,
+            file=str(path),
+            stem=stem,
+            where="metadata",
+            origins=where,
+            speed_column=speed_column,
+        )
     time_s, speed_mps, yaw_rate_radps = samples.time_s, samples.speed_mps, samples.yaw_rate_radps
     if grid is not None:  # a logger stamping rows as they arrive: read by sample and hold
         time_s, power_W, speed_mps, yaw_rate_radps = (
