@@ -168,3 +168,24 @@ def test_no_usable_run_is_exit_2(tmp_path, truth_segments):
     result = invoke(log)
     assert result.exit_code == 2
     assert "no usable run" in result.stderr and "level.csv" in result.stderr
+
+
+def test_a_log_turning_without_a_speed_column_is_told_the_drive_model_needs_one(tmp_path):
+    # yaw_rate_radps but no speed_mps and no metadata: neither model can use it; the reason
+    # says what the drive model lacks, a log without a turning column keeps its old reason
+    turn, level = tmp_path / "turn.csv", tmp_path / "level.csv"
+    turning = (f"{i * 0.01:.2f},{25 + 5 * (i > 100)},{0.5 * (i > 100)}\n" for i in range(300))
+    turn.write_text("time_s,power_W,yaw_rate_radps\n" + "".join(turning))
+    level.write_text("time_s,power_W\n" + "".join(f"{i * 0.01:.2f},25.0\n" for i in range(300)))
+    result = invoke(turn, level, "--json")
+    assert result.exit_code == 2, result.output
+    reasons = {s["file"]: s["reason"] for s in json.loads(result.stdout)["skipped"]}
+    paper = (
+        "no mode or speed in its metadata, so it cannot be fitted "
+        "(add mode/speed_mps/distance_m/steps to the file's '#' lines or to runs.csv)"
+    )
+    assert reasons[str(level)] == f"{level}: {paper}"
+    assert reasons[str(turn)] == (
+        f"{turn}: {paper}; the drive model needs a speed column (speed_mps, or two wheel "
+        "speeds) besides the rate of turn"
+    )

@@ -528,13 +528,52 @@ def test_the_heldout_caption_says_which_runs_are_trips_and_what_measured_covers(
     from wifibot_power.cli.fit_tables import _trips_said
 
     runs = [{"run_id": "a#1"}, {"run_id": "a#2"}, {"run_id": "b"}, {"run_id": "c#1"}]
-    assert _trips_said(runs) == "; 3 of the 4 are trips of 2 log(s) cut at their stops (run_id#k)"
-    assert _trips_said(runs[2:3]) == ""
+    run_ids = ("a", "b", "c", "d#2")
+    said = "; 3 of the 4 are trips of 2 log(s) cut at their stops (run_id#k)"
+    assert _trips_said(runs, run_ids) == said
+    assert _trips_said(runs[2:3], run_ids) == ""
+    # a log whose own run_id holds '#', held out whole, is no trip
+    assert _trips_said([*runs, {"run_id": "d#2"}], run_ids) == said.replace("of the 4", "of the 5")
     logs, _, _ = free
     shown = _wbpower("fit", logs)
     assert shown.exit_code == 0, shown.output
     text = " ".join(shown.stdout.split())
     assert "measured and predicted over the same 0.5 s windows" in text
+
+
+def test_the_heldout_caption_counts_no_log_whose_own_run_id_holds_a_hash(free, tmp_path):
+    """A log's own run_id may hold '#' (`free_003_asphalt#2`): held out whole under it, it is
+    no trip, and the caption counts trips as the drive model names them (`run_id#k` of a
+    log cut at its stops: `drive.heldout.trip_log`), not every id with a '#'."""
+    import csv
+    import shutil
+
+    logs, _, fitted = free
+    held = json.loads(fitted.stdout)["drive"]["heldout"]["runs"]
+    whole = sorted(r["run_id"] for r in held if "#" not in r["run_id"])[0]  # a log not cut
+    trips = [r["run_id"] for r in held if "#" in r["run_id"]]
+    cut = len({run_id.rsplit("#", 1)[0] for run_id in trips})
+    assert trips and cut >= 1
+    copied = tmp_path / "free"
+    shutil.copytree(logs, copied)
+    renamed = f"{whole}#2"
+    log = copied / f"{whole}.csv"
+    log.write_text(log.read_text().replace(f"# run_id: {whole}\n", f"# run_id: {renamed}\n"))
+    with open(copied / "runs.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    for row in rows:
+        row["run_id"] = renamed if row["run_id"] == whole else row["run_id"]
+    with open(copied / "runs.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    doc = json.loads(_wbpower("fit", copied, "--json").stdout)
+    assert renamed in [r["run_id"] for r in doc["drive"]["heldout"]["runs"]]
+    shown = _wbpower("fit", copied)
+    assert shown.exit_code == 0, shown.output
+    text = " ".join(shown.stdout.split())
+    said = f"; {len(trips)} of the {len(held)} are trips of {cut} log(s) cut at their stops"
+    assert said in text
 
 
 def test_fewer_than_four_trips_give_no_heldout_accuracy_and_say_so():

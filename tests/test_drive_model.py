@@ -287,3 +287,20 @@ def test_a_held_out_check_without_a_coverage_says_none_and_loads_back(field_mode
     data = json.loads(json.dumps(model.to_json()))
     loaded = DriveModel.from_json(data)
     assert math.isnan(loaded.heldout.coverage_pi90_pct)
+
+
+def test_trip_log_reads_back_the_names_the_held_out_rows_get():
+    """A log cut at its stops is held out trip by trip as `run_id#k`, a log not cut under its
+    own run_id, which may hold '#' itself (`b#2`): `trip_log` tells them apart by the batch's
+    run_ids, as `_accuracy` names them (the caption of `fit`'s held-out table counts trips
+    with it)."""
+    from wifibot_power.drive.heldout import _accuracy, trip_log
+
+    run_ids = ("a", "b", "b#2", "c")
+    # a: 2 trips, b and b#2: 1 each, c: 2 (trip_base: where each log's trips start)
+    trips = list(range(6))
+    held = _accuracy(run_ids, np.array([0, 2, 3, 4, 6]), [10.0] * 6, [10.0] * 6, trips, ["s"] * 6)
+    names = sorted(r.run_id for r in held.runs)
+    assert names == ["a#1", "a#2", "b", "b#2", "c#1", "c#2"]
+    assert [trip_log(name, run_ids) for name in names] == ["a", "a", None, None, "c", "c"]
+    assert trip_log("b", run_ids) is None and trip_log("a#x", run_ids) is None

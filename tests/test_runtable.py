@@ -146,6 +146,31 @@ def test_unknown_mode_is_unusable_and_mode_runs_are_usable():
     assert np.isnan(row["idle_mean_power_W"])  # a network run's level is not idle
 
 
+#: The reason of a run of unknown mode, as it has always read (other tests and the golden
+#: corpora compare it byte for byte).
+NO_MODE_REASON = (
+    "no mode or speed in its metadata, so it cannot be fitted "
+    "(add mode/speed_mps/distance_m/steps to the file's '#' lines or to runs.csv)"
+)
+
+
+def test_unknown_mode_with_a_rate_of_turn_but_no_speed_says_the_drive_model_needs_speed():
+    # a turning column looks like enough for the drive model; without a speed column it is
+    # not, and the reason says so (one line); without a turning column it is unchanged
+    from dataclasses import replace
+
+    pieces = [("level", 1, np.full(100, 25.0))]
+    run, segmentation = build(pieces, mode="unknown", speed_mps=None, distance_m=None, steps=1)
+    assert run_row(run, segmentation)["skip_reason"] == NO_MODE_REASON
+    turning = replace(run, yaw_rate_radps=np.full(100, 0.4))
+    reason = run_row(turning, segmentation)["skip_reason"]
+    assert reason.startswith(NO_MODE_REASON) and "\n" not in reason
+    assert "the drive model needs a speed column (speed_mps, or two wheel speeds)" in reason
+    # with a speed column too, the drive model has what it needs: nothing more is said
+    both = replace(turning, speed_mps=np.full(100, 0.3))
+    assert run_row(both, segmentation)["skip_reason"] == NO_MODE_REASON
+
+
 def test_phases_that_do_not_cover_the_run_are_reported():
     run, segmentation = build(TWO_STEPS)
     gap = Segmentation("r1", segmentation.phases[:3] + segmentation.phases[4:])

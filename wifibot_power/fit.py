@@ -111,7 +111,9 @@ def fit_logs(
             records = gathered.records
             try:
                 return FitResult.from_json(
-                    kept, lambda: record_tables(admitted(records, keep_doubtful))
+                    kept,
+                    lambda: record_tables(admitted(records, keep_doubtful)),
+                    _run_ids(records),
                 )
             except (KeyError, TypeError, ValueError, WbpowerError):
                 pass  # another layout: fit again (and keep that)
@@ -212,9 +214,15 @@ def fit_records(
             skipped,
             (in_doubt,) if in_doubt else (),
             notes,
+            _run_ids(records),
         ),
         skipped,
     )
+
+
+def _run_ids(records: Sequence[RunRecord]) -> tuple[str, ...]:
+    """The records' run_ids, as the runs table holds them (`FitResult.run_ids`)."""
+    return tuple(str(r.row["run_id"]) for r in records)
 
 
 def _skipped(record: RunRecord, drive_used: bool = False) -> Skipped:

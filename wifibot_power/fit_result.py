@@ -88,6 +88,8 @@ class FitResult:
     batch_warnings: tuple[str, ...] = ()
     #: the batch's notes, said before the paper's (why a family is missing)
     batch_notes: tuple[str, ...] = ()
+    #: every readable run's run_id when the maker has them without the tables (`run_ids`)
+    given_run_ids: tuple[str, ...] | None = None
 
     # -- the paper family's fit, read through ------------------------------------------
     @property
@@ -169,6 +171,15 @@ class FitResult:
     def runs(self) -> pd.DataFrame:
         """A row per readable run (runs.parquet, `runtable.runs_frame`)."""
         return self._frames[0]
+
+    @property
+    def run_ids(self) -> tuple[str, ...]:
+        """Every readable run's run_id, in the runs table's order: what tells a held-out trip
+        of a log from a run held out whole (`drive.heldout.trip_log`). Without the tables
+        when the maker gave them (a warm `fit` table never loads pandas)."""
+        if self.given_run_ids is not None:
+            return self.given_run_ids
+        return tuple(str(run_id) for run_id in self.runs["run_id"].tolist())
 
     @property
     def phases(self) -> pd.DataFrame:
@@ -278,10 +289,14 @@ class FitResult:
 
     @classmethod
     def from_json(
-        cls, kept: object, tables: Callable[[], tuple[pd.DataFrame, pd.DataFrame]]
+        cls,
+        kept: object,
+        tables: Callable[[], tuple[pd.DataFrame, pd.DataFrame]],
+        run_ids: tuple[str, ...] | None = None,
     ) -> FitResult:
-        """The result `to_json` kept, with `tables()` making its tables when asked for;
-        KeyError, TypeError or ValueError on another layout (or a family not registered)."""
+        """The result `to_json` kept, with `tables()` making its tables when asked for and
+        `run_ids` its runs' (`run_ids`; None: from the tables); KeyError, TypeError or
+        ValueError on another layout (or a family not registered)."""
         from wifibot_power.models import FAMILIES
 
         fits = {name: FAMILIES[name].from_cache(v) for name, v in kept["fits"].items()}  # type: ignore[index]
@@ -293,4 +308,5 @@ class FitResult:
             skipped=tuple(Skipped(**s) for s in kept["skipped"]),  # type: ignore[index]
             batch_warnings=tuple(kept["batch_warnings"]),  # type: ignore[index]
             batch_notes=tuple(kept["batch_notes"]),  # type: ignore[index]
+            given_run_ids=run_ids,
         )

@@ -219,7 +219,8 @@ def run_row(
             row.update(distance_m=covered_m, distance_source="speed column")
     row.update(_phase_columns(run, phases, energy, run_mean_W))
     reason = cover_problem if meta.mode == "motion" else None
-    reason = reason or usability(row)
+    turning_only = run.yaw_rate_radps is not None and run.speed_mps is None
+    reason = reason or usability(row, turning_only=turning_only)
     row["usable"] = reason is None
     row["skip_reason"] = reason or ""
     return row
@@ -279,14 +280,24 @@ def _path_m(run: Run, phases: Sequence[Phase]) -> float:
     return total * run.sample_period_s
 
 
-def usability(row: dict[str, object]) -> str | None:
-    """Why `fit` cannot use this run (one line that says what to do), or None."""
+#: What the reason of a run of unknown mode adds when its log has a rate of turn but no speed
+#: (`usability`): the drive model, which needs no metadata, cannot use it either.
+DRIVE_NEEDS_SPEED = (
+    "; the drive model needs a speed column (speed_mps, or two wheel speeds) besides the "
+    "rate of turn"
+)
+
+
+def usability(row: dict[str, object], *, turning_only: bool = False) -> str | None:
+    """Why `fit` cannot use this run (one line that says what to do), or None; `turning_only`:
+    the log has a turning column but no speed column, which a run of unknown mode's reason
+    says (a rate of turn looks like enough for the drive model; it is not)."""
     mode = row["mode"]
     if mode == "unknown":
         return (
             "no mode or speed in its metadata, so it cannot be fitted "
             "(add mode/speed_mps/distance_m/steps to the file's '#' lines or to runs.csv)"
-        )
+        ) + (DRIVE_NEEDS_SPEED if turning_only else "")
     if mode != "motion":
         return None
     if not np.isfinite(row["speed_mps"]) or row["speed_mps"] <= 0:

@@ -7,7 +7,7 @@ Both go through `tables.print_table`, so no width cuts a number (docs/cli-output
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING
 
 from wifibot_power.cli.common import stdout
@@ -168,7 +168,7 @@ def print_drive_tables(result: FitResult) -> None:
     summary = drive.summary()
     _print_drive_terms(summary)
     if summary["heldout"] is not None:
-        _print_drive_heldout(summary["heldout"])
+        _print_drive_heldout(summary["heldout"], result.run_ids)
     _print_drive_beside_paper(result)
 
 
@@ -204,8 +204,8 @@ def _lag_said(summary: dict) -> str:
     return lag_said(summary["lag_s"], summary.get("lag_ci95_s"), summary["not_determined"])
 
 
-def _print_drive_heldout(held: dict) -> None:
-    """The held-out accuracy's one-row table."""
+def _print_drive_heldout(held: dict, run_ids: tuple[str, ...]) -> None:
+    """The held-out accuracy's one-row table; `run_ids`: the batch's (`FitResult.run_ids`)."""
     print_table(
         stdout,
         "Drive model, held-out accuracy (K-fold by run): each run's energy predicted by "
@@ -222,18 +222,25 @@ def _print_drive_heldout(held: dict) -> None:
         caption="MAPE: mean absolute % error of run energy; in 90% PI: how often the "
         "90% prediction interval held the measured energy; measured and predicted over the "
         "same 0.5 s windows (a drop-out's energy, unknown, is in neither: a log's whole "
-        "energy can be more)" + _trips_said(held["runs"]) + _without_interval(held["runs"]),
+        "energy can be more)"
+        + _trips_said(held["runs"], run_ids)
+        + _without_interval(held["runs"]),
     )
 
 
-def _trips_said(runs: list[dict]) -> str:
+def _trips_said(runs: list[dict], run_ids: Iterable[str]) -> str:
     """The caption's note on runs held out as trips: a long log is cut into trips at its
     stops (drive/moving.py), each held out on its own as `run_id#k` (cli.md: "a long
-    free-driving log may be cut into trips at its stops")."""
-    trips = [run["run_id"] for run in runs if "#" in run["run_id"]]
+    free-driving log may be cut into trips at its stops"); told from a log whose own run_id
+    holds '#' by the batch's `run_ids`, as the trips are named (`drive.heldout.trip_log`)."""
+    from wifibot_power.drive.heldout import trip_log
+
+    known = set(run_ids)
+    of_log = [trip_log(str(run["run_id"]), known) for run in runs]
+    trips = [log for log in of_log if log is not None]
     if not trips:
         return ""
-    logs = len({run_id.rsplit("#", 1)[0] for run_id in trips})
+    logs = len(set(trips))
     return (
         f"; {len(trips)} of the {len(runs)} are trips of {logs} log(s) cut at their stops "
         "(run_id#k)"

@@ -62,6 +62,8 @@ def heldout_beside_paper(result: FitResult) -> HeldOutBeside | None:
     """A fit's drive model's held-out run energy beside the paper model's on the step runs
     both used (`HeldOutBeside`); None without both models, or when the paper's cannot be
     held out (too few speeds for its folds). Reads the runs table (pandas)."""
+    from wifibot_power.drive.heldout import trip_log
+
     drive = result.drive
     if drive is None or not result.model_complete:
         return None
@@ -77,10 +79,8 @@ def heldout_beside_paper(result: FitResult) -> HeldOutBeside | None:
     # a run cut into trips (stops of `drive.windows.STOP_S`) is their sum: "RUN#k"
     drive_J: dict[str, list[float]] = {}
     for trip in held["runs"]:  # type: ignore[union-attr]
-        run_id = str(trip["run_id"])
-        base, _, k = run_id.rpartition("#")
-        if run_id not in motion_J and base in motion_J and k.isdigit():  # not a run's own id
-            run_id = base
+        name = str(trip["run_id"])
+        run_id = trip_log(name, motion_J) or name
         sums = drive_J.setdefault(run_id, [0.0, 0.0])
         sums[0] += float(trip["measured_J"])
         sums[1] += float(trip["predicted_J"])

@@ -16,6 +16,7 @@ intervals hold the measured energy: the check that they mean what they say.
 from __future__ import annotations
 
 import math
+from collections.abc import Container
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -195,6 +196,22 @@ def at_any_lag(runs: list[RunWindows], surfaces: tuple[str, ...], stacked: Stack
     return at
 
 
+def trip_name(run_id: str, k: int) -> str:
+    """The held-out name of trip `k` (from 1) of a log cut into several at its stops:
+    `run_id#k`; a log not cut is held out under its own run_id (`trip_log` reads it back)."""
+    return f"{run_id}#{k}"
+
+
+def trip_log(name: str, run_ids: Container[str]) -> str | None:
+    """The run_id of the log whose trip the held-out `name` is (`trip_name`), or None for a
+    run held out whole. `run_ids`: the batch's; a name that is one of them is that run (a
+    run_id may hold '#' itself: `a#2`), and a trip is `RUN#k` of one of them."""
+    if name in run_ids:
+        return None
+    base, mark, k = name.rpartition("#")
+    return base if mark and k.isdigit() and base in run_ids else None
+
+
 def _accuracy(
     run_ids: tuple[str, ...],
     trip_base: np.ndarray,
@@ -236,7 +253,7 @@ def _accuracy(
         several = int(trip_base[r + 1] - trip_base[r]) > 1
         rows.append(
             HeldOutRun(
-                run_id=f"{run_id}#{local + 1}" if several else run_id,
+                run_id=trip_name(run_id, local + 1) if several else run_id,
                 surface=trip_surface[j],
                 measured_J=float(measured_J[j]),
                 predicted_J=float(predicted_J[j]),
