@@ -33,6 +33,7 @@ from wifibot_power.io.formats import LogFormat, Preamble, TimeSource, file_forma
 from wifibot_power.io.formats.base import SNIFF_LINES, TurningColumns
 from wifibot_power.io.formats.files import samples_to_run
 from wifibot_power.io.holdgrid import HoldGrid
+from wifibot_power.io.lateral import lateral_problem
 from wifibot_power.io.metadata import MAX_POWER_KEY, build_meta, max_power_W
 from wifibot_power.io.options import ReadOptions, log_stem
 from wifibot_power.io.transport import (
@@ -285,6 +286,11 @@ def _checked(
     if samples.yaw_rate_radps is not None:
         named_turn = turning.yaw_rate or f"{turning.speed_left}, {turning.speed_right}"
         check_yaw_rate(str(path), named_turn, samples.yaw_rate_radps, line_of=line_of)
+    if samples.speed_mps is not None and samples.yaw_rate_radps is not None and turning.yaw_rate:
+        # a rate-of-turn column in deg/s under 30 (the check above): said (io/lateral.py)
+        names = (text.speed_column or "speed", turning.yaw_rate)
+        said = lateral_problem(samples.speed_mps, samples.yaw_rate_radps, period_s, line_of, names)
+        problems += [said] if said else []
     return period_s, problems, grid
 
 

@@ -1,0 +1,69 @@
+"""A rate of turn against the speed: the lateral acceleration they make, |v·ω| (a body moving
+at v on a path turning at ω accelerates sideways at v·ω), sustained beyond what tyres hold.
+
+Wheels hold a sideways force up to μ·m·g: μ ~ 1 on dry asphalt for street tyres, ~1.7 for
+racing slicks, far less for a skid-steer robot's wheels or tracks; without the downforce of
+a racing car's wings no wheeled vehicle turns at `LATERAL_LIMIT_MPS2` (3 g). A log whose
+|v·ω|, averaged over `WINDOW_S`, goes beyond it most likely has its rate of turn in deg/s
+under a rad/s header (57.3x: a 0.35 rad/s arc at 1 m/s then reads 2 g, at 3 m/s 6 g), which
+the absurd-rate check (validate.py, 30 rad/s) catches only in fast spins; or a speed too
+large. A vehicle spinning out at speed (its heading turning while it slides) also reads so,
+which is why this is said, not refused. Measured on the real logs with both columns
+(BorealTC, Vulpi, a VESC e-board ride: docs/real-logs.md): at most 3.3 m/s² (the e-board
+carving at 6 m/s), 0.54 on the robots.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from wifibot_power.run import Problem
+
+#: Standard gravity [m/s^2].
+G_MPS2 = 9.80665
+#: Beyond this sustained |v·ω| [m/s^2] no tyre holds the turn (module docstring).
+LATERAL_LIMIT_MPS2 = 3.0 * G_MPS2
+#: The time |v·ω| is averaged over [s]: a glitch of one sample in either column is not a turn.
+WINDOW_S = 0.5
+
+
+def lateral_problem(
+    speed_mps: np.ndarray,
+    yaw_rate_radps: np.ndarray,
+    period_s: float,
+    line_of: Callable[[int], int],
+    names: tuple[str, str],
+) -> Problem | None:
+    """The problem of a sustained |v·ω| over `LATERAL_LIMIT_MPS2` (module docstring), or None.
+    `names`: the speed's and the rate of turn's columns, as the message names them. Unknown
+    samples (NaN, a bag's speed without a recent odometry message) count as 0."""
+    if speed_mps.size == 0 or yaw_rate_radps.size != speed_mps.size:
+        return None
+    lateral = np.abs(np.nan_to_num(speed_mps) * np.nan_to_num(yaw_rate_radps))
+    width = min(max(int(round(WINDOW_S / period_s)), 1), lateral.size)
+    sums = np.concatenate(([0.0], np.cumsum(lateral)))
+    means = (sums[width:] - sums[:-width]) / width  # [i]: over samples i .. i + width - 1
+    over = np.flatnonzero(means > LATERAL_LIMIT_MPS2)
+    if not over.size:
+        return None
+    worst = float(means.max())
+    # named where it starts: the first window's first sample over the bound (a mean over it
+    # holds one at least)
+    first = int(over[0])
+    first += int(np.argmax(lateral[first : first + width] > LATERAL_LIMIT_MPS2))
+    speed_name, turn_name = names
+    return Problem(
+        "lateral",
+        f"line {line_of(first)}: |{speed_name} x {turn_name}| reaches {worst:.3g} m/s^2 "
+        f"({worst / G_MPS2:.2g} g) over {width * period_s:.2g} s, a sideways "
+        f"acceleration no tyre holds (over {LATERAL_LIMIT_MPS2 / G_MPS2:.0f} g): the rate of "
+        "turn is likely in deg/s, not rad/s (divide it by 57.3), or the speed too large; "
+        "read as logged (a vehicle spinning out at speed also reads so)",
+        None,
+        None,
+    )
+
+
+__all__ = ["LATERAL_LIMIT_MPS2", "WINDOW_S", "lateral_problem"]
