@@ -22,6 +22,7 @@ from wifibot_power.errors import LogError
 from wifibot_power.io import read_log
 from wifibot_power.io.metadata import robot_mass_kg
 from wifibot_power.models.drive import WorkerStats
+from wifibot_power.power_kind import UNIT_DOUBT, unit_doubts
 from wifibot_power.run import Run
 
 #: 6 runs of 60 s (the simulated robot: effective_mass_kg 30 kg)
@@ -48,7 +49,7 @@ def _with(runs: list[Run], scale: float = 1.0, payload_kg: float = 0.0, **extra:
 def _said(runs: list[Run]) -> list[str]:
     model = fit_drive(runs)
     assert model is not None
-    return [w for w in model.warnings if w.startswith("effective_mass_kg")]
+    return list(unit_doubts(model.warnings))
 
 
 def test_km_h_under_speed_mps_is_said_with_its_factor(free_runs):
@@ -120,6 +121,9 @@ def test_mass_metadata_is_read_checked_and_carried(tmp_path, free_runs):
     assert robot_mass_kg(meta) == 6.5  # a lone decimal comma, as every metadata number
     assert robot_mass_kg(dataclasses.replace(meta, extra={})) is None
     assert robot_mass_kg(dataclasses.replace(meta, extra={"mass_kg": "heavy"})) is None
+    # a library caller's number, not text (a RunMeta made by hand)
+    assert robot_mass_kg(dataclasses.replace(meta, extra={"mass_kg": 20})) == 22.0
+    assert robot_mass_kg(dataclasses.replace(meta, extra={"mass_kg": float("nan")})) is None
     stats = drive_stats(_with(free_runs[:1], 1.0, 5.0, mass_kg="20")[0])
     assert stats.mass_kg == 25.0
     # through the cache's JSON and back; NaN (no mass) as null
@@ -138,16 +142,29 @@ def test_mass_metadata_is_read_checked_and_carried(tmp_path, free_runs):
         assert str(log) in raised.value.one_line()
 
 
-def test_fit_says_it_in_its_json_and_its_table(tmp_path, wbpower):
+def test_fit_says_it_and_so_does_what_reads_its_model(tmp_path, wbpower):
     """End to end, as a user's km/h log meets it: the workers' statistics (bins left out)
-    carry the mass to the fit, and both outputs say it."""
+    carry the mass to the fit, and `fit`, then a route's energy, an export and the report
+    from its model say it: every number they give from the model is wrong with it."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
     for run in simulate_free(SMALL):
         text = format_free_log(dataclasses.replace(run, speed_mps=run.speed_mps * KMH))
         first, rest = text.split(b"\n", 1)
-        (tmp_path / f"{run.run_id}.csv").write_bytes(first + b"\n# mass_kg: 20\n" + rest)
-    document = json.loads(wbpower("fit", tmp_path, "--json").stdout)
-    said = [w for w in document["drive"]["warnings"] if w.startswith("effective_mass_kg")]
-    assert len(said) == 1 and "km/h" in said[0]
-    table = wbpower("fit", tmp_path)
-    assert "effective_mass_kg" in table.stdout + table.stderr
+        (logs / f"{run.run_id}.csv").write_bytes(first + b"\n# mass_kg: 20\n" + rest)
+    out = tmp_path / "out"
+    document = json.loads(wbpower("fit", logs, "--json", "-o", out).stdout)
+    said = unit_doubts(document["drive"]["warnings"])
+    assert len(said) == 1 and "km/h" in said[0] and said[0].startswith(UNIT_DOUBT)
+    table = wbpower("fit", logs)
     assert "check the speed's unit" in " ".join((table.stdout + table.stderr).split())
+    model = out / "model.json"
+    log = sorted(logs.glob("*.csv"))[0]
+    route = json.loads(wbpower("energy", "--profile", log, "--model", model, "--json").stdout)
+    assert unit_doubts(route["warnings"]) == said
+    export = wbpower("export", "--model", model, "--to", "rmf", "--turn-rate", "0.5", "--json")
+    assert unit_doubts(json.loads(export.stdout)["warnings"]) == said
+    report = wbpower("report", logs, "-o", tmp_path / "report")
+    assert "drive model: " + said[0] in " ".join(report.stderr.split())
+    page = (tmp_path / "report" / "report.html").read_text()
+    assert "drive model: warning: speed unit in doubt" in page

@@ -1,6 +1,6 @@
 """What a drive model's "power" is: the power drawn, or a current proxy (docs/drive-model.md,
-"Current-only logs"). Plain Python (no numpy): `export` reads it from a model.json before
-anything else."""
+"Current-only logs"); and whether its speed's unit is in doubt (drive/plausible.py). Plain
+Python (no numpy): `export` reads it from a model.json before anything else."""
 
 from __future__ import annotations
 
@@ -23,3 +23,15 @@ def power_kind_of(section: dict) -> str:
         if PROXY_WARNING in str(warning):
             return "mixed" if "not comparable" in str(warning) else "current_proxy"
     return "power"
+
+
+#: How a warning that the speed's unit is in doubt starts (drive/plausible.py `mass_warning`):
+#: what reads a fitted model (a route's energy, an export, the report) says these again
+#: (`unit_doubts`), as the terms it uses are then wrong.
+UNIT_DOUBT = "speed unit in doubt: "
+
+
+def unit_doubts(warnings: object) -> tuple[str, ...]:
+    """The drive model's `warnings` (a model.json section's list, or `DriveModel.warnings`)
+    that doubt its speed's unit (`UNIT_DOUBT`)."""
+    return tuple(str(w) for w in warnings or () if str(w).startswith(UNIT_DOUBT))

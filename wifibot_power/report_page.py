@@ -26,6 +26,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from wifibot_power.figures.trace import TraceView
+    from wifibot_power.fit_result import FitResult
     from wifibot_power.io import Skipped
     from wifibot_power.report import Drawn, Report
 
@@ -179,6 +180,12 @@ def _not_drawn_html(missing: Sequence[Drawn], parts: list[str]) -> set[str]:
     return set(by_reason)
 
 
+def drive_warnings(fit: FitResult | None) -> tuple[str, ...]:
+    """The drive model's warnings (`DriveModel.warnings`), none without one."""
+    drive = fit.drive if fit is not None else None
+    return tuple(drive.summary()["warnings"]) if drive is not None else ()
+
+
 def _summary_html(report: Report, said: set[str]) -> list[str]:
     from wifibot_power.models.paper_table import format_number as num
 
@@ -226,6 +233,10 @@ def _summary_html(report: Report, said: set[str]) -> list[str]:
             out.append(f'<p class="note">warning: {e(warning)}</p>')
     elif report.fit_problem and report.fit_problem not in said:
         out.append(f'<p class="note">No fit: {e(report.fit_problem)}</p>')
+    # the drive model's own warnings, as `fit` prints them beside its terms (a speed unit in
+    # doubt makes every figure of it wrong)
+    for warning in drive_warnings(report.fit):
+        out.append(f'<p class="note">drive model: warning: {e(warning)}</p>')
     d = report.diagnosis
     if d is not None:
         out.append("<h2>Diagnosis</h2><ul>")

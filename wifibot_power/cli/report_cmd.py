@@ -54,6 +54,7 @@ def report_command(
     run, the model figures, what it was made from) and its figures as files
     ('wbpower docs report')."""
     from wifibot_power.report import build_report, check_report_dir, report_figures, write_report
+    from wifibot_power.report_page import drive_warnings
 
     check_out_dir(out)  # before any work
     check_report_dir(out)
@@ -70,6 +71,8 @@ def report_command(
     if report.fit is not None:
         for warning in report.fit.warnings:  # as fit prints them (cli.md `warnings`)
             warn(warning)
+    for warning in drive_warnings(report.fit):  # as fit prints them beside the drive terms
+        warn(f"drive model: {warning}")
     stage("drawing the figures")
     written = write_report(report, out, jobs=jobs)
     progress_done()

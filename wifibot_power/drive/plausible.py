@@ -27,6 +27,8 @@ import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+from wifibot_power.power_kind import UNIT_DOUBT
+
 if TYPE_CHECKING:
     from wifibot_power.drive.model import TermValue
     from wifibot_power.drive.stats import DriveStats
@@ -49,7 +51,7 @@ def mass_warning(stats: Sequence[DriveStats], terms: dict[str, TermValue]) -> st
         return None
     # with m_eff >= m the speed is too large by at least sqrt(m / m_eff)
     scale = f" by {math.sqrt(mass_kg / term.value):.1f}x or more" if term.value > 0 else ""
-    return (
+    return UNIT_DOUBT + (
         f"effective_mass_kg {term.value:.3g} kg (95% interval up to {term.ci95[1]:.3g}) is under "
         f"a third of the {mass_kg:g} kg the logs' mass_kg and payload_kg give"
         f"{' (the lightest log)' if len(set(masses)) > 1 else ''}; a drive that speeds up a "

@@ -35,6 +35,7 @@ from wifibot_power.drive.stats import (
 )
 from wifibot_power.drive.terms import TERM_BY_NAME
 from wifibot_power.drive.windows import assemble, run_windows
+from wifibot_power.power_kind import unit_doubts
 from wifibot_power.run import Run, RunMeta
 from wifibot_power.stats import t_quantile
 
@@ -85,6 +86,7 @@ def route_energy(
     period_s = float(np.median(np.diff(time_s))) if time_s.size > 1 else model.window_s
     extra = {"surface": surface}
     warnings = _power_kind_warnings(model, speed_mps, yaw_rate_radps)
+    warnings += unit_doubts(model.warnings)  # its terms, and so this energy, are then wrong
     if model.power_kind == "current_proxy":  # the route's design in the force form, as fitted
         extra[VOLTAGE_ASSUMED_KEY] = "the model's (its logs held motor currents only)"
     meta = RunMeta(run_id="route", sample_period_s=period_s, extra=extra)

@@ -6,6 +6,7 @@ and source.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from wifibot_power.errors import UsageError
@@ -19,7 +20,7 @@ from wifibot_power.export.base import (
     drive_terms,
     read_drive_section,
 )
-from wifibot_power.power_kind import power_kind_of
+from wifibot_power.power_kind import power_kind_of, unit_doubts
 
 #: `--to` name -> target
 TARGETS: dict[str, Target] = {t.name: t for t in (rmf.TARGET, gazebo.TARGET)}
@@ -65,7 +66,10 @@ def export_model(model: str | Path | dict, to: str, options: ExportOptions | Non
             fix="fit logs that hold the battery's power (a power column, or its voltage and "
             "current) and export that model",
         )
-    return target.export(drive_terms(section, options.surface, file=file), options)
+    exported = target.export(drive_terms(section, options.surface, file=file), options)
+    # a model whose speed's unit is in doubt exports wrong values: said with them
+    doubts = unit_doubts(section.get("warnings"))
+    return replace(exported, warnings=(*doubts, *exported.warnings)) if doubts else exported
 
 
 __all__ = [

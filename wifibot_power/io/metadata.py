@@ -152,7 +152,8 @@ def _check_values(
                 f"a motion run with speed_mps {values.get('speed_mps', 'missing')}",
                 file=file,
                 where=at("speed_mps") if "speed_mps" in values else at("mode"),
-                fix="give the commanded speed (> 0 m/s), or set the mode",
+                fix="give the commanded speed (> 0 m/s), a speed column (free driving), or "
+                "set the mode",
             )
         if distance is not None and distance <= 0:
             raise LogError(
@@ -210,8 +211,9 @@ def robot_mass_kg(meta: RunMeta) -> float | None:
     `payload_kg` (log-format.md, "Metadata keys"), or None when the log gives no mass_kg.
     The readers refuse a mass_kg that is not a number > 0 (`build_meta`); a `RunMeta` made
     by hand with one gets None, as without it."""
-    try:
-        mass = _number(meta.extra, MASS_KEY, "", "")
+    value = meta.extra.get(MASS_KEY)
+    try:  # (a library caller's extra may hold a number, not its text)
+        mass = _number({MASS_KEY: str(value)}, MASS_KEY, "", "") if value is not None else None
     except LogError:
         return None
     if mass is None or not mass > 0:
