@@ -304,3 +304,5 @@ def test_trip_log_reads_back_the_names_the_held_out_rows_get():
     assert names == ["a#1", "a#2", "b", "b#2", "c#1", "c#2"]
     assert [trip_log(name, run_ids) for name in names] == ["a", "a", None, None, "c", "c"]
     assert trip_log("b", run_ids) is None and trip_log("a#x", run_ids) is None
+    # a name like a trip's of a log the batch does not hold is no trip
+    assert trip_log("z#2", run_ids) is None

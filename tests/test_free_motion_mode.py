@@ -12,6 +12,7 @@ import pytest
 from wifibot_power.drive.simulate import FreeDriveConfig, format_free_log, simulate_free
 from wifibot_power.errors import LogError
 from wifibot_power.io import read_log
+from wifibot_power.runtable import usability
 from wifibot_power.segment import segment_run
 
 CONFIG = FreeDriveConfig(runs_per_surface=2, run_s=40.0, seed=2)
@@ -77,3 +78,33 @@ def test_a_motion_run_without_any_speed_or_with_zero_is_still_refused(tmp_path, 
     with pytest.raises(LogError, match="a motion run with speed_mps") as raised:
         read_log(log)
     assert said in str(raised.value)
+
+
+def test_the_papers_reason_says_free_driving_not_split_the_log(motion_logs, wbpower):
+    """The paper's fit cannot use free driving: its reason says so, never the step run's
+    advice to split the log at a level change or to check a step count it never gave."""
+    document = json.loads(wbpower("fit", motion_logs, "--json").stdout)
+    said = " ".join(document["warnings"])
+    assert "free driving (no commanded speed_mps)" in said
+    assert "split the log" not in said and "metadata says 1" not in said
+
+
+def test_a_step_run_keeps_its_reasons():
+    row = {
+        "mode": "motion",
+        "speed_mps": 0.5,
+        "commanded_speed_mps": 0.5,
+        "distance_m": 10.0,
+        "cruise_levels": 2,
+        "steps": 1,
+        "steps_found": 1,
+    }
+    assert "split the log" in usability(row)
+    free = {**row, "commanded_speed_mps": float("nan")}
+    assert usability(free).startswith("free driving (no commanded speed_mps): its cruises hold 2")
+    steps = {**row, "cruise_levels": 1, "steps_found": 3}
+    assert "metadata says 1" in usability(steps)
+    assert "shows 3 motion(s)" in usability({**steps, "commanded_speed_mps": float("nan")})
+    # a step count the metadata gave is held even without a commanded speed
+    given = {**steps, "commanded_speed_mps": float("nan"), "steps": 2}
+    assert "metadata says 2" in usability(given)

@@ -307,12 +307,19 @@ def usability(row: dict[str, object], *, turning_only: bool = False) -> str | No
             "motion run without a distance (set distance_m in its metadata or runs.csv, or "
             "give its speed column)"
         )
+    # a motion log without a commanded speed is free driving (log-format.md, "Speed"): not a
+    # step run cut wrong, so no advice to split it or to fix a step count it never gave
+    free = not np.isfinite(row.get("commanded_speed_mps", np.nan))
     if int(row.get("cruise_levels", 0) or 0) > 1:
+        if free:
+            return _free_driving(f"its cruises hold {row['cruise_levels']} speed levels")
         return (
             f"its cruises hold {row['cruise_levels']} speed levels; fit takes one speed per "
             "run (split the log at the level change)"
         )
     if row["steps_found"] != row["steps"]:
+        if free and row["steps"] == 1:
+            return _free_driving(f"its speed column shows {row['steps_found']} motion(s)")
         return (
             f"segmentation found {row['steps_found']} step(s), metadata says {row['steps']} "
             "(check the steps value, or the log is not one clean stop-and-go run)"
@@ -328,6 +335,15 @@ def usability(row: dict[str, object], *, turning_only: bool = False) -> str | No
             "--keep-doubtful uses it anyway)"
         )
     return None
+
+
+def _free_driving(found: str) -> str:
+    """The reason a free-driving motion log (no commanded speed) is not one of the paper's
+    step runs, with what its segmentation `found`."""
+    return (
+        f"free driving (no commanded speed_mps): {found}, and the paper's models need step "
+        "runs at one set speed"
+    )
 
 
 #: A motion run's motion phases must last at least this share of the time its distance takes

@@ -297,7 +297,8 @@ def _kinematic_doubts(
             "last stop is not in the log"
         )
     # a motion log without a commanded speed (free driving: log-format.md, "Speed") has no
-    # step count to hold the motions to, unless its metadata gives one
+    # step count to hold the motions to, unless its metadata gives one over 1 (RunMeta does
+    # not tell a given 1 from the default)
     stepped = run.meta.speed_mps is not None or run.meta.steps != 1
     if run.meta.mode == "motion" and stepped and len(motions) != run.meta.steps:
         doubts.append(
