@@ -33,7 +33,7 @@ from wifibot_power.io.formats import LogFormat, Preamble, TimeSource, file_forma
 from wifibot_power.io.formats.base import SNIFF_LINES, TurningColumns
 from wifibot_power.io.formats.files import samples_to_run
 from wifibot_power.io.holdgrid import HoldGrid
-from wifibot_power.io.lateral import lateral_problem
+from wifibot_power.io.kinematics import lateral_problem, slow_speed_problem
 from wifibot_power.io.metadata import build_meta
 from wifibot_power.io.options import ReadOptions, log_stem
 from wifibot_power.io.power_scale import power_scale
@@ -288,10 +288,13 @@ def _checked(
         named_turn = turning.yaw_rate or f"{turning.speed_left}, {turning.speed_right}"
         check_yaw_rate(str(path), named_turn, samples.yaw_rate_radps, line_of=line_of)
     if samples.speed_mps is not None and samples.yaw_rate_radps is not None and turning.yaw_rate:
-        # a rate-of-turn column in deg/s under 30 (the check above): said (io/lateral.py)
+        # a rate-of-turn column in deg/s under 30 (the check above): said (io/kinematics.py)
         names = (text.speed_column or "speed", turning.yaw_rate)
         said = lateral_problem(samples.speed_mps, samples.yaw_rate_radps, period_s, line_of, names)
         problems += [said] if said else []
+    if samples.speed_mps is not None:  # a time column in ms read as s: said (io/kinematics.py)
+        slow = slow_speed_problem(period_s, text.time_source and text.time_source.column)
+        problems += [slow] if slow else []
     return period_s, problems, grid
 
 

@@ -1,6 +1,9 @@
-"""A rate of turn in deg/s under a rad/s header that stays under the absurd-rate check's 30
-(io/validate.py) is said through the lateral acceleration it makes with the speed, |v·ω|,
-sustained beyond what tyres hold (io/lateral.py): read as logged, never quietly."""
+"""What a log's motion columns cannot be (io/kinematics.py), said, read as logged:
+- a rate of turn in deg/s under a rad/s header that stays under the absurd-rate check's 30
+  (io/validate.py), through the lateral acceleration it makes with the speed, |v·ω|,
+  sustained beyond what tyres hold;
+- a speed sampled slower than every 2 s: a time column in ms read as seconds (every duration
+  and energy 1000x too large), which the fit does not see."""
 
 from __future__ import annotations
 
@@ -10,8 +13,14 @@ import math
 import numpy as np
 import pytest
 
-from wifibot_power.io import read_log
-from wifibot_power.io.lateral import LATERAL_LIMIT_MPS2, WINDOW_S, lateral_problem
+from wifibot_power.io import ReadOptions, read_log
+from wifibot_power.io.kinematics import (
+    LATERAL_LIMIT_MPS2,
+    SLOW_SPEED_S,
+    WINDOW_S,
+    lateral_problem,
+    slow_speed_problem,
+)
 
 RATE_HZ = 20.0
 #: an arc at 2 m/s turning at 0.4 rad/s (0.8 m/s^2): in deg/s 22.9, under the absurd 30
@@ -89,3 +98,46 @@ def test_the_commands_say_it(tmp_path, wbpower, command):
     document = json.loads(wbpower(command, path, "--json").stdout)
     text = json.dumps(document)
     assert "no tyre holds" in text and "deg/s" in text
+
+
+def _timed(tmp_path, step: float, *, speed: bool = True, name: str = "timed.csv"):
+    """A log of 200 rows `step` apart in its time_s column (a 20 Hz log's steps in ms: 50)."""
+    rows = [f"{k * step:g},20,{0.5 if 50 < k < 150 else 0}" for k in range(200)]
+    header = "time_s,power_W,speed_mps" if speed else "time_s,power_W,other"
+    path = tmp_path / name
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def _slow(run):
+    return [p for p in run.problems if p.kind == "slow_speed"]
+
+
+def test_a_time_column_in_ms_is_said_and_the_fix_reads_it(tmp_path):
+    path = _timed(tmp_path, 50.0)
+    run = read_log(path)
+    (said,) = _slow(run)
+    assert "sampled every 50 s (time column 'time_s')" in said.message
+    assert "1000x" in said.message and "--time-unit ms" in said.message
+    # what it says to do reads it right, and says nothing more
+    fixed = read_log(path, ReadOptions(time_unit="ms"))
+    assert fixed.sample_period_s == pytest.approx(0.05) and _slow(fixed) == []
+    assert fixed.duration_s == pytest.approx(run.duration_s / 1000)
+
+
+def test_a_speed_sampled_within_the_bound_or_no_speed_says_nothing(tmp_path):
+    assert SLOW_SPEED_S == 2.0
+    assert _slow(read_log(_timed(tmp_path, 1.0, name="gps_1hz.csv"))) == []  # a 1 Hz GPS
+    assert _slow(read_log(_timed(tmp_path, 2.0, name="at_bound.csv"))) == []
+    assert len(_slow(read_log(_timed(tmp_path, 2.5, name="over.csv")))) == 1
+    # a power-only log sampled slowly is a battery monitor, not a drive: nothing to judge
+    assert _slow(read_log(_timed(tmp_path, 50.0, speed=False, name="monitor.csv"))) == []
+
+
+def test_a_sample_period_in_ms_is_said_without_a_time_column(tmp_path):
+    path = tmp_path / "no_time.csv"
+    rows = "\n".join(f"20,{0.5 if 50 < k < 150 else 0}" for k in range(200))
+    path.write_text("# sample_period_s: 50\npower_W,speed_mps\n" + rows + "\n")
+    (said,) = _slow(read_log(path))
+    assert "(sample_period_s)" in said.message and "give it in s" in said.message
+    assert slow_speed_problem(0.05, "time_s") is None
