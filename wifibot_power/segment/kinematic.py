@@ -148,6 +148,7 @@ def _segment_kinematic(run: Run, params: SpeedParams) -> Segmentation | None:
     moving_floor = max(floor, params.moving_fraction * trace.top)
     edge_ms = 1000.0 * ends * trace.block_dt
     doubts = _kinematic_doubts(run, end_speeds, edge_ms, moving_floor, motions)
+    doubts += _over_commanded(run, trace.top)
     doubts += _gap_doubts(run, trace.gaps, params.still_s)
     doubts += standstill_doubts(run, phases, turning is not None, trace.y, trace.block)
     return Segmentation(run.meta.run_id, tuple(phases), (), tuple(doubts))
@@ -273,6 +274,26 @@ def _refined_starts(
         if split is not None and abs(split.jump_W) > params.refine_z * sigma_b:
             starts[k] = split.index
     return starts
+
+
+#: A speed column whose top (99th percentile of its smoothed |speed|) is over this many times
+#: the commanded (maximum) `speed_mps` is not that speed in m/s (`_over_commanded`): a
+#: controlled robot overshoots its set speed by tens of percent at most; the real step logs'
+#: tops are 0.46-1.00 of theirs (REGBOT, F1/10: docs/segmentation.md). km/h is 3.6x, mph 2.2x.
+OVER_COMMANDED = 1.5
+
+
+def _over_commanded(run: Run, top_mps: float) -> list[str]:
+    """The doubt of a speed column far over the commanded speed (`OVER_COMMANDED`): a column
+    in km/h or mph makes every phase's speed, and the fit's lines, that much off."""
+    commanded = run.meta.speed_mps
+    if commanded is None or not commanded > 0 or not top_mps > OVER_COMMANDED * commanded:
+        return []
+    return [
+        f"the speed column's top, {top_mps:.3g} m/s, is {top_mps / commanded:.2g}x the "
+        f"commanded (maximum) speed_mps {commanded:g}: is the column in km/h (3.6x) or mph "
+        "(2.2x), or speed_mps wrong?"
+    ]
 
 
 def _kinematic_doubts(
