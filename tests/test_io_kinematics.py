@@ -78,6 +78,8 @@ def test_the_bound_is_the_window_mean_over_3_g():
     said = lateral_problem(speed, yaw, period_s, lambda i: i, ("v", "w"))
     assert said is not None and said.message.startswith("line 40:")
     assert "reaches 29.7 m/s^2 (3 g)" in said.message
+    # reversing while turning the other way is as much sideways (|v w|)
+    assert lateral_problem(-speed, -yaw, period_s, lambda i: i, ("v", "w")) is not None
     # one window less a sample over the bound is under it on average
     yaw[40] = 0.0
     yaw[40 + width - 1] = 0.0
