@@ -78,8 +78,9 @@ def test_the_bound_is_the_window_mean_over_3_g():
     said = lateral_problem(speed, yaw, period_s, lambda i: i, ("v", "w"))
     assert said is not None and said.message.startswith("line 40:")
     assert "reaches 29.7 m/s^2 (3 g)" in said.message
-    # reversing while turning the other way is as much sideways (|v w|)
+    # reversing, or turning right (w < 0) going forward, is as much sideways (|v w|)
     assert lateral_problem(-speed, -yaw, period_s, lambda i: i, ("v", "w")) is not None
+    assert lateral_problem(speed, -yaw, period_s, lambda i: i, ("v", "w")) is not None
     # one window less a sample over the bound is under it on average
     yaw[40] = 0.0
     yaw[40 + width - 1] = 0.0
@@ -143,3 +144,24 @@ def test_a_sample_period_in_ms_is_said_without_a_time_column(tmp_path):
     (said,) = _slow(read_log(path))
     assert "(sample_period_s)" in said.message and "give it in s" in said.message
     assert slow_speed_problem(0.05, "time_s") is None
+
+
+def test_a_rate_from_wheel_speeds_is_not_judged(tmp_path):
+    """Its scale is the track width's (a wrong track is not a deg/s column): the same arc as
+    `_log`'s in deg/s, made from wheel speeds over a track 57x too small, says nothing."""
+    rows = [f"{k / RATE_HZ:.2f},40,{2 - 0.04:.4f},{2 + 0.04:.4f}" for k in range(400)]
+    head = "# track_m: 0.0035\ntime_s,power_W,speed_left_mps,speed_right_mps\n"
+    path = tmp_path / "wheels.csv"
+    path.write_text(head + "\n".join(rows) + "\n")
+    run = read_log(path)
+    assert float(np.max(run.speed_mps * run.yaw_rate_radps)) > 40  # over 3 g, were it judged
+    assert _said(run) == []
+
+
+def test_a_time_column_read_in_ms_is_not_told_to_be_read_in_ms(tmp_path):
+    path = tmp_path / "ms.csv"
+    rows = [f"{k * 2500},20,{0.5 if 50 < k < 150 else 0}" for k in range(200)]
+    path.write_text("time_ms,power_W,speed_mps\n" + "\n".join(rows) + "\n")
+    (said,) = _slow(read_log(path))
+    assert "read in units of 0.001 s" in said.message and "give --time-unit" in said.message
+    assert "--time-unit ms" not in said.message

@@ -32,6 +32,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from wifibot_power.io.formats.base import TimeSource
 from wifibot_power.run import Problem
 
 #: Standard gravity [m/s^2].
@@ -53,7 +54,8 @@ def lateral_problem(
 ) -> Problem | None:
     """The problem of a sustained |v·ω| over `LATERAL_LIMIT_MPS2` (module docstring), or None.
     `names`: the speed's and the rate of turn's columns, as the message names them. Unknown
-    samples (NaN, a bag's speed without a recent odometry message) count as 0."""
+    samples (NaN) count as 0 (a text log's speed and rate of turn are finite by then:
+    `validate.check_speed`; a library caller's need not be)."""
     if speed_mps.size == 0 or yaw_rate_radps.size != speed_mps.size:
         return None
     # the largest |v| times the largest |w| bounds every window's mean: most logs end here,
@@ -92,22 +94,26 @@ def _magnitude(values: np.ndarray) -> float:
     return top if top == top else 0.0  # (NaN == NaN is False: every value NaN)
 
 
-def slow_speed_problem(period_s: float, time_column: str | None) -> Problem | None:
-    """The problem of a speed sampled every `period_s` [s] (the log's mean step) over
-    `SLOW_SPEED_S` (module docstring), or None. `time_column`: the log's, as the message
-    names it (None: the period is the metadata's)."""
+def slow_speed_problem(period_s: float, time: TimeSource | None) -> Problem | None:
+    """The problem of a speed sampled every `period_s` [s] (the log's sample period, as the
+    reader takes it: its median step, or its mean step between gaps for uneven stamps) over
+    `SLOW_SPEED_S` (module docstring), or None. `time`: the log's time column and its unit
+    (None: the period is the metadata's)."""
     if not period_s > SLOW_SPEED_S:
         return None
-    if time_column:
-        where = f"time column '{time_column}'"
-        fix = "read it with --time-unit ms (or name it time_ms)"
-    else:
-        where, fix = "sample_period_s", "give it in s"
+    if time is None or time.index:  # (an index counts samples of the metadata's period)
+        where, fix = "sample_period_s", "if it is in ms, give it in s"
+    elif time.scale_s == 1.0:
+        where = f"time column '{time.column}'"
+        fix = f"if the {where} is in ms, read it with --time-unit ms (or name it time_ms)"
+    else:  # read in ms or us already: a unit smaller still is not likely; say what was taken
+        where = f"time column '{time.column}', read in units of {time.scale_s:g} s"
+        fix = "if that is not its unit, give --time-unit"
     return Problem(
         "slow_speed",
         f"the speed is sampled every {period_s:.3g} s ({where}): too slow to see a robot speed "
-        f"up or brake (a second or two); if the {where} is in ms, every duration and energy "
-        f"read is 1000x too large: {fix}",
+        f"up or brake (a second or two); {fix}, or every duration and energy read is 1000x "
+        "too large",
         None,
         None,
     )

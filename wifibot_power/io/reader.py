@@ -293,7 +293,7 @@ def _checked(
         said = lateral_problem(samples.speed_mps, samples.yaw_rate_radps, period_s, line_of, names)
         problems += [said] if said else []
     if samples.speed_mps is not None:  # a time column in ms read as s: said (io/kinematics.py)
-        slow = slow_speed_problem(period_s, text.time_source and text.time_source.column)
+        slow = slow_speed_problem(period_s, text.time_source)
         problems += [slow] if slow else []
     return period_s, problems, grid
 

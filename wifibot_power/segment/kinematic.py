@@ -278,8 +278,8 @@ def _refined_starts(
 
 #: A speed column whose top (99th percentile of its smoothed |speed|) is over this many times
 #: the commanded (maximum) `speed_mps` is not that speed in m/s (`_over_commanded`): a
-#: controlled robot overshoots its set speed by tens of percent at most; the real step logs'
-#: tops are 0.46-1.00 of theirs (REGBOT, F1/10: docs/segmentation.md). km/h is 3.6x, mph 2.2x.
+#: controlled robot overshoots its set speed by tens of percent at most; the real logs' tops
+#: are 0.46-1.01 of theirs (REGBOT, F1/10, BorealTC: docs/segmentation.md). km/h is 3.6x, mph 2.2x.
 OVER_COMMANDED = 1.5
 
 

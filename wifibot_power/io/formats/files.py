@@ -3,9 +3,11 @@
 (`FileFormat`), registered in `formats/__init__.py` (`FILE_FORMATS`).
 
 A text format (`base.LogFormat`) hands the reader a preamble and columns; a file format hands
-it the samples (`Samples`), and `samples_to_run` makes the `Run` exactly as the text reader
-does: the manifest's values over the file's own metadata (`metadata.build_meta`), the checks
-of `validate.check_samples` on time and power, and `--flip-current`.
+it the samples (`Samples`), and `samples_to_run` makes the `Run` as the text reader does:
+the manifest's values over the file's own metadata (`metadata.build_meta`), the checks of
+`validate.check_samples` on time and power, and `--flip-current`. Not the unit-slip warnings
+of io/kinematics.py (deg/s, a time in ms): a bag's twist is rad/s by ROS's REP 103 and its
+time comes from its stamps in ns; a recording has no speed.
 
 The libraries are optional extras (`wbpower[ros]`, `wbpower[jls]`: pyproject.toml says why):
 `require` imports one or raises a one-line error that names the extra to install.
