@@ -184,6 +184,33 @@ def test_a_route_on_a_surface_the_model_lacks_names_the_models_surfaces(free, tm
     assert "name a surface of the model" in line
 
 
+@pytest.mark.parametrize(
+    ("rows", "said"),
+    [
+        # an arc at 2 m/s turning 0.4 rad/s, written in deg/s (22.9: under the absurd 30)
+        ([(k / 10, 2.0, 22.9) for k in range(40)], ("line 2", "4.7 g", "deg/s divided by 57.3")),
+        ([(k / 10, 2.0, 45.0) for k in range(40)], ("line 2", "absurd yaw rate")),
+        ([(k / 10, 60.0, 0.0) for k in range(40)], ("line 2", "absurd speed")),
+    ],
+)
+def test_a_route_in_the_wrong_units_is_refused_as_a_log_is(free, tmp_path, rows, said):
+    """A planned route's rate of turn in deg/s gave a turning energy 57x: now each of a log's
+    unit checks refuses it with its line (a planned route does not spin out)."""
+    _, out, _ = free
+    route = tmp_path / "route.csv"
+    body = "\n".join(f"{t:.1f},{v},{w},grass" for t, v, w in rows)
+    route.write_text("time_s,speed_mps,yaw_rate_radps,surface\n" + body + "\n")
+    result = _wbpower("energy", "--profile", route, "--model", out / "model.json")
+    assert result.exit_code == 2
+    (line,) = result.stderr.strip().splitlines()
+    assert str(route) in line and all(part in line for part in said), line
+    # the same route in rad/s is a route
+    right = tmp_path / "right.csv"
+    body = "\n".join(f"{k / 10:.1f},2.0,0.4,grass" for k in range(40))
+    right.write_text("time_s,speed_mps,yaw_rate_radps,surface\n" + body + "\n")
+    assert _wbpower("energy", "--profile", right, "--model", out / "model.json").exit_code == 0
+
+
 def test_a_route_naming_a_surface_for_a_model_of_none_is_told_to_leave_it_out(tmp_path):
     import dataclasses
 

@@ -321,6 +321,7 @@ def read_profile(
             "the route's time_s does not go forwards", file=path, fix="sort it, 2 rows or more"
         )
     yaw = numbers("yaw_rate_radps") if "yaw_rate_radps" in names else None
+    _check_units(path, speed_mps, yaw, float(np.median(np.diff(time_s))))
     surface: str | np.ndarray | None = None
     if "surface" in names:
         labels = ["" if s is None else str(s).strip() for s in table[names["surface"]].to_pylist()]
@@ -337,6 +338,34 @@ def read_profile(
         else:
             surface = next(iter(found), None)
     return time_s, speed_mps, yaw, surface
+
+
+def _check_units(
+    path: Path, speed_mps: np.ndarray, yaw_rate_radps: np.ndarray | None, period_s: float
+) -> None:
+    """A route's speed and rate of turn judged as a log's are (io/validate.py: a speed over 50
+    m/s, a rate over 30 rad/s; io/kinematics.py: a sideways |v·ω| over 3 g for 0.5 s), each a
+    one-line `LogError` naming the line: a planned route is not driven by a vehicle spinning
+    out, so a turn no tyre holds is a unit (deg/s), whose turning energy would be 57x."""
+    from wifibot_power.errors import LogError
+    from wifibot_power.io.kinematics import G_MPS2, lateral_peak
+    from wifibot_power.io.validate import check_speed, check_yaw_rate
+
+    line_of = lambda index: index + 2  # noqa: E731 - the header is line 1
+    check_speed(str(path), "speed_mps", speed_mps, line_of=line_of)
+    if yaw_rate_radps is None:
+        return
+    check_yaw_rate(str(path), "yaw_rate_radps", yaw_rate_radps, line_of=line_of)
+    found = lateral_peak(speed_mps, yaw_rate_radps, period_s)
+    if found is not None:
+        first, worst, window_s = found
+        raise LogError(
+            f"|speed_mps x yaw_rate_radps| reaches {worst:.3g} m/s^2 ({worst / G_MPS2:.2g} g) "
+            f"over {window_s:.2g} s: a turn no tyre holds",
+            file=path,
+            where=f"line {line_of(first)}",
+            fix="give the rate of turn in rad/s (deg/s divided by 57.3)",
+        )
 
 
 def load_drive_model(path: str | Path) -> DriveModel:

@@ -53,9 +53,31 @@ def lateral_problem(
     names: tuple[str, str],
 ) -> Problem | None:
     """The problem of a sustained |v·ω| over `LATERAL_LIMIT_MPS2` (module docstring), or None.
-    `names`: the speed's and the rate of turn's columns, as the message names them. Unknown
-    samples (NaN) count as 0 (a text log's speed and rate of turn are finite by then:
-    `validate.check_speed`; a library caller's need not be)."""
+    `names`: the speed's and the rate of turn's columns, as the message names them."""
+    found = lateral_peak(speed_mps, yaw_rate_radps, period_s)
+    if found is None:
+        return None
+    first, worst, window_s = found
+    speed_name, turn_name = names
+    return Problem(
+        "lateral",
+        f"line {line_of(first)}: |{speed_name} x {turn_name}| reaches {worst:.3g} m/s^2 "
+        f"({worst / G_MPS2:.2g} g) over {window_s:.2g} s, a sideways "
+        f"acceleration no tyre holds (over {LATERAL_LIMIT_MPS2 / G_MPS2:.0f} g): the rate of "
+        "turn is likely in deg/s, not rad/s (divide it by 57.3), or the speed too large; "
+        "read as logged (a vehicle spinning out at speed also reads so)",
+        None,
+        None,
+    )
+
+
+def lateral_peak(
+    speed_mps: np.ndarray, yaw_rate_radps: np.ndarray, period_s: float
+) -> tuple[int, float, float] | None:
+    """Where a sustained |v·ω| goes over `LATERAL_LIMIT_MPS2`: (the first sample over it, the
+    highest window mean [m/s^2], the window [s]), or None. Unknown samples (NaN) count as 0
+    (a text log's speed and rate of turn are finite by then: `validate.check_speed`; a
+    library caller's need not be)."""
     if speed_mps.size == 0 or yaw_rate_radps.size != speed_mps.size:
         return None
     # the largest |v| times the largest |w| bounds every window's mean: most logs end here,
@@ -70,22 +92,11 @@ def lateral_problem(
     over = np.flatnonzero(means > LATERAL_LIMIT_MPS2)
     if not over.size:
         return None
-    worst = float(means.max())
     # named where it starts: the first window's first sample over the bound (a mean over it
     # holds one at least)
     first = int(over[0])
     first += int(np.argmax(lateral[first : first + width] > LATERAL_LIMIT_MPS2))
-    speed_name, turn_name = names
-    return Problem(
-        "lateral",
-        f"line {line_of(first)}: |{speed_name} x {turn_name}| reaches {worst:.3g} m/s^2 "
-        f"({worst / G_MPS2:.2g} g) over {width * period_s:.2g} s, a sideways "
-        f"acceleration no tyre holds (over {LATERAL_LIMIT_MPS2 / G_MPS2:.0f} g): the rate of "
-        "turn is likely in deg/s, not rad/s (divide it by 57.3), or the speed too large; "
-        "read as logged (a vehicle spinning out at speed also reads so)",
-        None,
-        None,
-    )
+    return first, float(means.max()), width * period_s
 
 
 def _magnitude(values: np.ndarray) -> float:
@@ -123,6 +134,7 @@ __all__ = [
     "LATERAL_LIMIT_MPS2",
     "SLOW_SPEED_S",
     "WINDOW_S",
+    "lateral_peak",
     "lateral_problem",
     "slow_speed_problem",
 ]
