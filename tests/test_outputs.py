@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from wifibot_power.outputs import (
@@ -692,6 +692,10 @@ _documents = st.recursive(
 
 @settings(max_examples=400, deadline=None)
 @given(_documents)
+@example({"False": None, False: None})  # two keys that are one once made text (found so)
+@example({1: "a", "1": "b"})
+@example({2: {"x": 1}, "2": 3})  # the outer collision, a dict inside between
+@example({"a": {1: 0, "1": 2}, "b": 1})
 def test_dumps_indented_is_json_dumps_of_json_safe_character_for_character(document):
     """The fast encoder's text is the standard library's, indent 2, for any document: numpy
     scalars and arrays, NaN and inf, non-ASCII and escaped text, tuples, non-str keys, str

@@ -112,6 +112,17 @@ def gc_paused() -> Iterator[None]:
             gc.enable()
 
 
+class _KeyNotStr:
+    """`_indented`'s flag: a dict key that is not a str was met (`seen` makes it one)."""
+
+    found = False
+
+    @classmethod
+    def seen(cls, key: object) -> str:
+        cls.found = True
+        return str(key)
+
+
 def dumps_indented(data: object) -> str:
     """`json.dumps(json_safe(data), indent=2, allow_nan=False)`, character for character, in
     one pass: CPython's encoder drops to pure-Python generators whenever `indent` is set
@@ -120,6 +131,7 @@ def dumps_indented(data: object) -> str:
     the generators look ~3x dearer). Strings are encoded by json's own C function, floats
     by `float.__repr__` as json does; a leaf of any other type goes through `json_safe` and,
     if still not plain, `json.dumps` itself (which raises TypeError as it would)."""
+    _KeyNotStr.found = False  # (left set by a call that raised)
     with gc_paused():
         return _indented(data, "\n")
 
@@ -143,7 +155,17 @@ def _indented(value: object, pad: str) -> str:
         if not value:
             return "{}"
         inner = pad + "  "
-        items = [_encode_str(str(k)) + ": " + _indented(v, inner) for k, v in value.items()]
+        outer, _KeyNotStr.found = _KeyNotStr.found, False  # (a dict inside keeps its own)
+        items = [
+            _encode_str(k if type(k) is str else _KeyNotStr.seen(k)) + ": " + _indented(v, inner)
+            for k, v in value.items()
+        ]
+        mine, _KeyNotStr.found = _KeyNotStr.found, outer
+        if mine:  # a key not a str: made one as json_safe does, where two keys may then be
+            # one ({'False': 1, False: 2} is {"False": 2}: the first's place, the last's
+            # value); found so, without a Python test per key of every other dict
+            value = {str(k): v for k, v in value.items()}
+            items = [_encode_str(k) + ": " + _indented(v, inner) for k, v in value.items()]
         return "{" + inner + ("," + inner).join(items) + pad + "}"
     if kind is list or isinstance(value, list | tuple):
         if not value:
