@@ -15,6 +15,7 @@ The libraries are optional extras (`wbpower[ros]`, `wbpower[jls]`: pyproject.tom
 
 from __future__ import annotations
 
+import functools
 import importlib
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
@@ -94,15 +95,16 @@ def samples_to_run(
     if options.sample_period_s is not None and "sample_period_s" not in values:
         values["sample_period_s"] = repr(options.sample_period_s)
         where["sample_period_s"] = "--sample-period"
-    stem, speed_column = log_stem(path), samples.speed_mps is not None
-    meta = build_meta(
-        values,
+    # the run's metadata from `values`, made again once the stamps give the period
+    meta_of = functools.partial(
+        build_meta,
         file=str(path),
-        stem=stem,
+        stem=log_stem(path),
         where="metadata",
         origins=where,
-        speed_column=speed_column,
+        speed_column=samples.speed_mps is not None,
     )
+    meta = meta_of(values)
     power_W = -samples.power_W if options.flip_current else samples.power_W
     try:
         period_s, problems, grid = check_log_samples(
@@ -121,14 +123,7 @@ def samples_to_run(
         _check_absurd(path, samples.speed_mps)
     if samples.time_s is not None and period_s != meta.sample_period_s:
         values["sample_period_s"] = repr(period_s)
-        meta = build_meta(
-            values,
-            file=str(path),
-            stem=stem,
-            where="metadata",
-            origins=where,
-            speed_column=speed_column,
-        )
+        meta = meta_of(values)
     time_s, speed_mps, yaw_rate_radps = samples.time_s, samples.speed_mps, samples.yaw_rate_radps
     if grid is not None:  # a logger stamping rows as they arrive: read by sample and hold
         time_s, power_W, speed_mps, yaw_rate_radps = (
